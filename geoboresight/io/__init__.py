@@ -1,0 +1,42 @@
+"""The I/O layer: files, bands, wavelengths, nodata and masks, CRS and transform, atomic writes.
+
+Core kernels never see a file; everything about files lives here (DESIGN.md).
+"""
+
+from .dual import DualSensor, SensorFile, open_dual
+from .raster import (
+    DEFAULT_BLOCK_ROWS,
+    FLOAT_NODATA,
+    grid_of,
+    is_georeferenced,
+    open_raster,
+    output_profile,
+    quiet_georef,
+    read_masked,
+    row_windows,
+    write_envi,
+    write_raster,
+)
+from .wavelengths import nearest_band, read_wavelengths
+from .write import atomic_output, check_output_path
+
+__all__ = [
+    "DEFAULT_BLOCK_ROWS",
+    "FLOAT_NODATA",
+    "DualSensor",
+    "SensorFile",
+    "atomic_output",
+    "check_output_path",
+    "grid_of",
+    "is_georeferenced",
+    "nearest_band",
+    "open_dual",
+    "open_raster",
+    "output_profile",
+    "quiet_georef",
+    "read_masked",
+    "read_wavelengths",
+    "row_windows",
+    "write_envi",
+    "write_raster",
+]

@@ -1,0 +1,258 @@
+"""Opening rasters, reading blocks with their validity mask, and writing GeoTIFF/ENVI outputs.
+
+Raw sensor geometry (no CRS, no geotransform) is common for pushbroom data: it is read without
+``NotGeoreferencedWarning`` noise and written back without inventing a CRS or transform.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import warnings
+from collections.abc import Iterator
+
+import numpy as np
+import rasterio
+from rasterio.errors import NotGeoreferencedWarning, RasterioIOError
+from rasterio.transform import Affine
+from rasterio.windows import Window
+
+from .. import __version__
+from ..errors import InputError
+from .wavelengths import format_wavelengths
+from .write import atomic_output
+
+#: Nodata written into float outputs.
+FLOAT_NODATA = -9999.0
+#: Rows per block when streaming a flight line (pushbroom lines run along rows).
+DEFAULT_BLOCK_ROWS = 256
+
+
+@contextlib.contextmanager
+def quiet_georef():
+    """Silence NotGeoreferencedWarning: raw sensor geometry is normal here, not a mistake."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NotGeoreferencedWarning)
+        yield
+
+
+@contextlib.contextmanager
+def open_raster(path: str | os.PathLike, label: str = "raster"):
+    """Open ``path`` for reading with a clear error when it is missing or unreadable."""
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise InputError(f"{label} {path} does not exist: check the path")
+    if path.lower().endswith(".hdr"):
+        # ENVI: GDAL opens the data file, not the header.
+        data = _envi_data_for_header(path)
+        if data is None:
+            raise InputError(
+                f"{label} {path} is an ENVI header but no data file sits beside it "
+                "(expected the same name without .hdr, or .img/.dat/.raw/.bsq/.bil/.bip)"
+            )
+        path = data
+    try:
+        with quiet_georef():
+            src = rasterio.open(path)
+    except RasterioIOError as exc:
+        raise InputError(f"{label} {path} cannot be read as a raster ({exc})") from None
+    try:
+        with quiet_georef():
+            yield src
+    finally:
+        src.close()
+
+
+def _envi_data_for_header(hdr: str) -> str | None:
+    stem = hdr[:-4]
+    for ext in ("", ".img", ".dat", ".raw", ".bsq", ".bil", ".bip"):
+        if os.path.isfile(stem + ext):
+            return stem + ext
+    return None
+
+
+def band_count(path: str) -> int:
+    with open_raster(path) as src:
+        return src.count
+
+
+def is_georeferenced(src) -> bool:
+    """True when the dataset has a CRS or a non-identity geotransform."""
+    return src.crs is not None or (src.transform != Affine.identity())
+
+
+def row_windows(height: int, width: int, block_rows: int = DEFAULT_BLOCK_ROWS) -> Iterator[Window]:
+    """Full-width strips of ``block_rows`` lines: memory bounded by a strip, not a flight line."""
+    block_rows = max(1, int(block_rows))
+    for row in range(0, height, block_rows):
+        yield Window(0, row, width, min(block_rows, height - row))
+
+
+def read_masked(src, band: int, window: Window | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(float32 values, valid mask) of one band: invalid where nodata, masked or non-finite."""
+    data = src.read(band, window=window)
+    valid = np.ones(data.shape, dtype=bool)
+    if src.nodata is not None:
+        valid &= data != src.nodata
+        if np.isnan(src.nodata):
+            valid &= ~np.isnan(data)
+    else:
+        # Honour an internal mask band (e.g. a GeoTIFF with a per-dataset mask).
+        flags = src.mask_flag_enums[band - 1]
+        if rasterio.enums.MaskFlags.all_valid not in flags:
+            valid &= src.read_masks(band, window=window) > 0
+    values = data.astype("float32", copy=False)
+    valid &= np.isfinite(values)
+    return values, valid
+
+
+def output_profile(src, count: int = 1, dtype: str = "float32", nodata=FLOAT_NODATA) -> dict:
+    """A tiled, compressed GeoTIFF profile on the grid of ``src``; no CRS is invented."""
+    profile = {
+        "driver": "GTiff",
+        "width": src.width,
+        "height": src.height,
+        "count": count,
+        "dtype": dtype,
+        "nodata": nodata,
+        "tiled": True,
+        "blockxsize": 256,
+        "blockysize": 256,
+        "compress": "deflate",
+        "predictor": 3 if np.dtype(dtype).kind == "f" else 2,
+        "BIGTIFF": "IF_SAFER",
+    }
+    if src.crs is not None:
+        profile["crs"] = src.crs
+    if is_georeferenced(src):
+        profile["transform"] = src.transform
+    return profile
+
+
+def grid_of(src) -> dict:
+    """The grid (size, CRS, transform) of an open dataset, for comparing or creating rasters."""
+    return {
+        "width": src.width,
+        "height": src.height,
+        "crs": src.crs,
+        "transform": src.transform if is_georeferenced(src) else None,
+    }
+
+
+def base_tags(**extra) -> dict:
+    tags = {"GEOBORESIGHT_VERSION": __version__}
+    tags.update({k.upper(): str(v) for k, v in extra.items()})
+    return tags
+
+
+def write_raster(
+    path: str,
+    arrays: np.ndarray | list[np.ndarray],
+    like=None,
+    *,
+    crs=None,
+    transform=None,
+    nodata=FLOAT_NODATA,
+    dtype: str | None = None,
+    tags: dict | None = None,
+    band_names: list[str] | None = None,
+    overwrite: bool = True,
+    colormap: dict | None = None,
+    band_tags: list[dict] | None = None,
+) -> str:
+    """Write one or more bands (2-D arrays, or a 3-D stack) to a GeoTIFF atomically.
+
+    The grid comes from ``like`` (an open dataset or a :func:`grid_of` dict), or from ``crs``
+    and ``transform``. Masked entries of ``numpy.ma`` arrays are written as ``nodata``.
+    """
+    stack = np.ma.asarray(arrays)
+    if stack.ndim == 2:
+        stack = stack[np.newaxis]
+    dtype = dtype or str(stack.dtype if stack.dtype != np.float64 else np.dtype("float32"))
+    height, width = stack.shape[1:]
+    profile = {
+        "driver": "GTiff",
+        "width": width,
+        "height": height,
+        "count": stack.shape[0],
+        "dtype": dtype,
+        "tiled": width >= 256 and height >= 256,
+        "compress": "deflate",
+        "BIGTIFF": "IF_SAFER",
+    }
+    if profile["tiled"]:
+        profile.update(blockxsize=256, blockysize=256)
+    if nodata is not None:
+        profile["nodata"] = nodata
+    if like is not None:
+        grid = like if isinstance(like, dict) else grid_of(like)
+        crs = grid.get("crs") if crs is None else crs
+        transform = grid.get("transform") if transform is None else transform
+    if crs is not None:
+        profile["crs"] = crs
+    if transform is not None and transform != Affine.identity():
+        profile["transform"] = transform
+    data = stack.filled(nodata if nodata is not None else 0) if np.ma.isMaskedArray(stack) else stack
+    with atomic_output(path, overwrite=overwrite) as tmp, quiet_georef():
+        with rasterio.open(tmp, "w", **profile) as dst:
+            dst.write(np.asarray(data).astype(dtype, copy=False))
+            dst.update_tags(**base_tags(**(tags or {})))
+            if band_names:
+                for i, name in enumerate(band_names, start=1):
+                    dst.set_band_description(i, name)
+            if band_tags:
+                for i, bt in enumerate(band_tags, start=1):
+                    dst.update_tags(i, **{k: str(v) for k, v in bt.items()})
+            if colormap:
+                dst.write_colormap(1, colormap)
+    return path
+
+
+def write_envi(
+    path: str,
+    cube: np.ndarray,
+    wavelengths_nm,
+    fwhm_nm=None,
+    *,
+    interleave: str = "bil",
+    nodata=None,
+    crs=None,
+    transform=None,
+    description: str = "",
+    overwrite: bool = True,
+) -> str:
+    """Write a (bands, rows, cols) cube as ENVI with ``wavelength``/``fwhm`` in nanometres.
+
+    ``path`` is the data file (e.g. ``scene_vnir.img``); GDAL writes ``scene_vnir.hdr``
+    beside it. Raw geometry (no ``crs``/``transform``) stays raw.
+    """
+    cube = np.asarray(cube)
+    profile = {
+        "driver": "ENVI",
+        "width": cube.shape[2],
+        "height": cube.shape[1],
+        "count": cube.shape[0],
+        "dtype": str(cube.dtype),
+        "interleave": interleave,
+    }
+    if nodata is not None:
+        profile["nodata"] = nodata
+    if crs is not None:
+        profile["crs"] = crs
+    if transform is not None and transform != Affine.identity():
+        profile["transform"] = transform
+    envi = {
+        "wavelength": format_wavelengths(wavelengths_nm),
+        "wavelength_units": "Nanometers",
+    }
+    if fwhm_nm is not None:
+        envi["fwhm"] = format_wavelengths(fwhm_nm)
+    with atomic_output(path, overwrite=overwrite) as tmp, quiet_georef():
+        with rasterio.open(tmp, "w", **profile) as dst:
+            dst.write(cube)
+            dst.update_tags(ns="ENVI", **envi)
+            for i, wl in enumerate(wavelengths_nm, start=1):
+                dst.set_band_description(i, f"{wl:.2f} nm")
+            if description:
+                dst.update_tags(description=description)
+    return path
