@@ -7,6 +7,7 @@ from .dual import DualSensor, SensorFile, open_dual
 from .raster import (
     DEFAULT_BLOCK_ROWS,
     FLOAT_NODATA,
+    create_raster,
     grid_of,
     is_georeferenced,
     open_raster,
@@ -27,6 +28,7 @@ __all__ = [
     "SensorFile",
     "atomic_output",
     "check_output_path",
+    "create_raster",
     "grid_of",
     "is_georeferenced",
     "nearest_band",

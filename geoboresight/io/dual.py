@@ -63,7 +63,12 @@ class DualSensor:
 
     @property
     def grid(self) -> dict:
-        return {"width": self.width, "height": self.height, "crs": self.crs, "transform": self.transform}
+        return {
+            "width": self.width,
+            "height": self.height,
+            "crs": self.crs,
+            "transform": self.transform,
+        }
 
     def ratio_bands(
         self,
@@ -88,7 +93,9 @@ class DualSensor:
         )
 
 
-def _sensor_wavelengths(src, path: str, user: str | None, label: str) -> tuple[np.ndarray, np.ndarray | None]:
+def _sensor_wavelengths(
+    src, path: str, user: str | None, label: str
+) -> tuple[np.ndarray, np.ndarray | None]:
     if user:
         return parse_user_wavelengths(user, src.count, path), None
     wl, fwhm = read_wavelengths(src)
@@ -138,10 +145,16 @@ def open_dual(
                 "SWIR; give the SWIR file separately or change the seam wavelength"
             )
         mk = lambda idx, name: SensorFile(  # noqa: E731
-            vnir, name, tuple(int(i) + 1 for i in idx), wl_v[idx],
-            None if fw_v is None else fw_v[idx], nodata_v,
+            vnir,
+            name,
+            tuple(int(i) + 1 for i in idx),
+            wl_v[idx],
+            None if fw_v is None else fw_v[idx],
+            nodata_v,
         )
-        return DualSensor(mk(below, "VNIR"), mk(above, "SWIR"), shape_v[1], shape_v[0], crs_v, tr_v, True)
+        return DualSensor(
+            mk(below, "VNIR"), mk(above, "SWIR"), shape_v[1], shape_v[0], crs_v, tr_v, True
+        )
 
     with open_raster(swir, "SWIR") as src:
         wl_s, fw_s = _sensor_wavelengths(src, swir, swir_wavelengths, "SWIR")

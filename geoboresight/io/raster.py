@@ -192,7 +192,9 @@ def write_raster(
         profile["crs"] = crs
     if transform is not None and transform != Affine.identity():
         profile["transform"] = transform
-    data = stack.filled(nodata if nodata is not None else 0) if np.ma.isMaskedArray(stack) else stack
+    data = (
+        stack.filled(nodata if nodata is not None else 0) if np.ma.isMaskedArray(stack) else stack
+    )
     with atomic_output(path, overwrite=overwrite) as tmp, quiet_georef():
         with rasterio.open(tmp, "w", **profile) as dst:
             dst.write(np.asarray(data).astype(dtype, copy=False))
@@ -256,3 +258,47 @@ def write_envi(
             if description:
                 dst.update_tags(description=description)
     return path
+
+
+@contextlib.contextmanager
+def create_raster(
+    path: str,
+    grid: dict,
+    *,
+    count: int = 1,
+    dtype: str = "float32",
+    nodata=FLOAT_NODATA,
+    tags: dict | None = None,
+    band_names: list[str] | None = None,
+    overwrite: bool = True,
+):
+    """Open a new tiled, compressed GeoTIFF for block-by-block writing; atomic on success.
+
+    ``grid`` is a :func:`grid_of`-style dict (width, height, crs, transform or None for raw
+    sensor geometry). Yields the open rasterio dataset.
+    """
+    profile = {
+        "driver": "GTiff",
+        "width": grid["width"],
+        "height": grid["height"],
+        "count": count,
+        "dtype": dtype,
+        "tiled": True,
+        "blockxsize": 256,
+        "blockysize": 256,
+        "compress": "deflate",
+        "BIGTIFF": "IF_SAFER",
+    }
+    if nodata is not None:
+        profile["nodata"] = nodata
+    if grid.get("crs") is not None:
+        profile["crs"] = grid["crs"]
+    if grid.get("transform") is not None:
+        profile["transform"] = grid["transform"]
+    with atomic_output(path, overwrite=overwrite) as tmp, quiet_georef():
+        with rasterio.open(tmp, "w", **profile) as dst:
+            yield dst
+            dst.update_tags(**base_tags(**(tags or {})))
+            if band_names:
+                for i, name in enumerate(band_names, start=1):
+                    dst.set_band_description(i, name)

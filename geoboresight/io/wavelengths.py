@@ -94,7 +94,9 @@ def read_wavelengths(src) -> tuple[np.ndarray | None, np.ndarray | None]:
 
 
 def _from_description(text: str):
-    m = re.search(rf"({_NUMBER})\s*(nm|nanometers?|micrometers?|microns?|um|µm)?\s*\)?\s*$", text, re.I)
+    m = re.search(
+        rf"({_NUMBER})\s*(nm|nanometers?|micrometers?|microns?|um|µm)?\s*\)?\s*$", text, re.I
+    )
     if not m:
         return None
     if not m.group(2) and re.search(r"band\s*\d+\s*$", text, re.I):

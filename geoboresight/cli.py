@@ -1,0 +1,201 @@
+"""The ``geoboresight`` command line, generated from the algorithm specs.
+
+Every spec becomes a subcommand whose options are its parameters (``--numerator-nm 1010``;
+the output named ``output`` is also ``-o``). The same commands are mounted under
+``rio boresight`` (see :mod:`geoboresight.rio`). No science here: values go to
+:func:`geoboresight.algorithms.execute`.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import click
+
+from . import __version__
+from .algorithms import registry
+from .algorithms.spec import Algorithm, Param, execute
+from .errors import Cancelled, GeoboresightError
+from .progress import Progress
+
+_CLICK_TYPES = {
+    "raster": click.Path(dir_okay=False),
+    "multiraster": click.STRING,
+    "file": click.Path(dir_okay=False),
+    "band": click.INT,
+    "string": click.STRING,
+    "raster_out": click.Path(dir_okay=False),
+    "vector_out": click.Path(dir_okay=False),
+    "file_out": click.Path(dir_okay=False),
+    "folder_out": click.Path(file_okay=False),
+}
+
+
+def option_name(p: Param) -> str:
+    return "--" + p.name.replace("_", "-")
+
+
+def _help_for(p: Param) -> str:
+    text = p.description
+    bits = []
+    if p.kind in ("number", "wavelength"):
+        lo, hi = p.minimum, p.maximum
+        if lo is not None and hi is not None:
+            bits.append(f"{lo:g}–{hi:g}{(' ' + p.unit) if p.unit else ''}")
+    if p.kind == "band":
+        bits.append(f"band of --{p.raster.replace('_', '-')}")
+    if p.kind == "multiraster":
+        bits.append("repeat the option or separate paths with commas")
+    return text + (f" [{'; '.join(bits)}]" if bits else "")
+
+
+def _option(p: Param) -> click.Option:
+    decls = [option_name(p)]
+    if p.name == "output":
+        decls.insert(0, "-o")
+    if p.name == "input":
+        decls.insert(0, "-i")
+    kwargs = {
+        "help": _help_for(p),
+        "required": p.required,
+        "show_default": p.default not in (None, False),
+    }
+    if p.kind == "bool":
+        flag = p.name.replace("_", "-")
+        return click.Option(
+            [f"--{flag}/--no-{flag}"],
+            default=bool(p.default),
+            help=p.description,
+            show_default=True,
+        )
+    if p.kind == "enum":
+        kwargs["type"] = click.Choice(p.choices)
+    elif p.kind in ("number", "wavelength"):
+        kwargs["type"] = click.INT if p.integer else click.FLOAT
+    else:
+        kwargs["type"] = _CLICK_TYPES.get(p.kind, click.STRING)
+    if p.kind == "multiraster":
+        kwargs["multiple"] = True
+        kwargs["required"] = False
+    if p.default is not None:  # click >= 8.2 treats an explicit default=None as a value
+        kwargs["default"] = p.default
+    return click.Option(decls, **kwargs)
+
+
+class _Bar:
+    """A click progress bar fed by Progress callbacks (silent when stderr is not a terminal)."""
+
+    def __init__(self, label: str, quiet: bool):
+        self.quiet = quiet
+        self.label = label
+        self.bar = None
+        self.done = 0
+
+    def __call__(self, fraction: float, message: str | None) -> None:
+        if self.quiet:
+            return
+        if self.bar is None:
+            self.bar = click.progressbar(length=1000, label=self.label, file=sys.stderr)
+            self.bar.__enter__()
+        step = int(fraction * 1000) - self.done
+        if step > 0:
+            self.bar.update(step)
+            self.done += step
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.__exit__(None, None, None)
+
+
+def make_command(alg: Algorithm) -> click.Command:
+    """A click command for ``alg``: options from its parameters, the run through ``execute``."""
+
+    def callback(overwrite: bool, quiet: bool, as_json: bool, **raw):
+        values = {}
+        for p in alg.params:
+            v = raw.get(p.name)
+            if p.kind == "multiraster":
+                v = list(v) or None
+            values[p.name] = v
+        bar = _Bar(alg.display_name, quiet)
+        log = None if quiet else (lambda m: click.echo(m, err=True))
+        progress = Progress(bar, log=log)
+        try:
+            result = execute(alg, values, progress=progress, overwrite=overwrite)
+        except KeyboardInterrupt:
+            bar.close()
+            raise click.ClickException("cancelled; no output was left behind") from None
+        except Cancelled:
+            bar.close()
+            raise click.ClickException("cancelled; no output was left behind") from None
+        except GeoboresightError as exc:
+            bar.close()
+            raise click.ClickException(str(exc)) from None
+        bar.close()
+        if as_json:
+            click.echo(json.dumps(result, indent=2, default=str))
+        else:
+            for k, v in result.items():
+                click.echo(f"{k}: {v}")
+
+    params = [_option(p) for p in alg.params]
+    params += [
+        click.Option(
+            ["--overwrite"],
+            is_flag=True,
+            help="Replace outputs that already exist (inputs are never overwritten).",
+        ),
+        click.Option(["-q", "--quiet"], is_flag=True, help="No progress bar or log messages."),
+        click.Option(["--json", "as_json"], is_flag=True, help="Print the results as JSON."),
+    ]
+    return click.Command(
+        name=alg.name,
+        callback=callback,
+        params=params,
+        help=f"{alg.display_name}.\n\n{alg.help}",
+        short_help=alg.short_help,
+        context_settings={"max_content_width": 100},
+    )
+
+
+class SpecGroup(click.Group):
+    """A click group whose subcommands are the registry's specs plus ``list``."""
+
+    def list_commands(self, ctx):
+        return ["list", *registry()]
+
+    def get_command(self, ctx, name):
+        if name == "list":
+            return _list
+        algs = registry()
+        return make_command(algs[name]) if name in algs else None
+
+
+@click.command(name="list", short_help="List the operations, grouped as in the QGIS toolbox.")
+def _list():
+    """List the operations, grouped by the paper's applications."""
+    group = None
+    for alg in registry().values():
+        if alg.group != group:
+            group = alg.group
+            click.echo(f"\n{group}")
+        click.echo(f"  {alg.name:<22} {alg.short_help}")
+
+
+@click.group(
+    cls=SpecGroup,
+    context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
+)
+@click.version_option(__version__, prog_name="geoboresight")
+def main():
+    """geoboresight: the boresight effect of dual VNIR+SWIR pushbroom sensors as information.
+
+    Brook & Ben-Dor (2011): the boresight band ratio b(1010 nm)/b(920 nm) and its statistics,
+    a shadow map, a relative DEM and a sub-pixel anomaly indicator. Run `geoboresight list`
+    for the operations and `geoboresight OPERATION --help` for one.
+    """
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()
