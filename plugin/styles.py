@@ -1,0 +1,108 @@
+"""Styles for raster outputs, so they open readable in QGIS.
+
+- A raster with an embedded colour table (shadow classes) is left alone: QGIS opens it with a
+  paletted renderer from that table.
+- A single-band continuous raster (ratio, scores, heights) gets a pseudocolour ramp stretched
+  over its 2–98 % cumulative range. The style is saved as a ``.qml`` sidecar beside the output
+  (QGIS reads it whenever the file is opened later) and applied by a layer post-processor when
+  Processing loads the result into the project.
+"""
+
+from __future__ import annotations
+
+import os
+
+from qgis.core import (
+    QgsColorRampShader,
+    QgsGradientColorRamp,
+    QgsGradientStop,
+    QgsProcessingLayerPostProcessorInterface,
+    QgsRaster,
+    QgsRasterLayer,
+    QgsSingleBandPseudoColorRenderer,
+)
+from qgis.PyQt.QtGui import QColor
+
+# Viridis (perceptually uniform, colour-blind safe), as gradient stops.
+_VIRIDIS = ("#440154", "#3b528b", "#21918c", "#5ec962", "#fde725")
+
+
+def viridis() -> QgsGradientColorRamp:
+    colors = [QColor(c) for c in _VIRIDIS]
+    n = len(colors) - 1
+    stops = [QgsGradientStop(i / n, c) for i, c in enumerate(colors[1:-1], start=1)]
+    return QgsGradientColorRamp(colors[0], colors[-1], False, stops)
+
+
+def qml_path(path: str) -> str:
+    return os.path.splitext(path)[0] + ".qml"
+
+
+def pseudocolor_renderer(layer: QgsRasterLayer, band: int = 1):
+    """A viridis ramp over the 2–98 % cumulative range of ``band`` (QGIS's own default cut)."""
+    provider = layer.dataProvider()
+    lo, hi = provider.cumulativeCut(band, 0.02, 0.98)
+    if not (lo == lo and hi == hi) or hi <= lo:  # NaN or a constant raster
+        stats = provider.bandStatistics(band)
+        lo, hi = stats.minimumValue, stats.maximumValue
+        if hi <= lo:
+            hi = lo + 1.0
+    renderer = QgsSingleBandPseudoColorRenderer(provider, band)
+    renderer.setClassificationMin(lo)
+    renderer.setClassificationMax(hi)
+    renderer.createShader(
+        viridis(), QgsColorRampShader.Interpolated, QgsColorRampShader.Continuous, 5
+    )
+    return renderer
+
+
+def needs_ramp(layer: QgsRasterLayer) -> bool:
+    return (
+        layer.isValid()
+        and layer.bandCount() == 1
+        and layer.dataProvider().colorInterpretation(1) != QgsRaster.PaletteIndex
+    )
+
+
+def write_style(path: str) -> str | None:
+    """Write the ``.qml`` sidecar for the raster at ``path``; its path, or None if not needed."""
+    layer = QgsRasterLayer(path, os.path.basename(path), "gdal")
+    if not needs_ramp(layer):
+        return None
+    layer.setRenderer(pseudocolor_renderer(layer))
+    qml = qml_path(path)
+    _, ok = layer.saveNamedStyle(qml)
+    return qml if ok and os.path.exists(qml) else None
+
+
+class LoadStyle(QgsProcessingLayerPostProcessorInterface):
+    """Apply a saved .qml to the layer Processing loads into the project."""
+
+    def __init__(self, qml: str):
+        super().__init__()
+        self.qml = qml
+
+    def postProcessLayer(self, layer, context, feedback):  # noqa: N802 (QGIS's name)
+        if layer is not None and layer.isValid():
+            layer.loadNamedStyle(self.qml)
+            layer.triggerRepaint()
+
+
+# Post-processors must outlive the algorithm run (QGIS holds only a C++ pointer to them).
+_KEEP: list[LoadStyle] = []
+
+
+def style_output(path: str, context, feedback=None) -> str | None:
+    """Style one raster output (see module docstring); returns the sidecar written, if any."""
+    try:
+        qml = write_style(path)
+    except Exception as exc:  # a style is a convenience: never fail a finished run over it
+        if feedback is not None:
+            feedback.reportError(f"could not write a style for {path}: {exc}", False)
+        return None
+    if qml and context is not None and context.willLoadLayerOnCompletion(path):
+        post = LoadStyle(qml)
+        _KEEP.append(post)
+        del _KEEP[:-32]
+        context.layerToLoadOnCompletionDetails(path).setPostProcessor(post)
+    return qml

@@ -1,0 +1,54 @@
+"""Real QGIS, in process: one QgsApplication per session, Processing initialised, and the
+plugin's provider registered through the plugin class itself (``classFactory`` ->
+``initProcessing``), exactly as QGIS does it. No mocks.
+
+Skipped (not failed) when QGIS is not importable, unless GEOBORESIGHT_REQUIRE_QGIS=1 (CI): then
+tests/conftest.py turns the skips into failures.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+
+import pytest
+from qgis_harness import QGIS_PLUGINS, import_plugin
+
+
+@pytest.fixture(scope="session")
+def qgis_app():
+    try:
+        from qgis.core import QgsApplication
+    except ImportError as exc:
+        pytest.skip(f"QGIS Python bindings not importable ({exc}); see docs/qgis.md")
+    os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+    runtime = tempfile.mkdtemp(prefix="gb-xdg-")
+    os.environ.setdefault("XDG_RUNTIME_DIR", runtime)
+    profile = tempfile.mkdtemp(prefix="gb-qgis-profile-")  # no dependence on ~/.local state
+    if QGIS_PLUGINS not in sys.path:
+        sys.path.append(QGIS_PLUGINS)
+    app = QgsApplication.instance()
+    if app is None:
+        app = QgsApplication([], False, profile)
+        app.initQgis()
+    from processing.core.Processing import Processing
+
+    Processing.initialize()
+    yield app
+
+
+@pytest.fixture(scope="session")
+def plugin(qgis_app):
+    """The plugin object QGIS would create; its initProcessing registers the provider."""
+    module = import_plugin()
+    instance = module.classFactory(None)  # iface is None in qgis_process too
+    instance.initProcessing()
+    assert instance.provider is not None, "initProcessing did not register the provider"
+    yield instance
+    instance.unload()
+
+
+@pytest.fixture(scope="session")
+def provider(plugin):
+    return plugin.provider
