@@ -163,11 +163,13 @@ class SpecGroup(click.Group):
     """A click group whose subcommands are the registry's specs plus ``list``."""
 
     def list_commands(self, ctx):
-        return ["list", *registry()]
+        return ["list", "batch", *registry()]
 
     def get_command(self, ctx, name):
         if name == "list":
             return _list
+        if name == "batch":
+            return _batch
         algs = registry()
         return make_command(algs[name]) if name in algs else None
 
@@ -181,6 +183,51 @@ def _list():
             group = alg.group
             click.echo(f"\n{group}")
         click.echo(f"  {alg.name:<22} {alg.short_help}")
+
+
+@click.command(name="batch", short_help="Run one operation on many flight lines with Dask.")
+@click.argument("operation")
+@click.argument("jobs", type=click.Path(dir_okay=False))
+@click.option(
+    "--scheduler",
+    default=None,
+    help="Address of a dask.distributed scheduler (default: a local cluster).",
+)
+@click.option(
+    "--workers",
+    type=int,
+    default=None,
+    help="Worker processes of the local cluster (default: one per core).",
+)
+@click.option("--overwrite", is_flag=True, help="Replace outputs that already exist.")
+def _batch(operation, jobs, scheduler, workers, overwrite):
+    """Run OPERATION once per job listed in JOBS (a JSON list of objects, or a CSV whose header
+    names the parameters, e.g. vnir,swir,output), in parallel on Dask.
+    """
+    from .batch import read_jobs, run_batch
+
+    bar = _Bar(f"batch {operation}", quiet=False)
+    try:
+        results = run_batch(
+            operation,
+            read_jobs(jobs),
+            scheduler=scheduler,
+            n_workers=workers,
+            overwrite=overwrite,
+            progress=Progress(bar, log=lambda m: click.echo(m, err=True)),
+        )
+    except GeoboresightError as exc:
+        bar.close()
+        raise click.ClickException(str(exc)) from None
+    bar.close()
+    failed = [r for r in results if not r.ok]
+    for r in results:
+        click.echo(
+            f"job {r.index + 1}: "
+            + ("ok " + json.dumps(r.result, default=str) if r.ok else f"FAILED: {r.error}")
+        )
+    if failed:
+        raise click.ClickException(f"{len(failed)} of {len(results)} jobs failed")
 
 
 @click.group(

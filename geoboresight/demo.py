@@ -31,7 +31,11 @@ def _scene(out: Path, scene: str | None) -> Path:
     target = out / "scene"
     if not (target / "vnir.hdr").exists():
         click.echo(f"no bundled sample scene found; simulating one into {target}")
-        execute(registry()["simulate"], {"preset": "mixed", "lines": 200, "seed": 7, "output": str(target)}, overwrite=True)
+        execute(
+            registry()["simulate"],
+            {"preset": "mixed", "lines": 200, "seed": 7, "output": str(target)},
+            overwrite=True,
+        )
     return target
 
 
@@ -64,8 +68,14 @@ def _command_line(name: str, values: dict) -> str:
 
 
 @click.command()
-@click.option("--out", default="out", show_default=True, help="Folder for the demo's outputs (replaced).")
-@click.option("--scene", default=None, help="Scene folder (vnir.hdr, swir.hdr, truth_*); default: sample_data/.")
+@click.option(
+    "--out", default="out", show_default=True, help="Folder for the demo's outputs (replaced)."
+)
+@click.option(
+    "--scene",
+    default=None,
+    help="Scene folder (vnir.hdr, swir.hdr, truth_*); default: sample_data/.",
+)
 def main(out: str, scene: str | None) -> None:
     """Run the boresight products on the sample scene and list what was written."""
     out_dir = Path(out)

@@ -1,0 +1,107 @@
+"""Many flight lines at once on Dask (``dask.distributed``), never a home-made scheduler.
+
+Each job is one ordinary run of an algorithm spec (one flight line, one set of values); jobs
+are independent, so they are submitted as Dask tasks to a ``LocalCluster`` (default) or to a
+running scheduler (``scheduler="tcp://host:8786"``) for a real cluster. A job that fails
+reports its error and, like any run, leaves no output behind; the others carry on.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+from dataclasses import dataclass
+
+from .algorithms import execute, get
+from .errors import GeoboresightError, InputError
+from .progress import Progress, as_progress
+
+
+@dataclass(frozen=True)
+class JobResult:
+    """The outcome of one job: its values, and either its results or its error message."""
+
+    index: int
+    values: dict
+    result: dict | None
+    error: str | None
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None
+
+
+def _run_one(name: str, values: dict, overwrite: bool) -> tuple[dict | None, str | None]:
+    try:
+        return execute(get(name), values, overwrite=overwrite), None
+    except GeoboresightError as exc:
+        return None, str(exc)
+
+
+def read_jobs(path: str) -> list[dict]:
+    """Jobs from a JSON list of objects, or a CSV whose header names the parameters."""
+    if not os.path.exists(path):
+        raise InputError(f"jobs file {path} does not exist")
+    if path.lower().endswith(".json"):
+        with open(path, encoding="utf-8") as f:
+            jobs = json.load(f)
+        if not isinstance(jobs, list) or not all(isinstance(j, dict) for j in jobs):
+            raise InputError(f"jobs file {path}: expected a JSON list of objects (one per job)")
+        return jobs
+    with open(path, newline="", encoding="utf-8") as f:
+        return [{k: v for k, v in row.items() if v not in (None, "")} for row in csv.DictReader(f)]
+
+
+def run_batch(
+    name: str,
+    jobs: list[dict],
+    scheduler: str | None = None,
+    n_workers: int | None = None,
+    overwrite: bool = False,
+    progress: Progress | None = None,
+) -> list[JobResult]:
+    """Run algorithm ``name`` once per values dict in ``jobs`` on a Dask cluster.
+
+    Parameters
+    ----------
+    scheduler : str, optional
+        Address of a running ``dask.distributed`` scheduler; by default a ``LocalCluster`` with
+        one single-threaded worker process per core (``n_workers``) is started and closed.
+    """
+    from dask.distributed import Client, LocalCluster, as_completed
+
+    get(name)  # unknown names fail here, before a cluster starts
+    progress = as_progress(progress)
+    outs = [j.get("output") for j in jobs if j.get("output")]
+    if len(set(map(os.path.realpath, outs))) != len(outs):
+        raise InputError("two jobs write the same output path: give each job its own output")
+    cluster = None
+    if scheduler:
+        client = Client(scheduler)
+    else:
+        cluster = LocalCluster(
+            n_workers=n_workers or os.cpu_count() or 1,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+        )
+        client = Client(cluster)
+    try:
+        futures = {
+            client.submit(_run_one, name, dict(v), overwrite, pure=False): i
+            for i, v in enumerate(jobs)
+        }
+        results: list[JobResult | None] = [None] * len(jobs)
+        for done, fut in enumerate(as_completed(futures), start=1):
+            i = futures[fut]
+            res, err = fut.result()
+            results[i] = JobResult(i, jobs[i], res, err)
+            progress.update(done / len(jobs), f"job {i + 1}: {'ok' if err is None else 'failed'}")
+            if err is not None:
+                progress.info(f"job {i + 1} failed: {err}")
+        return [r for r in results if r is not None]
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()

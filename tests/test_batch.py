@@ -1,0 +1,37 @@
+"""Many flight lines on a dask.distributed LocalCluster: same outputs as serial runs."""
+
+import json
+
+import numpy as np
+import rasterio
+from click.testing import CliRunner
+from synth import SWIR_WL, VNIR_WL, cube, write_envi
+
+from geoboresight.batch import run_batch
+from geoboresight.cli import main
+
+
+def test_batch_equals_serial_and_isolates_a_failing_job(tmp_path):
+    jobs = []
+    for k in range(3):
+        v = write_envi(tmp_path / f"v{k}.img", cube(len(VNIR_WL), seed=20 + k), VNIR_WL)
+        s = write_envi(tmp_path / f"s{k}.img", cube(len(SWIR_WL), seed=30 + k), SWIR_WL)
+        jobs.append({"vnir": v, "swir": s, "output": str(tmp_path / f"r{k}.tif")})
+    jobs.append({"vnir": str(tmp_path / "missing.img"), "output": str(tmp_path / "bad.tif")})
+    results = run_batch("ratio", jobs, n_workers=2)
+    assert [r.ok for r in results] == [True, True, True, False]
+    assert "missing.img does not exist" in results[3].error
+    assert not (tmp_path / "bad.tif").exists()
+    from geoboresight.algorithms import get
+
+    for k in range(3):
+        get("ratio")(vnir=jobs[k]["vnir"], swir=jobs[k]["swir"], output=tmp_path / f"serial{k}.tif")
+        with (
+            rasterio.open(tmp_path / f"r{k}.tif") as a,
+            rasterio.open(tmp_path / f"serial{k}.tif") as b,
+        ):
+            np.testing.assert_array_equal(a.read(1), b.read(1))
+    # The CLI front: a JSON jobs file; a failed job makes the command fail, naming it.
+    (tmp_path / "jobs.json").write_text(json.dumps(jobs[3:]))
+    r = CliRunner().invoke(main, ["batch", "ratio", str(tmp_path / "jobs.json"), "--workers", "1"])
+    assert r.exit_code == 1 and "job 1: FAILED" in r.output
