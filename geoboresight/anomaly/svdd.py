@@ -1,0 +1,165 @@
+"""Support Vector Data Description with a Gaussian RBF kernel (paper §3.3, Eq. 7–9; Figure 11C).
+
+SVDD (Tax & Duin 2004) encloses the background sample in the smallest hypersphere in the
+kernel's feature space; a pixel's anomaly score is its squared distance to the centre ``a``
+minus the squared radius ``R²``, positive outside the sphere (the paper's Eq. 7 with the sign
+turned so that high = anomalous):
+
+    score(y) = ‖Φ(y) − a‖² − R² = 2 (ρ − Σᵢ αᵢ K(y, xᵢ)) / Σᵢ αᵢ       (K(y, y) = 1, Eq. 9)
+
+For a kernel with constant ``K(x, x)`` (the Gaussian RBF) the SVDD dual and the ν-one-class
+SVM dual of Schölkopf et al. (2001, "Estimating the support of a high-dimensional
+distribution") are the same quadratic programme with the box constraint ``C = 1/(ν N)``, so the
+two give the same decision function up to a positive scale (Tax & Duin 2004, §4; Schölkopf et
+al. 2001, Prop. 4). Training therefore uses scikit-learn's ``OneClassSVM``; scoring does not:
+``decision_function`` evaluates the kernel pixel by pixel, whereas :meth:`SVDDModel.decision`
+computes all distances of a strip to the support vectors with one BLAS matrix product
+(``‖y − x‖² = ‖y‖² + ‖x‖² − 2 yᵀx``), which is an order of magnitude faster for equal results.
+
+Kernel width: ``K(x, y) = exp(−‖x − y‖² / (2σ²))``. When σ is not given it is the median
+pairwise Euclidean distance within the training sample (the "median heuristic", Schölkopf &
+Smola 2002; Gretton et al. 2012), which makes the kernel scale with the data (DN, radiance or
+reflectance alike).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError, ParameterError
+
+
+@dataclass(frozen=True)
+class SVDDModel:
+    """A trained SVDD: support vectors (m, k), their dual weights (m,), offset and kernel."""
+
+    support_vectors: np.ndarray
+    alpha: np.ndarray  # scikit-learn dual_coef_ (sums to ν·N)
+    intercept: float  # scikit-learn intercept_ (= −ρ)
+    gamma: float  # 1 / (2σ²)
+    sigma: float
+    nu: float
+    center: np.ndarray  # training mean, subtracted before distances (numerical range)
+
+    def decision(self, X: np.ndarray, chunk: int = 8192) -> np.ndarray:
+        """``OneClassSVM.decision_function`` of pixels ``X`` (k, n): Σ αᵢ K(y, xᵢ) − ρ.
+
+        Positive inside the description (background), negative outside. Computed in chunks of
+        ``chunk`` pixels with one GEMM each, so memory is ``chunk × m`` doubles.
+        """
+        X = np.asarray(X)
+        n = X.shape[1]
+        sv = self.support_vectors - self.center  # (m, k)
+        sv_sq = np.einsum("ij,ij->i", sv, sv)
+        out = np.empty(n)
+        for a in range(0, n, chunk):
+            Y = X[:, a : a + chunk].astype(np.float64) - self.center[:, None]  # (k, c)
+            G = sv @ Y  # (m, c)
+            G *= 2.0
+            G -= sv_sq[:, None]
+            G -= np.einsum("ij,ij->j", Y, Y)[None, :]
+            np.minimum(G, 0.0, out=G)  # −‖y − x‖² ≤ 0 (rounding)
+            G *= self.gamma
+            np.exp(G, out=G)
+            out[a : a + chunk] = self.alpha @ G
+        out += self.intercept
+        return out
+
+    def score(self, X: np.ndarray, chunk: int = 8192) -> np.ndarray:
+        """SVDD anomaly score ``‖Φ(y) − a‖² − R²`` (positive outside the sphere)."""
+        return -2.0 * self.decision(X, chunk) / float(self.alpha.sum())
+
+    def score_cube(self, cube: np.ndarray, valid: np.ndarray | None = None) -> np.ndarray:
+        """Scores of a (k, rows, cols) cube; NaN where not valid."""
+        k, rows, cols = cube.shape
+        flat = cube.reshape(k, -1)
+        out = np.full(rows * cols, np.nan)
+        if valid is None:
+            out[:] = self.score(flat)
+        else:
+            v = valid.ravel()
+            out[v] = self.score(flat[:, v])
+        return out.reshape(rows, cols)
+
+
+def median_sigma(sample: np.ndarray, max_pairs: int = 2000, seed: int = 0) -> float:
+    """Median pairwise Euclidean distance of a (n, k) sample (on at most ``max_pairs`` points)."""
+    rng = np.random.default_rng(seed)
+    if len(sample) > max_pairs:
+        sample = sample[rng.choice(len(sample), max_pairs, replace=False)]
+    from scipy.spatial.distance import pdist
+
+    d = pdist(sample)
+    d = d[d > 0]
+    if d.size == 0:
+        raise InputError(
+            "all background sample pixels are identical: SVDD cannot set a kernel width"
+        )
+    return float(np.median(d))
+
+
+def random_sample(blocks, k: int, size: int, total_valid: int, seed: int = 0) -> np.ndarray:
+    """A uniform random sample of ``size`` valid pixels from strips ``(cube, valid)``.
+
+    ``total_valid`` is the number of valid pixels over all strips (a first counting pass).
+    Returns (size, k) float64.
+    """
+    if total_valid == 0:
+        raise InputError("no valid pixels to train SVDD on (check nodata)")
+    size = min(size, total_valid)
+    rng = np.random.default_rng(seed)
+    chosen = np.sort(rng.choice(total_valid, size, replace=False))
+    out = np.empty((size, k))
+    seen = filled = 0
+    for cube, valid in blocks:
+        flat = cube.reshape(k, -1)
+        v = np.flatnonzero(valid.ravel()) if valid is not None else np.arange(flat.shape[1])
+        lo, hi = np.searchsorted(chosen, [seen, seen + v.size])
+        if hi > lo:
+            picks = v[chosen[lo:hi] - seen]
+            out[filled : filled + hi - lo] = flat[:, picks].T
+            filled += hi - lo
+        seen += v.size
+    return out[:filled]
+
+
+def fit_svdd(
+    sample: np.ndarray, sigma: float | None = None, nu: float = 0.01, tol: float = 1e-4
+) -> SVDDModel:
+    """Train an RBF SVDD on a background sample (n, k) with scikit-learn's OneClassSVM.
+
+    Parameters
+    ----------
+    sample : (n, k) array
+        Background pixels (a random sample of the scene: anomalies are rare, so they barely
+        move the description; ν bounds the fraction of training pixels left outside).
+    sigma : float, optional
+        Gaussian kernel width in data units; default: :func:`median_sigma`.
+    nu : float
+        Upper bound on the fraction of training pixels outside the sphere (0 < ν ≤ 1).
+    """
+    from sklearn.svm import OneClassSVM
+
+    sample = np.asarray(sample, dtype=np.float64)
+    if sample.ndim != 2 or sample.shape[0] < 10:
+        raise InputError(f"SVDD needs at least 10 background pixels, got {sample.shape[0]}")
+    if not 0 < nu <= 1:
+        raise ParameterError(f"parameter 'nu' must be in (0, 1], got {nu}")
+    if sigma is None:
+        sigma = median_sigma(sample)
+    if not sigma > 0:
+        raise ParameterError(f"parameter 'sigma' must be > 0, got {sigma}")
+    gamma = 1.0 / (2.0 * sigma**2)
+    center = sample.mean(axis=0)
+    model = OneClassSVM(kernel="rbf", gamma=gamma, nu=nu, tol=tol).fit(sample)
+    return SVDDModel(
+        support_vectors=model.support_vectors_.copy(),
+        alpha=model.dual_coef_.ravel().copy(),
+        intercept=float(model.intercept_[0]),
+        gamma=gamma,
+        sigma=float(sigma),
+        nu=nu,
+        center=center,
+    )

@@ -1,0 +1,268 @@
+"""Linear spectral unmixing (paper §3.3, Eq. 10–11) and endmember libraries.
+
+Eq. 10 models a pixel spectrum as ``ρ(λ) = Σₙ fₙ aₙ(λ) + φ`` with endmember spectra ``aₙ`` and
+abundances ``fₙ``; Eq. 11 constrains them to ``fₙ ≥ 0`` and ``Σ fₙ = 1`` (fully constrained
+least squares, FCLS; Heinz & Chang 2001). Three variants:
+
+- ``"fcls"``: ``f ≥ 0``, ``Σ f = 1`` (Eq. 11);
+- ``"nnls"``: ``f ≥ 0`` only;
+- ``"ucls"``: unconstrained least squares.
+
+Solver (vectorised over pixels, no per-pixel loop and no QP library): the optimum of a convex
+least-squares problem with non-negativity is the equality-constrained (or plain) least-squares
+solution on its own support. For ``N`` endmembers we solve, for all pixels at once, the
+closed-form KKT system on each of the ``2ᴺ − 1`` supports — only the (N × N) Gram matrix and
+the (pixels × N) products ``Eᵀx`` are needed — and keep, per pixel, the feasible candidate with
+the smallest residual. This is exact (not an approximation with a weighted sum-to-one row);
+it is practical up to ~12 endmembers, the usual case for ground-spectra libraries.
+
+The residual ``φ`` reported per pixel is the RMS over bands of ``x − Σ fₙ aₙ``.
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+
+import numpy as np
+
+from ..errors import InputError, ParameterError
+
+METHODS = ("fcls", "nnls", "ucls")
+#: Enumerating supports costs 2ᴺ small solves; beyond this, ask for fewer endmembers.
+MAX_ENDMEMBERS = 14
+
+
+def check_endmembers(E: np.ndarray, names=None) -> np.ndarray:
+    """Validate an (N, k) endmember matrix: N ≤ k, finite, linearly independent."""
+    E = np.asarray(E, dtype=np.float64)
+    if E.ndim != 2:
+        raise InputError("endmembers must be a 2-D array (endmembers × bands)")
+    n, k = E.shape
+    names = list(names) if names is not None else [f"endmember {i + 1}" for i in range(n)]
+    if n < 1:
+        raise InputError("no endmembers given")
+    if n > k:
+        raise InputError(
+            f"{n} endmembers ({', '.join(names)}) but only {k} bands: linear unmixing needs at "
+            "most as many endmembers as bands; drop endmembers or use more bands"
+        )
+    if n > MAX_ENDMEMBERS:
+        raise InputError(f"{n} endmembers: at most {MAX_ENDMEMBERS} are supported; drop some")
+    if not np.isfinite(E).all():
+        bad = [names[i] for i in np.flatnonzero(~np.isfinite(E).all(axis=1))]
+        raise InputError(f"endmember(s) {', '.join(bad)} contain NaN or infinite values")
+    rank = np.linalg.matrix_rank(E)
+    if rank < n:
+        raise InputError(
+            f"the {n} endmembers ({', '.join(names)}) are linearly dependent (rank {rank}): "
+            "remove duplicated or proportional spectra"
+        )
+    return E
+
+
+def unmix(X: np.ndarray, E: np.ndarray, method: str = "fcls", chunk: int = 65536):
+    """Abundances and residual of pixels ``X`` (k, n) for endmembers ``E`` (N, k).
+
+    Returns ``(abundances (N, n), residual_rms (n,))`` in float64.
+    """
+    if method not in METHODS:
+        raise ParameterError(f"unmixing method must be one of {', '.join(METHODS)}, got {method!r}")
+    E = check_endmembers(E)
+    X = np.asarray(X)
+    if X.shape[0] != E.shape[1]:
+        raise InputError(f"pixels have {X.shape[0]} bands but endmembers {E.shape[1]}")
+    N, k = E.shape
+    n = X.shape[1]
+    A = np.empty((N, n))
+    res = np.empty(n)
+    gram = E @ E.T
+    supports = _supports(gram, method)
+    for a in range(0, n, chunk):
+        x = X[:, a : a + chunk].astype(np.float64, copy=False)
+        g = E @ x  # (N, c) = Eᵀx per pixel
+        xx = np.einsum("ij,ij->j", x, x)
+        if method == "ucls":
+            f = supports[0][1] @ g
+        else:
+            f = _best_support(g, xx, gram, supports, N)
+        A[:, a : a + chunk] = f
+        r = x - E.T @ f
+        res[a : a + chunk] = np.sqrt(np.einsum("ij,ij->j", r, r) / k)
+    return A, res
+
+
+def _supports(gram: np.ndarray, method: str):
+    """Per support S: (indexes, M (|S|, |S|) acting on g_S, c (|S|,)) so that f_S = M g_S + c."""
+    N = gram.shape[0]
+    out = []
+    sizes = [N] if method == "ucls" else range(1, N + 1)
+    for size in sizes:
+        for S in itertools.combinations(range(N), size):
+            S = np.array(S)
+            G = gram[np.ix_(S, S)]
+            Ginv = np.linalg.inv(G)
+            if method == "fcls":
+                # min ‖x − E_Sᵀ f‖² s.t. 1ᵀf = 1:  f = G⁻¹g − G⁻¹1 (1ᵀG⁻¹g − 1) / (1ᵀG⁻¹1)
+                u = Ginv.sum(axis=1)  # G⁻¹1
+                s = u.sum()
+                M = Ginv - np.outer(u, u) / s
+                c = u / s
+            else:
+                M, c = Ginv, np.zeros(len(S))
+            out.append((S, M, c))
+    return out
+
+
+def _best_support(g, xx, gram, supports, N):
+    """Per pixel, the feasible (f ≥ 0) support solution with the least squared residual."""
+    n = g.shape[1]
+    best = np.full(n, np.inf)
+    f_best = np.zeros((N, n))
+    for S, M, c in supports:
+        fS = M @ g[S] + c[:, None]
+        feasible = (fS >= -1e-12).all(axis=0)
+        # ‖x − Eᵀf‖² = xᵀx − 2 fᵀg + fᵀ G f
+        GS = gram[np.ix_(S, S)]
+        cost = xx - 2 * np.einsum("ij,ij->j", fS, g[S]) + np.einsum("ij,ij->j", fS, GS @ fS)
+        take = feasible & (cost < best)
+        if take.any():
+            best[take] = cost[take]
+            f_best[:, take] = 0.0
+            f_best[np.ix_(S, np.flatnonzero(take))] = np.maximum(fS[:, take], 0.0)
+    return f_best
+
+
+# --- endmember libraries -------------------------------------------------------------------
+
+
+def read_library(path: str) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """(wavelengths_nm (w,), spectra (N, w), names) from a CSV or an ENVI spectral library.
+
+    CSV: a header row, the first column wavelength (nm, or µm when all values are < 100), one
+    column per endmember (the simulator's ``endmembers.csv``). ENVI: ``.sli`` + ``.hdr`` (or
+    the ``.hdr``), with ``wavelength`` and ``spectra names``.
+    """
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise InputError(f"endmember library {path} does not exist: check the path")
+    low = path.lower()
+    if low.endswith(".csv") or low.endswith(".txt"):
+        wl, spectra, names = _read_csv(path)
+    else:
+        wl, spectra, names = _read_sli(path)
+    if wl.size < 2 or not np.all(np.diff(wl) > 0):
+        order = np.argsort(wl)
+        wl, spectra = wl[order], spectra[:, order]
+        if np.any(np.diff(wl) <= 0):
+            raise InputError(f"endmember library {path}: wavelengths must be distinct")
+    if wl.max() < 100:
+        wl = wl * 1000.0
+    return wl, spectra, names
+
+
+def _read_csv(path):
+    import csv
+
+    with open(path, newline="", encoding="utf-8-sig") as f:
+        rows = [r for r in csv.reader(f) if r and any(c.strip() for c in r)]
+    if len(rows) < 3 or len(rows[0]) < 2:
+        raise InputError(
+            f"endmember CSV {path}: expected a header row, then one row per wavelength with "
+            "the wavelength (nm) first and one reflectance column per endmember"
+        )
+    names = [c.strip() for c in rows[0][1:]]
+    try:
+        data = np.array([[float(c) for c in r[: len(names) + 1]] for r in rows[1:]])
+    except ValueError as exc:
+        raise InputError(f"endmember CSV {path}: non-numeric value ({exc})") from None
+    return data[:, 0], data[:, 1:].T.copy(), names
+
+
+def _read_sli(path):
+    stem = os.path.splitext(path)[0]
+    hdr = path if path.lower().endswith(".hdr") else stem + ".hdr"
+    if not os.path.exists(hdr):
+        raise InputError(f"ENVI spectral library {path}: header {hdr} not found")
+    from ..io.cube import _envi_header
+
+    data_path = None
+    for ext in (".sli", ".esl", ".dat", ".img", ""):
+        if os.path.isfile(stem + ext) and not (stem + ext).lower().endswith(".hdr"):
+            data_path = stem + ext
+            break
+    keys = _envi_header(data_path or stem)
+    if keys is None or data_path is None:
+        raise InputError(f"ENVI spectral library {path}: could not find the header and data file")
+    try:
+        samples, lines = int(keys["samples"]), int(keys["lines"])
+        code = int(keys["data type"])
+        offset = int(keys.get("header offset", "0"))
+        big = int(keys.get("byte order", "0")) == 1
+    except (KeyError, ValueError) as exc:
+        raise InputError(f"ENVI spectral library {hdr}: missing header key {exc}") from None
+    from ..io.cube import _ENVI_DTYPES
+
+    dt = np.dtype(_ENVI_DTYPES[code]).newbyteorder(">" if big else "<")
+    spectra = np.fromfile(data_path, dtype=dt, count=samples * lines, offset=offset)
+    spectra = spectra.reshape(lines, samples).astype(np.float64)
+    wl_text = keys.get("wavelength")
+    if not wl_text:
+        raise InputError(f"ENVI spectral library {hdr} has no 'wavelength' list")
+    from ..io.wavelengths import parse_list, unit_scale
+
+    wl = parse_list(wl_text)
+    wl = wl * unit_scale(keys.get("wavelength units"), wl)
+    names_text = keys.get("spectra names", "")
+    names = [s.strip() for s in names_text.strip("{} ").split(",")] if names_text else []
+    if len(names) != lines:
+        names = [f"spectrum {i + 1}" for i in range(lines)]
+    scale = float(keys.get("reflectance scale factor", "1") or 1)
+    return wl, spectra / scale, names
+
+
+def resample(
+    wavelengths_nm: np.ndarray,
+    spectra: np.ndarray,
+    centres_nm: np.ndarray,
+    fwhm_nm: np.ndarray | None = None,
+    names=None,
+) -> np.ndarray:
+    """Resample library spectra (N, w) to sensor bands with Gaussian spectral response functions.
+
+    Each band's response is a Gaussian centred on ``centres_nm`` with full width at half maximum
+    ``fwhm_nm``; the library is linearly interpolated onto a 0.5 nm grid and integrated against
+    it. When the library is already sampled at the band centres (within 0.01 nm) it is used as
+    it is. Raises :class:`InputError` naming the bands the library does not cover (±1 FWHM).
+    """
+    wl = np.asarray(wavelengths_nm, dtype=float)
+    spectra = np.atleast_2d(np.asarray(spectra, dtype=float))
+    c = np.asarray(centres_nm, dtype=float)
+    if wl.size == c.size and np.allclose(wl, c, atol=0.01):
+        return spectra.copy()
+    fw = (
+        np.full(c.size, np.median(np.diff(np.sort(c))) if c.size > 1 else 10.0)
+        if fwhm_nm is None
+        else np.asarray(fwhm_nm, float)
+    )
+    lo_need, hi_need = c - fw, c + fw
+    uncovered = np.flatnonzero((lo_need < wl.min() - 1e-6) | (hi_need > wl.max() + 1e-6))
+    # A band whose centre is covered, with only its far tail outside, is acceptable.
+    centre_out = np.flatnonzero((c < wl.min()) | (c > wl.max()))
+    tail_out = np.setdiff1d(uncovered, centre_out)
+    if centre_out.size or tail_out.size > 2:
+        bad = centre_out if centre_out.size else tail_out
+        raise InputError(
+            f"the endmember library covers {wl.min():.1f}–{wl.max():.1f} nm but the image's "
+            f"bands span {c.min():.1f}–{c.max():.1f} nm: {bad.size} band(s) are not covered "
+            f"(e.g. {', '.join(f'{v:.1f} nm' for v in c[bad[:5]])}). Use a library covering the "
+            "image's range, or exclude those bands (exclude_nm)"
+        )
+    grid = np.arange(
+        max(wl.min(), (c - 3 * fw).min()), min(wl.max(), (c + 3 * fw).max()) + 0.5, 0.5
+    )
+    fine = np.array([np.interp(grid, wl, s) for s in spectra])  # (N, g)
+    sd = fw / (2.0 * np.sqrt(2.0 * np.log(2.0)))
+    srf = np.exp(-0.5 * ((grid[None, :] - c[:, None]) / sd[:, None]) ** 2)  # (bands, g)
+    srf /= srf.sum(axis=1, keepdims=True)
+    return fine @ srf.T

@@ -1,0 +1,224 @@
+"""Reading a hyperspectral cube (one file, or VNIR + SWIR side by side) in strips of lines.
+
+Per-pixel spectral work (RX, SVDD, unmixing) needs every band of a strip at once. GDAL reads an
+ENVI BIL cube band by band and line by line, which is ~10× slower than the disk; for uncompressed
+ENVI files (BSQ, BIL, BIP; any byte order, any header offset) the strip is read with one
+sequential ``readinto`` and reordered in NumPy. Other formats go through rasterio.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import InputError
+from .raster import is_georeferenced, open_raster, row_windows
+from .wavelengths import read_wavelengths
+
+_ENVI_DTYPES = {1: "u1", 2: "i2", 3: "i4", 4: "f4", 5: "f8", 12: "u2", 13: "u4", 14: "i8", 15: "u8"}
+
+
+@dataclass
+class _Part:
+    path: str
+    count: int
+    dtype: np.dtype
+    nodata: float | None
+    raw: dict | None  # {"file", "offset", "interleave", "dtype"} for the fast ENVI path
+    _fh: object = field(default=None, repr=False)
+
+
+def _envi_header(data_path: str) -> dict | None:
+    stem = os.path.splitext(data_path)[0]
+    for hdr in (data_path + ".hdr", stem + ".hdr"):
+        if os.path.isfile(hdr):
+            break
+    else:
+        return None
+    with open(hdr, encoding="utf-8", errors="replace") as f:
+        text = f.read()
+    if not text.lstrip().upper().startswith("ENVI"):
+        return None
+    text = re.sub(r"\{[^}]*\}", lambda m: m.group(0).replace("\n", " "), text)
+    keys = {}
+    for line in text.splitlines():
+        if "=" in line:
+            k, v = line.split("=", 1)
+            keys[k.strip().lower()] = v.strip()
+    return keys
+
+
+def _raw_layout(src, data_path: str) -> dict | None:
+    """The byte layout of an uncompressed ENVI file, or None (read through GDAL then)."""
+    if src.driver != "ENVI":
+        return None
+    keys = _envi_header(data_path)
+    if keys is None or keys.get("file compression", "0").strip() not in ("", "0"):
+        return None
+    try:
+        code = int(keys["data type"])
+        interleave = keys.get("interleave", "bsq").strip().lower()
+        offset = int(keys.get("header offset", "0"))
+        big = int(keys.get("byte order", "0")) == 1
+    except (KeyError, ValueError):
+        return None
+    if code not in _ENVI_DTYPES or interleave not in ("bsq", "bil", "bip"):
+        return None
+    dtype = np.dtype(_ENVI_DTYPES[code]).newbyteorder(">" if big else "<")
+    expected = offset + src.count * src.height * src.width * dtype.itemsize
+    if os.path.getsize(data_path) < expected:
+        return None
+    return {"file": data_path, "offset": offset, "interleave": interleave, "dtype": dtype}
+
+
+class Cube:
+    """A cube of ``count`` bands on one pixel grid, read in strips of lines.
+
+    Use :func:`open_cube`. ``wavelengths``/``fwhm`` are in nm (None when the files have none).
+    """
+
+    def __init__(self, parts, height, width, crs, transform, wavelengths, fwhm):
+        self._parts = parts
+        self.height = height
+        self.width = width
+        self.crs = crs
+        self.transform = transform
+        self.wavelengths = wavelengths
+        self.fwhm = fwhm
+        self.count = sum(p.count for p in parts)
+        self.paths = [p.path for p in parts]
+
+    @property
+    def grid(self) -> dict:
+        return {
+            "width": self.width,
+            "height": self.height,
+            "crs": self.crs,
+            "transform": self.transform,
+        }
+
+    def close(self):
+        for p in self._parts:
+            if p._fh is not None:
+                p._fh.close()
+                p._fh = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def windows(self, block_rows: int):
+        return row_windows(self.height, self.width, block_rows)
+
+    def read(self, row0: int, row1: int, bands=None, dtype="float64", out=None):
+        """Bands ``bands`` (0-based over all parts) of lines ``row0:row1``.
+
+        Returns ``(data, valid)``: ``data`` of shape (len(bands), rows, width) in ``dtype``;
+        ``valid`` (rows, width) is False where any of those bands is nodata or non-finite.
+        """
+        bands = np.arange(self.count) if bands is None else np.asarray(bands, dtype=int)
+        rows = row1 - row0
+        shape = (len(bands), rows, self.width)
+        if out is None or out.shape[1] < rows:
+            data = np.empty(shape, dtype=dtype)
+        else:
+            data = out[:, :rows]
+        valid = np.ones((rows, self.width), dtype=bool)
+        start = 0
+        for part in self._parts:
+            local = bands - start
+            sel = np.flatnonzero((local >= 0) & (local < part.count))
+            start += part.count
+            if sel.size == 0:
+                continue
+            self._read_part(part, row0, row1, local[sel], data, sel)
+            if part.nodata is not None:
+                for j in sel:
+                    valid &= data[j] != part.nodata
+        if data.dtype.kind == "f":
+            valid &= np.isfinite(data).all(axis=0)
+        return data, valid
+
+    def _read_part(self, part, row0, row1, local, data, sel):
+        if part.raw is None:
+            from rasterio.windows import Window
+
+            with open_raster(part.path) as src:
+                block = src.read(
+                    [int(b) + 1 for b in local], window=Window(0, row0, self.width, row1 - row0)
+                )
+            for i, j in enumerate(sel):
+                data[j] = block[i]
+            return
+        raw = part.raw
+        if part._fh is None:
+            part._fh = open(raw["file"], "rb", buffering=0)
+        fh = part._fh
+        dt = raw["dtype"]
+        rows, width, count = row1 - row0, self.width, part.count
+        if raw["interleave"] == "bsq":
+            buf = np.empty((rows, width), dtype=dt)
+            for b, j in zip(local, sel, strict=True):
+                fh.seek(raw["offset"] + ((int(b) * self.height + row0) * width) * dt.itemsize)
+                fh.readinto(memoryview(buf).cast("B"))
+                data[j] = buf
+            return
+        line = count * width
+        buf = np.empty((rows, line), dtype=dt)
+        fh.seek(raw["offset"] + row0 * line * dt.itemsize)
+        fh.readinto(memoryview(buf).cast("B"))
+        if raw["interleave"] == "bil":
+            buf = buf.reshape(rows, count, width)
+            if len(local) == count and np.array_equal(local, np.arange(count)):
+                np.copyto(data[sel[0] : sel[0] + count], buf.transpose(1, 0, 2), casting="unsafe")
+            else:
+                for b, j in zip(local, sel, strict=True):
+                    data[j] = buf[:, b, :]
+        else:  # bip
+            buf = buf.reshape(rows, width, count)
+            for b, j in zip(local, sel, strict=True):
+                data[j] = buf[:, :, b]
+
+
+def open_cube(paths, label: str = "image") -> Cube:
+    """Describe one cube, or several files on one grid stacked band-wise (e.g. VNIR then SWIR).
+
+    Raises :class:`InputError` when the files are on different grids.
+    """
+    if isinstance(paths, str | os.PathLike):
+        paths = [paths]
+    parts, wls, fws = [], [], []
+    grid = None
+    for path in paths:
+        path = os.fspath(path)
+        with open_raster(path, label) as src:
+            data_path = src.files[0] if src.files else path
+            g = (src.height, src.width, src.crs, src.transform if is_georeferenced(src) else None)
+            if grid is None:
+                grid = g
+            elif g[:2] != grid[:2]:
+                raise InputError(
+                    f"{label} {path} is {g[1]} × {g[0]} pixels but {paths[0]} is "
+                    f"{grid[1]} × {grid[0]}: stacked files must share one pixel grid"
+                )
+            wl, fw = read_wavelengths(src)
+            wls.append(wl)
+            fws.append(fw)
+            parts.append(
+                _Part(
+                    path,
+                    src.count,
+                    np.dtype(src.dtypes[0]),
+                    src.nodata,
+                    _raw_layout(src, data_path),
+                )
+            )
+    wavelengths = None if any(w is None for w in wls) else np.concatenate(wls)
+    fwhm = None if any(f is None for f in fws) else np.concatenate(fws)
+    crs = next((p for p in [grid[2]] if p is not None), None)
+    return Cube(parts, grid[0], grid[1], crs, grid[3], wavelengths, fwhm)
