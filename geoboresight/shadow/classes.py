@@ -1,0 +1,285 @@
+"""Shadow-fraction classes of the boresight ratio (paper §3.1, Table 2).
+
+Table 2 of Brook & Ben-Dor (2011) maps boresight ratio intervals to ground-truth shadow
+fractions::
+
+    class  ratio      shadow fraction  colour (Figures 6–7)
+    1      3.4–4.0    80–100 %         maroon
+    2      2.5–3.4    50–80 %          magenta
+    3      2.1–2.5    20–50 %          cyan
+    4      1.9–2.1    10–20 %          yellow
+
+Class 0 is "no shadow" (a ratio outside every interval); :data:`NODATA_CLASS` (255) marks
+pixels with no valid ratio. An interval is ``min ≤ ratio < max``; the interval with the highest
+``max`` also includes its ``max`` (so a ratio of exactly 4 is class 1). Write ``inf`` as a
+``max`` to make the top class open-ended.
+
+A class table is a CSV (or JSON list of objects) with the columns::
+
+    class,min,max,fraction_min,fraction_max,name,colour
+
+``class`` 1–254, ``min < max`` (ratios), fractions in 0–1, ``colour`` as ``#rrggbb``. Rows must
+be listed in ratio order (all ascending or all descending) and intervals must not overlap
+(touching ends are fine).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError, ParameterError
+
+#: Class value of pixels with no valid ratio (the class raster's nodata).
+NODATA_CLASS = 255
+#: Class value of valid pixels outside every interval.
+NO_SHADOW = 0
+COLUMNS = ("class", "min", "max", "fraction_min", "fraction_max", "name", "colour")
+
+
+@dataclass(frozen=True)
+class ShadowClass:
+    """One row of a class table: ratio interval → shadow-fraction interval."""
+
+    id: int
+    min: float
+    max: float
+    fraction_min: float
+    fraction_max: float
+    name: str
+    colour: tuple[int, int, int]
+
+    @property
+    def hex(self) -> str:
+        return "#{:02x}{:02x}{:02x}".format(*self.colour)
+
+
+@dataclass(frozen=True)
+class ClassTable:
+    """A validated, ordered set of shadow classes (see :func:`validate_classes`)."""
+
+    classes: tuple[ShadowClass, ...]
+
+    def classify(self, ratio: np.ndarray, valid: np.ndarray | None = None) -> np.ndarray:
+        """uint8 class of each pixel: class id, 0 = no shadow, 255 = no valid ratio."""
+        ratio = np.asarray(ratio)
+        ok = np.isfinite(ratio) if valid is None else (np.asarray(valid, bool) & np.isfinite(ratio))
+        out = np.full(ratio.shape, NO_SHADOW, dtype=np.uint8)
+        top = max(c.max for c in self.classes)
+        with np.errstate(invalid="ignore"):
+            for c in self.classes:
+                inside = (ratio >= c.min) & (ratio < c.max)
+                if c.max == top:
+                    inside |= ratio == c.max
+                out[inside & ok] = c.id
+        out[~ok] = NODATA_CLASS
+        return out
+
+    def shadow_ids(self, min_fraction: float) -> tuple[int, ...]:
+        """Ids of classes whose shadow fraction is at least ``min_fraction`` (their lower end)."""
+        return tuple(c.id for c in self.classes if c.fraction_min >= min_fraction - 1e-9)
+
+    def mask(self, classes: np.ndarray, min_fraction: float) -> np.ndarray:
+        """uint8 binary shadow mask from a class raster: 1 shadow, 0 not, 255 nodata."""
+        ids = self.shadow_ids(min_fraction)
+        out = np.isin(classes, ids).astype(np.uint8)
+        out[classes == NODATA_CLASS] = NODATA_CLASS
+        return out
+
+    def colormap(self) -> dict[int, tuple[int, int, int, int]]:
+        """GDAL colour table: class colours, 0 transparent white, nodata transparent."""
+        cmap = {i: (0, 0, 0, 0) for i in range(256)}
+        cmap[NO_SHADOW] = (255, 255, 255, 0)
+        for c in self.classes:
+            cmap[c.id] = (*c.colour, 255)
+        return cmap
+
+    def names(self) -> dict[int, str]:
+        """Category name of each class value (0 and the classes)."""
+        names = {NO_SHADOW: "no shadow"}
+        for c in self.classes:
+            names[c.id] = c.name
+        return names
+
+    def to_csv(self) -> str:
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(COLUMNS)
+        for c in self.classes:
+            w.writerow(
+                [
+                    c.id,
+                    _num(c.min),
+                    _num(c.max),
+                    _num(c.fraction_min),
+                    _num(c.fraction_max),
+                    c.name,
+                    c.hex,
+                ]
+            )
+        return buf.getvalue()
+
+    def describe(self) -> str:
+        """One line per class, for logs and band metadata."""
+        return "; ".join(
+            f"{c.id}: ratio {_num(c.min)}–{_num(c.max)} → {c.fraction_min * 100:g}–"
+            f"{c.fraction_max * 100:g} % shadow ({c.name})"
+            for c in self.classes
+        )
+
+
+def _num(x: float) -> str:
+    return "inf" if math.isinf(x) else f"{x:g}"
+
+
+#: Table 2 of the paper, with the colours of Figures 6–7.
+TABLE2 = (
+    ShadowClass(1, 3.4, 4.0, 0.8, 1.0, "80-100 % shadow", (128, 0, 0)),
+    ShadowClass(2, 2.5, 3.4, 0.5, 0.8, "50-80 % shadow", (255, 0, 255)),
+    ShadowClass(3, 2.1, 2.5, 0.2, 0.5, "20-50 % shadow", (0, 255, 255)),
+    ShadowClass(4, 1.9, 2.1, 0.1, 0.2, "10-20 % shadow", (255, 255, 0)),
+)
+
+
+def default_table() -> ClassTable:
+    """Table 2 of Brook & Ben-Dor (2011)."""
+    return validate_classes(TABLE2)
+
+
+def validate_classes(classes, source: str = "class table") -> ClassTable:
+    """Check a sequence of :class:`ShadowClass`; raise ParameterError naming the bad row."""
+    classes = tuple(classes)
+    if not classes:
+        raise ParameterError(f"{source}: no classes; give at least one row")
+    ids = [c.id for c in classes]
+    for c in classes:
+        where = f"{source}, class {c.id}"
+        if not (1 <= c.id <= 254):
+            raise ParameterError(f"{where}: class ids must be 1–254 (0 = no shadow, 255 = nodata)")
+        if math.isnan(c.min) or math.isnan(c.max):
+            raise ParameterError(f"{where}: min and max must be numbers")
+        if not c.min < c.max:
+            raise ParameterError(
+                f"{where}: interval {_num(c.min)}–{_num(c.max)} is unordered or empty; "
+                "min must be below max"
+            )
+        if not (0 <= c.fraction_min <= c.fraction_max <= 1):
+            raise ParameterError(
+                f"{where}: shadow fractions {c.fraction_min:g}–{c.fraction_max:g} must satisfy "
+                "0 ≤ fraction_min ≤ fraction_max ≤ 1 (fractions, not percent)"
+            )
+    if len(set(ids)) != len(ids):
+        raise ParameterError(f"{source}: class ids {ids} repeat; each class needs its own id")
+    mins = [c.min for c in classes]
+    ascending = all(a < b for a, b in zip(mins, mins[1:], strict=False))
+    descending = all(a > b for a, b in zip(mins, mins[1:], strict=False))
+    if not (ascending or descending):
+        raise ParameterError(
+            f"{source}: rows are not in ratio order (mins {', '.join(map(_num, mins))}); "
+            "list the intervals from highest to lowest ratio (as Table 2) or lowest to highest"
+        )
+    ordered = sorted(classes, key=lambda c: c.min)
+    for lo, hi in zip(ordered, ordered[1:], strict=False):
+        if hi.min < lo.max:
+            raise ParameterError(
+                f"{source}: class {lo.id} ({_num(lo.min)}–{_num(lo.max)}) overlaps class "
+                f"{hi.id} ({_num(hi.min)}–{_num(hi.max)}); intervals may touch but not overlap"
+            )
+    return ClassTable(classes)
+
+
+def parse_colour(text: str, where: str) -> tuple[int, int, int]:
+    t = str(text).strip()
+    if t.startswith("#") and len(t) == 7:
+        try:
+            return (int(t[1:3], 16), int(t[3:5], 16), int(t[5:7], 16))
+        except ValueError:
+            pass
+    parts = [p for p in t.replace(";", ",").split(",") if p.strip()]
+    if len(parts) == 3:
+        try:
+            rgb = tuple(int(p) for p in parts)
+            if all(0 <= v <= 255 for v in rgb):
+                return rgb  # type: ignore[return-value]
+        except ValueError:
+            pass
+    raise ParameterError(f"{where}: colour {text!r} is not '#rrggbb' or 'r,g,b' (0–255)")
+
+
+def _row_to_class(row: dict, where: str) -> ShadowClass:
+    missing = [k for k in ("class", "min", "max") if str(row.get(k, "")).strip() == ""]
+    if missing:
+        raise ParameterError(
+            f"{where}: missing {', '.join(missing)} (columns: {', '.join(COLUMNS)})"
+        )
+
+    def num(key, default=None):
+        v = row.get(key)
+        if v is None or str(v).strip() == "":
+            if default is None:
+                raise ParameterError(f"{where}: column '{key}' is empty")
+            return default
+        try:
+            return float(v)
+        except (TypeError, ValueError):
+            raise ParameterError(f"{where}: column '{key}' = {v!r} is not a number") from None
+
+    try:
+        cid = int(str(row["class"]).strip().lstrip("#"))
+    except ValueError:
+        raise ParameterError(f"{where}: class {row['class']!r} is not a whole number") from None
+    fmin, fmax = num("fraction_min", 0.0), num("fraction_max", 1.0)
+    if fmax > 1.0 and fmax <= 100.0:
+        raise ParameterError(
+            f"{where}: fractions must be 0–1 (got {fmin:g}–{fmax:g}; write 0.8 for 80 %)"
+        )
+    colour = row.get("colour") or row.get("color") or "#808080"
+    return ShadowClass(
+        cid,
+        num("min"),
+        num("max"),
+        fmin,
+        fmax,
+        str(row.get("name") or f"class {cid}").strip(),
+        parse_colour(colour, where),
+    )
+
+
+def read_class_table(path: str | os.PathLike) -> ClassTable:
+    """Read and validate a class table from CSV (header row) or JSON (list of objects)."""
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise InputError(f"class table {path} does not exist: check the path")
+    with open(path, encoding="utf-8-sig") as f:
+        text = f.read()
+    source = f"class table {path}"
+    if path.lower().endswith(".json") or text.lstrip().startswith(("[", "{")):
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise InputError(f"{source} is not valid JSON ({exc})") from None
+        if isinstance(data, dict):
+            data = data.get("classes", [])
+        rows = list(data)
+        classes = [_row_to_class(r, f"{source}, entry {i + 1}") for i, r in enumerate(rows)]
+    else:
+        reader = csv.DictReader(io.StringIO(text))
+        fields = [f.strip().lower() for f in (reader.fieldnames or [])]
+        if "min" not in fields or "max" not in fields or "class" not in fields:
+            raise InputError(
+                f"{source}: the first line must name the columns {','.join(COLUMNS)} "
+                f"(found {','.join(fields) or 'nothing'})"
+            )
+        classes = []
+        for i, raw in enumerate(reader, start=2):
+            row = {(k or "").strip().lower(): (v or "").strip() for k, v in raw.items()}
+            if not any(row.values()):
+                continue
+            classes.append(_row_to_class(row, f"{source}, line {i}"))
+    return validate_classes(classes, source)
