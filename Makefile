@@ -6,6 +6,9 @@ VENV ?= .venv
 QGIS_PY ?= /usr/bin/python3
 QVENV ?= .venv-qgis
 OUT ?= out
+# The zip a QGIS user installs with "Install from ZIP"; the plugin folder inside is named
+# geoboresight_qgis (a folder named geoboresight would shadow the library on QGIS's sys.path).
+PLUGIN_ZIP ?= dist/geoboresight-plugin.zip
 PYTEST_ARGS ?=
 
 .PHONY: demo test test-main test-qgis lint plugin-zip bench clean
@@ -26,6 +29,11 @@ $(QVENV)/.installed: pyproject.toml
 	fi
 	$(QVENV)/bin/pip install -q --upgrade pip
 	$(QVENV)/bin/pip install -q "numpy<2" "attrs>=24.1" -e ".[test]"
+	@# Debian's matplotlib ships mpl_toolkits as a regular package, which shadows a pip
+	@# matplotlib's namespace package (no 3-D axes): then use Debian's matplotlib alone.
+	@$(QVENV)/bin/python -c "import matplotlib; matplotlib.use('Agg'); import matplotlib.pyplot as p; p.figure().add_subplot(projection='3d')" 2>/dev/null \
+	  || { echo "3-D axes broken by Debian's mpl_toolkits: using Debian's matplotlib"; $(QVENV)/bin/pip uninstall -q -y matplotlib; \
+	       $(QVENV)/bin/python -c "import matplotlib; matplotlib.use('Agg'); import matplotlib.pyplot as p; p.figure().add_subplot(projection='3d')"; }
 	touch $@
 
 demo: $(VENV)/.installed
@@ -41,6 +49,15 @@ test-qgis: $(QVENV)/.installed
 
 lint: $(VENV)/.installed
 	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check .
+
+plugin-zip:
+	@set -e; tmp=$$(mktemp -d); \
+	cp -R plugin $$tmp/geoboresight_qgis; \
+	find $$tmp -name __pycache__ -prune -exec rm -rf {} +; \
+	mkdir -p "$$(dirname $(PLUGIN_ZIP))"; rm -f $(PLUGIN_ZIP); \
+	zip="$$(cd "$$(dirname $(PLUGIN_ZIP))" && pwd)/$$(basename $(PLUGIN_ZIP))"; \
+	(cd $$tmp && $(PY) -m zipfile -c "$$zip" geoboresight_qgis); \
+	rm -rf $$tmp; echo "wrote $(PLUGIN_ZIP) (QGIS: Plugins > Manage and Install Plugins > Install from ZIP)"
 
 bench: $(VENV)/.installed
 	for b in benchmarks/*.py; do $(VENV)/bin/python $$b || exit 1; done

@@ -52,3 +52,18 @@ def plugin(qgis_app):
 @pytest.fixture(scope="session")
 def provider(plugin):
     return plugin.provider
+
+
+@pytest.fixture(scope="session")
+def inputs(tmp_path_factory):
+    """The small scene (simulated when the simulator exists) and a library-made ratio raster."""
+    from qgis_cases import Inputs
+    from qgis_scene import make_scene
+
+    from geoboresight.algorithms import registry
+
+    folder = tmp_path_factory.mktemp("scene")
+    scene = make_scene(str(folder))
+    ratio = str(folder / "ratio.tif")
+    registry()["ratio"](vnir=scene["vnir"], swir=scene["swir"], output=ratio)
+    return Inputs(scene, ratio)

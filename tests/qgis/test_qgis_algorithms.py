@@ -1,0 +1,87 @@
+"""Every algorithm in the registry, run through ``processing.run`` in real QGIS, writes the same
+numbers as the library run directly with the same values."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+from qgis_cases import to_qgis, values_for
+from qgis_compare import assert_same_file, same_value
+
+from geoboresight.algorithms import execute, registry
+
+pytestmark = pytest.mark.qgis
+
+
+def assert_styled(path):
+    """Opened in QGIS: classes with their colour table, one continuous band with a ramp."""
+    from qgis.core import QgsRaster, QgsRasterLayer
+
+    layer = QgsRasterLayer(path, "out", "gdal")
+    assert layer.isValid(), path
+    if layer.dataProvider().colorInterpretation(1) == QgsRaster.PaletteIndex:
+        assert layer.renderer().type() == "paletted", path
+    elif layer.bandCount() == 1:
+        assert layer.renderer().type() == "singlebandpseudocolor", path
+
+
+@pytest.mark.parametrize("name", list(registry()))
+def test_every_algorithm_matches_the_library(name, provider, inputs, tmp_path):
+    import processing
+    from qgis.core import QgsProcessingFeedback
+
+    spec = registry()[name]
+    q_dir, l_dir = tmp_path / "qgis", tmp_path / "lib"
+    q_dir.mkdir()
+    l_dir.mkdir()
+    q_values = values_for(spec, inputs, str(q_dir))
+    l_values = values_for(spec, inputs, str(l_dir))
+
+    messages = []
+
+    class Feedback(QgsProcessingFeedback):
+        def pushInfo(self, info):  # noqa: N802
+            messages.append(info)
+            super().pushInfo(info)
+
+    q_result = processing.run(f"geoboresight:{name}", to_qgis(spec, q_values), feedback=Feedback())
+    l_result = execute(spec, l_values)
+
+    for p in spec.outputs:
+        if p.name in l_result:
+            assert q_result[p.name] == q_values[p.name]
+            assert_same_file(q_values[p.name], l_values[p.name], str(q_dir), str(l_dir))
+            if p.kind == "raster_out":
+                assert_styled(q_values[p.name])
+    for key, value in l_result.items():
+        if key in {p.name for p in spec.outputs}:
+            continue
+        got = q_result.get(key)
+        if isinstance(value, str):
+            value = value.replace(str(l_dir), str(q_dir))
+        elif not isinstance(value, bool | int | float | list | tuple | type(None)):
+            value = str(value).replace(str(l_dir), str(q_dir))
+        assert same_value(got, list(value) if isinstance(value, tuple) else value), (
+            key,
+            got,
+            value,
+        )
+        assert any(key in m for m in messages), f"result {key} not shown in the QGIS log"
+
+
+def test_temporary_outputs(provider, inputs):
+    """'Create temporary layer' (TEMPORARY_OUTPUT) works for every output of every algorithm."""
+    import processing
+
+    for name, spec in registry().items():
+        values = values_for(spec, inputs, "unused")
+        params = to_qgis(spec, values)
+        for p in spec.outputs:
+            params[p.name] = "TEMPORARY_OUTPUT"
+        result = processing.run(f"geoboresight:{name}", params)
+        for p in spec.outputs:
+            path = result.get(p.name)
+            assert path and os.path.exists(path), (name, p.name, path)
+            if p.extension and p.kind != "folder_out":
+                assert path.endswith(f".{p.extension}"), (name, p.name, path)

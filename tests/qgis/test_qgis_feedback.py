@@ -1,0 +1,153 @@
+"""What a QGIS user sees: parameter values mapped faithfully, bands checked, errors as messages,
+progress and cancel through QgsProcessingFeedback, no output left by a failed run."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+import rasterio
+
+from geoboresight.algorithms import registry
+from geoboresight.io import quiet_georef
+
+pytestmark = pytest.mark.qgis
+
+
+def _feedback():
+    from qgis.core import QgsProcessingFeedback
+
+    class Feedback(QgsProcessingFeedback):
+        def __init__(self):
+            super().__init__()
+            self.errors, self.infos, self.progress = [], [], []
+            self.progressChanged.connect(self.progress.append)
+
+        def reportError(self, error, fatalError=False):  # noqa: N802, N803
+            self.errors.append(error)
+            super().reportError(error, fatalError)
+
+        def pushInfo(self, info):  # noqa: N802
+            self.infos.append(info)
+            super().pushInfo(info)
+
+    return Feedback()
+
+
+def _run(alg, params, feedback=None):
+    import processing
+
+    return processing.run(f"geoboresight:{alg}", params, feedback=feedback or _feedback())
+
+
+def _read(path):
+    with quiet_georef(), rasterio.open(path) as src:
+        return src.read(1)
+
+
+def test_enum_index_and_numbers_reach_the_library(provider, inputs, tmp_path):
+    """QGIS passes enums as indexes: index 1 must mean the spec's second choice."""
+    scene = inputs.scene
+    q = str(tmp_path / "q.tif")
+    ratio = registry()["ratio"]
+    assert ratio.param("band_mode").choices[1] == "edges"
+    _run("ratio", {"vnir": scene["vnir"], "swir": scene["swir"], "band_mode": 1, "output": q})
+    lib_edges = str(tmp_path / "edges.tif")
+    lib_default = str(tmp_path / "default.tif")
+    ratio(vnir=scene["vnir"], swir=scene["swir"], band_mode="edges", output=lib_edges)
+    ratio(vnir=scene["vnir"], swir=scene["swir"], output=lib_default)
+    np.testing.assert_array_equal(_read(q), _read(lib_edges))
+    assert not np.array_equal(_read(lib_edges), _read(lib_default))  # the choice mattered
+
+
+def test_band_beyond_the_raster_is_a_clear_error(provider, inputs, tmp_path):
+    """QGIS does not check a band number against its raster: the algorithm must."""
+    from qgis.core import QgsProcessingException
+
+    out = tmp_path / "stats.json"
+    fb = _feedback()
+    with pytest.raises(QgsProcessingException) as err:
+        _run("stats", {"input": inputs.ratio, "band": 5, "output": str(out)}, fb)
+    text = str(err.value)
+    assert "band 5 does not exist" in text and "1 band" in text and inputs.ratio in text, text
+    assert not out.exists()
+
+
+def test_range_is_checked_by_qgis(provider, inputs, tmp_path):
+    from qgis.core import QgsProcessingException
+
+    out = tmp_path / "r.tif"
+    fb = _feedback()
+    params = {"vnir": inputs.scene["vnir"], "swir": inputs.scene["swir"], "output": str(out)}
+    params["numerator_nm"] = 5000.0  # above the Wavelength maximum
+    with pytest.raises(QgsProcessingException) as err:
+        _run("ratio", params, fb)
+    assert "numerator_nm" in str(err.value) or "Wavelength" in str(err.value), str(err.value)
+    assert not out.exists()
+
+
+def test_library_error_message_reaches_the_user(provider, inputs, tmp_path):
+    """A wavelength with no band near it: the library's message, not a traceback."""
+    from qgis.core import QgsProcessingException
+
+    out = tmp_path / "r.tif"
+    fb = _feedback()
+    params = {
+        "vnir": inputs.scene["vnir"],
+        "swir": inputs.scene["swir"],
+        "numerator_nm": 2590.0,  # in range, but no SWIR band within the tolerance
+        "tolerance_nm": 1.0,
+        "output": str(out),
+    }
+    with pytest.raises(QgsProcessingException) as err:
+        _run("ratio", params, fb)
+    assert "2590" in str(err.value) and "Traceback" not in str(err.value), str(err.value)
+    assert not out.exists()
+
+
+def test_progress_and_cancel_within_one_block(provider, inputs, tmp_path):
+    from qgis.core import QgsProcessingException
+
+    out = tmp_path / "r.tif"
+    fb = _feedback()
+    blocks = []
+
+    def cancel_after_first_block(value):
+        blocks.append(value)
+        fb.cancel()
+
+    fb.progressChanged.connect(cancel_after_first_block)
+    params = {
+        "vnir": inputs.scene["vnir"],
+        "swir": inputs.scene["swir"],
+        "block_rows": 4,  # many blocks: cancelling must not wait for the rest
+        "output": str(out),
+    }
+    with pytest.raises(QgsProcessingException) as err:
+        _run("ratio", params, fb)
+    n_blocks = -(-_read(inputs.ratio).shape[0] // 4)
+    assert n_blocks >= 4
+    positive = [b for b in blocks if b > 0]
+    assert len(positive) == 1, blocks  # the block after the cancel never reported
+    assert positive[0] == pytest.approx(100.0 / n_blocks)
+    assert "cancelled" in str(err.value)
+    assert not out.exists()
+    assert not [n for n in os.listdir(tmp_path) if n.startswith(".r.")]  # no temp file left
+
+
+def test_progress_reaches_100(provider, inputs, tmp_path):
+    fb = _feedback()
+    _run(
+        "ratio",
+        {
+            "vnir": inputs.scene["vnir"],
+            "swir": inputs.scene["swir"],
+            "block_rows": 8,
+            "output": str(tmp_path / "r.tif"),
+        },
+        fb,
+    )
+    steps = [p for p in fb.progress if p > 0]
+    assert len(steps) >= 3 and steps == sorted(steps) and steps[-1] == pytest.approx(100.0)
+    assert any("boresight ratio" in m for m in fb.infos)
