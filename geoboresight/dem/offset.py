@@ -16,6 +16,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import ndimage
 
 from ..errors import InputError, ParameterError
 
@@ -44,17 +45,17 @@ class OffsetProfile:
     valid_fraction: np.ndarray
 
 
-def _prepare(image: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    """Fill invalid pixels with the valid mean and taper the edges (Hann window).
+def _prepare(image: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """Remove the weighted mean, weight (soft mask) and taper the edges (Hann window).
 
-    Phase correlation assumes a periodic image; the window removes the wrap-around edges that
-    would otherwise pull the peak to zero shift.
+    Cross-correlation in the Fourier domain assumes a periodic image; the window removes the
+    wrap-around edges that would otherwise pull the peak to zero shift. The soft weight does the
+    same for the edges of masked areas (clouds, nodata).
     """
-    img = np.asarray(image, dtype=np.float64)
-    filled = np.where(valid, img, np.mean(img[valid]))
-    filled -= filled.mean()
+    img = np.where(weight > 0, np.asarray(image, dtype=np.float64), 0.0)
+    x = (img - np.sum(img * weight) / np.sum(weight)) * weight
     win = np.outer(np.hanning(img.shape[0] + 2)[1:-1], np.hanning(img.shape[1] + 2)[1:-1])
-    return filled * win
+    return x * win
 
 
 def estimate_offset(
@@ -99,9 +100,25 @@ def estimate_offset(
         )
     if upsample < 1:
         raise ParameterError(f"parameter 'upsample': must be >= 1, got {upsample}")
+    weight = ndimage.gaussian_filter(ok.astype(np.float64), 2.0) * ok
+    w_v = w_s = weight
     shift, error, _ = phase_cross_correlation(
-        _prepare(a, ok), _prepare(b, ok), upsample_factor=int(upsample), normalization=None
+        _prepare(a, w_v), _prepare(b, w_s), upsample_factor=int(upsample), normalization=None
     )
+    if not ok.all():
+        # A mask at the same pixels of both images removes different ground from each, which
+        # biases the shift towards 0. Second pass: keep in each image the ground both see,
+        # i.e. move the SWIR weight by the first estimate.
+        moved = ndimage.shift(ok.astype(np.float64), shift, order=1, cval=0.0)
+        w_v = weight * moved
+        w_s = ndimage.shift(w_v, -shift, order=1, cval=0.0) * ok
+        if w_v.sum() > 0 and w_s.sum() > 0:
+            shift, error, _ = phase_cross_correlation(
+                _prepare(a, w_v),
+                _prepare(b, w_s),
+                upsample_factor=int(upsample),
+                normalization=None,
+            )
     # skimage returns the shift that registers ``moving`` onto ``reference``: the opposite of
     # where the SWIR sees a VNIR feature.
     return Offset(along=float(-shift[0]), across=float(-shift[1]), error=float(error))

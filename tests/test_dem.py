@@ -1,0 +1,310 @@
+"""Relative DEM kernels (paper §3.2) on synthetic image pairs with known offset and relief."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from dem_synth import bump, pair, texture
+from pykrige.ok import OrdinaryKriging
+from scipy import ndimage
+
+from geoboresight.dem.coregister import coregister, profile_to_lines
+from geoboresight.dem.disparity import disparity_map, disparity_noise
+from geoboresight.dem.height import (
+    HeightFactor,
+    disparity_to_height,
+    height_factor,
+    height_precision,
+    zero_lowest,
+)
+from geoboresight.dem.kriging import cross_validate, fit_variogram, krige_grid
+from geoboresight.dem.offset import estimate_offset, offset_angles, offset_profile
+from geoboresight.dem.relative import control_points, relative_dem
+from geoboresight.errors import InputError, ParameterError
+
+
+def fourier_shift(img, shift):
+    """``out(x) = img(x − shift)``: a feature at x appears at x + shift (exact, periodic)."""
+    ky = np.fft.fftfreq(img.shape[0])[:, None]
+    kx = np.fft.fftfreq(img.shape[1])[None]
+    return np.fft.ifft2(
+        np.fft.fft2(img) * np.exp(-2j * np.pi * (ky * shift[0] + kx * shift[1]))
+    ).real
+
+
+@pytest.fixture(scope="module")
+def tex():
+    rng = np.random.default_rng(3)
+    return ndimage.gaussian_filter(rng.normal(size=(160, 320)), 1.5)
+
+
+# ------------------------------------------------------------------------------- offset
+@pytest.mark.parametrize("shift", [(0.37, -0.21), (2.3, 0.64), (-1.73, 0.05)])
+def test_offset_recovers_fourier_shift(tex, shift):
+    moved = fourier_shift(tex, shift)
+    v, s = tex[16:144, 16:304], moved[16:144, 16:304]
+    rng = np.random.default_rng(0)
+    s = 0.8 * s + 0.1 + rng.normal(0, 0.02 * s.std(), s.shape)  # other band: gain, bias, noise
+    off = estimate_offset(v, s)
+    assert off.along == pytest.approx(shift[0], abs=0.03)
+    assert off.across == pytest.approx(shift[1], abs=0.03)
+
+
+def test_offset_ignores_masked_clouds(tex):
+    moved = fourier_shift(tex, (1.25, -0.4))
+    v, s = tex[16:144, 16:304].copy(), moved[16:144, 16:304].copy()
+    valid = np.ones(v.shape, bool)
+    valid[40:70, 100:160] = False
+    v[~valid], s[~valid] = 50.0, 50.0  # a saturated cloud, identical in both: would pull to 0
+    off = estimate_offset(v, s, valid)
+    assert off.along == pytest.approx(1.25, abs=0.05)
+    assert off.across == pytest.approx(-0.4, abs=0.05)
+
+
+def test_offset_profile_sees_linear_drift():
+    rows, cols = 512, 120
+    coef = texture(rows, cols, seed=5)
+    r, c = np.mgrid[0:rows, 0:cols].astype(float)
+    drift = 0.2 + 0.6 * r / rows  # along-track offset grows along the line
+    v = ndimage.map_coordinates(coef, [r + 24, c + 24], prefilter=False)
+    s = ndimage.map_coordinates(coef, [r + 24 - drift, c + 24 + 0.3], prefilter=False)
+    prof = offset_profile(v, s, block_rows=128)
+    expected = 0.2 + 0.6 * prof.rows / rows
+    np.testing.assert_allclose(prof.along, expected, atol=0.05)
+    np.testing.assert_allclose(prof.across, -0.3, atol=0.05)
+    lines = profile_to_lines(prof.rows, prof.along, rows)
+    assert lines.shape == (rows,) and lines[0] < lines[-1]
+
+
+def test_offset_angles_formula():
+    ang = offset_angles(2.0, -0.5, ifov_mrad=1.0, flying_height_m=1500.0)
+    assert ang["along_mrad"] == pytest.approx(1e3 * math.atan(2.0 * math.tan(1e-3)))
+    assert ang["along_mrad"] == pytest.approx(2.0, rel=1e-5)  # small angles: p · IFOV
+    assert ang["across_deg"] == pytest.approx(math.degrees(-0.5e-3), rel=1e-5)
+    assert ang["gsd_m"] == pytest.approx(1.5)
+    assert ang["along_m"] == pytest.approx(3.0)
+    with pytest.raises(ParameterError, match="ifov"):
+        offset_angles(1.0, 0.0, ifov_mrad=0.0)
+
+
+def test_offset_rejects_mismatched_grids(tex):
+    with pytest.raises(InputError, match="same pixel grid"):
+        estimate_offset(tex, tex[:-1])
+
+
+# ------------------------------------------------------------------------------- coregister
+def test_coregister_undoes_the_offset(tex):
+    shift = (1.4, -0.6)
+    moved = fourier_shift(tex, shift)
+    out, ok = coregister(moved, *shift)
+    inner = ok.copy()
+    inner[:4], inner[-4:], inner[:, :4], inner[:, -4:] = False, False, False, False
+    err = (out - tex)[inner]
+    assert np.sqrt(np.mean(err**2)) < 0.02 * tex.std()
+    # Pixels that would come from beyond the image are invalid, not extrapolated.
+    assert not ok[-1].any() and not ok[:, 0].any()
+    # A per-line offset equal to the constant gives the same result.
+    out2, ok2 = coregister(moved, np.full(tex.shape[0], shift[0]), np.full(tex.shape[0], shift[1]))
+    np.testing.assert_allclose(out2[inner], out[inner], atol=1e-3)
+
+
+def test_coregister_masks_invalid_neighbourhood(tex):
+    valid = np.ones(tex.shape, bool)
+    valid[50, 60] = False
+    out, ok = coregister(tex, 0.5, 0.0, valid)
+    assert not ok[49:51, 60].all()
+    assert ok[20, 20]
+
+
+# ------------------------------------------------------------------------------- disparity
+@pytest.fixture(scope="module")
+def relief_pair():
+    h = bump(160, 120)
+    v, s, da, dc = pair(160, 120, offset=(0.4, -0.3), dsm=h, noise=3.0)
+    return h, v, s, da, dc
+
+
+def test_disparity_subpixel_accuracy(relief_pair):
+    h, v, s, da, dc = relief_pair
+    d = disparity_map(v, s, window=11, center=(0.4, -0.3))
+    m = d.reliable
+    assert m.mean() > 0.8
+    err_a = (d.along - da)[m]
+    err_c = (d.across - dc)[m]
+    assert abs(err_a.mean()) < 0.02
+    assert np.sqrt(np.mean(err_a**2)) < 0.08
+    assert np.sqrt(np.mean(err_c**2)) < 0.08
+
+
+def test_refinement_removes_peak_locking(relief_pair):
+    h, v, s, da, dc = relief_pair
+    rmse = []
+    for refine in (0, 2):
+        d = disparity_map(v, s, window=11, center=(0, 0), refine=refine)
+        rmse.append(np.sqrt(np.nanmean((d.along - da)[d.reliable] ** 2)))
+    assert rmse[1] < 0.75 * rmse[0]
+
+
+def test_disparity_reliability_and_masks():
+    v, s, da, dc = pair(120, 100, offset=(1.0, 0.0))
+    v[:, 70:], s[:, 70:] = 1000.0, 1000.0  # no texture: nothing to match
+    valid = np.ones(v.shape, bool)
+    valid[10:40, 10:40] = False  # a cloud
+    d = disparity_map(v, s, valid, window=9, center=(1.0, 0.0))
+    assert not d.reliable[:, 75:].any()
+    assert not d.reliable[10:40, 10:40].any()
+    assert d.reliable[60:100, 20:60].mean() > 0.9
+    assert np.all(d.peak[d.reliable] >= 0.6)
+
+
+def test_disparity_peak_beyond_search_range_is_unreliable():
+    v, s, da, dc = pair(100, 80, offset=(5.0, 0.0))
+    d = disparity_map(v, s, window=9, search_along=3, center=(0.0, 0.0))
+    assert d.reliable.mean() < 0.05
+    d2 = disparity_map(v, s, window=9, search_along=3, center=(4.0, 0.0))
+    assert d2.reliable.mean() > 0.8
+
+
+def test_disparity_bad_parameters():
+    v, s, _, _ = pair(40, 40)
+    with pytest.raises(ParameterError, match="window"):
+        disparity_map(v, s, window=8)
+    with pytest.raises(InputError, match="same pixel grid"):
+        disparity_map(v, s[:, :-2])
+
+
+def test_disparity_noise_estimates_known_sigma():
+    rng = np.random.default_rng(0)
+    rows, cols, w = 300, 300, 10
+    # Independent errors per matching window (blocks of w × w), on a sloping relief.
+    block = rng.normal(0, 0.07, (rows // w, cols // w))
+    noise = np.kron(block, np.ones((w, w)))
+    r, c = np.mgrid[0:rows, 0:cols]
+    d = 0.003 * r + 0.002 * c + noise
+    est = disparity_noise(d, np.ones(d.shape, bool), spacing=w)
+    assert est == pytest.approx(0.07, rel=0.1)
+
+
+# ------------------------------------------------------------------------------- height
+def test_height_factor_from_geometry():
+    f = height_factor(1500.0, 1.0, squint_along_deg=2.0)
+    assert f.along == pytest.approx(math.tan(math.radians(2.0)) / 1.5)
+    assert f.across == 0.0
+    # A 30 m building at 1.5 m GSD and tan θ = 0.05 makes one pixel of parallax.
+    k = height_factor(1500.0, 1.0, math.degrees(math.atan(0.05))).along
+    assert 30.0 * k == pytest.approx(1.0)
+    with pytest.raises(ParameterError, match="parallel"):
+        HeightFactor(0.0, 0.0).check()
+    with pytest.raises(ParameterError, match="flying_height"):
+        height_factor(-5.0, 1.0, 2.0)
+
+
+def test_disparity_to_height_inverts_parallax():
+    rng = np.random.default_rng(1)
+    h = rng.uniform(0, 30, (20, 20))
+    f = HeightFactor(0.02, -0.01)
+    got = disparity_to_height(1.3 + f.along * h, -0.2 + f.across * h, f)
+    got = zero_lowest(got, np.ones(h.shape, bool), percentile=0.0)
+    np.testing.assert_allclose(got, h - h.min(), atol=1e-9)
+
+
+def test_precision_says_no_dem_from_noise():
+    rng = np.random.default_rng(2)
+    f = HeightFactor(0.001)  # small squint: 1 mm of disparity per ... 0.001 px per metre
+    sigma_d = 0.05
+    noise_only = rng.normal(0, sigma_d, (100, 100)) / f.along
+    p = height_precision(noise_only, np.ones((100, 100), bool), sigma_d, f)
+    assert p.sigma_h_m == pytest.approx(50.0)
+    assert not p.meaningful
+    assert "no meaningful DEM" in p.message()
+    relief = np.tile(np.linspace(0, 300, 100), (100, 1)) + noise_only
+    p2 = height_precision(relief, np.ones((100, 100), bool), sigma_d, f)
+    assert p2.meaningful
+
+
+# ------------------------------------------------------------------------------- kriging
+def test_blockwise_kriging_equals_pykrige_moving_window():
+    rng = np.random.default_rng(0)
+    x, y = rng.uniform(0, 80, 400), rng.uniform(0, 50, 400)
+    z = 10 * np.sin(x / 12) + 5 * np.cos(y / 9) + rng.normal(0, 0.3, 400)
+    vg = fit_variogram(x, y, z)
+    ref = OrdinaryKriging(
+        x,
+        y,
+        z,
+        variogram_model=vg.model,
+        variogram_parameters=list(vg.parameters),
+        exact_values=False,
+    )
+    gx, gy = np.arange(80.0), np.arange(50.0)
+    z_ref, v_ref = ref.execute("grid", gx, gy, n_closest_points=16, backend="C")
+    dem, var = krige_grid(x, y, z, (50, 80), vg, n_closest_points=16, block_rows=6)
+    np.testing.assert_allclose(dem, z_ref, atol=1e-4)
+    np.testing.assert_allclose(var, v_ref, atol=1e-4)
+    truth = 10 * np.sin(gx[None] / 12) + 5 * np.cos(gy[:, None] / 9)
+    assert np.sqrt(np.mean((dem - truth) ** 2)) < 0.6
+    cv = cross_validate(x, y, z, vg, n_closest_points=16)
+    assert cv["rmse_m"] < 1.0 and cv["n"] == 40
+
+
+def test_kriging_respects_mask():
+    rng = np.random.default_rng(1)
+    x, y = rng.uniform(0, 30, 80), rng.uniform(0, 30, 80)
+    z = x + y + rng.normal(0, 0.1, 80)
+    vg = fit_variogram(x, y, z, model="linear")
+    mask = np.ones((30, 30), bool)
+    mask[:5] = False
+    dem, var = krige_grid(x, y, z, (30, 30), vg, mask=mask, n_closest_points=8)
+    assert np.isnan(dem[:5]).all() and np.isfinite(dem[5:]).all()
+
+
+def test_variogram_fit_failure_is_clear():
+    x = np.arange(50.0)
+    with pytest.raises(ParameterError, match="variogram fit failed"):
+        fit_variogram(x, x, np.full(50, 3.0))
+    with pytest.raises(InputError, match="too few"):
+        fit_variogram(x[:5], x[:5], x[:5])
+
+
+def test_control_points_are_cell_medians():
+    h = np.arange(100.0).reshape(10, 10)
+    rel = np.ones((10, 10), bool)
+    rel[0:5, 0:5] = False
+    x, y, z = control_points(h, rel, spacing=5)
+    assert len(z) == 3
+    i = np.argmin(np.hypot(x - 2, y - 7))
+    assert z[i] == pytest.approx(np.median(h[5:10, 0:5]))
+
+
+# ------------------------------------------------------------------------------- the chain
+def test_relative_dem_recovers_relief():
+    h = bump(180, 120, relief=30.0)
+    v, s, _, _ = pair(180, 120, offset=(0.6, 0.2), dsm=h, k_along=1 / 30, noise=3.0)
+    r = relative_dem(v, s, HeightFactor(1 / 30), window=13)
+    ok = np.isfinite(r.dem)
+    assert ok.all()
+    assert np.corrcoef(r.dem[ok], h[ok])[0, 1] > 0.97
+    err = r.dem[ok] - h[ok]
+    assert np.sqrt(np.mean((err - err.mean()) ** 2)) < 1.5
+    assert r.precision.meaningful
+    # σ_h = σ_d / k and the estimate is near the measured per-pixel height scatter.
+    assert r.precision.sigma_h_m == pytest.approx(r.precision.sigma_d_px * 30.0)
+    assert r.cross_validation["rmse_m"] < 2.0
+
+
+def test_relative_dem_refuses_invisible_relief():
+    h = bump(120, 100, relief=30.0)
+    k = 0.0008  # a realistic small squint: 30 m → 0.024 px
+    v, s, _, _ = pair(120, 100, offset=(0.6, 0.2), dsm=h, k_along=k, noise=20.0)
+    with pytest.raises(InputError, match="no meaningful DEM"):
+        relative_dem(v, s, HeightFactor(k), window=13)
+
+
+def test_relative_dem_no_reliable_matches():
+    rng = np.random.default_rng(0)
+    v = rng.normal(size=(80, 80))
+    s = rng.normal(size=(80, 80))  # unrelated images
+    with pytest.raises(InputError, match="larger"):
+        relative_dem(v, s, HeightFactor(0.05), window=9)
