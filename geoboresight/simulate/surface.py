@@ -1,0 +1,178 @@
+"""The ground: a surface model (DSM) and a material map, described once and rasterised on demand.
+
+A :class:`Surface` is a small description of a whole scene in metres (track frame: ``x``
+across-track to the right of the flight, ``y`` along the flight direction, ``z`` up, ground
+heights ≥ 0 with the lowest ground at 0):
+
+* ``terrain``: a smooth height field on a coarse grid (interpolated with cubic splines);
+* ``ground``: sub-pixel mixtures of ground materials, as weight fields on the same grid
+  (e.g. grass and soil in varying proportions: this is the scene's fine texture);
+* ``roads``: rectangles of one material (``asphalt``, ``concrete``, ...) painted on the ground;
+* ``buildings``: boxes with flat roofs (height above the terrain at the box centre);
+* ``trees``: crowns as ellipsoid caps on a trunk, of the ``tree`` material.
+
+:meth:`Surface.rasterize` turns a window of it into a fine grid (``dsm`` and per-material
+area fractions). Everything is vectorised over grid cells; objects are looped over only to
+find the few that touch a window.
+
+Not modelled: sloping or pitched roofs, vertical wall materials (walls only occlude and cast
+shadows), overhangs, water, moving objects.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import ndimage
+
+from .spectra import MATERIAL_IDS
+
+
+@dataclass(frozen=True)
+class Window:
+    """A fine raster window: cell centres at ``x0 + (j + 0.5) * cell``, ``y0 + (i + 0.5) * cell``."""
+
+    x0: float
+    y0: float
+    nx: int
+    ny: int
+    cell: float
+
+    def xy(self, i, j):
+        """Map coordinates (x, y) of fractional cell indices (row i, col j)."""
+        return self.x0 + (np.asarray(j) + 0.5) * self.cell, self.y0 + (
+            np.asarray(i) + 0.5
+        ) * self.cell
+
+    def ij(self, x, y):
+        """Fractional cell indices (row, col) of map coordinates."""
+        return (np.asarray(y) - self.y0) / self.cell - 0.5, (
+            np.asarray(x) - self.x0
+        ) / self.cell - 0.5
+
+
+@dataclass(frozen=True)
+class Surface:
+    """A scene's ground, in metres in the track frame (see the module docstring).
+
+    ``x0, y0, cell`` locate the coarse grid of ``terrain`` and the ``ground`` weight fields:
+    value ``[i, j]`` sits at ``(x0 + j*cell, y0 + i*cell)``.
+    ``buildings``: (n, 6) array of x_min, x_max, y_min, y_max, height, roof material id.
+    ``roads``: (n, 5) array of x_min, x_max, y_min, y_max, material id (later rows on top).
+    ``trees``: (n, 4) array of x, y, crown radius, total height.
+    """
+
+    x0: float
+    y0: float
+    cell: float
+    terrain: np.ndarray
+    ground: dict[str, np.ndarray]
+    roads: np.ndarray = field(default_factory=lambda: np.zeros((0, 5)))
+    buildings: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
+    trees: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+
+    @property
+    def materials(self) -> list[str]:
+        """Names of the materials this surface uses, in id order."""
+        ids = {MATERIAL_IDS[n] for n in self.ground}
+        ids.update(int(m) for m in self.roads[:, 4])
+        ids.update(int(m) for m in self.buildings[:, 5])
+        if len(self.trees):
+            ids.add(MATERIAL_IDS["tree"])
+        names = {v: k for k, v in MATERIAL_IDS.items()}
+        return [names[i] for i in sorted(ids)]
+
+    def max_height(self) -> float:
+        """Highest point of the surface above the lowest ground (m), an upper bound."""
+        tallest = 0.0
+        if len(self.buildings):
+            tallest = max(tallest, float(self.buildings[:, 4].max()))
+        if len(self.trees):
+            tallest = max(tallest, float(self.trees[:, 3].max()))
+        return float(self.terrain.max()) + tallest
+
+    def __post_init__(self):
+        # Cubic-spline coefficients of the terrain, computed once (not per lookup).
+        coef = ndimage.spline_filter(np.asarray(self.terrain, "float64"), order=3, mode="nearest")
+        object.__setattr__(self, "_terrain_coef", coef)
+
+    def _coarse(self, field_, x, y, order=1):
+        i = np.atleast_1d((np.asarray(y, float) - self.y0) / self.cell)
+        j = np.atleast_1d((np.asarray(x, float) - self.x0) / self.cell)
+        return ndimage.map_coordinates(field_, [i, j], order=order, mode="nearest")
+
+    def terrain_at(self, x, y) -> np.ndarray:
+        """Terrain height (m) at points, cubic-spline interpolated."""
+        shape = np.shape(x)
+        i = np.atleast_1d((np.asarray(y, float) - self.y0) / self.cell).ravel()
+        j = np.atleast_1d((np.asarray(x, float) - self.x0) / self.cell).ravel()
+        z = ndimage.map_coordinates(
+            self._terrain_coef, [i, j], order=3, mode="nearest", prefilter=False
+        )
+        return z.reshape(shape)
+
+    def rasterize(self, win: Window, materials: list[str]) -> tuple[np.ndarray, np.ndarray]:
+        """(dsm (ny, nx) float32, fractions (len(materials), ny, nx) float32) on ``win``."""
+        jj = np.arange(win.nx)
+        ii = np.arange(win.ny)
+        xs, ys = win.xy(ii, jj)  # 1-D: x per column, y per row
+        X, Y = np.meshgrid(xs, ys)
+        dsm = self.terrain_at(X, Y).astype("float32")
+        index = {name: k for k, name in enumerate(materials)}
+        frac = np.zeros((len(materials), win.ny, win.nx), dtype="float32")
+        weights = {n: np.clip(self._coarse(w, X, Y), 0, None) for n, w in self.ground.items()}
+        total = sum(weights.values())
+        total = np.where(total > 0, total, 1.0)
+        for name, w in weights.items():
+            frac[index[name]] = w / total
+
+        def box(x_min, x_max, y_min, y_max):
+            """Row/column slices of the cells whose centres fall in a rectangle (or None)."""
+            j0 = int(np.ceil((x_min - win.x0) / win.cell - 0.5))
+            j1 = int(np.floor((x_max - win.x0) / win.cell - 0.5)) + 1
+            i0 = int(np.ceil((y_min - win.y0) / win.cell - 0.5))
+            i1 = int(np.floor((y_max - win.y0) / win.cell - 0.5)) + 1
+            j0, i0 = max(j0, 0), max(i0, 0)
+            j1, i1 = min(j1, win.nx), min(i1, win.ny)
+            if j0 >= j1 or i0 >= i1:
+                return None
+            return slice(i0, i1), slice(j0, j1)
+
+        names = {v: k for k, v in MATERIAL_IDS.items()}
+        for x_min, x_max, y_min, y_max, mat in self.roads:
+            s = box(x_min, x_max, y_min, y_max)
+            if s is not None:
+                frac[(slice(None), *s)] = 0.0
+                frac[(index[names[int(mat)]], *s)] = 1.0
+        for x_min, x_max, y_min, y_max, height, mat in self.buildings:
+            s = box(x_min, x_max, y_min, y_max)
+            if s is None:
+                continue
+            base = float(self.terrain_at(0.5 * (x_min + x_max), 0.5 * (y_min + y_max)))
+            dsm[s] = np.maximum(dsm[s], base + height)
+            frac[(slice(None), *s)] = 0.0
+            frac[(index[names[int(mat)]], *s)] = 1.0
+        if len(self.trees):
+            k = index["tree"]
+            for x, y, radius, height in self.trees:
+                s = box(x - radius, x + radius, y - radius, y + radius)
+                if s is None:
+                    continue
+                d2 = ((X[s] - x) ** 2 + (Y[s] - y) ** 2) / radius**2
+                inside = d2 < 1.0
+                trunk = 0.35 * height
+                crown = dsm[s] + trunk + (height - trunk) * np.sqrt(np.clip(1.0 - d2, 0, 1))
+                dsm[s] = np.where(inside, np.maximum(dsm[s], crown), dsm[s])
+                # Crowns are opaque except a thin, gappy rim (canopy gaps at the edge).
+                cover = np.clip((1.0 - d2) / 0.25, 0, 1)
+                for m in range(len(materials)):
+                    frac[(m, *s)] *= 1.0 - cover
+                frac[(k, *s)] += cover
+        return dsm, frac
+
+
+def smooth_field(rng: np.random.Generator, shape, sigma_cells: float) -> np.ndarray:
+    """A zero-mean, unit-std Gaussian random field (white noise blurred by ``sigma_cells``)."""
+    f = ndimage.gaussian_filter(rng.standard_normal(shape), sigma_cells, mode="wrap")
+    return (f - f.mean()) / (f.std() + 1e-12)
