@@ -45,8 +45,8 @@ VNIR_RESPONSE = (
 )
 #: (wavelength nm, relative response) of the SWIR (MCT) instrument: weak cut-on edge.
 SWIR_RESPONSE = (
-    (980, 0.03),
-    (1010, 0.07),
+    (980, 0.02),
+    (1010, 0.04),
     (1050, 0.25),
     (1100, 0.55),
     (1200, 0.90),
@@ -100,7 +100,7 @@ SWIR = Detector(
     name="swir",
     response=SWIR_RESPONSE,
     gain=60000.0,
-    dark_dn=880.0,
+    dark_dn=800.0,
     electrons_per_dn=30.0,
     read_noise_dn=6.0,
     psf_sigma_px=0.45,

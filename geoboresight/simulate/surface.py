@@ -118,7 +118,8 @@ class Surface:
         ii = np.arange(win.ny)
         xs, ys = win.xy(ii, jj)  # 1-D: x per column, y per row
         X, Y = np.meshgrid(xs, ys)
-        dsm = self.terrain_at(X, Y).astype("float32")
+        ground_z = self.terrain_at(X, Y).astype("float32")
+        dsm = ground_z.copy()
         index = {name: k for k, name in enumerate(materials)}
         frac = np.zeros((len(materials), win.ny, win.nx), dtype="float32")
         weights = {n: np.clip(self._coarse(w, X, Y), 0, None) for n, w in self.ground.items()}
@@ -162,7 +163,7 @@ class Surface:
                 d2 = ((X[s] - x) ** 2 + (Y[s] - y) ** 2) / radius**2
                 inside = d2 < 1.0
                 trunk = 0.35 * height
-                crown = dsm[s] + trunk + (height - trunk) * np.sqrt(np.clip(1.0 - d2, 0, 1))
+                crown = ground_z[s] + trunk + (height - trunk) * np.sqrt(np.clip(1.0 - d2, 0, 1))
                 dsm[s] = np.where(inside, np.maximum(dsm[s], crown), dsm[s])
                 # Crowns are opaque except a thin, gappy rim (canopy gaps at the edge).
                 cover = np.clip((1.0 - d2) / 0.25, 0, 1)
