@@ -2,14 +2,15 @@
 
 Kernels on arrays: global/local RX (:mod:`.rx`), RBF SVDD (:mod:`.svdd`), the boresight-ratio
 indicator (:mod:`.indicator`), linear unmixing with endmember libraries (:mod:`.unmix`), ROC
-curves (:mod:`.roc`) and score maps to vector features (:mod:`.polygons`).
+curves (:mod:`.roc`) and score maps to vector features (:mod:`.polygons`). The functions
+``rx.rx`` and ``unmix.unmix`` live in their modules (not re-exported: same names).
 """
 
 from .indicator import boresight_indicator, robust_zscore
 from .roc import ROC, roc_curve, truth_mask
-from .rx import CovarianceAccumulator, GaussianStats, RXDetector, local_rx, rx
+from .rx import CovarianceAccumulator, GaussianStats, RXDetector, local_rx
 from .svdd import SVDDModel, fit_svdd
-from .unmix import read_library, resample, unmix
+from .unmix import read_library, resample
 
 __all__ = [
     "ROC",
@@ -24,7 +25,5 @@ __all__ = [
     "resample",
     "robust_zscore",
     "roc_curve",
-    "rx",
     "truth_mask",
-    "unmix",
 ]

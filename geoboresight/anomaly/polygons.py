@@ -66,7 +66,9 @@ def anomaly_features(score, threshold, transform=None, geometry="polygon", min_p
     labels, table = label_anomalies(score, threshold, min_pixels)
     n = table["id"].size
     if geometry == "point":
-        xs, ys = tr * (table["col"] + 0.5, table["row"] + 0.5)
+        cx, cy = table["col"] + 0.5, table["row"] + 0.5
+        xs = tr.a * cx + tr.b * cy + tr.c
+        ys = tr.d * cx + tr.e * cy + tr.f
         geoms = list(shapely.points(np.asarray(xs, float), np.asarray(ys, float))) if n else []
     else:
         parts: dict[int, list] = {}

@@ -1,0 +1,248 @@
+"""Anomaly kernels (paper §3.3) against independent references: Spectral Python's RX,
+scikit-learn's OneClassSVM and ROC functions, SciPy's NNLS."""
+
+import numpy as np
+import pytest
+import spectral
+from scipy.optimize import nnls
+from scipy.spatial.distance import pdist
+from scipy.stats import median_abs_deviation
+from sklearn.metrics import roc_auc_score
+from sklearn.metrics import roc_curve as sk_roc_curve
+from sklearn.svm import OneClassSVM
+
+from geoboresight.anomaly import indicator, polygons, roc, svdd, unmix
+from geoboresight.anomaly import rx as rxmod
+from geoboresight.anomaly.bands import select_bands
+from geoboresight.errors import InputError, ParameterError
+
+
+def _cube(k=16, rows=40, cols=30, seed=1, dtype=np.int16):
+    rng = np.random.default_rng(seed)
+    base = rng.normal(size=(k, 4)) @ rng.normal(size=(4, rows * cols))
+    cube = 1000 + 60 * base + rng.normal(0, 4, (k, rows * cols))
+    return cube.reshape(k, rows, cols).astype(dtype)
+
+
+def test_global_rx_equals_spectral_python():
+    cube = _cube()
+    ref = spectral.rx(cube.transpose(1, 2, 0))
+    ours = rxmod.rx(cube)
+    assert np.max(np.abs(ours - ref) / ref) <= 1e-6
+
+
+def test_streaming_statistics_equal_one_pass_and_spectral():
+    cube = _cube(rows=50)
+    acc = rxmod.CovarianceAccumulator(cube.shape[0])
+    for a in range(0, 50, 7):  # uneven strips
+        acc.add_cube(cube[:, a : a + 7].astype(np.float64))
+    stats = acc.stats()
+    ref = spectral.calc_stats(cube.transpose(1, 2, 0))
+    np.testing.assert_allclose(stats.mean, ref.mean, rtol=1e-12)
+    np.testing.assert_allclose(stats.cov, ref.cov, rtol=1e-9, atol=1e-9 * np.abs(ref.cov).max())
+    det = rxmod.RXDetector(stats)
+    ref_rx = spectral.rx(cube.transpose(1, 2, 0))
+    ours = det.score_cube(cube.astype(np.float64))
+    assert np.max(np.abs(ours - ref_rx) / ref_rx) <= 1e-6
+    fast = det.score_cube(cube.astype(np.float32), precision="float32")
+    assert np.max(np.abs(fast - ref_rx) / ref_rx) <= 1e-3
+
+
+def test_rx_ignores_invalid_pixels():
+    cube = _cube()
+    valid = np.ones(cube.shape[1:], bool)
+    valid[5:9, 3:7] = False
+    ours = rxmod.rx(cube, valid)
+    assert np.isnan(ours[~valid]).all()
+    X = cube.transpose(1, 2, 0)[valid].astype(float)  # (n, k)
+    ref = spectral.rx(X)
+    np.testing.assert_allclose(ours[valid], ref, rtol=1e-6)
+
+
+def test_local_rx_equals_spectral_windowed_rx():
+    cube = _cube(k=10, rows=30, cols=24)
+    det = rxmod.RXDetector(rxmod.background_stats([(cube, None)], 10))
+    ref = spectral.rx(cube.transpose(1, 2, 0).astype(float), window=(3, 9), cov=det.stats.cov)
+    whole = rxmod.local_rx(cube, det, 3, 9)
+    np.testing.assert_allclose(whole, ref, rtol=1e-6)  # SPy returns float32
+    # Strip-wise with a margin of outer // 2 lines gives the same scores.
+    strips = [
+        rxmod.local_rx(
+            cube[:, max(0, a - 4) : b + 4],
+            det,
+            3,
+            9,
+            first_row=max(0, a - 4),
+            height=30,
+            rows=(a, min(b, 30)),
+        )
+        for a, b in ((0, 11), (11, 22), (22, 30))
+    ]
+    np.testing.assert_allclose(np.vstack(strips), whole, rtol=1e-12)
+
+
+def test_singular_covariance_names_constant_and_dependent_bands():
+    cube = _cube(k=8).astype(np.float64)
+    cube[2] = 500.0
+    stats = rxmod.background_stats([(cube, None)], 8)
+    with pytest.raises(InputError, match=r"constant.*band 3 \(420\.0 nm\)"):
+        rxmod.RXDetector(stats, wavelengths=np.arange(400, 480, 10.0))
+    cube = _cube(k=8).astype(np.float64)
+    cube[5] = 2 * cube[1] - cube[0]
+    stats = rxmod.background_stats([(cube, None)], 8)
+    with pytest.raises(InputError, match="linear combinations") as err:
+        rxmod.RXDetector(stats)
+    assert "regularize" in str(err.value)
+    det = rxmod.RXDetector(stats, regularize=1e-6)  # only when asked
+    assert np.isfinite(det.score_cube(cube)).all()
+
+
+def test_band_selection_by_wavelength():
+    wl = np.linspace(400, 2450, 198)
+    idx = select_bands(wl, 198)
+    assert not np.any((wl[idx] > 1340) & (wl[idx] < 1460))
+    assert not np.any((wl[idx] > 1790) & (wl[idx] < 1980))
+    vnir = select_bands(wl, 198, include="400-970", exclude="")
+    assert wl[vnir].max() <= 970 and wl[vnir].min() == 400
+    with pytest.raises(ParameterError, match="exclude"):
+        select_bands(wl, 198, include="1400-1420")
+
+
+def test_svdd_blockwise_scores_equal_oneclasssvm():
+    rng = np.random.default_rng(3)
+    base = rng.normal(size=(3000, 5)) @ rng.normal(size=(5, 40))
+    X = 800 + 40 * base + rng.normal(0, 3, (3000, 40))
+    X[:20] += 300  # anomalies
+    train = X[rng.choice(3000, 600, replace=False)]
+    model = svdd.fit_svdd(train, nu=0.05)
+    assert model.sigma == pytest.approx(np.median(pdist(train)))
+    ref = OneClassSVM(kernel="rbf", gamma=1 / (2 * model.sigma**2), nu=0.05, tol=1e-4).fit(train)
+    expected = ref.decision_function(X)
+    got = model.decision(X.T, chunk=257)  # chunks not dividing n
+    np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-9 * np.abs(expected).max())
+    score = model.score(X.T)
+    np.testing.assert_allclose(score, -2 * expected / ref.dual_coef_.sum(), rtol=1e-8, atol=1e-12)
+    assert np.median(score[:20]) > np.percentile(score[20:], 99)
+
+
+def _mixtures(N=4, k=40, n=400, seed=0):
+    rng = np.random.default_rng(seed)
+    E = rng.uniform(0.05, 0.8, (N, k))
+    F = rng.dirichlet(np.full(N, 0.4), n).T
+    X = E.T @ F + rng.normal(0, 0.01, (k, n))  # noise puts some optima on the boundary
+    return E, X
+
+
+def test_fcls_matches_nnls_with_sum_to_one_row():
+    E, X = _mixtures()
+    A, res = unmix.unmix(X, E, "fcls", chunk=97)
+    delta = 1e4  # Heinz & Chang (2001): a heavily weighted row of ones
+    M = np.vstack([E.T, delta * np.ones(E.shape[0])])
+    ref = np.array([nnls(M, np.r_[X[:, i], delta], maxiter=1000)[0] for i in range(X.shape[1])]).T
+    assert np.abs(A - ref).max() <= 1e-6
+    assert np.allclose(A.sum(axis=0), 1.0, atol=1e-12) and A.min() >= 0
+    assert (A == 0).any()  # some pixels have inactive constraints: the test covers both cases
+    r = X - E.T @ A
+    np.testing.assert_allclose(res, np.sqrt((r**2).mean(axis=0)), rtol=1e-10)
+
+
+def test_nnls_and_unconstrained_variants():
+    E, X = _mixtures(seed=1)
+    A, _ = unmix.unmix(X, E, "nnls")
+    ref = np.array([nnls(E.T, X[:, i])[0] for i in range(X.shape[1])]).T
+    assert np.abs(A - ref).max() <= 1e-9
+    U, _ = unmix.unmix(X, E, "ucls")
+    np.testing.assert_allclose(U, np.linalg.lstsq(E.T, X, rcond=None)[0], atol=1e-10)
+
+
+def test_more_endmembers_than_bands_is_an_error():
+    with pytest.raises(InputError, match="5 endmembers.*only 3 bands"):
+        unmix.unmix(np.ones((3, 4)), np.random.default_rng(0).random((5, 3)))
+
+
+def test_resample_gaussian_srf_and_coverage(tmp_path):
+    wl = np.arange(350.0, 2500.0, 1.0)
+    lib = np.vstack([0.1 + 1e-4 * wl, 0.5 - 5e-5 * wl])  # linear: SRF average = value at centre
+    centres = np.array([450.0, 900.0, 1600.0, 2200.0])
+    out = unmix.resample(wl, lib, centres, np.full(4, 10.0))
+    np.testing.assert_allclose(
+        out, np.vstack([0.1 + 1e-4 * centres, 0.5 - 5e-5 * centres]), rtol=1e-6
+    )
+    with pytest.raises(InputError, match="covers 350.0–2499.0 nm"):
+        unmix.resample(wl, lib, np.array([400.0, 2550.0]), np.full(2, 10.0))
+    # ENVI spectral library round trip.
+    lib.astype("<f4").tofile(tmp_path / "lib.sli")
+    (tmp_path / "lib.hdr").write_text(
+        "ENVI\nsamples = %d\nlines = 2\nbands = 1\nheader offset = 0\nfile type = ENVI Spectral Library\n"
+        "data type = 4\ninterleave = bsq\nbyte order = 0\nwavelength units = Micrometers\n"
+        "spectra names = {soil, bag}\nwavelength = {%s}\n"
+        % (wl.size, ", ".join(f"{w / 1000:.4f}" for w in wl))
+    )
+    w2, s2, names = unmix.read_library(str(tmp_path / "lib.sli"))
+    assert names == ["soil", "bag"]
+    np.testing.assert_allclose(w2, wl, atol=1e-6)
+    np.testing.assert_allclose(s2, lib, rtol=1e-6)
+
+
+def test_roc_equals_scikit_learn():
+    rng = np.random.default_rng(5)
+    truth = np.zeros((60, 50))
+    truth[rng.integers(0, 60, 40), rng.integers(0, 50, 40)] = rng.uniform(0.05, 0.3, 40)
+    scores = rng.normal(size=truth.shape) + 8 * truth
+    scores = np.round(scores, 1)  # ties
+    t, b = roc.truth_mask(truth)
+    c = roc.roc_curve(scores, t, b)
+    fpr, tpr, thr = sk_roc_curve(t.ravel(), scores.ravel(), drop_intermediate=False)
+    np.testing.assert_allclose(c.pfa, fpr)
+    np.testing.assert_allclose(c.pd, tpr)
+    np.testing.assert_allclose(c.thresholds[1:], thr[1:])
+    assert c.auc == pytest.approx(roc_auc_score(t.ravel(), scores.ravel()), abs=1e-12)
+    assert c.pd_at(0.01) == tpr[fpr <= 0.01].max()
+    # Abundance threshold and guard ring.
+    t2, b2 = roc.truth_mask(truth, threshold=0.2, guard_px=1)
+    assert t2.sum() == (truth >= 0.2).sum()
+    assert not b2[t2].any()
+    ring = np.zeros_like(t2)
+    r, c = np.argwhere(t2)[0]
+    ring[max(r - 1, 0) : r + 2, max(c - 1, 0) : c + 2] = True
+    assert not (b2 & ring).any()  # guard ring left out of the background
+    with pytest.raises(InputError, match="no target pixels"):
+        roc.roc_curve(scores, *roc.truth_mask(np.zeros_like(truth)))
+
+
+def test_boresight_indicator_robust_zscore():
+    rng = np.random.default_rng(2)
+    ratio = rng.normal(1.1, 0.02, (50, 40))
+    ratio[10, 10] = 1.5
+    ratio[20, 5] = 0.7
+    res = indicator.boresight_indicator(ratio, threshold=3.0)
+    mad = median_abs_deviation(ratio.ravel(), scale="normal")
+    np.testing.assert_allclose(res.score, np.abs(ratio - np.median(ratio)) / mad, rtol=1e-5)
+    assert res.anomalies[10, 10] and res.anomalies[20, 5]
+    high = indicator.boresight_indicator(ratio, tail="high")
+    assert high.anomalies[10, 10] and not high.anomalies[20, 5]
+
+
+def test_anomaly_features_and_gpkg(tmp_path):
+    score = np.zeros((30, 30))
+    score[3:5, 3:6] = 5.0
+    score[20, 20] = 9.0
+    score[21, 21] = 4.0  # diagonal neighbour: same group (8-connected)
+    from rasterio.transform import from_origin
+
+    tr = from_origin(600000, 3500000, 1.5, 1.5)
+    geoms, table = polygons.anomaly_features(score, 3.0, tr, "polygon")
+    assert len(geoms) == 2
+    assert sorted(table["n_pixels"]) == [2, 6]
+    assert geoms[0].area == pytest.approx(6 * 1.5 * 1.5)
+    i = int(np.argmax(table["score_max"]))
+    assert (table["row"][i], table["col"][i]) == (20, 20)
+    from rasterio.crs import CRS
+
+    path = str(tmp_path / "a.gpkg")
+    polygons.write_gpkg(path, geoms, table, crs=CRS.from_epsg(32636))
+    assert polygons.read_gpkg_count(path) == 2
+    pyogrio = pytest.importorskip("pyogrio")
+    info = pyogrio.read_info(path)
+    assert info["features"] == 2 and "32636" in info["crs"]
+    assert info["geometry_type"] == "MultiPolygon"

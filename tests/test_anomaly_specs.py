@@ -1,0 +1,192 @@
+"""Anomaly operations end to end on small ENVI files: georeference and nodata carried, results
+equal to the kernels' references, bad input stops with a clear error and leaves no output."""
+
+import os
+
+import numpy as np
+import pytest
+import rasterio
+import spectral
+from rasterio.crs import CRS
+from rasterio.transform import from_origin
+from sklearn.svm import OneClassSVM
+
+from geoboresight.algorithms import get
+from geoboresight.errors import InputError
+from geoboresight.io import write_envi
+from geoboresight.io.cube import open_cube
+
+TR = from_origin(700000, 3600000, 1.5, 1.5)
+WL = np.linspace(400, 2450, 24)
+
+
+def _scene(tmp_path, interleave="bil", nodata=None):
+    rng = np.random.default_rng(0)
+    k, rows, cols = WL.size, 48, 36
+    base = rng.normal(size=(k, 5)) @ rng.normal(size=(5, rows * cols))
+    cube = (3000 + 150 * base + rng.normal(0, 8, (k, rows * cols))).reshape(k, rows, cols)
+    cube[:, 10, 12] += 3000 * np.linspace(-1, 1, k)  # a spectral anomaly
+    cube = cube.astype(np.int16)
+    if nodata is not None:
+        cube[:, 0, :3] = nodata
+    path = str(tmp_path / f"cube_{interleave}.img")
+    write_envi(
+        path,
+        cube,
+        WL,
+        np.full(k, 12.0),
+        interleave=interleave,
+        crs=CRS.from_epsg(32636),
+        transform=TR,
+        nodata=nodata,
+    )
+    return path, cube
+
+
+@pytest.mark.parametrize("interleave", ["bil", "bsq", "bip"])
+def test_cube_reader_fast_path_equals_rasterio(tmp_path, interleave):
+    path, cube = _scene(tmp_path, interleave)
+    with open_cube(path) as c:
+        assert c._parts[0].raw is not None  # the raw ENVI path is used
+        data, valid = c.read(7, 30, np.array([0, 5, 23]), "float64")
+    with rasterio.open(path) as src:
+        ref = src.read([1, 6, 24], window=((7, 30), (0, 36)))
+    np.testing.assert_array_equal(data, ref)
+    assert valid.all()
+
+
+def test_rx_spec_equals_spectral_and_carries_georeference(tmp_path):
+    path, cube = _scene(tmp_path, nodata=-1)
+    out = str(tmp_path / "rx.tif")
+    get("rx")(image=path, exclude_nm="", block_rows=7, output=out)
+    with rasterio.open(out) as src:
+        assert src.crs == CRS.from_epsg(32636) and src.transform == TR
+        score = src.read(1, masked=True)
+    assert score.mask[0, :3].all() and not score.mask[1:].any()
+    valid = np.ones(cube.shape[1:], bool)
+    valid[0, :3] = False
+    ref = spectral.rx(cube.transpose(1, 2, 0)[valid].astype(float))
+    np.testing.assert_allclose(score.data[valid], ref, rtol=2e-6)  # float32 GeoTIFF
+    assert np.unravel_index(np.argmax(score), score.shape) == (10, 12)
+
+
+def test_local_rx_and_svdd_specs(tmp_path):
+    path, cube = _scene(tmp_path)
+    out = str(tmp_path / "lrx.tif")
+    get("rx")(image=path, exclude_nm="", mode="local", inner=3, outer=9, block_rows=10, output=out)
+    with rasterio.open(out) as src:
+        lrx = src.read(1)
+    X = cube.transpose(1, 2, 0).astype(float)
+    C = spectral.calc_stats(X).cov
+    np.testing.assert_allclose(lrx, spectral.rx(X, window=(3, 9), cov=C), rtol=2e-6)
+    out = str(tmp_path / "svdd.tif")
+    res = get("svdd")(image=path, exclude_nm="", sample_size=400, nu=0.05, block_rows=9, output=out)
+    with rasterio.open(out) as src:
+        s = src.read(1)
+        assert src.tags()["SIGMA"] and src.crs == CRS.from_epsg(32636)
+    assert np.unravel_index(np.argmax(s), s.shape) == (10, 12)
+    assert res["support_vectors"] > 0
+
+
+def test_unmix_spec_with_csv_library(tmp_path):
+    rng = np.random.default_rng(4)
+    wl_lib = np.arange(380.0, 2500.0, 2.0)
+    soil = 0.2 + 0.1 * np.sin(wl_lib / 300.0)
+    bag = 0.35 + 0.02 * np.cos(wl_lib / 150.0)
+    veg = 0.05 + 0.4 / (1 + np.exp(-(wl_lib - 720) / 15)) * np.exp(-(((wl_lib - 1400) / 900) ** 2))
+    lib = str(tmp_path / "lib.csv")
+    np.savetxt(
+        lib,
+        np.column_stack([wl_lib, soil, bag, veg]),
+        delimiter=",",
+        header="wavelength_nm,soil,bag,veg",
+        comments="",
+    )
+    from geoboresight.anomaly.unmix import resample
+
+    E = resample(wl_lib, np.vstack([soil, bag, veg]), WL, np.full(WL.size, 12.0))
+    F = rng.dirichlet(np.ones(3), 20 * 16).T
+    cube = ((E.T @ F) * 10000).reshape(WL.size, 20, 16).astype(np.int16)
+    img = str(tmp_path / "refl.img")
+    write_envi(img, cube, WL, np.full(WL.size, 12.0))
+    out = str(tmp_path / "ab.tif")
+    get("unmix")(image=img, endmembers=lib, exclude_nm="", image_scale=1e-4, output=out)
+    with rasterio.open(out) as src:
+        assert src.count == 4 and src.crs is None  # raw geometry stays raw
+        ab = src.read()
+    np.testing.assert_allclose(ab[:3].reshape(3, -1), F, atol=2e-3)  # int16 quantisation
+    # Library not covering the image: clear error, no output.
+    short = str(tmp_path / "short.csv")
+    keep = wl_lib < 1000
+    np.savetxt(
+        short,
+        np.column_stack([wl_lib[keep], soil[keep], bag[keep]]),
+        delimiter=",",
+        header="wl,soil,bag",
+        comments="",
+    )
+    out2 = str(tmp_path / "ab2.tif")
+    with pytest.raises(InputError, match="not covered"):
+        get("unmix")(image=img, endmembers=short, exclude_nm="", output=out2)
+    assert not os.path.exists(out2)
+
+
+def test_indicator_roc_polygons_chain(tmp_path):
+    rng = np.random.default_rng(6)
+    ratio = rng.normal(1.05, 0.01, (40, 30)).astype(np.float32)
+    truth = np.zeros((40, 30), np.float32)
+    for r, c in [(5, 5), (15, 20), (30, 8)]:
+        truth[r, c] = 0.1
+        ratio[r, c] += 0.08
+    ratio[0, 0] = -9999
+    kw = dict(crs=CRS.from_epsg(32636), transform=TR)
+    from geoboresight.io import write_raster
+
+    rp, tp = str(tmp_path / "ratio.tif"), str(tmp_path / "truth.tif")
+    write_raster(rp, ratio, **kw)
+    write_raster(tp, truth, **kw)
+    sp, mp = str(tmp_path / "ind.tif"), str(tmp_path / "mask.tif")
+    res = get("boresight-indicator")(ratio=rp, output=sp, anomalies=mp)
+    assert res["count"] >= 3
+    with rasterio.open(mp) as src:
+        m = src.read(1)
+        assert src.nodata == 255 and m[0, 0] == 255 and src.transform == TR
+    png, csv = str(tmp_path / "roc.png"), str(tmp_path / "roc.csv")
+    r = get("roc")(scores=sp, names="boresight", truth=tp, output=png, csv=csv)
+    assert r["auc_boresight"] > 0.99 and os.path.getsize(png) > 10000
+    assert open(csv).readline().strip() == "detector,pfa,pd,threshold"
+    gp = str(tmp_path / "anom.gpkg")
+    assert (
+        get("anomaly-polygons")(score=sp, threshold=5.0, geometry="point", output=gp)["features"]
+        >= 3
+    )
+    # All-zero truth: clear error, no figure left behind.
+    zp = str(tmp_path / "zero.tif")
+    write_raster(zp, np.zeros_like(truth), **kw)
+    png2 = str(tmp_path / "roc2.png")
+    with pytest.raises(InputError, match="no target pixels"):
+        get("roc")(scores=sp, truth=zp, output=png2)
+    assert not os.path.exists(png2)
+
+
+def test_singular_covariance_spec_error_leaves_no_output(tmp_path):
+    path, cube = _scene(tmp_path)
+    cube[3] = 1234
+    write_envi(str(tmp_path / "flat.img"), cube, WL)
+    out = str(tmp_path / "rx.tif")
+    with pytest.raises(InputError, match=rf"constant.*band 4 \({WL[3]:.1f} nm\)"):
+        get("rx")(image=str(tmp_path / "flat.img"), exclude_nm="", output=out)
+    assert not os.path.exists(out)
+    get("rx")(image=str(tmp_path / "flat.img"), exclude_nm="", regularize=1e-6, output=out)
+    assert os.path.exists(out)
+
+
+def test_svdd_sample_is_what_sklearn_scores(tmp_path):
+    # The spec's scores are the blockwise BLAS scores; check one strip against sklearn directly.
+    from geoboresight.anomaly.svdd import fit_svdd
+
+    path, cube = _scene(tmp_path)
+    X = cube.reshape(cube.shape[0], -1).astype(float)
+    model = fit_svdd(X[:, ::3].T, nu=0.02)
+    ref = OneClassSVM(kernel="rbf", gamma=model.gamma, nu=0.02, tol=1e-4).fit(X[:, ::3].T)
+    np.testing.assert_allclose(model.decision(X), ref.decision_function(X.T), rtol=1e-9, atol=1e-12)
