@@ -681,18 +681,19 @@ def write_scene(scene: Scene, folder, merged: bool = False, overwrite: bool = Fa
     truth = scene.truth
     with atomic_output(folder, overwrite=overwrite) as tmp:
         os.makedirs(tmp)
-        dtype = scene.vnir.dtype
+        vnir, swir = _as_dn(scene.vnir), _as_dn(scene.swir)
+        dtype = vnir.dtype
         desc = f"geoboresight simulate preset={truth['preset']} seed={truth['seed']}"
         write_envi(
             os.path.join(tmp, "vnir.img"),
-            scene.vnir,
+            vnir,
             scene.vnir_wavelengths,
             scene.vnir_fwhm,
             description=desc + " VNIR",
         )
         write_envi(
             os.path.join(tmp, "swir.img"),
-            scene.swir,
+            swir,
             scene.swir_wavelengths,
             scene.swir_fwhm,
             description=desc + " SWIR",
@@ -700,7 +701,7 @@ def write_scene(scene: Scene, folder, merged: bool = False, overwrite: bool = Fa
         for name in ("vnir", "swir"):
             _fix_envi_description(os.path.join(tmp, name + ".hdr"), f"{desc} {name.upper()}")
         if merged:
-            cube = np.concatenate([scene.vnir, scene.swir]).astype(dtype, copy=False)
+            cube = np.concatenate([vnir, swir]).astype(dtype, copy=False)
             write_envi(
                 os.path.join(tmp, "merged.img"),
                 cube,
@@ -778,3 +779,10 @@ def _fix_envi_description(hdr: str, text: str) -> None:
     content = re.sub(r"description = \{[^}]*\}", "description = {" + text + "}", content, count=1)
     with open(hdr, "w", encoding="utf-8", newline="\n") as f:
         f.write(content)
+
+
+def _as_dn(cube: np.ndarray) -> np.ndarray:
+    """uint16 DN: noise-free (float) cubes are rounded and clipped to 12 bits."""
+    if cube.dtype == np.uint16:
+        return cube
+    return np.clip(np.rint(cube), 0, 4095).astype("uint16")
