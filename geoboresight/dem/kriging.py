@@ -120,12 +120,15 @@ def krige_points(
     n_closest_points: int = 32,
     backend: str = "C",
     chunk: int = 8192,
+    max_local_points: int = 2500,
     progress: Progress | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Ordinary kriging estimate and variance at targets ``(xt, yt)``, chunk by chunk.
 
     Targets are processed in chunks of ``chunk`` points in the given order (give them spatially
-    sorted, e.g. row by row, so that a chunk needs few control points).
+    sorted, e.g. row by row, so that a chunk needs few control points). A chunk whose targets
+    need more than ``max_local_points`` control points is split: PyKrige builds the dense
+    kriging matrix of the points it is given, so this bounds memory (≈ 8 · 3 · m² bytes).
     """
     from pykrige.ok import OrdinaryKriging
 
@@ -143,22 +146,29 @@ def krige_points(
     est = np.empty(xt.size)
     var = np.empty(xt.size)
     n_chunks = max(1, math.ceil(xt.size / chunk))
-    for i in range(n_chunks):
-        sl = slice(i * chunk, min((i + 1) * chunk, xt.size))
+    params = {
+        "variogram_model": variogram.model,
+        "variogram_parameters": list(variogram.parameters),
+        "enable_statistics": False,
+        "exact_values": False,  # noisy heights: smooth at the control points (nugget)
+    }
+
+    def solve(sl: slice) -> None:
         _, idx = tree.query(np.column_stack([xt[sl], yt[sl]]), k=k)
         local = np.unique(idx)
-        ok = OrdinaryKriging(
-            x[local],
-            y[local],
-            z[local],
-            variogram_model=variogram.model,
-            variogram_parameters=list(variogram.parameters),
-            enable_statistics=False,
-            exact_values=False,  # noisy heights: smooth at the control points (nugget)
-        )
+        if local.size > max_local_points and sl.stop - sl.start > 1:
+            # Targets spread too far apart (e.g. cross-validation): split the chunk.
+            mid = (sl.start + sl.stop) // 2
+            solve(slice(sl.start, mid))
+            solve(slice(mid, sl.stop))
+            return
+        ok = OrdinaryKriging(x[local], y[local], z[local], **params)
         e, v = ok.execute("points", xt[sl], yt[sl], n_closest_points=k, backend=backend)
         est[sl] = np.asarray(e)
         var[sl] = np.asarray(v)
+
+    for i in range(n_chunks):
+        solve(slice(i * chunk, min((i + 1) * chunk, xt.size)))
         progress.update((i + 1) / n_chunks, "kriging")
     return est, np.maximum(var, 0.0)
 
