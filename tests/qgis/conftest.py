@@ -66,4 +66,4 @@ def inputs(tmp_path_factory):
     scene = make_scene(str(folder))
     ratio = str(folder / "ratio.tif")
     registry()["ratio"](vnir=scene["vnir"], swir=scene["swir"], output=ratio)
-    return Inputs(scene, ratio)
+    return Inputs(scene, ratio, str(folder))

@@ -5,15 +5,37 @@ its inputs are scene files, rasters or defaults; otherwise the test says which e
 
 from __future__ import annotations
 
+import json
 import os
+import re
 
 #: Extra or overriding values per algorithm: {algorithm: {parameter: value or callable(inputs)}},
 #: where ``inputs`` is the :class:`Inputs` of the session (scene files, derived rasters).
-CASES: dict[str, dict] = {}
+CASES: dict[str, dict] = {
+    "shadow-fraction-fit": {"truth": lambda i: i.raster("truth_shadow_fraction")},
+    "roc": {"truth": lambda i: i.raster("truth_target_abundance")},
+    "anomaly-polygons": {"threshold": lambda i: i.percentile(i.ratio, 99.0)},
+    "view-3d": {"dem": lambda i: i.raster("truth_dsm")},
+    "sun-shadow": {
+        "sun_zenith": lambda i: i.truth.get("sun", {}).get("zenith_deg", 45.0),
+        "sun_azimuth": lambda i: i.truth.get("sun", {}).get("azimuth_deg", 135.0),
+        "cell_size": lambda i: i.truth.get("gsd_m", 1.5),
+    },
+    "relative-dem": {
+        "height_factor": lambda i: (
+            abs(i.truth.get("disparity_px_per_m", {}).get("along", 0.05)) or 0.05
+        ),
+    },
+    # keep the suite fast: fewer components / endmembers / lines than a real run would use
+    "shadow-cluster": {"n_components": 2},
+    "unmix": {"swir": None, "names": lambda i: ",".join(i.endmember_names()[:3])},
+    "simulate": {"lines": 16},
+}
 
 #: Rasters named like a scene file (simulator's truth files included) take that file.
 _ALIASES = {
     "vnir": ("vnir",),
+    "image": ("vnir",),
     "swir": ("swir",),
     "merged": ("merged",),
     "dsm": ("truth_dsm",),
@@ -30,11 +52,48 @@ _ALIASES = {
 class Inputs:
     """The session's input files: the scene plus a boresight ratio raster made by the library."""
 
-    def __init__(self, scene: dict, ratio: str):
+    def __init__(self, scene: dict, ratio: str, work_dir: str):
         self.scene = scene
         self.ratio = ratio
+        self.work_dir = work_dir
+        self.truth = {}
+        if "truth" in scene and scene["truth"].endswith(".json"):
+            with open(scene["truth"], encoding="utf-8") as f:
+                self.truth = json.load(f)
+        self._derived: dict = {}
 
-    def raster(self, name: str) -> str:
+    def derived(self, alg: str, output: str = "output") -> str:
+        """``output`` of the library's ``alg`` run once on the generic inputs (e.g. the
+        class raster of 'shadow-classes' for 'shadow-polygons')."""
+        from geoboresight.algorithms import registry
+
+        if alg not in self._derived:
+            spec = registry()[alg]
+            folder = os.path.join(self.work_dir, f"derived-{alg}")
+            os.makedirs(folder, exist_ok=True)
+            values = values_for(spec, self, folder)
+            self._derived[alg] = values
+            spec(**values)
+        return self._derived[alg][output]
+
+    def endmember_names(self) -> list[str]:
+        with open(self.scene["endmembers"], encoding="utf-8") as f:
+            return [n.strip() for n in f.readline().split(",")[1:]]
+
+    @staticmethod
+    def percentile(path: str, q: float) -> float:
+        import numpy as np
+        import rasterio
+
+        from geoboresight.io import quiet_georef
+
+        with quiet_georef(), rasterio.open(path) as src:
+            return float(np.percentile(src.read(1, masked=True).compressed(), q))
+
+    def raster(self, name: str, description: str = "") -> str:
+        made_by = re.search(r"output of (?:the )?'([\w-]+)'", description)
+        if made_by and made_by.group(1) != "ratio":
+            return self.derived(made_by.group(1))
         for key in _ALIASES.get(name, ()) + (name, f"truth_{name}"):
             if key in self.scene:
                 return self.scene[key]
@@ -65,7 +124,7 @@ def values_for(spec, inputs: Inputs, out_dir: str) -> dict:
             values[p.name] = os.path.join(out_dir, f"{p.name}{ext}")
         elif p.kind == "raster":
             if p.required or any(k in inputs.scene for k in _ALIASES.get(p.name, (p.name,))):
-                values[p.name] = inputs.raster(p.name)
+                values[p.name] = inputs.raster(p.name, p.description)
         elif p.kind == "multiraster":
             if p.required:
                 values[p.name] = [inputs.ratio]
@@ -78,6 +137,10 @@ def values_for(spec, inputs: Inputs, out_dir: str) -> dict:
                         f"CASES[{spec.name!r}][{p.name!r}] in tests/qgis/qgis_cases.py"
                     )
                 values[p.name] = found
+        elif (
+            p.required and p.kind in ("number", "wavelength") and None not in (p.minimum, p.maximum)
+        ):
+            values[p.name] = (p.minimum + p.maximum) / 2  # a value in range
         elif p.required:
             raise LookupError(
                 f"{spec.name}.{p.name} ({p.kind}) is required and has no default; add "

@@ -20,6 +20,7 @@ def make_scene(folder: str) -> dict:
     except ImportError:
         return _random_scene(folder)
     scene = simulate_scene(preset="mixed", lines=LINES, seed=3)
+    folder = os.path.join(folder, "sim")
     write_scene(scene, folder)
     files = {}
     for name in sorted(os.listdir(folder)):
