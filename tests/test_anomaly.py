@@ -172,11 +172,12 @@ def test_resample_gaussian_srf_and_coverage(tmp_path):
         unmix.resample(wl, lib, np.array([400.0, 2550.0]), np.full(2, 10.0))
     # ENVI spectral library round trip.
     lib.astype("<f4").tofile(tmp_path / "lib.sli")
+    wl_list = ", ".join(f"{w / 1000:.4f}" for w in wl)
     (tmp_path / "lib.hdr").write_text(
-        "ENVI\nsamples = %d\nlines = 2\nbands = 1\nheader offset = 0\nfile type = ENVI Spectral Library\n"
-        "data type = 4\ninterleave = bsq\nbyte order = 0\nwavelength units = Micrometers\n"
-        "spectra names = {soil, bag}\nwavelength = {%s}\n"
-        % (wl.size, ", ".join(f"{w / 1000:.4f}" for w in wl))
+        f"ENVI\nsamples = {wl.size}\nlines = 2\nbands = 1\nheader offset = 0\n"
+        "file type = ENVI Spectral Library\ndata type = 4\ninterleave = bsq\nbyte order = 0\n"
+        "wavelength units = Micrometers\nspectra names = {soil, bag}\n"
+        f"wavelength = {{{wl_list}}}\n"
     )
     w2, s2, names = unmix.read_library(str(tmp_path / "lib.sli"))
     assert names == ["soil", "bag"]

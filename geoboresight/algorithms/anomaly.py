@@ -337,7 +337,9 @@ def _read_one(path, label):
 
 def _run_indicator(values, progress):
     ratio, valid, grid = _read_one(values["ratio"], "ratio raster")
-    res = ind.boresight_indicator(ratio, valid, values["threshold"], values["tail"])
+    res = ind.boresight_indicator(
+        ratio, valid, values["threshold"], values["tail"], values["window"]
+    )
     progress.info(
         f"boresight ratio median {res.median:.5g}, robust σ {res.sigma:.4g}; "
         f"{res.count} pixel(s) beyond {res.threshold:g} σ"
@@ -383,7 +385,9 @@ INDICATOR = Algorithm(
         "stand out. Input: the ratio raster (the 'ratio' operation).\n\n"
         "Each pixel gets z = (ratio − median) / (1.4826 × MAD), a z-score that the anomalies "
         "themselves cannot inflate. tail 'both' scores |z|, 'high' z, 'low' −z. Pixels above the "
-        "threshold (default 3, the paper's 3σ rule) are anomalies.\n\n"
+        "threshold (default 3, the paper's 3σ rule) are anomalies. With a window (e.g. 5), the "
+        "reference is the median ratio of each pixel's neighbours instead of the whole scene: "
+        "better for sub-pixel targets on a varied background.\n\n"
         "Outputs: the score (float32 GeoTIFF, nodata -9999) and optionally a 0/1 anomaly mask."
     ),
     params=(
@@ -402,6 +406,14 @@ INDICATOR = Algorithm(
             description="Which side stands out: both, high or low ratios",
             choices=ind.TAILS,
             default="both",
+        ),
+        Number(
+            name="window",
+            description="Local reference: median ratio in this odd window (pixels); 0 = whole scene",
+            default=0,
+            minimum=0,
+            maximum=101,
+            integer=True,
         ),
         RasterOut(name="output", description="Indicator score raster (GeoTIFF)"),
         RasterOut(

@@ -11,6 +11,12 @@ z-score against the scene's own distribution,
 where MAD is the median absolute deviation (1.4826·MAD estimates σ for Gaussian data without
 being pulled by the anomalies themselves), and pixels with |z| (or z, or −z) above a threshold
 are flagged. The threshold default 3 follows the paper's 3σ outlier rule (Table 1).
+
+With ``window`` > 1 the reference is local: ``r`` minus the median of the ratio in a
+``window`` × ``window`` neighbourhood, scaled by the scene-wide MAD of that difference. A
+sub-pixel target shifts the ratio by much less than the difference between materials (soil,
+grass, trees), so against the whole scene it hides in the spread of the background; against
+its neighbours it stands out.
 """
 
 from __future__ import annotations
@@ -54,13 +60,33 @@ def robust_zscore(ratio: np.ndarray, valid: np.ndarray | None = None):
     return z, med, sigma
 
 
+def local_residual(ratio: np.ndarray, valid: np.ndarray | None, window: int) -> np.ndarray:
+    """``ratio`` minus its median over a ``window`` × ``window`` neighbourhood of valid pixels."""
+    from scipy import ndimage
+
+    r = np.asarray(ratio, dtype=np.float64)
+    ok = np.isfinite(r) if valid is None else (valid & np.isfinite(r))
+    fill = float(np.median(r[ok])) if ok.any() else 0.0
+    med = ndimage.median_filter(np.where(ok, r, fill), size=window, mode="reflect")
+    return np.where(ok, r - med, np.nan)
+
+
 def boresight_indicator(
-    ratio: np.ndarray, valid: np.ndarray | None = None, threshold: float = 3.0, tail: str = "both"
+    ratio: np.ndarray,
+    valid: np.ndarray | None = None,
+    threshold: float = 3.0,
+    tail: str = "both",
+    window: int = 0,
 ) -> IndicatorResult:
     """Score and flag boresight-ratio anomalies.
 
-    ``tail``: "both" scores |z|, "high" scores z (ratio above the scene), "low" scores −z.
+    ``tail``: "both" scores |z|, "high" scores z (ratio above the reference), "low" scores −z.
+    ``window``: 0 or 1 for the scene-wide reference; an odd size (e.g. 5) for a local median.
     """
+    if window and window > 1:
+        if window % 2 == 0:
+            raise ParameterError(f"parameter 'window' must be odd, got {window}")
+        ratio = local_residual(ratio, valid, window)
     if tail not in TAILS:
         raise ParameterError(f"parameter 'tail' must be one of {', '.join(TAILS)}, got {tail!r}")
     if not threshold > 0:
