@@ -247,3 +247,19 @@ def test_anomaly_features_and_gpkg(tmp_path):
     info = pyogrio.read_info(path)
     assert info["features"] == 2 and "32636" in info["crs"]
     assert info["geometry_type"] == "MultiPolygon"
+
+
+def test_boresight_indicator_local_window_against_median_filter():
+    from scipy import ndimage
+
+    rng = np.random.default_rng(8)
+    ratio = np.where(np.arange(40)[None, :] < 20, 1.0, 1.3) + rng.normal(0, 0.01, (30, 40))
+    ratio[12, 5] += 0.06  # small against the two-material spread, large against neighbours
+    glob = indicator.boresight_indicator(ratio)
+    loc = indicator.boresight_indicator(ratio, window=5)
+    resid = ratio - ndimage.median_filter(ratio, size=5, mode="reflect")
+    mad = median_abs_deviation(resid.ravel(), scale="normal")
+    np.testing.assert_allclose(loc.score, np.abs(resid - np.median(resid)) / mad, rtol=1e-4)
+    assert loc.anomalies[12, 5] and not glob.anomalies[12, 5]
+    with pytest.raises(ParameterError, match="odd"):
+        indicator.boresight_indicator(ratio, window=4)
