@@ -9,8 +9,11 @@ and labels every pixel by its posterior probability of belonging to the shadow c
 
 Features are the log of the ratio and the log of the 941 nm signal, each standardised by the
 sample's median and inter-quartile range, so the fit does not depend on the DN scale. The shadow
-component is the one whose mean is furthest along (high ratio, low 941 nm); its isolation is
-reported as the Bhattacharyya distance to the nearest other component.
+component is the one whose mean is furthest along (high ratio, low 941 nm); optionally,
+components that overlap it (Bhattacharyya distance below ``merge_distance``) are merged into it,
+as in Hennig's (2010) merging of mixture components, since a real cluster is rarely one
+Gaussian. Its isolation is reported
+as the Bhattacharyya distance to the nearest remaining component.
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ class ShadowCluster:
     means: np.ndarray  # (k, 2) in standardised feature space
     covariances: np.ndarray  # (k, 2, 2)
     weights: np.ndarray  # (k,)
-    shadow: int  # index of the shadow component
+    shadow: tuple[int, ...]  # indexes of the components that make up the shadow cluster
     center: np.ndarray  # (2,) feature median
     scale: np.ndarray  # (2,) feature IQR
     n_components: int
@@ -59,16 +62,17 @@ class ShadowCluster:
             )
             logp -= logp.max(axis=1, keepdims=True)
             p = np.exp(logp)
-            out[ok] = (p[:, self.shadow] / p.sum(axis=1)).astype(np.float32)
+            out[ok] = (p[:, list(self.shadow)].sum(axis=1) / p.sum(axis=1)).astype(np.float32)
         return out
 
     def ellipse(self, n_sigma: float = 2.0, points: int = 100) -> tuple[np.ndarray, np.ndarray]:
         """(ratio, nir) outline of the shadow component at ``n_sigma``, in data units."""
-        vals, vecs = np.linalg.eigh(self.covariances[self.shadow])
+        mean, cov = _moment_match(self.weights, self.means, self.covariances, self.shadow)
+        vals, vecs = np.linalg.eigh(cov)
         t = np.linspace(0, 2 * np.pi, points)
         circle = np.stack([np.cos(t), np.sin(t)])
         xy = (vecs @ (np.sqrt(np.maximum(vals, 0))[:, None] * circle)) * n_sigma
-        xy = xy + self.means[self.shadow][:, None]
+        xy = xy + mean[:, None]
         logs = xy * self.scale[:, None] + self.center[:, None]
         return np.exp(logs[0]), np.exp(logs[1])
 
@@ -92,6 +96,16 @@ def _log_gauss(x, mean, cov):
     return -0.5 * (np.einsum("ni,ij,nj->n", d, inv, d) + logdet + 2 * np.log(2 * np.pi))
 
 
+def _moment_match(weights, means, covs, idx):
+    """Mean and covariance of the mixture of components ``idx`` (one Gaussian with its moments)."""
+    idx = list(idx)
+    w = weights[idx] / weights[idx].sum()
+    mean = (w[:, None] * means[idx]).sum(axis=0)
+    d = means[idx] - mean
+    cov = (w[:, None, None] * (covs[idx] + d[:, :, None] * d[:, None, :])).sum(axis=0)
+    return mean, cov
+
+
 def bhattacharyya(m1, c1, m2, c2) -> float:
     """Bhattacharyya distance between two Gaussians (a standard separability measure)."""
     c = (c1 + c2) / 2
@@ -108,6 +122,7 @@ def fit_shadow_cluster(
     *,
     n_components: int | None = None,
     max_components: int = 5,
+    merge_distance: float = 0.0,
     seed: int = 0,
 ) -> ShadowCluster:
     """Fit a Gaussian mixture to (log ratio, log 941 nm) samples and pick the shadow component.
@@ -121,6 +136,11 @@ def fit_shadow_cluster(
         Pixels to use; non-finite and non-positive values are always left out.
     n_components : int, optional
         Number of mixture components; by default 2..``max_components`` chosen by BIC.
+    merge_distance : float
+        Components within this Bhattacharyya distance of the shadow cluster (and above the
+        scene's median ratio) are merged into it. The default 0 merges nothing: one component,
+        the core shadow, as the paper prefers ("it is preferable to underestimate the shadow
+        areas"); about 1 also takes in overlapping partial-shadow components.
     seed : int
         Random seed of the mixture's initialisation (results are reproducible).
     """
@@ -152,20 +172,29 @@ def fit_shadow_cluster(
         bic = gm.bic(x)
         if bic < best_bic:
             best, best_bic = gm, bic
-    means = best.means_
-    # Shadow: high ratio, low 941 nm (Figure 4): the largest (z_ratio − z_nir).
-    shadow = int(np.argmax(means[:, 0] - means[:, 1]))
-    others = [j for j in range(len(means)) if j != shadow]
-    isolation = min(
-        bhattacharyya(means[shadow], best.covariances_[shadow], means[j], best.covariances_[j])
-        for j in others
-    )
-    share = float(np.mean(best.predict(x) == shadow))
+    means, covs, weights = best.means_, best.covariances_, best.weights_
+    # Shadow: high ratio, low 941 nm (Figure 4): the largest (z_ratio − z_nir). A cluster that
+    # is not Gaussian takes several components: merge the nearest ones into it while they
+    # overlap it (Bhattacharyya distance below ``merge_distance``; Hennig 2010).
+    shadow = [int(np.argmax(means[:, 0] - means[:, 1]))]
+    while len(shadow) < len(means) - 1:
+        m, c = _moment_match(weights, means, covs, shadow)
+        rest = [j for j in range(len(means)) if j not in shadow]
+        d = [bhattacharyya(m, c, means[j], covs[j]) for j in rest]
+        j = int(np.argmin(d))
+        # Only components on the shadow side (higher ratio than the scene's main mode) join.
+        if d[j] >= merge_distance or means[rest[j], 0] <= 0:
+            break
+        shadow.append(rest[j])
+    m, c = _moment_match(weights, means, covs, shadow)
+    rest = [j for j in range(len(means)) if j not in shadow]
+    isolation = min(bhattacharyya(m, c, means[j], covs[j]) for j in rest)
+    share = float(np.mean(np.isin(best.predict(x), shadow)))
     return ShadowCluster(
         means=means,
-        covariances=best.covariances_,
-        weights=best.weights_,
-        shadow=shadow,
+        covariances=covs,
+        weights=weights,
+        shadow=tuple(shadow),
         center=center,
         scale=scale,
         n_components=len(means),
