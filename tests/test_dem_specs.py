@@ -1,0 +1,201 @@
+"""The Relative DEM specs on files: georeference carried, tags, reports, bad input leaves nothing."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+import rasterio
+from dem_synth import bump, pair
+from rasterio.transform import from_origin
+from synth import SWIR_WL, UTM, VNIR_WL, write_envi, write_gtiff
+
+from geoboresight.algorithms import get
+from geoboresight.errors import InputError, ParameterError
+
+K = 1 / 30  # px per metre
+
+
+def _cubes(v, s):
+    """Every VNIR band = the VNIR texture (scaled), every SWIR band = the SWIR texture."""
+    vc = np.stack([v * (0.5 + 0.05 * i) for i in range(len(VNIR_WL))]).astype("float32")
+    sc = np.stack([s * (0.9 - 0.01 * i) for i in range(len(SWIR_WL))]).astype("float32")
+    return vc, sc
+
+
+@pytest.fixture(scope="module")
+def scene(tmp_path_factory):
+    d = tmp_path_factory.mktemp("dem")
+    h = bump(120, 96, relief=30.0)
+    v, s, _, _ = pair(120, 96, offset=(0.7, -0.2), dsm=h, k_along=K, noise=3.0)
+    vc, sc = _cubes(v, s)
+    geo = dict(crs=UTM, transform=from_origin(700000.0, 3500000.0, 1.5, 1.5))
+    paths = {
+        "vnir": write_envi(d / "vnir.img", vc, VNIR_WL, **geo),
+        "swir": write_envi(d / "swir.img", sc, SWIR_WL, **geo),
+        "vnir_raw": write_envi(d / "vnir_raw.img", vc, VNIR_WL),
+        "swir_raw": write_envi(d / "swir_raw.img", sc, SWIR_WL),
+    }
+    cloud = np.zeros((1, 120, 96), "uint8")
+    cloud[0, 5:20, 5:30] = 1
+    paths["cloud"] = write_gtiff(d / "cloud.tif", cloud, **geo)
+    paths["cloud_bad"] = write_gtiff(d / "cloud_bad.tif", cloud[:, :-1], **geo)
+    return d, paths, h
+
+
+def test_relative_dem_georeferenced(scene, tmp_path):
+    d, p, h = scene
+    out, var, rep = tmp_path / "dem.tif", tmp_path / "var.tif", tmp_path / "dem.json"
+    disp = tmp_path / "disp.tif"
+    res = get("relative-dem")(
+        vnir=p["vnir"],
+        swir=p["swir"],
+        cloud_mask=p["cloud"],
+        height_factor=K,
+        window=13,
+        output=out,
+        variance=var,
+        report=rep,
+        disparity=disp,
+    )
+    with rasterio.open(out) as src, rasterio.open(p["vnir"]) as ref:
+        assert src.crs == ref.crs and src.transform == ref.transform
+        dem = src.read(1, masked=True)
+        tags = src.tags()
+    assert dem.mask[5:20, 5:30].all()  # clouds masked
+    ok = ~dem.mask
+    assert np.corrcoef(dem.data[ok], h[ok])[0, 1] > 0.95
+    for key in ("SIGMA_D_PX", "SIGMA_H_M", "HEIGHT_FACTOR_PX_PER_M", "WINDOW_PX", "VARIOGRAM"):
+        assert key in tags
+    assert float(tags["SIGMA_H_M"]) == pytest.approx(float(tags["SIGMA_D_PX"]) * 30.0, rel=1e-3)
+    report = json.loads(rep.read_text())
+    assert report["meaningful"] and report["cross_validation"]["n"] > 0
+    assert res["sigma_h_m"] == pytest.approx(report["sigma_h_m"])
+    with rasterio.open(var) as src:
+        assert src.crs is not None and (src.read(1, masked=True) >= 0).all()
+    with rasterio.open(disp) as src:
+        assert src.count == 5
+        along = src.read(1, masked=True)
+        rel = src.read(5, masked=True)
+    assert rel.max() == 1
+    # The SWIR sees features 0.7 px further along on the lowest ground.
+    assert np.ma.median(along[h < 2]) == pytest.approx(0.7, abs=0.1)
+
+
+def test_view3d_png(scene, tmp_path):
+    d, p, h = scene
+    dem = tmp_path / "dem.tif"
+    get("relative-dem")(vnir=p["vnir"], swir=p["swir"], height_factor=K, window=13, output=dem)
+    png = tmp_path / "view.png"
+    get("view-3d")(
+        dem=dem,
+        vnir=p["vnir"],
+        swir=p["swir"],
+        red_nm=660,
+        green_nm=555,
+        blue_nm=452,
+        exaggeration=4.0,
+        output=png,
+    )
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
+
+
+def test_raw_geometry_stays_raw(scene, tmp_path):
+    d, p, h = scene
+    out = tmp_path / "dem.tif"
+    get("relative-dem")(
+        vnir=p["vnir_raw"],
+        swir=p["swir_raw"],
+        squint_deg=2.8624,
+        flying_height=1500,
+        ifov_mrad=1.0,
+        window=13,
+        output=out,
+    )
+    with rasterio.open(out) as src:
+        assert src.crs is None
+        assert src.tags()["GSD_M"].startswith("1.5")
+        # k from the geometry: tan(2.8624°) / 1.5 m ≈ 1/30 px per metre.
+        assert float(src.tags()["HEIGHT_FACTOR_PX_PER_M"]) == pytest.approx(K, rel=1e-3)
+
+
+def test_offset_report_and_coregister(scene, tmp_path):
+    d, p, h = scene
+    rep = tmp_path / "off.json"
+    res = get("boresight-offset")(
+        vnir=p["vnir"],
+        swir=p["swir"],
+        ifov_mrad=1.0,
+        flying_height=1500,
+        profile_rows=60,
+        output=rep,
+        plot=tmp_path / "off.png",
+    )
+    data = json.loads(rep.read_text())
+    # Global offset = flat offset + parallax of the relief, averaged with the Hann taper the
+    # correlation applies (the centre of the image weighs most).
+    w = np.outer(np.hanning(122)[1:-1], np.hanning(98)[1:-1])
+    expect = 0.7 + K * np.sum(w * h) / np.sum(w)
+    assert data["along_px"] == pytest.approx(expect, abs=0.1)
+    assert data["across_px"] == pytest.approx(-0.2, abs=0.05)
+    assert data["along_mrad"] == pytest.approx(data["along_px"], rel=1e-3)
+    assert len(data["profile"]) == 2 and res["output"] == str(rep)
+    co = tmp_path / "co.tif"
+    get("coregister")(vnir=p["vnir"], swir=p["swir"], along=0.7, across=-0.2, output=co)
+    with rasterio.open(co) as src, rasterio.open(p["vnir"]) as ref:
+        assert src.count == len(SWIR_WL) and src.crs == ref.crs
+        assert src.descriptions[1] == "1010.00 nm"
+        band = src.read(2, masked=True)
+        vn = ref.read(9)  # 918 nm band
+    flat = (h < 1) & ~band.mask
+    assert np.corrcoef(band.data[flat], vn[flat])[0, 1] > 0.98
+
+
+@pytest.mark.parametrize("factor", [0.0, -0.03])
+def test_bad_height_factor_leaves_nothing(scene, tmp_path, factor):
+    d, p, h = scene
+    out = tmp_path / "dem.tif"
+    with pytest.raises(ParameterError, match="height_factor"):
+        get("relative-dem")(vnir=p["vnir"], swir=p["swir"], height_factor=factor, output=out)
+    assert not os.listdir(tmp_path)
+
+
+def test_mismatched_cloud_mask(scene, tmp_path):
+    d, p, h = scene
+    out = tmp_path / "dem.tif"
+    with pytest.raises(InputError, match="mismatched grids"):
+        get("relative-dem")(
+            vnir=p["vnir"], swir=p["swir"], cloud_mask=p["cloud_bad"], height_factor=K, output=out
+        )
+    assert not os.listdir(tmp_path)
+
+
+def test_no_reliable_matches_says_larger_window(tmp_path):
+    rng = np.random.default_rng(0)
+    vc = rng.uniform(100, 200, (len(VNIR_WL), 60, 60)).astype("float32")
+    sc = rng.uniform(100, 200, (len(SWIR_WL), 60, 60)).astype("float32")
+    v = write_envi(tmp_path / "v.img", vc, VNIR_WL)
+    s = write_envi(tmp_path / "s.img", sc, SWIR_WL)
+    out = tmp_path / "dem.tif"
+    with pytest.raises(InputError, match="larger matching window"):
+        get("relative-dem")(vnir=v, swir=s, height_factor=K, window=9, output=out)
+    assert not out.exists()
+
+
+def test_small_squint_refused_then_forced(tmp_path):
+    h = bump(120, 96, relief=30.0)
+    k = 0.0008  # realistic squint: 30 m of relief moves a feature by 0.024 px
+    v, s, _, _ = pair(120, 96, offset=(0.7, -0.2), dsm=h, k_along=k, noise=20.0)
+    vc, sc = _cubes(v, s)
+    vp = write_envi(tmp_path / "v.img", vc, VNIR_WL)
+    sp = write_envi(tmp_path / "s.img", sc, SWIR_WL)
+    out = tmp_path / "dem.tif"
+    with pytest.raises(InputError, match="no meaningful DEM"):
+        get("relative-dem")(vnir=vp, swir=sp, height_factor=k, window=13, output=out)
+    assert not out.exists()
+    res = get("relative-dem")(vnir=vp, swir=sp, height_factor=k, window=13, force=True, output=out)
+    assert not res["meaningful"]
+    with rasterio.open(out) as src:
+        assert src.tags()["MEANINGFUL"].startswith("NO")
