@@ -40,7 +40,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
 COLS = 286
 IFOV_MRAD = 1.0
@@ -154,24 +153,49 @@ class Geometry:
         }
 
 
-def intersect(t, u, v, geometry: Geometry, dsm, win, z_lo: float, z_hi: float):
-    """Heights and positions where rays first meet the DSM (ray march, then bisection).
+class Heights:
+    """Surface height lookup on a fine window: smooth terrain plus flat-topped objects.
 
-    ``t, u, v``: flat arrays of ray line times and directions. ``dsm`` on the fine window
-    ``win`` (see :class:`~.surface.Window`); ``z_lo``/``z_hi`` bound the DSM in the window.
-    Returns (x, y, z) of the hits.
+    The terrain is interpolated bilinearly (smooth slopes); objects (buildings, crowns) are
+    constant over each cell, so walls are vertical at cell boundaries, exactly where the
+    material raster changes (no spurious one-cell ramps).
+    """
+
+    def __init__(self, ground, dsm, win):
+        self.ground = np.asarray(ground, "float32")
+        self.objects = np.asarray(dsm, "float32") - self.ground
+        self.win = win
+
+    def __call__(self, x, y):
+        win = self.win
+        i, j = win.ij(x, y)
+        i = np.clip(i, 0, win.ny - 1.000001)
+        j = np.clip(j, 0, win.nx - 1.000001)
+        i0 = np.floor(i).astype(np.intp)
+        j0 = np.floor(j).astype(np.intp)
+        fi = i - i0
+        fj = j - j0
+        g = self.ground
+        z = (
+            g[i0, j0] * (1 - fi) * (1 - fj)
+            + g[i0, j0 + 1] * (1 - fi) * fj
+            + g[i0 + 1, j0] * fi * (1 - fj)
+            + g[i0 + 1, j0 + 1] * fi * fj
+        )
+        return z + self.objects[np.rint(i).astype(np.intp), np.rint(j).astype(np.intp)]
+
+
+def intersect(t, u, v, geometry: Geometry, heights: Heights, z_lo: float, z_hi: float):
+    """Positions and heights where rays first meet the surface (ray march, then bisection).
+
+    ``t, u, v``: flat arrays of ray line times and directions; ``heights``: the surface
+    (:class:`Heights`); ``z_lo``/``z_hi`` bound it. Returns (x, y, z) of the hits.
     """
     H = geometry.flying_height_m
     y0 = t * geometry.line_spacing_m
-
-    def height_at(z):
-        x = (H - z) * u
-        y = y0 + (H - z) * v
-        i, j = win.ij(x, y)
-        return ndimage.map_coordinates(dsm, [i, j], order=1, mode="nearest")
-
+    cell = heights.win.cell
     slope = float(np.max(np.hypot(u, v))) + 1e-9
-    dz = max(min(win.cell / slope, 4.0), 0.05)  # never step over more than a cell sideways
+    dz = max(min(cell / slope, 4.0), 0.05)  # never step over more than a cell sideways
     steps = int(np.ceil((z_hi - z_lo) / dz)) + 1
     above = np.full(t.shape, z_hi)
     below = np.full(t.shape, z_lo)
@@ -181,25 +205,18 @@ def intersect(t, u, v, geometry: Geometry, dsm, win, z_lo: float, z_hi: float):
         if todo.size == 0:
             break
         zk = max(z_hi - k * dz, z_lo)
-        h = height_at_sub(todo, zk, H, u, v, y0, dsm, win)
+        h = heights((H - zk) * u[todo], y0[todo] + (H - zk) * v[todo])
         hit = zk <= h
         done = todo[hit]
         above[done] = z_prev[done]
         below[done] = zk
         todo = todo[~hit]
         z_prev[todo] = zk
-    # Rays that never met the surface (cannot happen with z_lo = min DSM): take z_lo.
-    for _ in range(10):
+    # Bisection between the last height above the surface and the first below it.
+    for _ in range(12):
         mid = 0.5 * (above + below)
-        hit = mid <= height_at(mid)
+        hit = mid <= heights((H - mid) * u, y0 + (H - mid) * v)
         below = np.where(hit, mid, below)
         above = np.where(hit, above, mid)
     z = 0.5 * (above + below)
     return (H - z) * u, y0 + (H - z) * v, z
-
-
-def height_at_sub(idx, z, H, u, v, y0, dsm, win):
-    x = (H - z) * u[idx]
-    y = y0[idx] + (H - z) * v[idx]
-    i, j = win.ij(x, y)
-    return ndimage.map_coordinates(dsm, [i, j], order=1, mode="nearest")

@@ -32,7 +32,7 @@ from ..errors import OutputError, ParameterError
 from ..progress import Progress, as_progress
 from . import presets as _presets
 from .atmosphere import illumination
-from .geometry import COLS, IFOV_MRAD, Geometry, Instrument, intersect
+from .geometry import COLS, IFOV_MRAD, Geometry, Heights, Instrument, intersect
 from .sensor import SWIR, VNIR
 from .shadow import cast_shadow, incidence, sky_view, sun_vector
 from .spectra import MATERIAL_IDS, MATERIALS, aisa_dual_bands, band_average, material_spectrum
@@ -296,7 +296,6 @@ def simulate_scene(
     truth_shadow = np.zeros((lines, COLS), "float32")
     truth_z = np.zeros((lines, COLS), "float32")
     truth_cloud = np.zeros((lines, COLS), "float32")
-    truth_slope = np.zeros((lines, COLS), "float32")
     cols = np.arange(COLS)
     nblocks = -(-lines // BLOCK_LINES)
     for b in range(nblocks):
@@ -324,10 +323,11 @@ def simulate_scene(
         win = Window(
             wx0, wy0, int(np.ceil((wx1 - wx0) / cell)), int(np.ceil((wy1 - wy0) / cell)), cell
         )
-        dsm, frac = surface.rasterize(win, names[: K - 1] if n_targets else names)
+        dsm, frac, ground_z = surface.rasterize(win, names[: K - 1] if n_targets else names)
+        heights = Heights(ground_z, dsm, win)
         if n_targets:
             frac = np.concatenate([frac, np.zeros((1, *dsm.shape), "float32")])
-        cos_i = incidence(dsm, cell, zen, azi)
+        cos_i = incidence(dsm, cell, zen, azi, ground_z)
         lit = (~cast_shadow(dsm, cell, zen, azi)) & (cos_i > 0)
         if cloud_op is not None:
             gx, gy = win.xy(np.arange(win.ny)[:, None], np.arange(win.nx)[None, :])
@@ -341,21 +341,20 @@ def simulate_scene(
         else:
             sunlit = lit.astype("float32")
         direct = (np.clip(cos_i, 0, None) * sunlit).astype("float32")
-        sky = sky_view(dsm, cell).astype("float32")
+        sky = sky_view(dsm, cell, ground_z).astype("float32")
         maps = np.concatenate(
             [
                 frac,
                 direct[None],
                 sky[None],
                 (1.0 - sunlit)[None].astype("float32"),
-                sky[None] * 0 + (1 - 2 * sky)[None],
             ]
         )
         z_lo = float(dsm.min()) - 0.01
         z_hi = float(dsm.max()) + 0.01
         for inst, (t, u, v) in rays.items():
             tt, uu, vv = t.ravel(), u.ravel(), v.ravel()
-            x, y, z = intersect(tt, uu, vv, geo, dsm, win, z_lo, z_hi)
+            x, y, z = intersect(tt, uu, vv, geo, heights, z_lo, z_hi)
             s = _bilinear(maps, win, x, y)
             fr, di, sk = s[:K], s[K], s[K + 1]
             if cloud_op is not None:
@@ -381,7 +380,6 @@ def simulate_scene(
                 truth_shadow[l0:l1] = s[K + 2].reshape(shape[1:]).mean(-1)
                 truth_z[l0:l1] = z.reshape(shape[1:]).mean(-1)
                 truth_cloud[l0:l1] = c.reshape(shape[1:]).mean(-1)
-                truth_slope[l0:l1] = s[K + 3].reshape(shape[1:]).mean(-1)
         progress.update(0.05 + 0.6 * (b + 1) / nblocks, f"ray-traced lines {l0}-{l1 - 1}")
 
     # Sub-pixel targets: exact footprint ∩ bag rectangle, for each instrument's pixels.
@@ -396,7 +394,6 @@ def simulate_scene(
             truth_shadow,
             truth_z,
             truth_cloud,
-            truth_slope,
             acc["vnir"],
         )
         k = names.index("plastic_bag")
@@ -490,7 +487,7 @@ def simulate_scene(
     )
 
 
-def _place_targets(rng, n, names, ab, shadow, z, cloud, rough, vnir_acc):
+def _place_targets(rng, n, names, ab, shadow, z, cloud, vnir_acc):
     """Bags at VNIR pixel centres on open, sunlit, flat ground, at least 6 px apart."""
     open_ids = [names.index(m) for m in OPEN_GROUND if m in names]
     openness = ab[open_ids].sum(0) if open_ids else np.zeros(shadow.shape)

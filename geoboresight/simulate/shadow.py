@@ -21,7 +21,6 @@ tree crowns.
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
 
 
 def sun_vector(zenith_deg: float, azimuth_deg: float) -> np.ndarray:
@@ -34,23 +33,40 @@ def sun_vector(zenith_deg: float, azimuth_deg: float) -> np.ndarray:
     return np.array([np.sin(z) * np.sin(a), np.sin(z) * np.cos(a), np.cos(z)])
 
 
-def normals(dsm: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Unit surface normal components (nx, ny, nz) from the DSM gradient; rows run along +y."""
+#: Slopes steeper than this (rise per run) are walls: vertical, of no horizontal extent.
+WALL_SLOPE = 2.5
+
+
+def normals(dsm: np.ndarray, cell: float, ground=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Unit surface normal components (nx, ny, nz) from the DSM gradient; rows run along +y.
+
+    Where the DSM jumps by a wall (slope > :data:`WALL_SLOPE`), a cell is a flat roof or
+    street cell beside a vertical wall, not part of a ramp: it takes the normal of the
+    terrain ``ground`` (or of a flat plane).
+    """
     dzdy, dzdx = np.gradient(dsm.astype("float64"), cell)
+    wall = np.hypot(dzdx, dzdy) > WALL_SLOPE
+    if wall.any():
+        if ground is not None:
+            gy, gx = np.gradient(np.asarray(ground, "float64"), cell)
+        else:
+            gy = gx = np.zeros_like(dzdx)
+        dzdx = np.where(wall, gx, dzdx)
+        dzdy = np.where(wall, gy, dzdy)
     norm = np.sqrt(dzdx**2 + dzdy**2 + 1.0)
     return -dzdx / norm, -dzdy / norm, 1.0 / norm
 
 
-def incidence(dsm: np.ndarray, cell: float, zenith_deg: float, azimuth_deg: float) -> np.ndarray:
+def incidence(dsm, cell: float, zenith_deg: float, azimuth_deg: float, ground=None) -> np.ndarray:
     """cos i between the surface normal and the sun (may be negative: self-shade)."""
-    nx, ny, nz = normals(dsm, cell)
+    nx, ny, nz = normals(dsm, cell, ground)
     s = sun_vector(zenith_deg, azimuth_deg)
     return nx * s[0] + ny * s[1] + nz * s[2]
 
 
-def sky_view(dsm: np.ndarray, cell: float) -> np.ndarray:
+def sky_view(dsm: np.ndarray, cell: float, ground=None) -> np.ndarray:
     """Fraction of an isotropic sky seen by each cell's tilted plane, (1 + cos slope) / 2."""
-    return 0.5 * (1.0 + normals(dsm, cell)[2])
+    return 0.5 * (1.0 + normals(dsm, cell, ground)[2])
 
 
 def cast_shadow(
@@ -80,34 +96,30 @@ def cast_shadow(
     corners_y = np.array([0, 0, ny - 1, ny - 1]) * cell
     a_c = corners_x * ux + corners_y * uy
     b_c = corners_x * vx + corners_y * vy
-    step = cell / 2.0  # finer along the sun ray than the cells: sharper shadow edges
+    step = cell / 4.0  # finer along the sun ray than the cells: edges within cell/8
     a = np.arange(a_c.min() - step, a_c.max() + 2 * step, step)
     b = np.arange(b_c.min() - cell, b_c.max() + 2 * cell, cell)
-    A, B = np.meshgrid(a, b)  # rows: b (sun lines), columns: a (along each line)
-    X = A * ux + B * vx
-    Y = A * uy + B * vy
-    inside = (
-        (X >= -0.5 * cell)
-        & (X <= (nx - 0.5) * cell)
-        & (Y >= -0.5 * cell)
-        & (Y <= (ny - 0.5) * cell)
-    )
-    z = ndimage.map_coordinates(dsm, [Y / cell, X / cell], order=0, mode="nearest")
-    w = np.where(inside, z - A * cot, -np.inf)
+    A, B = np.meshgrid(a.astype("float32"), b.astype("float32"))  # rows: sun lines (b)
+    # Nearest cell of every rotated sample (the DSM is constant over a cell).
+    ii = np.rint((A * uy + B * vy) / cell).astype(np.intp)
+    jj = np.rint((A * ux + B * vx) / cell).astype(np.intp)
+    inside = (ii >= 0) & (ii < ny) & (jj >= 0) & (jj < nx)
+    z = dsm[np.clip(ii, 0, ny - 1), np.clip(jj, 0, nx - 1)].astype("float32")
+    w = np.where(inside, z - A * cot, -np.inf).astype("float32")
+    del A, B, ii, jj, z, inside
     # Highest w strictly up-sun of each sample: reverse running max, shifted by one step.
     up = np.maximum.accumulate(w[:, ::-1], axis=1)[:, ::-1]
-    up = np.concatenate([up[:, 1:], np.full((up.shape[0], 1), -np.inf)], axis=1)
-    up = np.where(np.isfinite(up), up, -1e9)
-    # Back to the cells: each cell's (a, b) position in the rotated grid.
+    up = np.concatenate([up[:, 1:], np.full((up.shape[0], 1), -np.inf, "float32")], axis=1)
+    up = np.where(np.isfinite(up), up, -1e9).astype("float32")
+    # Back to the cells: each cell's (a, b) position in the rotated grid; the highest up-sun
+    # point is read on the cell's nearest sun line, linearly interpolated along it.
     yy, xx = np.mgrid[0:ny, 0:nx] * cell
     ca = xx * ux + yy * uy
     cb = xx * vx + yy * vy
-    ia = (ca - a[0]) / step
-    ib = (cb - b[0]) / cell
-    # The highest up-sun point seen from the cell, interpolated along the sun line only.
-    top = np.maximum(
-        ndimage.map_coordinates(up, [np.floor(ib), ia], order=1, mode="nearest"),
-        ndimage.map_coordinates(up, [np.ceil(ib), ia], order=1, mode="nearest"),
-    )
+    ia = np.clip((ca - a[0]) / step, 0, len(a) - 1.000001)
+    ib = np.clip(np.rint((cb - b[0]) / cell).astype(np.intp), 0, len(b) - 1)
+    i0 = np.floor(ia).astype(np.intp)
+    f = ia - i0
+    top = up[ib, i0] * (1 - f) + up[ib, i0 + 1] * f
     wcell = dsm - ca * cot
     return top > wcell + tolerance_m

@@ -112,8 +112,9 @@ class Surface:
         )
         return z.reshape(shape)
 
-    def rasterize(self, win: Window, materials: list[str]) -> tuple[np.ndarray, np.ndarray]:
-        """(dsm (ny, nx) float32, fractions (len(materials), ny, nx) float32) on ``win``."""
+    def rasterize(self, win: Window, materials: list[str]):
+        """(dsm, fractions, ground) on ``win``: the surface (ny, nx), the material fractions
+        (len(materials), ny, nx) and the bare terrain under objects (ny, nx), float32."""
         jj = np.arange(win.nx)
         ii = np.arange(win.ny)
         xs, ys = win.xy(ii, jj)  # 1-D: x per column, y per row
@@ -170,7 +171,7 @@ class Surface:
                 for m in range(len(materials)):
                     frac[(m, *s)] *= 1.0 - cover
                 frac[(k, *s)] += cover
-        return dsm, frac
+        return dsm, frac, ground_z
 
 
 def smooth_field(rng: np.random.Generator, shape, sigma_cells: float) -> np.ndarray:
