@@ -30,6 +30,7 @@ CASES: dict[str, dict] = {
     "shadow-cluster": {"n_components": 2},
     "unmix": {"swir": None, "names": lambda i: ",".join(i.endmember_names()[:3])},
     "simulate": {"lines": 16},
+    "report": {"svdd": False},  # the DEM section then says it needs the sensor geometry
 }
 
 #: Rasters named like a scene file (simulator's truth files included) take that file.

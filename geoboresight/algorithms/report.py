@@ -1,0 +1,117 @@
+"""Spec: the scene report (one self-contained HTML page running every application)."""
+
+from __future__ import annotations
+
+import os
+import shutil
+
+from .. import io
+from ..report import build_report
+from .ratio import BAND_PARAMS, DUAL_PARAMS
+from .spec import Algorithm, FileOut, Flag, FolderOut, Number, RasterIn
+
+
+def _run(values: dict, progress) -> dict:
+    keep = values.get("products")
+    if keep:
+        os.makedirs(keep, exist_ok=True)
+        work = keep
+    else:
+        # beside the output (same file system), named after it: the same run gives the same page
+        work = os.path.abspath(values["output"]) + ".work"
+        shutil.rmtree(work, ignore_errors=True)
+        os.makedirs(work)
+    try:
+        page = build_report(values, work, progress)
+        with io.atomic_output(values["output"]) as tmp, open(tmp, "w", encoding="utf-8") as f:
+            f.write(page)
+    finally:
+        if not keep:
+            shutil.rmtree(work, ignore_errors=True)
+    result = {"output": values["output"]}
+    if keep:
+        result["products"] = keep
+    return result
+
+
+REPORT = Algorithm(
+    name="report",
+    display_name="Scene report (HTML)",
+    group="Report",
+    short_help="One self-contained HTML page: ratio statistics, shadow, relative DEM, anomalies and ROC for a scene.",
+    help=(
+        "Runs the paper's applications on one scene and writes a single HTML file with every "
+        "figure embedded (it opens offline, in any browser, and can be mailed as is): the "
+        "boresight ratio and its Table 1 statistics and histogram; the shadow classes "
+        "(Table 2), the shadow cluster scatter (Figure 4) and, given a ground-truth shadow "
+        "fraction, the linear model (Figure 5); the relative DEM and its 3-D view (Figure 9) "
+        "when the sensor geometry is given; RX, SVDD and the boresight indicator as anomaly "
+        "scores with ROC curves (Figure 12) given a target truth raster.\n\n"
+        "Each section lists the parameters its operations used. A section that cannot run "
+        "(for example the DEM without the height factor or the flight geometry) says why "
+        "instead of stopping the report.\n\n"
+        "The intermediate products (ratio, classes, DEM, scores) are deleted unless a products "
+        "folder is given."
+    ),
+    params=(
+        *DUAL_PARAMS,
+        *BAND_PARAMS,
+        RasterIn(
+            name="shadow_truth",
+            description="Ground-truth shadow fraction (0–1) on the VNIR grid, for the Figure 5 fit",
+            optional=True,
+        ),
+        RasterIn(
+            name="target_truth",
+            description="Target mask or abundance on the VNIR grid, for the ROC curves",
+            optional=True,
+        ),
+        RasterIn(
+            name="cloud_mask",
+            description="Cloud mask on the VNIR grid (non-zero = cloud), left out of the DEM",
+            optional=True,
+        ),
+        Number(
+            name="height_factor",
+            description="Relative DEM: height-to-disparity factor tan θ / GSD (px per metre)",
+            optional=True,
+            minimum=0.0,
+        ),
+        Number(
+            name="squint_deg",
+            description="Relative DEM: angle between the VNIR and SWIR lines of sight (degrees), if no height factor",
+            optional=True,
+            minimum=0.0,
+            maximum=45.0,
+            unit="°",
+        ),
+        Number(
+            name="flying_height",
+            description="Relative DEM: flying height above the ground (m)",
+            optional=True,
+            minimum=0.0,
+            unit="m",
+        ),
+        Number(
+            name="ifov_mrad",
+            description="Relative DEM: instantaneous field of view of one pixel (mrad; AISA-Dual ≈ 1)",
+            optional=True,
+            minimum=0.0,
+            unit="mrad",
+        ),
+        Flag(
+            name="svdd",
+            description="Include the SVDD detector (slower) among the anomaly scores",
+            default=True,
+        ),
+        FileOut(name="output", description="Report (self-contained HTML)", extension="html"),
+        FolderOut(
+            name="products",
+            description="Folder to keep the intermediate rasters and figures in (created; empty: not kept)",
+            optional=True,
+        ),
+    ),
+    run=_run,
+)
+
+ALGORITHMS = (REPORT,)
