@@ -123,7 +123,7 @@ def table(rows) -> str:
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
-        prf = lambda k: " / ".join(fmt(v) for v in r[k])  # noqa: E731
+        prf = lambda k, r=r: " / ".join(fmt(v) for v in r[k])  # noqa: E731
         a, b, r2, n = r["fit"]
         a2, b2, r22, n2 = r["fit_all"]
         out.append(

@@ -7,6 +7,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import warnings
 from xml.sax.saxutils import escape
 
 import numpy as np
@@ -1031,7 +1032,9 @@ def _run_polygons(values, progress):
     ]
     geoms = np.array([to_wkb(p.geometry) for p in polys], dtype=object)
     meta = {"DESCRIPTION": desc, "SOURCE": values["classes_raster"]}
-    with io.atomic_output(path) as tmp:
+    with io.atomic_output(path) as tmp, warnings.catch_warnings():
+        # Raw sensor geometry has no CRS on purpose (and the layer says so).
+        warnings.filterwarnings("ignore", message="'crs' was not provided")
         _vector_writer()(
             tmp,
             geoms,
