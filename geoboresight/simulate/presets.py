@@ -53,9 +53,18 @@ def _grid(extent, cell=COARSE_CELL):
     return x, y, np.meshgrid(x, y)
 
 
-def _normalise(z, relief):
-    z = z - z.min()
-    return z * (relief / max(z.max(), 1e-9))
+def _normalise(z, relief, X=None, Y=None, core=None):
+    """Scale heights so that the ``core`` area (the image) spans ``relief`` metres from 0.
+
+    Outside the core, heights are clipped at 0: the lowest ground of the image is z = 0.
+    """
+    inside = np.ones(z.shape, bool)
+    if core is not None:
+        inside = (X >= core[0]) & (X <= core[1]) & (Y >= core[2]) & (Y <= core[3])
+        if not inside.any():
+            inside[:] = True
+    lo, hi = z[inside].min(), z[inside].max()
+    return np.clip((z - lo) * (relief / max(hi - lo, 1e-9)), 0.0, None)
 
 
 def _texture(rng, shape, pairs, scale=3.0):
@@ -142,10 +151,10 @@ def _free(points, boxes, pad):
     return points[keep]
 
 
-def urban(rng: np.random.Generator, extent) -> Surface:
+def urban(rng: np.random.Generator, extent, core=None) -> Surface:
     """Flat-roofed buildings in blocks, asphalt streets with concrete sidewalks, trees, yards."""
     x, y, (X, Y) = _grid(extent)
-    terrain = _normalise(smooth_field(rng, X.shape, 60.0), 4.0)
+    terrain = _normalise(smooth_field(rng, X.shape, 60.0), 4.0, X, Y, core)
     ground = _texture(rng, X.shape, [("grass", "soil", 0.7), ("dark_soil", "soil", 0.3)])
     roads, xs, ys, half = _streets(extent, rng)
     buildings = []
@@ -173,7 +182,7 @@ def urban(rng: np.random.Generator, extent) -> Surface:
     )
 
 
-def dunes(rng: np.random.Generator, extent) -> Surface:
+def dunes(rng: np.random.Generator, extent, core=None) -> Surface:
     """Sand dunes: asymmetric ridges (gentle windward, steep lee slope), ~30 m of relief."""
     x, y, (X, Y) = _grid(extent)
     angle = rng.uniform(0, np.pi)
@@ -186,7 +195,7 @@ def dunes(rng: np.random.Generator, extent) -> Surface:
     terrain = ridge * (0.75 + 0.25 * smooth_field(rng, X.shape, 60.0)) + 0.25 * smooth_field(
         rng, X.shape, 80.0
     )
-    terrain = _normalise(terrain, 30.0)
+    terrain = _normalise(terrain, 30.0, X, Y, core)
     low = np.clip(1.0 - terrain / 8.0, 0, 1)  # interdune corridors: crusted soil and shrubs
     ground = _texture(rng, X.shape, [("sand", "soil", 0.15)], scale=4.0)
     ground["sand"] = ground["sand"] + (1 - low) * 1.0
@@ -201,10 +210,10 @@ def ndimage_smooth(a, sigma):
     return ndimage.gaussian_filter(a, sigma)
 
 
-def glade(rng: np.random.Generator, extent) -> Surface:
+def glade(rng: np.random.Generator, extent, core=None) -> Surface:
     """A forest clearing: dense canopy around an open patch of grass, soil and litter."""
     x, y, (X, Y) = _grid(extent)
-    terrain = _normalise(smooth_field(rng, X.shape, 50.0), 8.0)
+    terrain = _normalise(smooth_field(rng, X.shape, 50.0), 8.0, X, Y, core)
     ground = _texture(
         rng, X.shape, [("grass", "soil", 0.6), ("dry_vegetation", "dark_soil", 0.4)], scale=2.5
     )
@@ -230,17 +239,18 @@ def glade(rng: np.random.Generator, extent) -> Surface:
     )
 
 
-def mixed(rng: np.random.Generator, extent) -> Surface:
+def mixed(rng: np.random.Generator, extent, core=None) -> Surface:
     """~30 m of relief (a hill), a village of flat-roofed houses, trees, an open target field."""
     x, y, (X, Y) = _grid(extent)
-    cx = extent[0] + 0.7 * (extent[1] - extent[0])
-    cy = extent[2] + 0.6 * (extent[3] - extent[2])
-    r = 0.35 * (extent[1] - extent[0])
+    core = core or extent
+    cx = core[0] + 0.85 * (core[1] - core[0])
+    cy = core[2] + 0.6 * (core[3] - core[2])
+    r = 0.3 * (core[1] - core[0])
     hill = np.exp(-0.5 * (((X - cx) / r) ** 2 + ((Y - cy) / (1.3 * r)) ** 2))
-    terrain = _normalise(hill + 0.12 * smooth_field(rng, X.shape, 40.0), 30.0)
+    terrain = _normalise(hill + 0.12 * smooth_field(rng, X.shape, 40.0), 30.0, X, Y, core)
     ground = _texture(rng, X.shape, [("grass", "soil", 0.5), ("dry_vegetation", "dark_soil", 0.5)])
     # The village: the left third of the swath; a gravel road along the track.
-    vx0, vx1 = extent[0], extent[0] + 0.38 * (extent[1] - extent[0])
+    vx0, vx1 = extent[0], core[0] + 0.33 * (core[1] - core[0])
     village = (vx0, vx1, extent[2], extent[3])
     roads, xs, ys, half = _streets(village, rng, spacing=(70, 100), width=8.0, walk=2.0)
     buildings = []
@@ -257,7 +267,7 @@ def mixed(rng: np.random.Generator, extent) -> Surface:
         [rng.uniform(extent[0], extent[1], n), rng.uniform(extent[2], extent[3], n)]
     )
     # Trees: in the village and on the hill, not in the open field between them.
-    field_lo, field_hi = gx + 6.0, gx + 0.25 * (extent[1] - extent[0])
+    field_lo, field_hi = gx + 6.0, gx + 0.3 * (core[1] - core[0])
     pts = pts[(pts[:, 0] < field_lo - 8) | (pts[:, 0] > field_hi)]
     pts = _free(pts, [r[:4] for r in roads], 1.0)
     pts = _free(pts, buildings[:, :4], 3.0)

@@ -259,7 +259,9 @@ def simulate_scene(
     )
     extent = (xs.min() - pad - shadow_reach, xs.max() + pad + shadow_reach, extent[2], extent[3])
     if surface is None:
-        surface = _presets.BUILDERS[preset](rng, extent)
+        surface = _presets.BUILDERS[preset](
+            rng, extent, core=(xs.min(), xs.max(), ys.min(), ys.max())
+        )
     progress.update(0.05, "surface built")
 
     names = list(surface.materials)
