@@ -1,0 +1,158 @@
+"""The simulator's files: what a GIS user and the other applications read from a scene folder.
+
+Checked with independent readers (rasterio/GDAL, the library's dual-sensor opener, json, csv):
+wavelengths and FWHM in the ENVI headers, raw geometry kept raw, truth rasters on the VNIR grid,
+the merged cube, byte-for-byte determinism of a written scene, and the ``simulate`` spec.
+"""
+
+from __future__ import annotations
+
+import csv
+import filecmp
+import json
+import os
+
+import numpy as np
+import pytest
+import rasterio
+
+from geoboresight.algorithms import get
+from geoboresight.errors import OutputError, ParameterError
+from geoboresight.io import open_dual, quiet_georef
+from geoboresight.simulate import SCENE_FILES, simulate_scene, write_scene
+
+
+@pytest.fixture(scope="module")
+def small():
+    return simulate_scene("mixed", lines=40, seed=11, targets=4, clouds=1, supersample=2)
+
+
+@pytest.fixture(scope="module")
+def folder(small, tmp_path_factory):
+    out = tmp_path_factory.mktemp("scene") / "mixed"
+    write_scene(small, out, merged=True)
+    return out
+
+
+def test_folder_holds_every_file(folder):
+    names = set(os.listdir(folder))
+    assert set(SCENE_FILES) <= names
+    assert {"merged.img", "merged.hdr"} <= names
+    assert not [n for n in names if ".tmp" in n]
+
+
+def test_envi_cubes_carry_wavelengths_and_stay_raw(folder, small):
+    dual = open_dual(str(folder / "vnir.hdr"), str(folder / "swir.hdr"))
+    assert dual.crs is None and dual.transform is None
+    assert np.allclose(dual.vnir.wavelengths, small.vnir_wavelengths, atol=1e-3)
+    assert np.allclose(dual.swir.wavelengths, small.swir_wavelengths, atol=1e-3)
+    assert np.allclose(dual.vnir.fwhm, small.vnir_fwhm, atol=1e-3)
+    assert len(dual.vnir.bands) + len(dual.swir.bands) == 198
+    num, den = dual.ratio_bands(1010.0, 920.0, "wavelength", 10.0)
+    assert (
+        abs(dual.swir.wavelength_of(num) - 1010) < 2 and abs(dual.vnir.wavelength_of(den) - 920) < 3
+    )
+    with quiet_georef(), rasterio.open(folder / "vnir.img") as src:
+        assert (
+            src.dtypes[0] == "uint16" and src.count == 96 and (src.height, src.width) == (40, 286)
+        )
+        assert np.array_equal(src.read(), small.vnir)
+    with open(folder / "vnir.hdr", encoding="utf-8") as f:
+        header = f.read()
+    assert "interleave = bil" in header and "wavelength units = Nanometers" in header
+    assert ".tmp" not in header  # no temporary path leaks into the header
+
+
+def test_merged_cube_is_split_at_the_seam(folder, small):
+    dual = open_dual(str(folder / "merged.hdr"))
+    assert len(dual.vnir.bands) == 96 and len(dual.swir.bands) == 102
+    with quiet_georef(), rasterio.open(folder / "merged.img") as src:
+        assert np.array_equal(src.read(97), small.swir[0])
+
+
+def test_truth_rasters_on_vnir_grid(folder, small):
+    expected = {
+        "truth_dsm.tif": small.dsm,
+        "truth_shadow_fraction.tif": small.shadow_fraction,
+        "truth_target_abundance.tif": small.target_abundance,
+        "truth_cloud_mask.tif": small.cloud_mask.astype("uint8"),
+        "truth_material.tif": small.material,
+    }
+    for name, arr in expected.items():
+        with quiet_georef(), rasterio.open(folder / name) as src:
+            assert (src.height, src.width) == (40, 286), name
+            assert src.crs is None, name
+            assert np.allclose(src.read(1), arr), name
+    with rasterio.open(folder / "truth_material.tif") as src:
+        tags = src.tags(1)
+        for k, v in small.material_names.items():
+            assert tags[f"CLASS_{k}"] == v
+        assert src.colormap(1)[1][:3] == (60, 60, 60)
+
+
+def test_truth_json_and_endmembers(folder, small):
+    truth = json.loads((folder / "truth.json").read_text())
+    for key in (
+        "preset", "seed", "lines", "cols", "gsd_m", "ifov_mrad", "flying_height_m",
+        "nominal_altitude_m", "squint_deg", "boresight_deg", "offset_px",
+        "disparity_px_per_m", "height_precision_m_per_px", "sun", "materials", "targets", "noise",
+    ):  # fmt: skip
+        assert key in truth, key
+    assert truth == json.loads(json.dumps(small.truth))
+    assert len(truth["targets"]) == 4
+    for t in truth["targets"]:
+        assert small.target_abundance[t["row"], t["col"]] == pytest.approx(t["abundance"], abs=1e-6)
+    with open(folder / "endmembers.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 198
+    assert float(rows[0]["wavelength_nm"]) == pytest.approx(400.0)
+    assert set(small.abundance_names) <= set(rows[0])
+    bag = np.array([float(r["plastic_bag"]) for r in rows])
+    assert np.allclose(bag, small.endmember_spectra["plastic_bag"], atol=1e-6)
+
+
+def test_same_seed_writes_identical_bytes(tmp_path):
+    a, b = tmp_path / "a", tmp_path / "b"
+    write_scene(simulate_scene("urban", lines=24, seed=5, supersample=2), a)
+    write_scene(simulate_scene("urban", lines=24, seed=5, supersample=2), b)
+    names = sorted(os.listdir(a))
+    assert names == sorted(os.listdir(b))
+    match, mismatch, errors = filecmp.cmpfiles(a, b, names, shallow=False)
+    assert mismatch == [] and errors == [] and len(match) == len(names)
+
+
+def test_existing_folder_is_refused_and_nothing_is_left(tmp_path, small):
+    out = tmp_path / "scene"
+    out.mkdir()
+    with pytest.raises(OutputError, match="already exists"):
+        write_scene(small, out)
+    with pytest.raises(OutputError, match="does not exist"):
+        write_scene(small, tmp_path / "missing" / "scene")
+    assert os.listdir(tmp_path) == ["scene"]
+
+
+def test_spec_runs_and_reports_the_offset(tmp_path):
+    alg = get("simulate")
+    assert alg.group == "Simulation"
+    names = {p.name for p in alg.params}
+    assert {"preset", "lines", "seed", "output", "squint_deg", "flying_height", "nominal_altitude",
+            "sun_zenith", "sun_azimuth", "targets", "clouds", "merged", "geometry"} <= names  # fmt: skip
+    out = tmp_path / "cli"
+    res = alg(preset="dunes", lines=16, seed=1, output=str(out), supersample=1, squint_deg=1.0)
+    truth = json.loads((out / "truth.json").read_text())
+    assert res["offset_along_px"] == pytest.approx(truth["offset_px"]["along"])
+    assert truth["squint_deg"] == pytest.approx(1.0)
+    with pytest.raises(OutputError):
+        alg(preset="dunes", lines=16, seed=1, output=str(out))
+    with pytest.raises(ParameterError, match="lines"):
+        alg(preset="dunes", lines=2, output=str(tmp_path / "x"))
+    assert not (tmp_path / "x").exists()
+
+
+def test_bad_parameters_name_the_parameter():
+    with pytest.raises(ParameterError, match="preset"):
+        simulate_scene("moon", lines=16)
+    with pytest.raises(ParameterError, match="geometry"):
+        simulate_scene("urban", lines=16, geometry="wide")
+    with pytest.raises(ParameterError, match="sun_zenith"):
+        simulate_scene("urban", lines=16, sun_zenith=95)
