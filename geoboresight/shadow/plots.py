@@ -20,14 +20,19 @@ def cluster_figure(ratio, nir, is_shadow, cluster: ShadowCluster, nir_nm: float,
     ax.scatter(ratio[s], nir[s], s=2, c="#c0392b", alpha=0.5, lw=0, label="shadow cluster")
     ex, ey = cluster.ellipse(2.0)
     ax.plot(ex, ey, color="#c0392b", lw=1.6, label="shadow component (2σ)")
+    from matplotlib.ticker import ScalarFormatter
+
     ax.set_xscale("log")
     ax.set_yscale("log")
+    for axis in (ax.xaxis, ax.yaxis):
+        axis.set_major_formatter(ScalarFormatter())
+        axis.set_minor_formatter(ScalarFormatter())
     ax.set_xlabel("Boresight band ratio value")
     ax.set_ylabel(f"VNIR band ({nir_nm:.0f} nm)")
     ax.set_title(
         title
-        or f"Shadow cluster: {cluster.n_components}-component Gaussian mixture, "
-        f"{100 * cluster.shadow_share:.1f} % of the sample"
+        or f"Shadow cluster ({cluster.n_components}-component mixture): "
+        f"{100 * cluster.shadow_share:.1f} % of pixels"
     )
     ax.legend(loc="best", markerscale=4, fontsize=8)
     return fig
@@ -36,7 +41,7 @@ def cluster_figure(ratio, nir, is_shadow, cluster: ShadowCluster, nir_nm: float,
 def regression_figure(fraction, ratio, model: FractionModel, paper: FractionModel | None = None):
     """Figure 5(B): boresight ratio of detected shadow pixels vs ground-truth shadow fraction."""
     fig, ax = new_figure()
-    ax.scatter(fraction, ratio, s=3, c="#4a7ab5", alpha=0.4, lw=0, label="shadow pixels")
+    ax.scatter(fraction, ratio, s=3, c="#4a7ab5", alpha=0.4, lw=0, label="pixels fitted")
     x = np.linspace(0, 1, 50)
     ax.plot(
         x,
