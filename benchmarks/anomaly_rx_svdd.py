@@ -148,7 +148,7 @@ def main():
         )
         per_line = COLS * BANDS * 2 * 9 / 1024**3
         avail = available_gb()
-        spy_lines = int(min(a.lines, max(500, (avail - 4.0) / per_line)))
+        spy_lines = int(min(a.lines, max(500, (avail - 6.0) / per_line)))
         note = ""
         if spy_lines < a.lines:
             note = (
