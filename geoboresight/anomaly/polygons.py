@@ -164,7 +164,9 @@ def _gpkg_blob(geom, srs_id: int) -> bytes:
     minx, miny, maxx, maxy = geom.bounds
     # magic "GP", version 0, flags: little endian (bit 0) + envelope [minx, maxx, miny, maxy] (1 << 1)
     header = b"GP" + struct.pack("<BBi4d", 0, 0b00000011, srs_id, minx, maxx, miny, maxy)
-    return header + shapely.to_wkb(geom, byte_order=1)
+    # output_dimension=2: inside QGIS the shapely wheel may run on an older system GEOS (3.11)
+    # that rejects the wheel's default of 4 ("WKB output dimension must be 2 or 3")
+    return header + shapely.to_wkb(geom, byte_order=1, output_dimension=2)
 
 
 def read_gpkg_count(path: str, layer: str = "anomalies") -> int:
