@@ -141,7 +141,8 @@ class Geometry:
         _, v_v = self.vnir.uv(c0)
         _, v_s = self.swir.uv(c0 + k_across)
         tan_theta = float(v_s - v_v)
-        along = -(self.flying_height_m - self.nominal_altitude_m) * tan_theta / self.line_spacing_m
+        along = (self.nominal_altitude_m - self.flying_height_m) * tan_theta / self.line_spacing_m
+        along = along + 0.0  # no negative zero in truth.json
         per_m = tan_theta / self.line_spacing_m
         return {
             "offset_px": {"along": float(along), "across": 0.0},

@@ -476,7 +476,7 @@ def simulate_scene(
         swir_wavelengths=swl,
         vnir_fwhm=vfw,
         swir_fwhm=sfw,
-        dsm=truth_z,
+        dsm=np.maximum(truth_z, 0.0),  # bisection leaves < 1 cm; heights are >= 0
         shadow_fraction=np.clip(truth_shadow, 0, 1),
         target_abundance=np.clip(truth_target, 0, 1),
         cloud_mask=cloud_mask,
@@ -564,7 +564,7 @@ def _truth_dict(
     geometry,
 ):
     gt = geo.truth()
-    squint = float(np.degrees(np.arctan(gt["tan_squint"])))
+    squint = round(float(np.degrees(np.arctan(gt["tan_squint"]))), 9)
     return {
         "preset": preset,
         "geometry": geometry,
