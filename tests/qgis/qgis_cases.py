@@ -25,6 +25,7 @@ CASES: dict[str, dict] = {
         "height_factor": lambda i: (
             abs(i.truth.get("disparity_px_per_m", {}).get("along", 0.05)) or 0.05
         ),
+        "force": True,  # a small realistic squint: the product says so, but the wiring is tested
     },
     # keep the suite fast: fewer components / endmembers / lines than a real run would use
     "shadow-cluster": {"n_components": 2},

@@ -101,7 +101,15 @@ def _features(path: str) -> list:
         layer = ds.GetLayerByIndex(i)
         for f in layer:
             geom = f.GetGeometryRef()
-            out.append(
-                (layer.GetName(), geom.ExportToWkt() if geom else None, tuple(f.items().items()))
-            )
+            out.append((layer.GetName(), _normalized(geom), tuple(f.items().items())))
     return out
+
+
+def _normalized(geom):
+    """Canonical WKT: the same shape with its rings started and oriented one way (two GEOS
+    versions may trace the same polygon from another vertex or the other way round)."""
+    if geom is None:
+        return None
+    import shapely
+
+    return shapely.normalize(shapely.from_wkt(geom.ExportToWkt())).wkt
