@@ -1030,7 +1030,8 @@ def _run_polygons(values, progress):
         np.array([p.area for p in polys], dtype=np.float64),
         np.array([p.pixels for p in polys], dtype=np.int64),
     ]
-    geoms = np.array([to_wkb(p.geometry) for p in polys], dtype=object)
+    # output_dimension=2: see anomaly.polygons (shapely wheel on QGIS's older GEOS)
+    geoms = np.array([to_wkb(p.geometry, output_dimension=2) for p in polys], dtype=object)
     meta = {"DESCRIPTION": desc, "SOURCE": values["classes_raster"]}
     with io.atomic_output(path) as tmp, warnings.catch_warnings():
         # Raw sensor geometry has no CRS on purpose (and the layer says so).
