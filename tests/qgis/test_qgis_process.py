@@ -74,14 +74,14 @@ def _qgis_process(env, *args, timeout=180):
     )
 
 
-def _scene(inputs):
-    """The bundled sample scene when it is there, else the tests' small scene."""
-    sample = REPO / "sample_data"
-    for vnir, swir in (("vnir.img", "swir.img"), ("vnir.hdr", "swir.hdr")):
-        if (sample / vnir).exists() and (sample / swir).exists():
-            return str(sample / vnir.replace(".hdr", ".img")), str(
-                sample / swir.replace(".hdr", ".img")
-            )
+def _scene(inputs, tmp_path):
+    """The bundled sample scene when it is there (copied: QGIS's GDAL rewrites the ENVI files'
+    .aux.xml when it opens them), else the tests' small scene."""
+    for folder in (REPO / "sample_data" / "scene", REPO / "sample_data"):
+        if (folder / "vnir.img").exists() and (folder / "swir.img").exists():
+            for name in ("vnir.img", "vnir.hdr", "swir.img", "swir.hdr"):
+                shutil.copy(folder / name, tmp_path / name)
+            return str(tmp_path / "vnir.img"), str(tmp_path / "swir.img")
     return inputs.scene["vnir"], inputs.scene["swir"]
 
 
@@ -94,7 +94,7 @@ def test_qgis_process_lists_every_spec(qgis_env):
 
 
 def test_qgis_process_runs_the_ratio(qgis_env, inputs, tmp_path):
-    vnir, swir = _scene(inputs)
+    vnir, swir = _scene(inputs, tmp_path)
     out = tmp_path / "ratio.tif"
     run = _qgis_process(
         qgis_env,
