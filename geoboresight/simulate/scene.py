@@ -664,6 +664,8 @@ def write_scene(scene: Scene, folder, merged: bool = False, overwrite: bool = Fa
     colour table and class names in its tags), ``truth.json`` and ``endmembers.csv``
     (``wavelength_nm`` + one reflectance column per material).
     """
+    import rasterio
+
     from ..io import atomic_output, write_envi, write_raster
 
     folder = os.fspath(folder)
@@ -678,7 +680,9 @@ def write_scene(scene: Scene, folder, merged: bool = False, overwrite: bool = Fa
             f"output folder {folder}: its parent {parent} does not exist; create it first"
         )
     truth = scene.truth
-    with atomic_output(folder, overwrite=overwrite) as tmp:
+    # The ENVI headers hold wavelengths, FWHM and band names: no redundant .aux.xml sidecars
+    # (which GDAL applications would rewrite when they open the scene).
+    with atomic_output(folder, overwrite=overwrite) as tmp, rasterio.Env(GDAL_PAM_ENABLED="NO"):
         os.makedirs(tmp)
         vnir, swir = _as_dn(scene.vnir), _as_dn(scene.swir)
         dtype = vnir.dtype
