@@ -43,8 +43,12 @@ def pytest_runtest_makereport(item, call):
         reason = report.longrepr[2] if isinstance(report.longrepr, tuple) else str(report.longrepr)
         report.outcome = "failed"
         report.longrepr = f"GEOBORESIGHT_REQUIRE_QGIS=1 but this QGIS test was skipped: {reason}"
-    elif report.when == "call" and report.passed:
-        item.config._geoboresight_qgis_ran += 1
+    elif (
+        report.when == "call"
+        and report.passed
+        and {"qgis_app", "qgis_env"} & set(item.fixturenames)
+    ):
+        item.config._geoboresight_qgis_ran += 1  # a test that really ran QGIS
 
 
 def pytest_sessionfinish(session, exitstatus):
