@@ -84,7 +84,7 @@ ALGORITHMS = (
                 description="Number of along-track lines to simulate (286 pixels each)",
                 default=128,
                 minimum=8,
-                maximum=20000,
+                maximum=10000,
                 integer=True,
             ),
             Number(

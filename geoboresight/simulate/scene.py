@@ -398,6 +398,11 @@ def simulate_scene(
             truth_cloud,
             acc["vnir"],
         )
+        if len(target_list) < n_targets:
+            progress.info(
+                f"only {len(target_list)} of {n_targets} targets fit on open, flat, sunlit ground "
+                "at least 6 pixels apart: simulate more lines for more targets"
+            )
         k = names.index("plastic_bag")
         for inst in ("vnir", "swir"):
             a = acc[inst]
