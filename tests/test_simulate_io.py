@@ -146,7 +146,23 @@ def test_spec_runs_and_reports_the_offset(tmp_path):
         alg(preset="dunes", lines=16, seed=1, output=str(out))
     with pytest.raises(ParameterError, match="lines"):
         alg(preset="dunes", lines=2, output=str(tmp_path / "x"))
+    with pytest.raises(ParameterError, match="boresight_swir"):
+        alg(preset="dunes", lines=16, output=str(tmp_path / "x"), boresight_swir="0,1")
     assert not (tmp_path / "x").exists()
+
+
+def test_boresight_angles_from_the_spec(tmp_path):
+    out = tmp_path / "angles"
+    get("simulate")(
+        preset="urban", lines=12, seed=1, output=str(out), supersample=1,
+        boresight_vnir="0.1,0.2,0", boresight_swir="0.1,1.2,0",
+    )  # fmt: skip
+    truth = json.loads((out / "truth.json").read_text())
+    assert truth["boresight_deg"] == {"vnir": [0.1, 0.2, 0.0], "swir": [0.1, 1.2, 0.0]}
+    assert truth["squint_deg"] == pytest.approx(1.0, abs=0.01)
+    # tan(1.2°) - tan(0.2°) over 1.5 m lines: the parallax per metre.
+    tan = np.tan(np.radians(1.2)) - np.tan(np.radians(0.2))
+    assert truth["disparity_px_per_m"]["along"] == pytest.approx(tan / 1.5, rel=1e-6)
 
 
 def test_bad_parameters_name_the_parameter():

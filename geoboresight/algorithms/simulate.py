@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from .spec import Algorithm, Enum, Flag, FolderOut, Number
+from ..errors import ParameterError
+from .spec import Algorithm, Enum, Flag, FolderOut, Number, Text
 
 HELP = """\
 Simulates a raw-geometry AISA-Dual scene (VNIR 400–970 nm and SWIR 980–2,450 nm, 198 bands,
@@ -25,6 +26,22 @@ modelled.
 """
 
 
+def _angles(values: dict, name: str):
+    text = values.get(name)
+    if not text:
+        return None
+    try:
+        angles = tuple(float(v) for v in str(text).replace(";", ",").split(","))
+    except ValueError:
+        angles = ()
+    if len(angles) != 3 or any(abs(a) > 10 for a in angles):
+        raise ParameterError(
+            f"parameter '{name}': give roll,pitch,yaw in degrees (each within ±10), e.g. 0,0.3,0; "
+            f"got {text!r}"
+        )
+    return angles
+
+
 def _run(values: dict, progress) -> dict:
     from ..simulate import simulate_scene, write_scene
 
@@ -45,6 +62,8 @@ def _run(values: dict, progress) -> dict:
         water_vapour_cm=values["water_vapour_cm"],
         noise=not values["noise_free"],
         supersample=values["supersample"],
+        boresight_vnir_deg=_angles(values, "boresight_vnir"),
+        boresight_swir_deg=_angles(values, "boresight_swir"),
         progress=progress.sub(0.0, 0.9),
     )
     progress.update(0.92, "writing files")
@@ -160,6 +179,18 @@ ALGORITHMS = (
             Flag(
                 name="merged",
                 description="Also write merged.img/.hdr with all 198 bands",
+            ),
+            Text(
+                name="boresight_vnir",
+                description="VNIR boresight angles roll,pitch,yaw in degrees (default 0,0,0)",
+                optional=True,
+                advanced=True,
+            ),
+            Text(
+                name="boresight_swir",
+                description="SWIR boresight angles roll,pitch,yaw in degrees (default 0,<squint>,0; overrides the squint)",
+                optional=True,
+                advanced=True,
             ),
             Number(
                 name="cloud_height",
