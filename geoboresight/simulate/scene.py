@@ -251,13 +251,13 @@ def simulate_scene(
     xs = np.concatenate([e[0].ravel() for e in ext])
     ys = np.concatenate([e[1].ravel() for e in ext])
     pad = 10.0 + geo.line_spacing_m * 2
+    # Objects up to shadow_reach away (any direction) may cast shadows into the image.
     extent = (
-        xs.min() - pad - shadow_reach * max(sun[0], 0) / max(np.hypot(*sun[:2]), 1e-9),
+        xs.min() - pad - shadow_reach,
         xs.max() + pad + shadow_reach,
         ys.min() - pad - shadow_reach,
         ys.max() + pad + shadow_reach,
     )
-    extent = (xs.min() - pad - shadow_reach, xs.max() + pad + shadow_reach, extent[2], extent[3])
     if surface is None:
         surface = _presets.BUILDERS[preset](
             rng, extent, core=(xs.min(), xs.max(), ys.min(), ys.max())
@@ -313,12 +313,8 @@ def simulate_scene(
         px, py = np.concatenate(px), np.concatenate(py)
         reach = min(z_top * tan_z, 400.0)
         m = 3 * cell
-        wx0 = (
-            px.min()
-            - m
-            - reach * max(sun[0], 0) / max(np.hypot(*sun[:2]), 1e-9) * 0
-            - reach * (sun[0] < 0)
-        )
+        # Extend the window towards the sun: objects there cast shadows into the block.
+        wx0 = px.min() - m - reach * (sun[0] < 0)
         wx1 = px.max() + m + reach * (sun[0] > 0)
         wy0 = py.min() - m - reach * (sun[1] < 0)
         wy1 = py.max() + m + reach * (sun[1] > 0)
