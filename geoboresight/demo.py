@@ -19,7 +19,7 @@ from .algorithms import execute, registry
 from .errors import GeoboresightError
 from .progress import Progress
 
-SAMPLE = Path(__file__).resolve().parents[1] / "sample_data"
+SAMPLE = Path(__file__).resolve().parents[1] / "sample_data" / "scene"
 
 
 def _scene(out: Path, scene: str | None) -> Path:
