@@ -33,7 +33,15 @@ def _scene(out: Path, scene: str | None) -> Path:
         click.echo(f"no bundled sample scene found; simulating one into {target}")
         execute(
             registry()["simulate"],
-            {"preset": "mixed", "lines": 200, "seed": 7, "output": str(target)},
+            # the recipe of sample_data/README.md
+            {
+                "preset": "mixed",
+                "lines": 192,
+                "seed": 4,
+                "geometry": "large-squint",
+                "clouds": 1,
+                "output": str(target),
+            },
             overwrite=True,
         )
     return target
