@@ -48,7 +48,9 @@ def main() -> int:
     vnir, swir = str(work / "vnir.img"), str(work / "swir.img")
     ratio = registry()["ratio"]
 
-    lib = best_of(3, lambda: ratio(vnir=vnir, swir=swir, output=str(work / "lib.tif"), overwrite=True))
+    lib = best_of(
+        3, lambda: ratio(vnir=vnir, swir=swir, output=str(work / "lib.tif"), overwrite=True)
+    )
 
     sys.path.append("/usr/share/qgis/python/plugins")
     t0 = time.perf_counter()
@@ -58,7 +60,9 @@ def main() -> int:
 
     Processing.initialize()
     spec = importlib.util.spec_from_file_location(
-        "geoboresight_qgis", REPO / "plugin" / "__init__.py", submodule_search_locations=[str(REPO / "plugin")]
+        "geoboresight_qgis",
+        REPO / "plugin" / "__init__.py",
+        submodule_search_locations=[str(REPO / "plugin")],
     )
     plugin = importlib.util.module_from_spec(spec)
     sys.modules["geoboresight_qgis"] = plugin
@@ -69,12 +73,18 @@ def main() -> int:
     import processing
 
     params = {"vnir": vnir, "swir": swir}
-    in_process = best_of(3, lambda: processing.run("geoboresight:ratio", {**params, "output": str(work / "q.tif")}))
+    in_process = best_of(
+        3, lambda: processing.run("geoboresight:ratio", {**params, "output": str(work / "q.tif")})
+    )
 
     cli = None
     if os.path.exists(QGIS_PROCESS):
         plugins = work / "plugins"
-        shutil.copytree(REPO / "plugin", plugins / "geoboresight_qgis", ignore=shutil.ignore_patterns("__pycache__"))
+        shutil.copytree(
+            REPO / "plugin",
+            plugins / "geoboresight_qgis",
+            ignore=shutil.ignore_patterns("__pycache__"),
+        )
         import geoboresight
 
         paths = [p for p in site.getsitepackages() if "site-packages" in p]
@@ -86,8 +96,18 @@ def main() -> int:
             XDG_RUNTIME_DIR=str(work),
             PYTHONPATH=os.pathsep.join(paths),
         )
-        subprocess.run([QGIS_PROCESS, "plugins", "enable", "geoboresight_qgis"], env=env, capture_output=True)
-        args = [QGIS_PROCESS, "run", "geoboresight:ratio", "--", f"vnir={vnir}", f"swir={swir}", f"output={work / 'p.tif'}"]
+        subprocess.run(
+            [QGIS_PROCESS, "plugins", "enable", "geoboresight_qgis"], env=env, capture_output=True
+        )
+        args = [
+            QGIS_PROCESS,
+            "run",
+            "geoboresight:ratio",
+            "--",
+            f"vnir={vnir}",
+            f"swir={swir}",
+            f"output={work / 'p.tif'}",
+        ]
         cli = best_of(2, lambda: subprocess.run(args, env=env, capture_output=True, check=True))
 
     with open(SCENE / "vnir.hdr", encoding="utf-8") as f:
