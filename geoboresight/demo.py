@@ -7,6 +7,7 @@ the demo doubles as a worked example (the equivalent ``geoboresight`` commands a
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import sys
@@ -48,21 +49,127 @@ def _scene(out: Path, scene: str | None) -> Path:
 
 
 def steps(scene: Path, out: Path) -> list[tuple[str, dict]]:
-    """The demo's steps: (algorithm name, values). Steps whose algorithm is absent are skipped."""
+    """The demo's steps: (algorithm name, values). Steps whose algorithm is absent are skipped.
+
+    Flight parameters (squint, flying height, IFOV, sun) are read from the scene's truth.json,
+    as a user would take them from the flight log; truth rasters serve only for validation
+    steps (fraction model fit, ROC).
+    """
+    truth = (
+        json.loads((scene / "truth.json").read_text()) if (scene / "truth.json").exists() else {}
+    )
     v, s = str(scene / "vnir.hdr"), str(scene / "swir.hdr")
-    ratio = str(out / "boresight_ratio.tif")
-    return [
+    o = lambda name: str(out / name)  # noqa: E731
+    ratio = o("boresight_ratio.tif")
+    cloud = scene / "truth_cloud_mask.tif"
+    cloud_arg = {"cloud_mask": str(cloud)} if cloud.exists() else {}
+    todo: list[tuple[str, dict]] = [
         ("ratio", {"vnir": v, "swir": s, "output": ratio}),
         (
             "stats",
             {
                 "input": ratio,
-                "output": str(out / "ratio_stats.json"),
-                "html": str(out / "ratio_stats.html"),
-                "histogram": str(out / "ratio_histogram.png"),
+                "output": o("ratio_stats.json"),
+                "html": o("ratio_stats.html"),
+                "histogram": o("ratio_histogram.png"),
             },
         ),
+        (
+            "shadow-classes",
+            {"ratio": ratio, "output": o("shadow_classes.tif"), "mask": o("shadow_mask.tif")},
+        ),
+        (
+            "shadow-cluster",
+            {
+                "ratio": ratio,
+                "vnir": v,
+                "output": o("shadow_cluster.tif"),
+                "plot": o("shadow_cluster.png"),
+            },
+        ),
+        (
+            "shadow-polygons",
+            {"classes_raster": o("shadow_classes.tif"), "output": o("shadow_classes.gpkg")},
+        ),
     ]
+    if (scene / "truth_shadow_fraction.tif").exists():
+        todo.append(
+            (
+                "shadow-fraction-fit",
+                {
+                    "ratio": ratio,
+                    "truth": str(scene / "truth_shadow_fraction.tif"),
+                    "report": o("shadow_fraction_fit.json"),
+                    "plot": o("shadow_fraction_fit.png"),
+                },
+            )
+        )
+    if "sun" in truth and (scene / "truth_dsm.tif").exists():
+        todo.append(
+            (
+                "sun-shadow",
+                {
+                    "dsm": str(scene / "truth_dsm.tif"),
+                    "sun_zenith": truth["sun"]["zenith_deg"],
+                    "sun_azimuth": truth["sun"]["azimuth_deg"],
+                    "cell_size": truth.get("gsd_m", 1.5),
+                    "output": o("sun_shadow_fraction.tif"),
+                    "hillshade": o("hillshade.tif"),
+                },
+            )
+        )
+    todo.append(
+        (
+            "boresight-offset",
+            {
+                "vnir": v,
+                "swir": s,
+                **cloud_arg,
+                "output": o("boresight_offset.json"),
+                "plot": o("boresight_offset.png"),
+            },
+        )
+    )
+    if "squint_deg" in truth:
+        todo += [
+            (
+                "relative-dem",
+                {
+                    "vnir": v,
+                    "swir": s,
+                    **cloud_arg,
+                    "squint_deg": truth["squint_deg"],
+                    "flying_height": truth["flying_height_m"],
+                    "ifov_mrad": truth["ifov_mrad"],
+                    "output": o("relative_dem.tif"),
+                    "variance": o("relative_dem_variance.tif"),
+                    "report": o("relative_dem.json"),
+                },
+            ),
+            (
+                "view-3d",
+                {"dem": o("relative_dem.tif"), "vnir": v, "swir": s, "output": o("relative_dem_3d.png")},
+            ),
+        ]
+    todo += [
+        ("rx", {"image": v, "swir": s, "output": o("rx.tif")}),
+        ("boresight-indicator", {"ratio": ratio, "output": o("boresight_indicator.tif")}),
+    ]
+    if (scene / "truth_target_abundance.tif").exists():
+        todo.append(
+            (
+                "roc",
+                {
+                    "scores": [o("rx.tif"), o("boresight_indicator.tif")],
+                    "names": "RX,boresight",
+                    "truth": str(scene / "truth_target_abundance.tif"),
+                    "output": o("roc.png"),
+                    "csv": o("roc.csv"),
+                },
+            )
+        )
+    todo.append(("report", {"vnir": v, "swir": s, "output": o("report.html")}))
+    return todo
 
 
 def _command_line(name: str, values: dict) -> str:
@@ -70,6 +177,9 @@ def _command_line(name: str, values: dict) -> str:
     for k, val in values.items():
         if isinstance(val, bool):
             parts.append(f"--{k.replace('_', '-')}" if val else f"--no-{k.replace('_', '-')}")
+        elif isinstance(val, list):
+            for item in val:
+                parts += [f"--{k.replace('_', '-')}", str(item)]
         else:
             parts += [f"--{k.replace('_', '-')}", str(val)]
     return " ".join(parts)
