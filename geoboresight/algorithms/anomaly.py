@@ -1,5 +1,9 @@
 """Specs: sub-pixel anomaly detection and unmixing (paper §3.3): RX, SVDD, the boresight
-indicator, linear unmixing, ROC curves and anomaly polygons."""
+indicator, linear unmixing, ROC curves and anomaly polygons.
+
+Kernel modules are imported inside the run functions: listing the operations (the registry)
+and running RX then load neither scikit-learn, matplotlib, shapely nor SciPy's image module.
+"""
 
 from __future__ import annotations
 
@@ -8,13 +12,9 @@ import os
 import numpy as np
 
 from .. import io
-from ..anomaly import indicator as ind
-from ..anomaly import polygons as poly
-from ..anomaly import roc as rocmod
-from ..anomaly import rx as rxmod
-from ..anomaly import svdd as svddmod
-from ..anomaly import unmix as unmixmod
 from ..anomaly.bands import WATER_BANDS_NM, select_bands
+from ..anomaly.indicator import TAILS
+from ..anomaly.unmix import METHODS
 from ..errors import InputError, ParameterError
 from ..io.cube import open_cube
 from .spec import (
@@ -96,14 +96,22 @@ def _band_tags(wl, bands):
 
 
 def _run_rx(values, progress):
+    from ..anomaly import rx as rxmod
+
     cube, bands, wl = _open_image(values)
     with cube:
-        nwin = -(-cube.height // values["block_rows"])
+        rows = values["block_rows"]
+        nwin = -(-cube.height // rows)
         precision = values["precision"]
-        acc = rxmod.CovarianceAccumulator(len(bands))
+        # Pass 1: mean and covariance in one pass, strips in the files' own type (no float copy);
+        # the shift comes from the first strip so that the sums do not depend on thread timing.
+        first, first_valid = cube.read(0, min(rows, cube.height), bands, None)
+        acc = rxmod.CovarianceAccumulator(
+            len(bands), shift=rxmod.CovarianceAccumulator.strip_shift(first, first_valid)
+        )
+        del first, first_valid
         p1 = progress.sub(0.0, 0.5)
-        for i, (_, data, valid) in enumerate(_strips(cube, bands, values["block_rows"])):
-            acc.add_cube(data, valid)
+        for i, _ in enumerate(cube.map_strips(acc.add_cube, rows, bands)):
             p1.update((i + 1) / nwin, "RX: background statistics")
         stats = acc.stats()
         det = rxmod.RXDetector(stats, values["regularize"], wavelengths=wl, band_numbers=bands + 1)
@@ -115,32 +123,34 @@ def _run_rx(values, progress):
         local = values["mode"] == "local"
         if local:
             tags["window"] = f"inner {values['inner']} px, outer {values['outer']} px"
+            h = values["outer"] // 2
+
+            def local_score(win):
+                a, b = win.row_off, win.row_off + win.height
+                e0, e1 = max(0, a - h), min(cube.height, b + h)
+                ext, ext_valid = cube.read(e0, e1, bands, "float64")
+                return rxmod.local_rx(
+                    ext,
+                    det,
+                    values["inner"],
+                    values["outer"],
+                    ext_valid,
+                    first_row=e0,
+                    height=cube.height,
+                    rows=(a, b),
+                    precision=precision,
+                )
+
+            scored = ((win, local_score(win)) for win in cube.windows(rows))
+        else:
+            scored = cube.map_strips(
+                lambda data, valid: det.score_cube(data, valid, precision), rows, bands
+            )
         p2 = progress.sub(0.5, 1.0)
-        dtype = "float32" if precision == "float32" and not local else "float64"
         with io.create_raster(
             values["output"], cube.grid, tags=tags, band_names=["RX score"]
         ) as dst:
-            for i, (win, data, valid) in enumerate(
-                _strips(cube, bands, values["block_rows"], dtype)
-            ):
-                if local:
-                    h = values["outer"] // 2
-                    a, b = win.row_off, win.row_off + win.height
-                    e0, e1 = max(0, a - h), min(cube.height, b + h)
-                    ext, ext_valid = cube.read(e0, e1, bands, "float64")
-                    score = rxmod.local_rx(
-                        ext,
-                        det,
-                        values["inner"],
-                        values["outer"],
-                        ext_valid,
-                        first_row=e0,
-                        height=cube.height,
-                        rows=(a, b),
-                        precision=precision,
-                    )
-                else:
-                    score = det.score_cube(data, valid, precision, inplace=True)
+            for i, (win, score) in enumerate(scored):
                 dst.write(
                     np.where(np.isfinite(score), score, io.FLOAT_NODATA).astype("float32"),
                     1,
@@ -221,6 +231,8 @@ RX = Algorithm(
 
 
 def _run_svdd(values, progress):
+    from ..anomaly import svdd as svddmod
+
     cube, bands, wl = _open_image(values)
     with cube:
         nwin = -(-cube.height // values["block_rows"])
@@ -336,6 +348,8 @@ def _read_one(path, label):
 
 
 def _run_indicator(values, progress):
+    from ..anomaly import indicator as ind
+
     ratio, valid, grid = _read_one(values["ratio"], "ratio raster")
     res = ind.boresight_indicator(
         ratio, valid, values["threshold"], values["tail"], values["window"]
@@ -404,7 +418,7 @@ INDICATOR = Algorithm(
         Enum(
             name="tail",
             description="Which side stands out: both, high or low ratios",
-            choices=ind.TAILS,
+            choices=TAILS,
             default="both",
         ),
         Number(
@@ -428,6 +442,8 @@ INDICATOR = Algorithm(
 
 
 def _run_unmix(values, progress):
+    from ..anomaly import unmix as unmixmod
+
     wl_lib, spectra, names = unmixmod.read_library(values["endmembers"])
     wanted = [n.strip() for n in (values.get("names") or "").split(",") if n.strip()]
     if wanted:
@@ -506,7 +522,7 @@ UNMIX = Algorithm(
         Enum(
             name="method",
             description="fcls: ≥ 0 and sum to 1 (Eq. 11); nnls: ≥ 0; ucls: unconstrained",
-            choices=unmixmod.METHODS,
+            choices=METHODS,
             default="fcls",
         ),
         Number(
@@ -526,6 +542,8 @@ UNMIX = Algorithm(
 
 
 def _run_roc(values, progress):
+    from ..anomaly import roc as rocmod
+
     paths = values["scores"]
     names = [n.strip() for n in (values.get("names") or "").split(",") if n.strip()]
     if names and len(names) != len(paths):
@@ -638,6 +656,8 @@ ROC = Algorithm(
 
 
 def _run_polygons(values, progress):
+    from ..anomaly import polygons as poly
+
     with io.open_raster(values["score"], "score raster") as src:
         s, sv = io.read_masked(src, 1)
         crs = src.crs

@@ -4,26 +4,33 @@ Kernels on arrays: global/local RX (:mod:`.rx`), RBF SVDD (:mod:`.svdd`), the bo
 indicator (:mod:`.indicator`), linear unmixing with endmember libraries (:mod:`.unmix`), ROC
 curves (:mod:`.roc`) and score maps to vector features (:mod:`.polygons`). The functions
 ``rx.rx`` and ``unmix.unmix`` live in their modules (not re-exported: same names).
+
+Names are imported on first use (PEP 562), so running RX does not load SciPy's image module,
+shapely or scikit-learn.
 """
 
-from .indicator import boresight_indicator, robust_zscore
-from .roc import ROC, roc_curve, truth_mask
-from .rx import CovarianceAccumulator, GaussianStats, RXDetector, local_rx
-from .svdd import SVDDModel, fit_svdd
-from .unmix import read_library, resample
+from importlib import import_module
 
-__all__ = [
-    "ROC",
-    "CovarianceAccumulator",
-    "GaussianStats",
-    "RXDetector",
-    "SVDDModel",
-    "boresight_indicator",
-    "fit_svdd",
-    "local_rx",
-    "read_library",
-    "resample",
-    "robust_zscore",
-    "roc_curve",
-    "truth_mask",
-]
+_WHERE = {
+    "ROC": "roc",
+    "roc_curve": "roc",
+    "truth_mask": "roc",
+    "CovarianceAccumulator": "rx",
+    "GaussianStats": "rx",
+    "RXDetector": "rx",
+    "local_rx": "rx",
+    "SVDDModel": "svdd",
+    "fit_svdd": "svdd",
+    "boresight_indicator": "indicator",
+    "robust_zscore": "indicator",
+    "read_library": "unmix",
+    "resample": "unmix",
+}
+
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name):
+    if name in _WHERE:
+        return getattr(import_module(f".{_WHERE[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

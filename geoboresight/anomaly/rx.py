@@ -11,10 +11,12 @@ flight line), factors ``Σ = L Lᵀ`` (Cholesky) once, and scores each strip in 
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
 from scipy import linalg
+from scipy.linalg import blas
 
 from ..errors import InputError, ParameterError
 from .bands import band_label
@@ -30,48 +32,92 @@ class GaussianStats:
 
 
 class CovarianceAccumulator:
-    """Streaming mean and covariance in float64.
+    """Streaming mean and covariance in float64, in one pass over the data.
 
-    Each strip is shifted by the first strip's mean before its sums are added, so the
-    ``Σxxᵀ − N μμᵀ`` subtraction does not lose the digits of a small variance on a large
-    signal (DN of several thousand).
+    Each strip is converted into a reused float64 buffer as ``d = x − c`` (``c``: the first
+    strip's mean, rounded to integers for integer data so that ``d`` and every product are
+    exact), with a row of ones appended, and ``[d; 1][d; 1]ᵀ`` is added with one symmetric
+    rank-k update (NumPy turns ``X @ X.T`` into BLAS ``syrk``): the top-left block is Σddᵀ, the
+    last row Σd and the count, so the mean costs no extra pass. Shifting keeps the digits of a
+    small variance on a large signal (DN of several thousand) in ``Σddᵀ − N d̄d̄ᵀ``. Invalid
+    pixels are zeroed, ones row included, so they add nothing.
+
+    Thread-safe: each thread adds into its own partial sums, added up by :meth:`stats` (give
+    ``shift`` when several threads add, so that it does not depend on which strip came first).
     """
 
-    def __init__(self, k: int):
+    def __init__(self, k: int, shift=None):
         self.k = k
-        self.n = 0
-        self.shift: np.ndarray | None = None
-        self.s = np.zeros(k)
-        self.xx = np.zeros((k, k))
+        self.shift = None if shift is None else np.asarray(shift, dtype=np.float64)
+        self._lock = threading.Lock()
+        self._local = threading.local()
+        self._parts: list[np.ndarray] = []
+
+    @staticmethod
+    def strip_shift(cube: np.ndarray, valid: np.ndarray | None = None) -> np.ndarray:
+        """Mean of a strip's valid pixels, rounded for integer data (a good shift ``c``)."""
+        X = np.asarray(cube).reshape(cube.shape[0], -1)
+        if valid is not None and not valid.all():
+            X = X[:, valid.ravel()]
+        if X.shape[1] == 0:
+            return np.zeros(cube.shape[0])
+        m = X.mean(axis=1, dtype=np.float64)
+        return np.round(m) if X.dtype.kind in "iub" else m
+
+    def _workspace(self, n: int):
+        ws = self._local
+        if getattr(ws, "acc", None) is None:
+            ws.acc = np.zeros((self.k + 1, self.k + 1))
+            ws.buf = np.empty(0)
+            with self._lock:
+                self._parts.append(ws.acc)
+        if ws.buf.size < (self.k + 1) * n:
+            ws.buf = np.empty((self.k + 1) * n)
+        return ws.acc, ws.buf[: (self.k + 1) * n].reshape(self.k + 1, n)
 
     def add_cube(self, cube: np.ndarray, valid: np.ndarray | None = None) -> None:
-        """Add the valid pixels of a float64 (k, rows, cols) strip (modified in place)."""
-        if valid is None or valid.all():
-            self.add(cube.reshape(cube.shape[0], -1))
-        else:
-            self.add(pixels(cube, valid))
-
-    def add(self, X: np.ndarray) -> None:
-        """Add pixels ``X`` of shape (k, n), float64 (shifted in place)."""
-        if X.shape[1] == 0:
+        """Add the valid pixels of a (k, rows, cols) strip of any numeric type (not modified)."""
+        cube = np.asarray(cube)
+        k = cube.shape[0]
+        n = cube.size // k if k else 0
+        if n == 0 or (valid is not None and not valid.any()):
             return
         if self.shift is None:
-            self.shift = X.mean(axis=1)
-        X -= self.shift[:, None]
-        self.s += X.sum(axis=1)
-        self.xx += X @ X.T
-        self.n += X.shape[1]
+            with self._lock:
+                if self.shift is None:
+                    self.shift = self.strip_shift(cube, valid)
+        acc, X = self._workspace(n)
+        np.subtract(cube.reshape(k, n), self.shift[:, None], out=X[:k], casting="unsafe")
+        X[k] = 1.0
+        if valid is not None and not valid.all():
+            X[:, ~valid.ravel()] = 0.0
+        acc += X @ X.T  # syrk: the other triangle is filled by NumPy
+
+    def add(self, X: np.ndarray) -> None:
+        """Add pixels ``X`` of shape (k, n)."""
+        X = np.asarray(X)
+        self.add_cube(X.reshape(X.shape[0], 1, -1))
+
+    def _total(self) -> np.ndarray:
+        with self._lock:
+            return sum(self._parts, np.zeros((self.k + 1, self.k + 1)))
+
+    @property
+    def n(self) -> int:
+        return int(round(self._total()[self.k, self.k]))
 
     def stats(self, ddof: int = 1) -> GaussianStats:
-        if self.n <= ddof:
+        T = self._total()
+        n = int(round(T[self.k, self.k]))
+        if n <= ddof:
             raise InputError(
-                f"only {self.n} valid pixel(s): RX needs a background of many pixels "
+                f"only {n} valid pixel(s): RX needs a background of many pixels "
                 "(check nodata and the valid-pixel mask)"
             )
-        m = self.s / self.n
-        cov = (self.xx - self.n * np.outer(m, m)) / (self.n - ddof)
+        m = T[self.k, : self.k] / n
+        cov = (T[: self.k, : self.k] - n * np.outer(m, m)) / (n - ddof)
         cov = 0.5 * (cov + cov.T)
-        return GaussianStats(mean=m + self.shift, cov=cov, n=self.n)
+        return GaussianStats(mean=m + self.shift, cov=cov, n=n)
 
 
 def pixels(cube: np.ndarray, valid: np.ndarray | None = None, dtype="float64") -> np.ndarray:
@@ -86,7 +132,7 @@ def background_stats(blocks, k: int) -> GaussianStats:
     """Mean and covariance from an iterable of ``(cube (k, rows, cols), valid)`` strips."""
     acc = CovarianceAccumulator(k)
     for cube, valid in blocks:
-        acc.add(pixels(cube, valid))
+        acc.add_cube(cube, valid)
     return acc.stats()
 
 
@@ -153,9 +199,15 @@ class RXDetector:
                 "or pass regularize > 0"
             )
         self.L = L
-        # L⁻¹ once: scoring a strip is then one GEMM, which BLAS runs faster than a TRSM.
+        # W = L⁻¹ once: scoring is then ‖W (x − μ)‖², one triangular matrix product per strip
+        # (BLAS trmm, in place in the strip's buffer).
         self.W = linalg.solve_triangular(L, np.eye(k), lower=True)
-        self._W32 = None
+        self._W = {
+            np.float64: np.asfortranarray(self.W),
+            np.float32: np.asfortranarray(self.W, np.float32),
+        }
+        self._mu = {np.float64: stats.mean, np.float32: stats.mean.astype(np.float32)}
+        self._local = threading.local()
 
     @staticmethod
     def _namer(wavelengths, band_numbers):
@@ -169,36 +221,46 @@ class RXDetector:
         return name
 
     def score(self, X: np.ndarray, precision: str = "float64", inplace: bool = False) -> np.ndarray:
-        """RX scores of pixels ``X`` (k, n); returns float64 (n,).
+        """RX scores of pixels ``X`` (k, n) of any numeric type; returns float64 (n,).
 
         ``precision="float32"`` does the product in single precision (about 2× faster; relative
         error ~1e-5 for a well-conditioned covariance); the covariance is always float64.
+        ``inplace`` is accepted for compatibility: ``X`` is never modified.
+        """
+        X = np.asarray(X)
+        return self.score_cube(X.reshape(X.shape[0], 1, -1), None, precision).ravel()
+
+    def score_cube(self, cube, valid=None, precision="float64", inplace=False):
+        """RX scores (float64) of a (k, rows, cols) strip of any numeric type; NaN where not valid.
+
+        ``x − μ`` is written into a reused buffer of the scoring precision (so integer data is
+        converted once, without a float64 copy of the strip), whitened in place by ``W = L⁻¹``
+        and squared-summed per pixel. Thread-safe: each thread has its own buffer.
         """
         dt = {"float32": np.float32, "float64": np.float64}.get(precision)
         if dt is None:
             raise ParameterError(f"precision must be 'float64' or 'float32', got {precision!r}")
-        if precision == "float32" and self._W32 is None:
-            self._W32 = self.W.astype(np.float32)
-        W = self._W32 if precision == "float32" else self.W
-        mu = self.stats.mean.astype(dt)[:, None]
-        if inplace and isinstance(X, np.ndarray) and X.dtype == dt:
-            X -= mu  # the caller's strip buffer: no extra copy
-            D = X
-        else:
-            D = np.asarray(X, dtype=dt) - mu
-        Z = W @ D
-        return np.einsum("ij,ij->j", Z, Z, dtype=np.float64)
-
-    def score_cube(self, cube, valid=None, precision="float64", inplace=False):
-        """RX scores of a (k, rows, cols) cube; NaN where not valid."""
+        cube = np.asarray(cube)
         k, rows, cols = cube.shape
-        out = np.full(rows * cols, np.nan)
-        flat = cube.reshape(k, -1)
-        if valid is None or valid.all():
-            out[:] = self.score(flat, precision, inplace=inplace)
-        else:
-            v = valid.ravel()
-            out[v] = self.score(flat[:, v], precision)
+        n = rows * cols
+        out = np.full(n, np.nan)
+        v = None if valid is None or valid.all() else valid.ravel()
+        if n == 0 or (v is not None and not v.any()):
+            return out.reshape(rows, cols)
+        buf = getattr(self._local, dt.__name__, None)
+        if buf is None or buf.size < k * n:
+            buf = np.empty(k * n, dtype=dt)
+            setattr(self._local, dt.__name__, buf)
+        D = buf[: k * n].reshape(k, n)
+        np.subtract(cube.reshape(k, n), self._mu[dt][:, None], out=D, casting="unsafe")
+        if v is not None:
+            D[:, ~v] = 0.0
+        # Zᵀ = Dᵀ Wᵀ on the Fortran view Dᵀ of the C-ordered strip: in place, no copy.
+        trmm = blas.strmm if dt is np.float32 else blas.dtrmm
+        Z = trmm(1.0, self._W[dt], D.T, side=1, lower=1, trans_a=1, overwrite_b=1).T
+        out[:] = np.einsum("ij,ij->j", Z, Z)
+        if v is not None:
+            out[~v] = np.nan
         return out.reshape(rows, cols)
 
 
