@@ -360,3 +360,85 @@ def test_same_seed_same_scene_other_seed_other_scene():
     assert np.array_equal(a.dsm, b.dsm) and a.truth == b.truth
     assert not np.array_equal(a.vnir, c.vnir)
     assert 20 < float(np.ptp(simulate_scene("dunes", lines=160, seed=7, noise=False).dsm)) < 32
+
+
+# ------------------------------------------------------------------ sub-material texture
+def test_brightness_field_has_the_requested_statistics():
+    from geoboresight.simulate.surface import brightness_field
+
+    f = brightness_field(np.random.default_rng(1), (400, 400), [(8.0, 0.06), (0.7, 0.05)])
+    assert f.mean() == pytest.approx(1.0, abs=0.01)
+    assert f.std() == pytest.approx(np.hypot(0.06, 0.05), rel=0.1)
+    # Spatially correlated: neighbours 3 m apart still share the 8 m component.
+    d = f - f.mean()
+    lag3 = np.mean(d[:, :-3] * d[:, 3:]) / d.var()
+    assert 0.3 < lag3 < 0.8
+
+
+def test_texture_is_a_spectrally_flat_reflectance_factor():
+    """Pure soil on flat ground with a known factor field: every band's signal follows it."""
+    from dataclasses import replace
+
+    from geoboresight.simulate.surface import brightness_field
+
+    ext = (-400, 400, -200, 800)
+    nx, ny = ext[1] - ext[0] + 1, ext[3] - ext[2] + 1
+    plain = Surface(ext[0], ext[2], 1.0, np.zeros((ny, nx)), {"soil": np.ones((ny, nx))})
+    factor = brightness_field(np.random.default_rng(3), (ny, nx), [(6.0, 0.08)])
+    kw = dict(lines=48, seed=1, targets=0, noise=False, sun_zenith=30.0)
+    a = simulate_scene("urban", surface=replace(plain, brightness={"soil": factor}), **kw)
+    b = simulate_scene("urban", surface=plain, **kw)
+    assert np.array_equal(a.abundances, b.abundances) and np.array_equal(a.dsm, b.dsm)
+    core = (slice(4, -4), slice(4, -4))
+    devs = []
+    for nm in (550.0, 920.0, 1250.0, 2200.0):
+        ta, tb = band(a, nm)[core], band(b, nm)[core]
+        assert np.ptp(tb) < 1e-3 * tb.mean()  # uniform without texture
+        devs.append((ta - tb).ravel())
+    # Spectrally flat: the same pattern in every band of an instrument (VNIR and SWIR see
+    # the ground through their own footprints and PSFs).
+    assert np.corrcoef(devs[0], devs[1])[0, 1] > 0.999
+    assert np.corrcoef(devs[2], devs[3])[0, 1] > 0.999
+    # It is the factor field: sampled at the VNIR footprint centres (from the ray geometry).
+    t = a.truth
+    rows, cols = np.indices(a.dsm.shape)
+    from geoboresight.simulate.geometry import COLS
+
+    x = (cols - (COLS - 1) / 2) * t["gsd_m"]
+    y = rows * t["line_spacing_m"]
+    i = (y - ext[2]) / 1.0
+    j = (x - ext[0]) / 1.0
+    from scipy import ndimage
+
+    smooth = ndimage.gaussian_filter(factor.astype(float), 1.0)
+    at = ndimage.map_coordinates(smooth, [i.ravel(), j.ravel()], order=1).reshape(a.dsm.shape)
+    r = np.corrcoef(at[core].ravel(), devs[1])[0, 1]
+    assert r > 0.9
+    # Amplitude: a uniform factor 1.1 gives the surface signal's 10 % (dark offset and path
+    # radiance cancel in the differences), so (a − b) / signal is the factor − 1 per pixel.
+    c = simulate_scene(
+        "urban", surface=replace(plain, brightness={"soil": np.full((ny, nx), 1.1)}), **kw
+    )
+    signal = (band(c, 920.0) - band(b, 920.0))[core] / 0.1
+    rel = (band(a, 920.0) - band(b, 920.0))[core] / signal
+    assert np.std(rel) == pytest.approx(np.std(at[core]), rel=0.25)
+    assert np.mean(rel) == pytest.approx(np.mean(at[core]) - 1.0, abs=0.01)
+
+
+def test_presets_have_texture_in_open_ground_and_same_layout():
+    kw = dict(lines=64, seed=0, geometry="large-squint", noise=False)
+    a = simulate_scene("mixed", **kw)
+    b = simulate_scene("mixed", texture=False, **kw)
+    assert np.array_equal(a.dsm, b.dsm) and np.array_equal(a.abundances, b.abundances)
+    assert a.truth == b.truth
+    names = a.abundance_names
+    ground = ("soil", "dark_soil", "grass", "dry_vegetation")
+    open_ = sum(a.abundances[names.index(n)] for n in ground)
+    m = (open_ > 0.99) & (a.shadow_fraction < 0.01)
+    assert m.sum() > 500
+    dark = 190.0  # VNIR dark offset (truth.json)
+    ra = band(a, 920.0) - dark
+    rb = band(b, 920.0) - dark
+    # Within-material variation: the pixel-scale relative deviation from the untextured signal.
+    dev = (ra[m] - rb[m]) / rb[m]
+    assert 0.02 < np.std(dev) < 0.12

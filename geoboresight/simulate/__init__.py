@@ -12,7 +12,9 @@ flying height, squint and sun, and see what offset, parallax and shadow ratio to
 **Modelled** (each in its module):
 
 * surface (:mod:`.surface`, :mod:`.presets`): DSM of terrain or dunes, flat-roofed buildings,
-  tree crowns; a material map with sub-pixel mixtures (the scene's texture);
+  tree crowns; a material map with sub-pixel mixtures; texture within each material
+  (spatially correlated, spectrally flat reflectance factors of 2–8 % at ~1 m and several
+  metres: soil moisture and stones, grass density, sand patches, stains; ``presets.TEXTURE``);
 * spectra (:mod:`.spectra`): 198 AISA-Dual bands (96 VNIR 400–970 nm, FWHM 6.5 nm; 102 SWIR
   980–2,450 nm, FWHM 14.5 nm), Gaussian SRFs; measured spectra from earthlib; gray plastic
   bags with polyethylene absorption features (1,215, 1,730, 2,310 nm); clouds;
@@ -34,7 +36,7 @@ effect, ground–sky multiple scattering, BRDF (all surfaces Lambertian), sky ob
 neighbouring objects, light reflected by walls, penumbra, translucent canopies, wall materials,
 smile/keystone and optical distortion, aircraft attitude jitter and GPS/INS, lever arm between
 the optics, Earth curvature, refraction, non-linearity, bad pixels, stray light, fixed-pattern
-noise, moving objects, per-material spectral variability.
+noise, moving objects, spectral variability within a material (the texture is a flat factor).
 """
 
 from .geometry import Geometry, Instrument

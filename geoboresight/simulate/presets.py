@@ -12,6 +12,18 @@ Geometry presets (``geometry=``):
 * ``"large-squint"`` — squint 3°, flying height 1,500 m and nominal altitude = flying height
   (the co-registration removes the flat-ground offset): 0.035 px per metre, about 1 px per
   30 m of relief (σ_h = 28.6 m per pixel), for relative-DEM experiments.
+
+Sub-material texture (:data:`TEXTURE`, :func:`add_texture`): no real ground is uniform at
+1.5 m GSD. Each material class gets a spatially correlated, spectrally flat reflectance
+factor (mean 1) with components at ~1 m and at several to ~10 m, standard deviations of a few
+per cent (built surfaces) to ~8 % (bare soil, grass): soil moisture and roughness, clods and
+stones; grass and dry-vegetation density and tussocks; sand grain-size and colour patches
+and megaripple trains (the 5–30 cm wind ripples average out in a pixel); stains, patches and
+cracks on asphalt and concrete; weathering on roofs; leaf clumping in crowns. Without it,
+green vegetation and soil have nearly the same reflectance near 920–1,010 nm (grass 0.42,
+soil 0.37 in earthlib) and open ground would be featureless in the boresight bands, which
+real fields are not. The factors are drawn from their own generator (seed, 303), so the
+layout of a scene (terrain, buildings, trees, targets, clouds) does not depend on them.
 """
 
 from __future__ import annotations
@@ -20,7 +32,7 @@ import numpy as np
 
 from .geometry import NOMINAL_ALTITUDE_M
 from .spectra import MATERIAL_IDS
-from .surface import Surface, smooth_field
+from .surface import Surface, brightness_field, smooth_field
 
 SCENES = ("urban", "dunes", "glade", "mixed")
 GEOMETRIES = {
@@ -284,3 +296,32 @@ def mixed(rng: np.random.Generator, extent, core=None) -> Surface:
 
 
 BUILDERS = {"urban": urban, "dunes": dunes, "glade": glade, "mixed": mixed}
+
+_SOIL = ((8.0, 0.06), (0.7, 0.05))  # moisture/roughness patches; clods and stones
+_VEGETATION = ((4.0, 0.06), (0.7, 0.05))  # cover density, vigour; tussocks and gaps
+#: Material group → (correlation length m, standard deviation) components of its reflectance
+#: factor; materials of one group share one field (e.g. the moisture pattern of soil and dark
+#: soil). Typical within-field variation at metre scales: a few to ~10 % (see the module doc).
+TEXTURE = {
+    ("soil", "dark_soil"): _SOIL,
+    ("grass", "dry_vegetation"): _VEGETATION,
+    ("sand",): ((6.0, 0.04), (1.0, 0.03)),  # grain-size/colour patches; megaripple trains
+    ("gravel",): ((5.0, 0.03), (0.7, 0.06)),  # patches; single stones
+    ("asphalt", "concrete"): ((2.0, 0.03), (0.7, 0.02)),  # patches and stains; cracks
+    ("roof_shingle", "roof_tile", "roof_metal"): ((3.0, 0.02),),  # weathering
+    ("tree",): ((0.7, 0.04),),  # leaf clumping (crown shading comes from the DSM)
+}
+
+
+def add_texture(surface: Surface, rng: np.random.Generator, texture=None) -> Surface:
+    """``surface`` with sub-material brightness fields (:data:`TEXTURE`) on its coarse grid."""
+    from dataclasses import replace
+
+    texture = TEXTURE if texture is None else texture
+    shape = surface.terrain.shape
+    fields = {}
+    for group, components in texture.items():
+        f = brightness_field(rng, shape, components, surface.cell)
+        for name in group:
+            fields[name] = f
+    return replace(surface, brightness=fields)

@@ -8,7 +8,9 @@ The simulation runs in along-track blocks of lines, so memory is bounded by a bl
 3. each instrument's pixels are sampled by ``supersample²`` rays spread over the pixel's
    IFOV and line period, intersected with the DSM (:mod:`.geometry`); at each hit the material
    fractions and illumination are interpolated from the fine grid;
-4. per pixel and material: the mean direct-light and sky-light coefficients; sub-pixel targets
+4. per pixel and material: the mean direct-light and sky-light coefficients, times the
+   sub-material brightness factor of each ray's ground cell (the texture within a material,
+   :data:`.presets.TEXTURE`; it scales the signal, not the truth abundances); sub-pixel targets
    replace a fraction of the pixel exactly (footprint ∩ target rectangle); clouds above the
    ground are seen at each instrument's own footprint on the cloud layer;
 5. the instrument PSF blurs the coefficient images; radiance per band follows from the
@@ -177,6 +179,7 @@ def simulate_scene(
     noise: bool = True,
     supersample: int = 3,
     surface: Surface | None = None,
+    texture: bool = True,
     progress: Progress | None = None,
 ) -> Scene:
     """Simulate a VNIR + SWIR pushbroom scene with its ground truth.
@@ -209,7 +212,13 @@ def simulate_scene(
     supersample : int
         Rays per pixel side (footprint integration and sub-pixel shadow fraction).
     surface : Surface
-        A custom surface instead of the preset's.
+        A custom surface instead of the preset's (its own ``brightness`` fields, if any, are
+        used; ``texture`` does not add any).
+    texture : bool
+        Give a preset's materials their sub-material brightness texture (soil moisture and
+        stones, grass density, sand patches, stains; :data:`.presets.TEXTURE`, drawn from
+        its own generator so the scene's layout is the same either way). False gives
+        uniform materials (each exactly its library spectrum): for tests and comparisons.
     """
     if preset not in _presets.SCENES:
         raise ParameterError(
@@ -262,6 +271,8 @@ def simulate_scene(
         surface = _presets.BUILDERS[preset](
             rng, extent, core=(xs.min(), xs.max(), ys.min(), ys.max())
         )
+        if texture:
+            surface = _presets.add_texture(surface, np.random.default_rng([seed, 303]))
     progress.update(0.05, "surface built")
 
     names = list(surface.materials)
@@ -289,6 +300,8 @@ def simulate_scene(
             "F": np.zeros((K, lines, COLS), "float32"),
             "Dc": np.zeros((lines, COLS), "float32"),
             "Fc": np.zeros((lines, COLS), "float32"),
+            "Du": np.zeros((lines, COLS), "float32"),  # D and F of a factor-1 surface
+            "Fu": np.zeros((lines, COLS), "float32"),
             "x": np.zeros((lines, COLS), "float64"),
             "y": np.zeros((lines, COLS), "float64"),
         }
@@ -340,14 +353,17 @@ def simulate_scene(
             sunlit = lit.astype("float32")
         direct = (np.clip(cos_i, 0, None) * sunlit).astype("float32")
         sky = sky_view(dsm, cell, ground_z).astype("float32")
+        bright = surface.brightness_on(win, frac, names)
         maps = np.concatenate(
             [
                 frac,
                 direct[None],
                 sky[None],
                 (1.0 - sunlit)[None].astype("float32"),
+                bright[None],
             ]
         )
+        del bright
         z_lo = float(dsm.min()) - 0.01
         z_hi = float(dsm.max()) + 0.01
         for inst, (t, u, v) in rays.items():
@@ -367,8 +383,11 @@ def simulate_scene(
             shape = (K, l1 - l0, COLS, sub * sub)
             a = acc[inst]
             ground = 1.0 - c
-            a["D"][:, l0:l1] = (fr * (di * ground)).reshape(shape).mean(-1)
-            a["F"][:, l0:l1] = (fr * (sk * ground)).reshape(shape).mean(-1)
+            br = s[K + 3]
+            a["D"][:, l0:l1] = (fr * (di * ground * br)).reshape(shape).mean(-1)
+            a["F"][:, l0:l1] = (fr * (sk * ground * br)).reshape(shape).mean(-1)
+            a["Du"][l0:l1] = (di * ground).reshape(shape[1:]).mean(-1)
+            a["Fu"][l0:l1] = (sk * ground).reshape(shape[1:]).mean(-1)
             a["Dc"][l0:l1] = (c * cos_z).reshape(shape[1:]).mean(-1)
             a["Fc"][l0:l1] = c.reshape(shape[1:]).mean(-1)
             a["x"][l0:l1] = x.reshape(shape[1:]).mean(-1)
@@ -403,8 +422,9 @@ def simulate_scene(
         for inst in ("vnir", "swir"):
             a = acc[inst]
             cover = _target_cover(target_list, a["x"], a["y"], geo)
-            total_d = a["D"].sum(0)
-            total_f = a["F"].sum(0)
+            # The bag has its own reflectance: the ground's texture does not apply to it.
+            total_d = a["Du"]
+            total_f = a["Fu"]
             a["D"] *= 1.0 - cover
             a["F"] *= 1.0 - cover
             a["D"][k] += cover * total_d

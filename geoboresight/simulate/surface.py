@@ -9,10 +9,15 @@ heights ≥ 0 with the lowest ground at 0):
   (e.g. grass and soil in varying proportions: this is the scene's fine texture);
 * ``roads``: rectangles of one material (``asphalt``, ``concrete``, ...) painted on the ground;
 * ``buildings``: boxes with flat roofs (height above the terrain at the box centre);
-* ``trees``: crowns as ellipsoid caps on a trunk, of the ``tree`` material.
+* ``trees``: crowns as ellipsoid caps on a trunk, of the ``tree`` material;
+* ``brightness``: per material, a multiplicative reflectance factor field on the same grid
+  (mean 1): the variation *within* a material that real ground always has at 1.5 m GSD —
+  soil moisture and roughness, clods and stones, grass density, sand patches, stains on
+  asphalt (see :func:`brightness_field` and ``presets.TEXTURE``). Spectrally flat: it scales
+  a material's reflectance at every wavelength by the same factor.
 
 :meth:`Surface.rasterize` turns a window of it into a fine grid (``dsm`` and per-material
-area fractions). Everything is vectorised over grid cells; objects are looped over only to
+area fractions); :meth:`Surface.brightness_on` gives the brightness factor of each fine cell. Everything is vectorised over grid cells; objects are looped over only to
 find the few that touch a window.
 
 Not modelled: sloping or pitched roofs, vertical wall materials (walls only occlude and cast
@@ -61,6 +66,8 @@ class Surface:
     ``buildings``: (n, 6) array of x_min, x_max, y_min, y_max, height, roof material id.
     ``roads``: (n, 5) array of x_min, x_max, y_min, y_max, material id (later rows on top).
     ``trees``: (n, 4) array of x, y, crown radius, total height.
+    ``brightness``: material name → reflectance factor field on the coarse grid (mean ≈ 1);
+    materials without one keep their library reflectance everywhere.
     """
 
     x0: float
@@ -71,6 +78,7 @@ class Surface:
     roads: np.ndarray = field(default_factory=lambda: np.zeros((0, 5)))
     buildings: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
     trees: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+    brightness: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def materials(self) -> list[str]:
@@ -111,6 +119,27 @@ class Surface:
             self._terrain_coef, [i, j], order=3, mode="nearest", prefilter=False
         )
         return z.reshape(shape)
+
+    def brightness_on(self, win: Window, frac: np.ndarray, materials: list[str]) -> np.ndarray:
+        """(ny, nx) float32 reflectance factor of each fine cell: Σ_m fraction_m · factor_m.
+
+        A cell mixing materials gets the area-weighted factor of its parts, applied to the
+        cell's whole reflectance (exact for a pure cell; the cells are a third of a pixel).
+        """
+        out = np.ones((win.ny, win.nx), "float32")
+        if not self.brightness:
+            return out
+        xs, ys = win.xy(np.arange(win.ny), np.arange(win.nx))
+        X, Y = np.meshgrid(xs, ys)
+        sampled: dict[int, np.ndarray] = {}  # one lookup per field shared by several materials
+        for k, name in enumerate(materials):
+            f = self.brightness.get(name)
+            if f is None or k >= frac.shape[0]:
+                continue
+            if id(f) not in sampled:
+                sampled[id(f)] = self._coarse(f, X, Y).reshape(X.shape).astype("float32")
+            out += frac[k] * (sampled[id(f)] - 1.0)
+        return out
 
     def rasterize(self, win: Window, materials: list[str]):
         """(dsm, fractions, ground) on ``win``: the surface (ny, nx), the material fractions
@@ -178,3 +207,16 @@ def smooth_field(rng: np.random.Generator, shape, sigma_cells: float) -> np.ndar
     """A zero-mean, unit-std Gaussian random field (white noise blurred by ``sigma_cells``)."""
     f = ndimage.gaussian_filter(rng.standard_normal(shape), sigma_cells, mode="wrap")
     return (f - f.mean()) / (f.std() + 1e-12)
+
+
+def brightness_field(rng: np.random.Generator, shape, components, cell: float = 1.0):
+    """A reflectance factor field ``1 + Σ std_i · field_i`` (float32, clipped to 0.6–1.4).
+
+    ``components``: (correlation length in metres, standard deviation) pairs, each a Gaussian
+    random field (:func:`smooth_field`) with that blur on a grid of ``cell`` metres; e.g.
+    ``[(8.0, 0.06), (0.7, 0.05)]`` for moisture patches of ~10 m and clods/stones of ~1 m.
+    """
+    f = np.ones(shape, "float64")
+    for length_m, std in components:
+        f += std * smooth_field(rng, shape, max(length_m / cell, 0.3))
+    return np.clip(f, 0.6, 1.4).astype("float32")
