@@ -54,10 +54,12 @@ IMAGE_PARAMS = (
     ),
 )
 
+# 16 lines of a 286-sample AISA line = 4,576 pixels: a strip's float buffers stay within a few
+# MB (cache-friendly, and memory is a few strips per worker thread).
 BLOCK_ROWS = Number(
     name="block_rows",
-    description="Lines read at a time (memory is bounded by one block of lines)",
-    default=64,
+    description="Lines read at a time (memory is bounded by a few blocks of lines)",
+    default=16,
     minimum=1,
     maximum=100000,
     integer=True,
@@ -243,12 +245,14 @@ def _run_svdd(values, progress):
         pos = np.sort(rng.choice(npix, min(npix, int(want * 1.5) + 10), replace=False))
         picked = []
         p1 = progress.sub(0.0, 0.2)
-        for i, (win, data, valid) in enumerate(_strips(cube, bands, values["block_rows"])):
+        for i, (win, data, valid) in enumerate(
+            _strips(cube, bands, values["block_rows"], dtype=None)
+        ):
             a = win.row_off * cube.width
             lo, hi = np.searchsorted(pos, [a, a + win.height * cube.width])
             local = pos[lo:hi] - a
             local = local[valid.ravel()[local]]
-            picked.append(data.reshape(len(bands), -1)[:, local].T.copy())
+            picked.append(data.reshape(len(bands), -1)[:, local].T.astype(np.float64))
             p1.update((i + 1) / nwin, "SVDD: background sample")
         sample = np.concatenate(picked)
         if len(sample) > want:
@@ -271,8 +275,10 @@ def _run_svdd(values, progress):
         with io.create_raster(
             values["output"], cube.grid, tags=tags, band_names=["SVDD score"]
         ) as dst:
-            for i, (win, data, valid) in enumerate(_strips(cube, bands, values["block_rows"])):
-                score = model.score_cube(data, valid)
+            # Strips in the files' own type, scored in worker threads (thread-safe model).
+            for i, (win, score) in enumerate(
+                cube.map_strips(model.score_cube, values["block_rows"], bands)
+            ):
                 dst.write(
                     np.where(np.isfinite(score), score, io.FLOAT_NODATA).astype("float32"),
                     1,
