@@ -1,35 +1,43 @@
 """Benchmark: global RX and SVDD scoring on a flight-line-sized cube, against the peers.
 
-    python benchmarks/anomaly_rx_svdd.py [--lines 20000] [--tmp /tmp]
+    python benchmarks/anomaly_rx_svdd.py [--lines 20000] [--spy-lines N] [--svdd-lines 1000]
 
 Generates a 286 × lines × 198 int16 ENVI BIL cube on disk block by block (20,000 lines:
-2.27 GB), then, each in its own subprocess (time and peak RSS measured there; a crash or an OOM
-kill cannot take this script down):
+2.27 GB) in a temporary directory (deleted at the end), then measures, each in a fresh Python
+process (benchmarks/_measure.py: wall time and peak RSS; a crash or an OOM kill cannot take this
+script down):
 
-* ``geoboresight rx`` end to end (two streaming passes from disk, GeoTIFF written), float64 and
-  float32 scoring;
+* the peak RSS of importing numpy + rasterio alone (the floor of any raster tool in Python);
+* ``geoboresight rx`` end to end (two streaming passes from disk, GeoTIFF written), float64
+  and float32 scoring; time from the call (imports excluded), peak RSS of the whole process
+  (imports included: the operation is looked up through the algorithm registry, as the CLI
+  does; one more float64 row imports the anomaly spec module alone);
 * ``spectral.rx`` on the same cube loaded in memory (SPy needs it there; load time reported
-  apart and *not* counted against SPy). SPy peaks at ~9× the cube size: if the machine's
-  available memory does not allow that with a 4 GB margin, the SPy comparison uses the largest
-  prefix of lines that fits (both sides then run on that same prefix) and says so;
-* SVDD scoring (one model trained on a 1,000-pixel sample, ν = 0.01): scikit-learn's
-  ``OneClassSVM.decision_function`` vs ``SVDDModel.decision`` (BLAS) on the same pixels, with
-  the largest score difference.
-
-The cube is deleted at the end.
+  apart and *not* counted against SPy), with its default BLAS threads and with one BLAS thread.
+  SPy peaks at ~9× the cube (~20 GB at 20,000 lines): it runs on all lines only when at least
+  ``--spy-min-gb`` (22) GB are available, else on the first ``--spy-lines`` (10,000) lines,
+  and geoboresight is timed again on that same prefix for the ratio;
+* SVDD scoring: scikit-learn's ``OneClassSVM.decision_function`` on the pixels in memory
+  (float64, its best layout; conversion not counted) against geoboresight's scoring path
+  (``Cube.map_strips`` over the file + ``SVDDModel.decision``, reading and conversion counted),
+  for models trained by ``fit_svdd``'s own rule (σ = median pairwise distance) on the
+  operation's default sample (1,000 px, ν = 0.01) and on larger samples and ν, which give
+  hundreds of support vectors. Scores must be equal (largest difference printed).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import subprocess
+import shutil
 import sys
 import tempfile
 import time
 
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _measure import measure  # noqa: E402
 
 COLS, BANDS = 286, 198
 
@@ -46,81 +54,28 @@ def make_cube(path, lines, seed=0, block=500):
             spec = ab @ mats + rng.normal(0, 12, (n * COLS, BANDS))
             cube = spec.reshape(n, COLS, BANDS).transpose(0, 2, 1)  # BIL: line, band, sample
             cube.astype("<i2").tofile(f)
-    hdr = os.path.splitext(path)[0] + ".hdr"
-    with open(hdr, "w") as f:
+    write_header(path, lines, wl)
+    return os.path.splitext(path)[0] + ".hdr"
+
+
+def write_header(img, lines, wl=None):
+    if wl is None:
+        wl = np.concatenate([np.linspace(400, 970, 96), np.linspace(980, 2450, 102)])
+    with open(os.path.splitext(img)[0] + ".hdr", "w") as f:
         f.write(
             f"ENVI\nsamples = {COLS}\nlines = {lines}\nbands = {BANDS}\nheader offset = 0\n"
             "file type = ENVI Standard\ndata type = 2\ninterleave = bil\nbyte order = 0\n"
             "wavelength units = Nanometers\n"
             "wavelength = {" + ", ".join(f"{w:.2f}" for w in wl) + "}\n"
         )
-    return hdr
 
 
-CHILD = r"""
-import json, resource, sys, time
-import numpy as np
-kind, path, lines, extra = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4]
-out = {}
-def peak_gb():
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
-if kind in ("ours64", "ours32"):
-    from geoboresight.algorithms import get
-    t = time.perf_counter()
-    get("rx")(image=path, exclude_nm="", precision="float64" if kind == "ours64" else "float32",
-              output=extra, overwrite=True)
-    out["time"] = time.perf_counter() - t
-    import rasterio
-    with rasterio.open(extra) as src:
-        s = src.read(1, window=((0, lines), (0, 286))).astype(np.float64)
-    np.save(extra + ".npy", s)
-elif kind == "spy":
-    import spectral
-    t = time.perf_counter()
-    mm = np.memmap(path.replace(".hdr", ".img"), dtype="<i2", mode="r", shape=(lines, 198, 286))
-    X = np.ascontiguousarray(mm[:lines].transpose(0, 2, 1))  # (rows, cols, bands) in memory
-    out["load"] = time.perf_counter() - t
-    t = time.perf_counter()
-    s = spectral.rx(X)
-    out["time"] = time.perf_counter() - t
-    np.save(extra, s.astype(np.float64))
-elif kind in ("svdd_sk", "svdd_ours"):
-    from sklearn.svm import OneClassSVM
-    from geoboresight.anomaly.svdd import fit_svdd
-    mm = np.memmap(path.replace(".hdr", ".img"), dtype="<i2", mode="r", shape=(lines, 198, 286))
-    rng = np.random.default_rng(0)
-    rows = rng.integers(0, lines, 1000); cols = rng.integers(0, 286, 1000)
-    sample = mm[rows, :, cols].astype(np.float64)
-    model = fit_svdd(sample, nu=0.01)
-    out["support_vectors"] = int(len(model.alpha))
-    X = np.ascontiguousarray(mm[:lines].transpose(1, 0, 2)).reshape(198, -1)  # (bands, pixels)
-    if kind == "svdd_sk":
-        sk = OneClassSVM(kernel="rbf", gamma=model.gamma, nu=0.01, tol=1e-4).fit(sample)
-        Xp = X.T.astype(np.float64)
-        t = time.perf_counter()
-        d = sk.decision_function(Xp)
-        out["time"] = time.perf_counter() - t
-    else:
-        t = time.perf_counter()
-        d = np.concatenate([model.decision(X[:, a:a + 65536]) for a in range(0, X.shape[1], 65536)])
-        out["time"] = time.perf_counter() - t
-    np.save(extra, d)
-out["peak_gb"] = peak_gb()
-print(json.dumps(out))
-"""
-
-
-def child(kind, path, lines, extra):
-    t = time.perf_counter()
-    p = subprocess.run(
-        [sys.executable, "-c", CHILD, kind, path, str(lines), extra], capture_output=True, text=True
-    )
-    if p.returncode != 0:
-        return {
-            "error": f"exit {p.returncode}: {p.stderr.strip().splitlines()[-1:] if p.stderr else ''}",
-            "wall": time.perf_counter() - t,
-        }
-    return json.loads(p.stdout.strip().splitlines()[-1])
+def prefix_cube(work, img, lines):
+    """The first ``lines`` lines of the cube as their own ENVI file (a symlink + header)."""
+    sub = os.path.join(work, f"first{lines}.img")
+    os.symlink(img, sub)
+    write_header(sub, lines)
+    return os.path.splitext(sub)[0] + ".hdr"
 
 
 def available_gb():
@@ -131,10 +86,84 @@ def available_gb():
     return 0.0
 
 
+def ours_rx(hdr, lines, out, precision, via="registry"):
+    imp = (
+        "from geoboresight.algorithms import get\nalg = get('rx')"
+        if via == "registry"
+        else "from geoboresight.algorithms.anomaly import RX as alg"
+    )
+    return measure(f"""
+{imp}
+extra["import_peak_mib"] = peak_mib()
+t = time.perf_counter()
+alg(image={hdr!r}, exclude_nm="", precision={precision!r}, output={out!r}, overwrite=True)
+extra["time"] = time.perf_counter() - t
+extra["run_peak_mib"] = peak_mib()
+import numpy as np, rasterio
+with rasterio.open({out!r}) as src:
+    np.save({out!r} + ".npy", src.read(1).astype(np.float64))
+""")
+
+
+def spy_rx(img, lines, out, threads=None):
+    env = {"OPENBLAS_NUM_THREADS": str(threads)} if threads else None
+    return measure(
+        f"""
+import numpy as np, spectral
+t = time.perf_counter()
+mm = np.memmap({img!r}, dtype="<i2", mode="r", shape=({lines}, {BANDS}, {COLS}))
+X = np.ascontiguousarray(mm.transpose(0, 2, 1))  # (rows, cols, bands) in memory
+del mm
+extra["load"] = time.perf_counter() - t
+t = time.perf_counter()
+s = spectral.rx(X)
+extra["time"] = time.perf_counter() - t
+np.save({out!r}, s.astype(np.float64))
+""",
+        env=env,
+    )
+
+
+def svdd_pair(img, hdr, lines, size, nu):
+    return measure(f"""
+import numpy as np
+from sklearn.svm import OneClassSVM
+from geoboresight.anomaly.svdd import fit_svdd
+from geoboresight.io.cube import open_cube
+mm = np.memmap({img!r}, dtype="<i2", mode="r", shape=({lines}, {BANDS}, {COLS}))
+rng = np.random.default_rng(0)
+rows = rng.integers(0, {lines}, {size}); cols = rng.integers(0, {COLS}, {size})
+sample = mm[rows, :, cols].astype(np.float64)
+model = fit_svdd(sample, nu={nu})
+extra["n_sv"] = int(len(model.alpha)); extra["sigma"] = model.sigma
+sk = OneClassSVM(kernel="rbf", gamma=model.gamma, nu={nu}, tol=1e-4).fit(sample)
+Xp = np.ascontiguousarray(mm.transpose(0, 2, 1)).reshape(-1, {BANDS}).astype(np.float64)
+t = time.perf_counter()
+ref = sk.decision_function(Xp)
+extra["sk_time"] = time.perf_counter() - t
+del Xp
+with open_cube({hdr!r}) as cube:
+    t = time.perf_counter()
+    got = np.concatenate([d.ravel() for _, d in cube.map_strips(
+        lambda data, valid: model.decision(data.reshape({BANDS}, -1)), 16)])
+    extra["ours_time"] = time.perf_counter() - t
+extra["max_abs_diff"] = float(np.abs(got - ref).max())
+extra["max_rel_diff"] = float(np.abs(got - ref).max() / np.abs(ref).max())
+""")
+
+
+def rel_diff(a_path, ref_path):
+    a, ref = np.load(a_path).ravel(), np.load(ref_path).ravel()
+    return float(np.max(np.abs(a - ref) / np.abs(ref)))
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--lines", type=int, default=20000)
-    ap.add_argument("--svdd-lines", type=int, default=2000)
+    ap.add_argument("--spy-lines", type=int, default=10000)
+    ap.add_argument("--spy-min-gb", type=float, default=22.0)
+    ap.add_argument("--svdd-lines", type=int, default=1000)
+    ap.add_argument("--svdd", default="1000:0.01,5000:0.05,5000:0.1", help="size:nu,...")
     ap.add_argument("--tmp", default="/tmp")
     a = ap.parse_args()
     work = tempfile.mkdtemp(prefix="gb_anom_bench_", dir=a.tmp)
@@ -144,97 +173,116 @@ def main():
         hdr = make_cube(img, a.lines)
         size = os.path.getsize(img) / 1e9
         print(
-            f"cube: {COLS} × {a.lines} × {BANDS} int16 BIL, {size:.2f} GB, written in {time.perf_counter() - t:.0f} s"
+            f"cube: {COLS} × {a.lines} × {BANDS} int16 BIL, {size:.2f} GB, written in "
+            f"{time.perf_counter() - t:.0f} s; load average {os.getloadavg()[0]:.1f} "
+            f"on {os.cpu_count()} CPUs",
+            flush=True,
         )
-        per_line = COLS * BANDS * 2 * 9 / 1024**3
-        avail = available_gb()
-        spy_lines = int(min(a.lines, max(500, (avail - 6.0) / per_line)))
-        note = ""
-        if spy_lines < a.lines:
-            note = (
-                f"available memory {avail:.1f} GB: SPy needs ~{per_line * a.lines:.1f} GB for all "
-                f"{a.lines} lines, so the SPy comparison uses the first {spy_lines} lines"
-            )
-            print(note)
-        rows = []
-        o64 = child("ours64", hdr, a.lines, os.path.join(work, "rx64.tif"))
-        o32 = child("ours32", hdr, a.lines, os.path.join(work, "rx32.tif"))
-        rows.append(("geoboresight rx float64 (full cube, from disk)", a.lines, o64))
-        rows.append(("geoboresight rx float32 (full cube, from disk)", a.lines, o32))
-        if spy_lines < a.lines:
-            sub = os.path.join(work, "sub.img")
-            with open(img, "rb") as src, open(sub, "wb") as dst:
-                remaining = spy_lines * COLS * BANDS * 2
-                while remaining:
-                    chunk = src.read(min(remaining, 1 << 26))
-                    dst.write(chunk)
-                    remaining -= len(chunk)
-            txt = open(hdr).read().replace(f"lines = {a.lines}", f"lines = {spy_lines}")
-            sub_hdr = os.path.join(work, "sub.hdr")
-            open(sub_hdr, "w").write(txt)
-            s64 = child("ours64", sub_hdr, spy_lines, os.path.join(work, "rx64s.tif"))
-            s32 = child("ours32", sub_hdr, spy_lines, os.path.join(work, "rx32s.tif"))
-            rows.append((f"geoboresight rx float64 ({spy_lines} lines)", spy_lines, s64))
-            rows.append((f"geoboresight rx float32 ({spy_lines} lines)", spy_lines, s32))
-            spy_hdr = sub_hdr
-            f64, f32 = os.path.join(work, "rx64s.tif.npy"), os.path.join(work, "rx32s.tif.npy")
-        else:
-            spy_hdr = hdr
-            f64, f32 = os.path.join(work, "rx64.tif.npy"), os.path.join(work, "rx32.tif.npy")
-        spy = child("spy", spy_hdr, spy_lines, os.path.join(work, "spy.npy"))
-        rows.append((f"spectral.rx in memory ({spy_lines} lines)", spy_lines, spy))
-        diffs = {}
-        if "error" not in spy:
-            ref = np.load(os.path.join(work, "spy.npy"))
-            for name, f in (("float64", f64), ("float32", f32)):
-                if os.path.exists(f):
-                    ours = np.load(f)
-                    diffs[name] = float(np.max(np.abs(ours - ref) / np.abs(ref)))
-        print()
-        print(
-            "| RX | lines | time (s) | peak RSS (GB) | time vs spectral.rx | max rel. diff vs SPy |"
-        )
-        print("|---|---|---|---|---|---|")
-        for name, n, r in rows:
-            if "error" in r:
-                print(f"| {name} | {n} | failed: {r['error']} | | | |")
-                continue
-            ratio = ""
-            if "error" not in spy and n == spy_lines and not name.startswith("spectral"):
-                ratio = f"{r['time'] / spy['time']:.2f}×"
-            d = ""
-            if n == spy_lines and not name.startswith("spectral"):
-                d = f"{diffs.get('float32' if 'float32' in name else 'float64', float('nan')):.1e}"
-            extra = (
-                f" (+ {spy['load']:.1f} s load, not counted)"
-                if name.startswith("spectral") and "load" in r
-                else ""
-            )
-            print(f"| {name} | {n} | {r['time']:.1f}{extra} | {r['peak_gb']:.2f} | {ratio} | {d} |")
-        if note:
-            print(f"\nNote: {note}.")
-        # SVDD scoring
-        n = min(a.svdd_lines, a.lines)
-        sk = child("svdd_sk", hdr, n, os.path.join(work, "sk.npy"))
-        us = child("svdd_ours", hdr, n, os.path.join(work, "us.npy"))
-        print()
-        print("| SVDD scoring | pixels | support vectors | time (s) | speed-up | max abs diff |")
-        print("|---|---|---|---|---|---|")
-        if "error" in sk or "error" in us:
-            print(f"| failed | | | {sk.get('error', '')} {us.get('error', '')} | | |")
-        else:
-            d = np.abs(
-                np.load(os.path.join(work, "sk.npy")) - np.load(os.path.join(work, "us.npy"))
-            ).max()
-            print(
-                f"| sklearn OneClassSVM.decision_function | {n * COLS} | {sk['support_vectors']} | {sk['time']:.2f} | 1× | |"
-            )
-            print(
-                f"| geoboresight SVDDModel.decision (BLAS) | {n * COLS} | {us['support_vectors']} | {us['time']:.2f} | {sk['time'] / us['time']:.1f}× | {d:.1e} |"
-            )
-    finally:
-        import shutil
 
+        base = measure("import numpy, rasterio")
+        print(f"import numpy + rasterio alone: peak RSS {base['peak_mib']:.0f} MiB", flush=True)
+
+        rows = []  # (label, lines, result, npy, precision)
+
+        def run_ours(h, n, tag):
+            for prec in ("float64", "float32"):
+                out = os.path.join(work, f"rx_{tag}_{prec}.tif")
+                r = ours_rx(h, n, out, prec)
+                rows.append(
+                    (
+                        f"geoboresight rx {prec} (from disk, 2 passes, GeoTIFF)",
+                        n,
+                        r,
+                        out + ".npy",
+                        prec,
+                    )
+                )
+                print(rows[-1][:3], flush=True)
+
+        run_ours(hdr, a.lines, "all")
+        out = os.path.join(work, "rx_direct.tif")
+        r = ours_rx(hdr, a.lines, out, "float64", via="module")
+        rows.append(
+            ("geoboresight rx float64, spec module imported alone", a.lines, r, None, "float64")
+        )
+        print(rows[-1][:3], flush=True)
+
+        avail = available_gb()
+        spy_lines, spy_img, spy_hdr = a.lines, img, hdr
+        note = f"available memory before SPy: {avail:.1f} GB"
+        if avail < a.spy_min_gb and a.lines > a.spy_lines:
+            spy_lines = a.spy_lines
+            spy_hdr = prefix_cube(work, img, spy_lines)
+            spy_img = os.path.splitext(spy_hdr)[0] + ".img"
+            note += (
+                f" < {a.spy_min_gb:g} GB needed for SPy on {a.lines} lines (~9× the cube): "
+                f"SPy and geoboresight compared on the first {spy_lines} lines"
+            )
+            run_ours(spy_hdr, spy_lines, "sub")
+        print(note, flush=True)
+        spy_out = os.path.join(work, "spy.npy")
+        spy = spy_rx(spy_img, spy_lines, spy_out)
+        print(("spy", spy), flush=True)
+        spy1 = spy_rx(spy_img, spy_lines, os.path.join(work, "spy1.npy"), threads=1)
+        print(("spy 1 thread", spy1), flush=True)
+
+        print(f"\nimport numpy + rasterio alone: peak RSS {base['peak_mib'] / 1024:.3f} GB\n")
+        print(
+            "| RX | lines | time (s) | peak RSS (GB) | of which imports (GB) | time vs spectral.rx "
+            "(default threads / 1 BLAS thread) | max rel. diff vs SPy |"
+        )
+        print("|---|---|---|---|---|---|---|")
+        for name, n, r, npy, _ in rows:
+            if "error" in r:
+                print(f"| {name} | {n} | failed: {r['error']} | | | | |")
+                continue
+            ratio = diff = ""
+            if n == spy_lines:
+                if "error" not in spy and "error" not in spy1:
+                    ratio = f"{r['time'] / spy['time']:.3f}× / {r['time'] / spy1['time']:.3f}×"
+                if npy and "error" not in spy:
+                    diff = f"{rel_diff(npy, spy_out):.1e}"
+            print(
+                f"| {name} | {n} | {r['time']:.2f} | {r['run_peak_mib'] / 1024:.3f} | "
+                f"{r['import_peak_mib'] / 1024:.3f} | {ratio} | {diff} |"
+            )
+        for name, r in (
+            ("spectral.rx in memory, default BLAS threads", spy),
+            ("spectral.rx in memory, OPENBLAS_NUM_THREADS=1", spy1),
+        ):
+            if "error" in r:
+                print(f"| {name} | {spy_lines} | failed: {r['error']} | | | | |")
+            else:
+                print(
+                    f"| {name} | {spy_lines} | {r['time']:.2f} (+ {r['load']:.1f} s load, not "
+                    f"counted) | {r['peak_mib'] / 1024:.2f} | | | |"
+                )
+        print(f"\nNote: {note}.")
+
+        n = min(a.svdd_lines, a.lines)
+        sub_hdr = prefix_cube(work, img, n) if n < a.lines else hdr
+        sub_img = os.path.splitext(sub_hdr)[0] + ".img"
+        print(
+            "\n| SVDD scoring | pixels | training sample | ν | support vectors | "
+            "sklearn decision_function (s) | geoboresight (s) | speed-up | max abs diff "
+            "(rel. to max) |"
+        )
+        print("|---|---|---|---|---|---|---|---|---|")
+        for spec in a.svdd.split(","):
+            size, nu = spec.split(":")
+            r = svdd_pair(sub_img, sub_hdr, n, int(size), float(nu))
+            if "error" in r:
+                print(f"| failed | {n * COLS} | {size} | {nu} | | {r['error']} | | | |")
+                continue
+            print(
+                f"| RBF SVDD, σ = median rule ({r['sigma']:.0f}) | {n * COLS:,} | {int(size):,} | "
+                f"{nu} | {r['n_sv']} | {r['sk_time']:.2f} | {r['ours_time']:.2f} | "
+                f"{r['sk_time'] / r['ours_time']:.1f}× | {r['max_abs_diff']:.1e} "
+                f"({r['max_rel_diff']:.0e}) |",
+                flush=True,
+            )
+        print(f"\nload average at the end: {os.getloadavg()[0]:.1f}")
+    finally:
         shutil.rmtree(work, ignore_errors=True)
 
 

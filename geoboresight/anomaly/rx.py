@@ -2,9 +2,11 @@
 
 The RX score of a pixel spectrum ``x`` is its squared Mahalanobis distance to the background,
 ``(x - μ)ᵀ Σ⁻¹ (x - μ)``. Global RX estimates μ and Σ from the whole scene in one streaming
-pass (float64 sums of ``x`` and ``x xᵀ`` per strip of lines, so memory does not grow with the
-flight line), factors ``Σ = L Lᵀ`` (Cholesky) once, and scores each strip in a second pass as
-``‖L⁻¹ (x - μ)‖²`` with one matrix product per strip.
+pass (float64: one symmetric rank-k update per strip of lines gives Σxxᵀ and Σx together, so
+memory does not grow with the flight line), factors ``Σ = L Lᵀ`` (Cholesky) once, and scores
+each strip in a second pass as ``‖L⁻¹ (x - μ)‖²``: one in-place triangular matrix product per
+strip, then a sum of squares per pixel. Strips may be of any numeric type (integer DN are
+converted once, into a reused buffer) and may be processed by several threads at once.
 
 Σ is the unbiased sample covariance (divides by N - 1), as in Spectral Python's ``spectral.rx``.
 """

@@ -99,6 +99,7 @@ class Cube:
         self.fwhm = fwhm
         self.count = sum(p.count for p in parts)
         self.paths = [p.path for p in parts]
+        self._local = threading.local()
 
     @property
     def grid(self) -> dict:
@@ -161,6 +162,16 @@ class Cube:
             valid &= np.isfinite(data).all(axis=0)
         return data, valid
 
+    def _raw_buffer(self, part, shape):
+        """A per-thread, reused buffer for raw reads (a new one per strip would be page-faulted
+        in again each time: measured as much time as the read itself)."""
+        bufs = self._local.__dict__.setdefault("raw", {})
+        n = int(np.prod(shape))
+        buf = bufs.get(id(part))
+        if buf is None or buf.size < n:
+            buf = bufs[id(part)] = np.empty(n, dtype=part.raw["dtype"])
+        return buf[:n].reshape(shape)
+
     def _read_part(self, part, row0, row1, local, data, sel):
         if part.raw is None:
             from rasterio.windows import Window
@@ -185,13 +196,13 @@ class Cube:
                 part._fh.readinto(memoryview(buf).cast("B"))
 
         if raw["interleave"] == "bsq":
-            buf = np.empty((rows, width), dtype=dt)
+            buf = self._raw_buffer(part, (rows, width))
             for b, j in zip(local, sel, strict=True):
                 read_at(raw["offset"] + ((int(b) * self.height + row0) * width) * dt.itemsize, buf)
                 data[j] = buf
             return
         line = count * width
-        buf = np.empty((rows, line), dtype=dt)
+        buf = self._raw_buffer(part, (rows, line))
         read_at(raw["offset"] + row0 * line * dt.itemsize, buf)
         if raw["interleave"] == "bil":
             buf = buf.reshape(rows, count, width)
