@@ -6,8 +6,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import os
-import warnings
 from xml.sax.saxutils import escape
 
 import numpy as np
@@ -986,16 +984,12 @@ DARK_PIXEL = Algorithm(
 
 
 def _run_polygons(values, progress):
-    from shapely import to_wkb
-
+    from ..io.vector import vector_format, write_vector
     from ..shadow.polygons import shadow_polygons
 
     table = _table(values)
     path = values["output"]
-    ext = os.path.splitext(path)[1].lower()
-    drivers = {".gpkg": "GPKG", ".geojson": "GeoJSON", ".json": "GeoJSON"}
-    if ext not in drivers:
-        raise ParameterError(f"output {path}: use a .gpkg (GeoPackage) or .geojson file name")
+    vector_format(path)  # a clear error for an unsupported extension, before any work
     with io.open_raster(values["classes_raster"], "class raster") as src:
         data, ok = io.read_masked(src, 1)
         if not ok.any():
@@ -1021,49 +1015,28 @@ def _run_polygons(values, progress):
             else ""
         )
     )
-    fields = ["class", "name", "fraction_min", "fraction_max", "area", "pixels"]
-    field_data = [
-        np.array([p.class_id for p in polys], dtype=np.int32),
-        np.array([p.name for p in polys], dtype=object),
-        np.array([p.fraction_min for p in polys], dtype=np.float64),
-        np.array([p.fraction_max for p in polys], dtype=np.float64),
-        np.array([p.area for p in polys], dtype=np.float64),
-        np.array([p.pixels for p in polys], dtype=np.int64),
-    ]
-    # output_dimension=2: see anomaly.polygons (shapely wheel on QGIS's older GEOS)
-    geoms = np.array([to_wkb(p.geometry, output_dimension=2) for p in polys], dtype=object)
-    meta = {"DESCRIPTION": desc, "SOURCE": values["classes_raster"]}
-    with io.atomic_output(path) as tmp, warnings.catch_warnings():
-        # Raw sensor geometry has no CRS on purpose (and the layer says so).
-        warnings.filterwarnings("ignore", message="'crs' was not provided")
-        _vector_writer()(
-            tmp,
-            geoms,
-            field_data,
-            fields,
-            layer="shadow_polygons",
-            driver=drivers[ext],
-            geometry_type="Polygon",
-            crs=crs.to_wkt() if crs else None,
-            layer_metadata=meta if drivers[ext] == "GPKG" else None,
-            **({"layer_options": {"DESCRIPTION": desc}} if drivers[ext] == "GeoJSON" else {}),
-        )
+    fields = {
+        "class": np.array([p.class_id for p in polys], dtype=np.int32),
+        "name": np.array([p.name for p in polys], dtype=object),
+        "fraction_min": np.array([p.fraction_min for p in polys], dtype=np.float64),
+        "fraction_max": np.array([p.fraction_max for p in polys], dtype=np.float64),
+        "area": np.array([p.area for p in polys], dtype=np.float64),
+        "pixels": np.array([p.pixels for p in polys], dtype=np.int64),
+    }
+    write_vector(
+        path,
+        [p.geometry for p in polys],
+        fields,
+        crs=crs,
+        layer="shadow_polygons",
+        description=desc,
+    )
     progress.update(1.0, "written")
     return {
         "output": path,
         "polygons": len(polys),
         "geometry": "map" if georef else "raw sensor (pixel) geometry",
     }
-
-
-def _vector_writer():
-    try:
-        from pyogrio.raw import write
-    except ImportError:
-        raise ParameterError(
-            "writing GeoPackage/GeoJSON needs the 'pyogrio' package: pip install pyogrio"
-        ) from None
-    return write
 
 
 POLYGONS = Algorithm(

@@ -69,4 +69,7 @@ def shadow_polygons(
                 pixels,
             )
         )
+    # GDAL versions trace polygons in different orders (e.g. QGIS's GDAL vs a wheel's): sort so
+    # the layer is the same whichever GDAL runs underneath.
+    out.sort(key=lambda p: (p.class_id, -p.geometry.bounds[3], *p.geometry.bounds[:3], p.area))
     return out

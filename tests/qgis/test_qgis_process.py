@@ -138,19 +138,13 @@ def test_qgis_process_reports_a_bad_band(qgis_env, inputs, tmp_path):
 
 
 # Inside qgis_process, Debian's GDAL is loaded before the wheels' own GDALs (as in the desktop
-# application): a colour table written through rasterio and a GeoPackage written through
-# pyogrio are the places where two GDALs in one process could disagree.
+# application): a colour table written through rasterio and vector layers are the places where
+# two GDALs in one process could disagree. Vectors are written without OGR (io.vector) since
+# the pyogrio wheel's GDAL next to Debian's aborted qgis_process ("double free or corruption").
 MIXED_GDAL = (
     "shadow-classes",
-    "anomaly-polygons",  # GeoPackage written without GDAL (sqlite3 + WKB)
-    pytest.param(
-        "shadow-polygons",
-        marks=pytest.mark.xfail(
-            strict=True,
-            reason="known: the pyogrio wheel's GDAL next to Debian's GDAL 3.6 in qgis_process "
-            "aborts with 'double free or corruption' (docs/qgis.md, two GDALs)",
-        ),
-    ),
+    "anomaly-polygons",
+    "shadow-polygons",
 )
 
 
