@@ -6,14 +6,13 @@ from __future__ import annotations
 
 import contextlib
 import json
-from xml.sax.saxutils import escape
 
 import numpy as np
 import rasterio
 
 from .. import io
 from ..errors import InputError, ParameterError
-from ..io.wavelengths import nearest_band, parse_user_wavelengths, read_wavelengths
+from ..io.wavelengths import nearest_band, wavelengths_of
 from ..shadow import classes as cls
 from ..shadow.cluster import fit_shadow_cluster
 from ..shadow.darkpixel import DEFAULT_BANDS_NM, fit_dark_pixel
@@ -46,53 +45,8 @@ MASK_NODATA = 255
 # ----------------------------------------------------------------------------------- helpers
 
 
-def _pam_xml(names: dict[int, str]) -> str:
-    top = max(names)
-    cats = "".join(
-        f"      <Category>{escape(names.get(i, ''))}</Category>\n" for i in range(top + 1)
-    )
-    return (
-        '<PAMDataset>\n  <PAMRasterBand band="1">\n    <CategoryNames>\n'
-        f"{cats}    </CategoryNames>\n  </PAMRasterBand>\n</PAMDataset>\n"
-    )
-
-
-@contextlib.contextmanager
-def _byte_raster(path, grid, *, tags, band_name, colormap, category_names, band_tags=None):
-    """A uint8 GeoTIFF (nodata 255) with a colour table and GDAL category names, written
-    block by block; atomic. Category names go in the GDAL PAM sidecar (.aux.xml), where GDAL
-    and QGIS read them (the colour table is inside the TIFF)."""
-    profile = {
-        "driver": "GTiff",
-        "width": grid["width"],
-        "height": grid["height"],
-        "count": 1,
-        "dtype": "uint8",
-        "nodata": MASK_NODATA,
-        "tiled": True,
-        "blockxsize": 256,
-        "blockysize": 256,
-        "compress": "deflate",
-        "photometric": "palette",
-    }
-    if grid.get("crs") is not None:
-        profile["crs"] = grid["crs"]
-    if grid.get("transform") is not None:
-        profile["transform"] = grid["transform"]
-    with io.atomic_output(path) as tmp:
-        with io.quiet_georef(), rasterio.open(tmp, "w", **profile) as dst:
-            dst.write_colormap(1, colormap)
-            yield dst
-            dst.update_tags(**io.raster.base_tags(**tags))
-            dst.set_band_description(1, band_name)
-            if band_tags:
-                dst.update_tags(1, **{k: str(v) for k, v in band_tags.items()})
-        with open(tmp + ".aux.xml", "w", encoding="utf-8") as f:
-            f.write(_pam_xml(category_names))
-
-
 def _mask_raster(path, grid, tags, band_name):
-    return _byte_raster(
+    return io.create_class_raster(
         path,
         grid,
         tags=tags,
@@ -100,52 +54,6 @@ def _mask_raster(path, grid, tags, band_name):
         colormap={0: (255, 255, 255, 0), 1: (128, 0, 0, 255), MASK_NODATA: (0, 0, 0, 0)},
         category_names={0: "not shadow", 1: "shadow"},
     )
-
-
-def _grid(src) -> dict:
-    return io.grid_of(src)
-
-
-def _require_same_grid(a, b, la: str, lb: str) -> None:
-    if (a.height, a.width) != (b.height, b.width):
-        raise InputError(
-            f"{la} {a.name} is {a.width} × {a.height} pixels but {lb} {b.name} is "
-            f"{b.width} × {b.height}: both must be on the same pixel grid"
-        )
-
-
-def _wavelengths(src, path: str, user: str | None) -> np.ndarray:
-    if user:
-        return parse_user_wavelengths(user, src.count, path)
-    wl, _ = read_wavelengths(src)
-    if wl is None:
-        raise InputError(
-            f"{path} has no wavelength metadata: give its band centres in nm "
-            "(--wavelengths '400,402.5,...')"
-        )
-    return wl
-
-
-def _sample_pixels(srcs_bands, height, width, block_rows, size, seed, progress):
-    """A reproducible random sample (about ``size`` pixels) of several bands, streamed.
-
-    ``srcs_bands`` is a list of (dataset, band). Returns (values (n_bands, n), valid (n,)).
-    """
-    rng = np.random.default_rng(seed)
-    p = min(1.0, size / max(1, height * width))
-    cols, oks = [], []
-    windows = list(io.row_windows(height, width, block_rows))
-    for i, win in enumerate(windows):
-        pick = rng.random((win.height, win.width)) < p
-        vals, ok = [], np.ones(int(pick.sum()), bool)
-        for src, band in srcs_bands:
-            v, valid = io.read_masked(src, band, win)
-            vals.append(v[pick])
-            ok &= valid[pick]
-        cols.append(np.stack(vals))
-        oks.append(ok)
-        progress.update((i + 1) / len(windows), "sampling")
-    return np.concatenate(cols, axis=1), np.concatenate(oks)
 
 
 def _no_valid(path: str, what: str = "ratio raster") -> InputError:
@@ -185,9 +93,9 @@ def _run_classes(values, progress):
     counts = np.zeros(256, dtype=np.int64)
     with contextlib.ExitStack() as stack:
         src = stack.enter_context(io.open_raster(values["ratio"], "ratio raster"))
-        grid = _grid(src)
+        grid = io.grid_of(src)
         dst = stack.enter_context(
-            _byte_raster(
+            io.create_class_raster(
                 values["output"],
                 grid,
                 tags=tags,
@@ -276,12 +184,12 @@ def _run_cluster(values, progress):
         io.open_raster(values["ratio"], "ratio raster") as rsrc,
         io.open_raster(values["vnir"], "VNIR image") as vsrc,
     ):
-        _require_same_grid(rsrc, vsrc, "ratio raster", "VNIR image")
-        wl = _wavelengths(vsrc, values["vnir"], values.get("wavelengths"))
+        io.require_same_grid(rsrc, vsrc, "ratio raster", "VNIR image")
+        wl = wavelengths_of(vsrc, values["vnir"], values.get("wavelengths"))[0]
         nir_band = nearest_band(wl, values["nir_nm"], values["tolerance_nm"], values["vnir"]) + 1
         nir_nm = float(wl[nir_band - 1])
         progress.info(f"941 nm axis: band {nir_band} of {values['vnir']} ({nir_nm:.1f} nm)")
-        sample, ok = _sample_pixels(
+        sample, ok = io.sample_pixels(
             [(rsrc, values["band"]), (vsrc, nir_band)],
             rsrc.height,
             rsrc.width,
@@ -305,7 +213,7 @@ def _run_cluster(values, progress):
             f"shadow component holds {100 * cluster.shadow_share:.1f} % of them; isolation "
             f"(Bhattacharyya distance) {cluster.isolation:.2f}"
         )
-        grid = _grid(rsrc)
+        grid = io.grid_of(rsrc)
         tags = {
             "product": "scene-adaptive boresight shadow mask (Brook & Ben-Dor 2011, §3.1, Fig. 4)",
             "method": "scikit-learn GaussianMixture on (log ratio, log 941 nm), BIC-selected",
@@ -468,11 +376,11 @@ def _run_fraction_fit(values, progress):
     with contextlib.ExitStack() as stack:
         rsrc = stack.enter_context(io.open_raster(values["ratio"], "ratio raster"))
         tsrc = stack.enter_context(io.open_raster(values["truth"], "shadow-fraction raster"))
-        _require_same_grid(rsrc, tsrc, "ratio raster", "shadow-fraction raster")
+        io.require_same_grid(rsrc, tsrc, "ratio raster", "shadow-fraction raster")
         msrc = None
         if values.get("mask"):
             msrc = stack.enter_context(io.open_raster(values["mask"], "shadow mask"))
-            _require_same_grid(rsrc, msrc, "ratio raster", "shadow mask")
+            io.require_same_grid(rsrc, msrc, "ratio raster", "shadow mask")
         windows = list(io.row_windows(rsrc.height, rsrc.width, values["block_rows"]))
         any_valid = False
         for i, win in enumerate(windows):
@@ -586,7 +494,7 @@ def _run_fraction_apply(values, progress):
             "source": values["ratio"],
         }
         with io.create_raster(
-            values["output"], _grid(src), tags=tags, band_names=["shadow fraction"]
+            values["output"], io.grid_of(src), tags=tags, band_names=["shadow fraction"]
         ) as dst:
             windows = list(io.row_windows(src.height, src.width, values["block_rows"]))
             for i, win in enumerate(windows):
@@ -682,7 +590,7 @@ def _run_sun_shadow(values, progress):
             tags["geometry"] = (
                 f"raw grid, cell size {values['cell_size']} m, row 0 = north edge, columns run east"
             )
-        grid = _grid(src)
+        grid = io.grid_of(src)
         n_shadow = 0
         with contextlib.ExitStack() as stack:
             fdst = stack.enter_context(
@@ -840,11 +748,11 @@ def _parse_nm(text: str) -> list[float]:
 def _run_dark_pixel(values, progress):
     bands_nm = _parse_nm(values["bands_nm"])
     with io.open_raster(values["image"], "image") as src:
-        wl = _wavelengths(src, values["image"], values.get("wavelengths"))
+        wl = wavelengths_of(src, values["image"], values.get("wavelengths"))[0]
         bands = [nearest_band(wl, b, values["tolerance_nm"], values["image"]) + 1 for b in bands_nm]
         nir_i = int(np.argmax(bands_nm))
         progress.info("dark-pixel bands: " + ", ".join(f"{b} ({wl[b - 1]:.0f} nm)" for b in bands))
-        sample, ok = _sample_pixels(
+        sample, ok = io.sample_pixels(
             [(src, b) for b in bands],
             src.height,
             src.width,
@@ -863,7 +771,7 @@ def _run_dark_pixel(values, progress):
             dark_percentile=values["dark_percentile"],
             threshold=values["threshold"],
         )
-        grid = _grid(src)
+        grid = io.grid_of(src)
         tags = {
             "product": "dark-pixel shadow mask (ATCOR-4-style statistical baseline)",
             "bands": ",".join(str(b) for b in bands),

@@ -7,6 +7,7 @@ from .dual import DualSensor, SensorFile, open_dual
 from .raster import (
     DEFAULT_BLOCK_ROWS,
     FLOAT_NODATA,
+    create_class_raster,
     create_raster,
     grid_of,
     is_georeferenced,
@@ -14,11 +15,13 @@ from .raster import (
     output_profile,
     quiet_georef,
     read_masked,
+    require_same_grid,
     row_windows,
+    sample_pixels,
     write_envi,
     write_raster,
 )
-from .wavelengths import nearest_band, read_wavelengths
+from .wavelengths import nearest_band, read_wavelengths, wavelengths_of
 from .write import atomic_output, check_output_path
 
 __all__ = [
@@ -28,6 +31,7 @@ __all__ = [
     "SensorFile",
     "atomic_output",
     "check_output_path",
+    "create_class_raster",
     "create_raster",
     "grid_of",
     "is_georeferenced",
@@ -38,7 +42,10 @@ __all__ = [
     "quiet_georef",
     "read_masked",
     "read_wavelengths",
+    "require_same_grid",
     "row_windows",
+    "sample_pixels",
+    "wavelengths_of",
     "write_envi",
     "write_raster",
 ]

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import InputError
 from .raster import is_georeferenced, open_raster
-from .wavelengths import nearest_band, parse_user_wavelengths, read_wavelengths
+from .wavelengths import nearest_band, wavelengths_of
 
 #: Eq. 3 of Brook & Ben-Dor (2011): b(1010 nm) / b(920 nm).
 NUMERATOR_NM = 1010.0
@@ -96,16 +96,8 @@ class DualSensor:
 def _sensor_wavelengths(
     src, path: str, user: str | None, label: str
 ) -> tuple[np.ndarray, np.ndarray | None]:
-    if user:
-        return parse_user_wavelengths(user, src.count, path), None
-    wl, fwhm = read_wavelengths(src)
-    if wl is None:
-        raise InputError(
-            f"{label} {path} has no wavelength metadata (no ENVI 'wavelength' list, band "
-            "'wavelength' tags or band descriptions in nm): give the band centres in nm "
-            f"(--{label.lower()}-wavelengths '400,402.5,...' / {label.lower()}_wavelengths=...)"
-        )
-    return wl, fwhm
+    option = f"--{label.lower()}-wavelengths / {label.lower()}_wavelengths="
+    return wavelengths_of(src, f"{label} {path}", user, option)
 
 
 def open_dual(

@@ -10,6 +10,7 @@ import contextlib
 import os
 import warnings
 from collections.abc import Iterator
+from xml.sax.saxutils import escape
 
 import numpy as np
 import rasterio
@@ -302,3 +303,81 @@ def create_raster(
             if band_names:
                 for i, name in enumerate(band_names, start=1):
                     dst.set_band_description(i, name)
+
+
+def require_same_grid(a, b, label_a: str, label_b: str) -> None:
+    """Raise InputError naming both files when two open datasets differ in size."""
+    if (a.height, a.width) != (b.height, b.width):
+        raise InputError(
+            f"{label_a} {a.name} is {a.width} × {a.height} pixels but {label_b} {b.name} is "
+            f"{b.width} × {b.height}: both must be on the same pixel grid"
+        )
+
+
+def sample_pixels(srcs_bands, height, width, block_rows, size, seed, progress):
+    """A reproducible random sample (about ``size`` pixels) of several bands, streamed.
+
+    ``srcs_bands`` is a list of (dataset, band). Returns (values (n_bands, n), valid (n,)).
+    """
+    rng = np.random.default_rng(seed)
+    p = min(1.0, size / max(1, height * width))
+    cols, oks = [], []
+    windows = list(row_windows(height, width, block_rows))
+    for i, win in enumerate(windows):
+        pick = rng.random((win.height, win.width)) < p
+        vals, ok = [], np.ones(int(pick.sum()), bool)
+        for src, band in srcs_bands:
+            v, valid = read_masked(src, band, win)
+            vals.append(v[pick])
+            ok &= valid[pick]
+        cols.append(np.stack(vals))
+        oks.append(ok)
+        progress.update((i + 1) / len(windows), "sampling")
+    return np.concatenate(cols, axis=1), np.concatenate(oks)
+
+
+def _pam_categories(names: dict[int, str]) -> str:
+    top = max(names)
+    cats = "".join(
+        f"      <Category>{escape(names.get(i, ''))}</Category>\n" for i in range(top + 1)
+    )
+    return (
+        '<PAMDataset>\n  <PAMRasterBand band="1">\n    <CategoryNames>\n'
+        f"{cats}    </CategoryNames>\n  </PAMRasterBand>\n</PAMDataset>\n"
+    )
+
+
+@contextlib.contextmanager
+def create_class_raster(
+    path, grid, *, tags, band_name, colormap, category_names, band_tags=None, nodata=255
+):
+    """A uint8 GeoTIFF (nodata 255) with a colour table and GDAL category names, written
+    block by block; atomic. Category names go in the GDAL PAM sidecar (.aux.xml), where GDAL
+    and QGIS read them (the colour table is inside the TIFF)."""
+    profile = {
+        "driver": "GTiff",
+        "width": grid["width"],
+        "height": grid["height"],
+        "count": 1,
+        "dtype": "uint8",
+        "nodata": nodata,
+        "tiled": True,
+        "blockxsize": 256,
+        "blockysize": 256,
+        "compress": "deflate",
+        "photometric": "palette",
+    }
+    if grid.get("crs") is not None:
+        profile["crs"] = grid["crs"]
+    if grid.get("transform") is not None:
+        profile["transform"] = grid["transform"]
+    with atomic_output(path) as tmp:
+        with quiet_georef(), rasterio.open(tmp, "w", **profile) as dst:
+            dst.write_colormap(1, colormap)
+            yield dst
+            dst.update_tags(**base_tags(**tags))
+            dst.set_band_description(1, band_name)
+            if band_tags:
+                dst.update_tags(1, **{k: str(v) for k, v in band_tags.items()})
+        with open(tmp + ".aux.xml", "w", encoding="utf-8") as f:
+            f.write(_pam_categories(category_names))

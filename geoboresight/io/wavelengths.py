@@ -93,6 +93,25 @@ def read_wavelengths(src) -> tuple[np.ndarray | None, np.ndarray | None]:
     return None, None
 
 
+def wavelengths_of(
+    src, path: str, user: str | None = None, option: str = "--wavelengths"
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """(centres_nm, fwhm_nm or None) of an open dataset, or of the user's list ``user``.
+
+    Raises :class:`InputError` naming the file and the option to use when it has none.
+    """
+    if user:
+        return parse_user_wavelengths(user, src.count, path), None
+    wl, fwhm = read_wavelengths(src)
+    if wl is None:
+        raise InputError(
+            f"{path} has no wavelength metadata (no ENVI 'wavelength' list, band "
+            "'wavelength' tags or band descriptions in nm): give the band centres in nm "
+            f"({option} '400,402.5,...')"
+        )
+    return wl, fwhm
+
+
 def _from_description(text: str):
     m = re.search(
         rf"({_NUMBER})\s*(nm|nanometers?|micrometers?|microns?|um|µm)?\s*\)?\s*$", text, re.I
