@@ -6,12 +6,13 @@ import os
 import shutil
 
 from .. import io
-from ..report import build_report
 from .ratio import BAND_PARAMS, DUAL_PARAMS
 from .spec import Algorithm, FileOut, Flag, FolderOut, Number, RasterIn
 
 
 def _run(values: dict, progress) -> dict:
+    from ..report import build_report  # matplotlib: imported only when a report is made
+
     keep = values.get("products")
     if keep:
         os.makedirs(keep, exist_ok=True)

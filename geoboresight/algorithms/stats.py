@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 
 from .. import io
-from ..figures import histogram_figure, save_figure
 from ..html import page, png_img, table
 from ..stats import DEFAULT_PERCENTILES, Descriptives, describe_blocks
 from .ratio import BLOCK_ROWS
@@ -102,6 +101,8 @@ def _run(values: dict, progress) -> dict:
     payload = {"input": path, "band": band, "band_description": desc_name, **d.to_dict()}
     png = values.get("histogram")
     if png:
+        from ..figures import histogram_figure, save_figure  # matplotlib only when asked
+
         fig = histogram_figure(
             d.histogram_counts,
             d.histogram_edges,
