@@ -199,3 +199,29 @@ def test_small_squint_refused_then_forced(tmp_path):
     assert not res["meaningful"]
     with rasterio.open(out) as src:
         assert src.tags()["MEANINGFUL"].startswith("NO")
+
+
+def test_band_ranges_average_bands_into_the_matching_images(scene, tmp_path):
+    """Averaging bands that carry the same texture (scaled) must not move the offset; the
+    report lists the bands averaged; a range ending below its first band is refused."""
+    d, p, h = scene
+    one = get("boresight-offset")(vnir=p["vnir"], swir=p["swir"], output=tmp_path / "a.json")
+    avg = get("boresight-offset")(
+        vnir=p["vnir"],
+        swir=p["swir"],
+        vnir_nm=920.0,
+        vnir_to_nm=970.0,
+        swir_nm=980.0,
+        swir_to_nm=1100.0,
+        output=tmp_path / "b.json",
+    )
+    assert avg["vnir_bands_averaged"] == [11, 12]  # 918 and 970 nm
+    assert avg["swir_bands_averaged"] == [1, 2, 3, 4, 5]  # 980 ... 1100 nm
+    assert "vnir_bands_averaged" not in one
+    assert avg["along_px"] == pytest.approx(one["along_px"], abs=0.01)
+    assert avg["across_px"] == pytest.approx(one["across_px"], abs=0.01)
+    with pytest.raises(ParameterError, match="swir_to_nm"):
+        get("boresight-offset")(
+            vnir=p["vnir"], swir=p["swir"], swir_to_nm=990.0, output=tmp_path / "c.json"
+        )
+    assert not (tmp_path / "c.json").exists()

@@ -43,6 +43,24 @@ BAND_PARAMS = (
         description="SWIR band to match, nearest this wavelength (nm; the ratio's 1010 nm)",
         default=1010.0,
     ),
+    Wavelength(
+        name="vnir_to_nm",
+        description=(
+            "Optional: average the VNIR bands from 'vnir_nm' up to this wavelength (nm) into "
+            "the matching image (more signal, e.g. 900 to 970 nm); empty = one band"
+        ),
+        optional=True,
+        advanced=True,
+    ),
+    Wavelength(
+        name="swir_to_nm",
+        description=(
+            "Optional: average the SWIR bands from 'swir_nm' up to this wavelength (nm) into "
+            "the matching image (the 1,010 nm band is weak; e.g. 980 to 1,100 nm); empty = one band"
+        ),
+        optional=True,
+        advanced=True,
+    ),
     Number(
         name="tolerance_nm",
         description="Largest allowed distance between a requested wavelength and a band centre (nm)",
@@ -134,10 +152,10 @@ def _read_pair(values: dict):
     dual = open_dual_from(values)
     vb = dual.vnir.band_for(values["vnir_nm"], values["tolerance_nm"])
     sb = dual.swir.band_for(values["swir_nm"], values["tolerance_nm"])
-    with io.open_raster(dual.vnir.path, "VNIR") as src:
-        v, ok_v = io.read_masked(src, vb)
-    with io.open_raster(dual.swir.path, "SWIR") as src:
-        s, ok_s = io.read_masked(src, sb)
+    vbs = _band_range(dual.vnir, vb, values.get("vnir_to_nm"), "vnir_to_nm")
+    sbs = _band_range(dual.swir, sb, values.get("swir_to_nm"), "swir_to_nm")
+    v, ok_v = _read_mean(dual.vnir.path, "VNIR", vbs)
+    s, ok_s = _read_mean(dual.swir.path, "SWIR", sbs)
     valid = ok_v & ok_s
     if values.get("cloud_mask"):
         with io.open_raster(values["cloud_mask"], "cloud mask") as src:
@@ -155,7 +173,35 @@ def _read_pair(values: dict):
         "swir_band": sb,
         "swir_wavelength_nm": round(dual.swir.wavelength_of(sb), 3),
     }
+    if len(vbs) > 1 or len(sbs) > 1:
+        info["vnir_bands_averaged"] = vbs
+        info["swir_bands_averaged"] = sbs
     return dual, v, s, valid, info
+
+
+def _band_range(sensor, first: int, to_nm, name: str) -> list[int]:
+    """File bands from ``first`` up to ``to_nm`` (inclusive; just ``first`` when not given)."""
+    if to_nm is None:
+        return [first]
+    lo = sensor.wavelength_of(first)
+    hi = float(to_nm)
+    if hi < lo:
+        raise ParameterError(
+            f"parameter '{name}': {hi} nm is below the first band's {lo:.1f} nm; give the "
+            "upper end of the wavelength range to average"
+        )
+    return [b for b in sensor.bands if lo <= sensor.wavelength_of(b) <= hi]
+
+
+def _read_mean(path, label: str, bands: list[int]):
+    """Mean of ``bands`` (float64) and where all of them are valid."""
+    total, valid = None, None
+    with io.open_raster(path, label) as src:
+        for b in bands:
+            x, ok = io.read_masked(src, b)
+            total = x.astype(np.float64) if total is None else total + x
+            valid = ok if valid is None else valid & ok
+    return total / len(bands), valid
 
 
 def _write_json(path: str, data: dict) -> None:
