@@ -48,6 +48,32 @@ def test_streaming_statistics_equal_one_pass_and_spectral():
     assert np.max(np.abs(fast - ref_rx) / ref_rx) <= 1e-3
 
 
+def test_covariance_from_threads_on_integer_strips_equals_spectral():
+    from concurrent.futures import ThreadPoolExecutor
+
+    cube = _cube(rows=60)  # int16 DN around 1000
+    valid = np.ones(cube.shape[1:], bool)
+    valid[7:11, 2:9] = False
+    shift = rxmod.CovarianceAccumulator.strip_shift(cube[:, :6], valid[:6])
+    assert np.array_equal(shift, np.round(shift))  # integer shift: exact products
+    acc = rxmod.CovarianceAccumulator(cube.shape[0], shift=shift)
+    strips = [(cube[:, a : a + 6], valid[a : a + 6]) for a in range(0, 60, 6)]
+    with ThreadPoolExecutor(3) as pool:
+        list(pool.map(lambda s: acc.add_cube(*s), strips))
+    stats = acc.stats()
+    X = cube.transpose(1, 2, 0)[valid]
+    ref = spectral.calc_stats(X[:, None, :])
+    assert stats.n == valid.sum()
+    np.testing.assert_allclose(stats.mean, ref.mean, rtol=1e-13)
+    np.testing.assert_allclose(stats.cov, ref.cov, rtol=1e-11, atol=1e-11 * np.abs(ref.cov).max())
+    det = rxmod.RXDetector(stats)
+    for precision, tol in (("float64", 1e-6), ("float32", 1e-3)):
+        ours = det.score_cube(cube, valid, precision)  # int16 strip, converted once
+        assert np.isnan(ours[~valid]).all()
+        ref_rx = spectral.rx(X.astype(float))
+        assert np.max(np.abs(ours[valid] - ref_rx) / ref_rx) <= tol
+
+
 def test_rx_ignores_invalid_pixels():
     cube = _cube()
     valid = np.ones(cube.shape[1:], bool)

@@ -55,6 +55,27 @@ def test_cube_reader_fast_path_equals_rasterio(tmp_path, interleave):
     assert valid.all()
 
 
+@pytest.mark.parametrize("interleave", ["bil", "bsq"])
+def test_map_strips_yields_every_strip_in_order_from_threads(tmp_path, interleave):
+    path, cube = _scene(tmp_path, interleave, nodata=-1)
+    with open_cube(path) as c:
+        got = list(c.map_strips(lambda d, v: (d.copy(), v.copy()), 5, workers=3))
+        whole, whole_valid = c.read(0, c.height, None, None)
+    assert [w.row_off for w, _ in got] == list(range(0, 48, 5))
+    assert got[0][1][0].dtype == np.int16  # the file's own type: no float copy
+    np.testing.assert_array_equal(np.concatenate([d for _, (d, _) in got], axis=1), cube)
+    np.testing.assert_array_equal(np.vstack([v for _, (_, v) in got]), whole_valid)
+    assert not whole_valid[0, :3].any() and whole_valid.sum() == 48 * 36 - 3
+
+    def fail_on_strip_3(d, v):
+        if d.shape[1] == 5 and np.array_equal(d, cube[:, 15:20]):
+            raise ValueError("strip 3")
+        return None
+
+    with open_cube(path) as c, pytest.raises(ValueError, match="strip 3"):
+        list(c.map_strips(fail_on_strip_3, 5, workers=2))
+
+
 def test_rx_spec_equals_spectral_and_carries_georeference(tmp_path):
     path, cube = _scene(tmp_path, nodata=-1)
     out = str(tmp_path / "rx.tif")

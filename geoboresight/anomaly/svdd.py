@@ -76,8 +76,9 @@ class SVDDModel:
         k, n = X.shape
         A = self._kernel_rows
         m = A.shape[0]
-        if chunk is None:
+        if chunk is None:  # ~10⁶ kernel values per chunk, chunks of about equal size
             chunk = int(np.clip(2**20 // max(m, 1), 256, 16384))
+            chunk = -(-n // -(-n // chunk)) if n else chunk
         c_max = min(chunk, n)
         ws = self._local
         if getattr(ws, "Y", None) is None or ws.Y.size < (k + 2) * c_max or ws.G.size < m * c_max:
