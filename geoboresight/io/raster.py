@@ -25,6 +25,8 @@ from .write import atomic_output
 
 #: Nodata written into float outputs.
 FLOAT_NODATA = -9999.0
+#: GDAL block cache (MB) while reading: enough for a few strips of a full-width cube.
+GDAL_CACHE_MB = 64
 #: Rows per block when streaming a flight line (pushbroom lines run along rows).
 DEFAULT_BLOCK_ROWS = 256
 
@@ -52,16 +54,20 @@ def open_raster(path: str | os.PathLike, label: str = "raster"):
                 "(expected the same name without .hdr, or .img/.dat/.raw/.bsq/.bil/.bip)"
             )
         path = data
-    try:
-        with quiet_georef():
-            src = rasterio.open(path)
-    except RasterioIOError as exc:
-        raise InputError(f"{label} {path} cannot be read as a raster ({exc})") from None
-    try:
-        with quiet_georef():
-            yield src
-    finally:
-        src.close()
+    # GDAL's block cache defaults to 5 % of RAM and fills up while a flight line streams by:
+    # cap it so memory stays bounded by a block (a user's own GDAL_CACHEMAX wins).
+    cache = {} if os.environ.get("GDAL_CACHEMAX") else {"GDAL_CACHEMAX": GDAL_CACHE_MB}
+    with rasterio.Env(**cache):
+        try:
+            with quiet_georef():
+                src = rasterio.open(path)
+        except RasterioIOError as exc:
+            raise InputError(f"{label} {path} cannot be read as a raster ({exc})") from None
+        try:
+            with quiet_georef():
+                yield src
+        finally:
+            src.close()
 
 
 def _envi_data_for_header(hdr: str) -> str | None:
