@@ -209,7 +209,7 @@ def test_band_ranges_average_bands_into_the_matching_images(scene, tmp_path):
     avg = get("boresight-offset")(
         vnir=p["vnir"],
         swir=p["swir"],
-        vnir_nm=920.0,
+        vnir_nm=910.0,  # the range [910, 970] nm holds the 918 and 970 nm bands
         vnir_to_nm=970.0,
         swir_nm=980.0,
         swir_to_nm=1100.0,

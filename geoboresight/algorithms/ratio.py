@@ -40,6 +40,16 @@ DUAL_PARAMS = (
     ),
 )
 
+TOLERANCE = Number(
+    name="tolerance_nm",
+    description="Largest allowed distance between a requested wavelength and a band centre (nm)",
+    default=10.0,
+    minimum=0.0,
+    maximum=500.0,
+    unit="nm",
+    advanced=True,
+)
+
 BAND_PARAMS = (
     Enum(
         name="band_mode",
@@ -57,15 +67,7 @@ BAND_PARAMS = (
         description="Denominator wavelength, taken from the VNIR bands (nm; paper: 920)",
         default=DENOMINATOR_NM,
     ),
-    Number(
-        name="tolerance_nm",
-        description="Largest allowed distance between a requested wavelength and a band centre (nm)",
-        default=10.0,
-        minimum=0.0,
-        maximum=500.0,
-        unit="nm",
-        advanced=True,
-    ),
+    TOLERANCE,
 )
 
 BLOCK_ROWS = Number(
