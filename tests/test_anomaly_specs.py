@@ -76,6 +76,27 @@ def test_map_strips_yields_every_strip_in_order_from_threads(tmp_path, interleav
         list(c.map_strips(fail_on_strip_3, 5, workers=2))
 
 
+@pytest.mark.parametrize("stop_after", [2, 12])  # in pass 1, in pass 2
+def test_cancelling_threaded_rx_leaves_no_output_and_restores_blas(tmp_path, stop_after):
+    from threadpoolctl import threadpool_info
+
+    from geoboresight.errors import Cancelled
+    from geoboresight.progress import Progress
+
+    threads = [i["num_threads"] for i in threadpool_info()]
+    path, _ = _scene(tmp_path)
+    out = str(tmp_path / "rx.tif")
+    calls = []
+    progress = Progress(
+        callback=lambda f, m: calls.append(f), is_cancelled=lambda: len(calls) >= stop_after
+    )
+    with pytest.raises(Cancelled):
+        get("rx")(image=path, exclude_nm="", block_rows=4, output=out, progress=progress)
+    left = {f for f in os.listdir(tmp_path) if not f.startswith("cube_bil.")}
+    assert not os.path.exists(out) and not left  # no output, no temporary file
+    assert [i["num_threads"] for i in threadpool_info()] == threads
+
+
 def test_rx_spec_equals_spectral_and_carries_georeference(tmp_path):
     path, cube = _scene(tmp_path, nodata=-1)
     out = str(tmp_path / "rx.tif")
