@@ -17,6 +17,7 @@ from ..anomaly.indicator import TAILS
 from ..anomaly.unmix import METHODS
 from ..errors import InputError, ParameterError
 from ..io.cube import open_cube
+from ._common import block_rows, sample_size, seed
 from .spec import (
     Algorithm,
     Enum,
@@ -56,15 +57,7 @@ IMAGE_PARAMS = (
 
 # 16 lines of a 286-sample AISA line = 4,576 pixels: a strip's float buffers stay within a few
 # MB (cache-friendly, and memory is a few strips per worker thread).
-BLOCK_ROWS = Number(
-    name="block_rows",
-    description="Lines read at a time (memory is bounded by a few blocks of lines)",
-    default=16,
-    minimum=1,
-    maximum=100000,
-    integer=True,
-    advanced=True,
-)
+BLOCK_ROWS = block_rows(16)
 
 
 def _open_image(values):
@@ -321,22 +314,10 @@ SVDD = Algorithm(
             minimum=1e-4,
             maximum=1.0,
         ),
-        Number(
-            name="sample_size",
-            description="Background pixels drawn at random for training",
-            default=1000,
-            minimum=20,
-            maximum=20000,
-            integer=True,
+        sample_size(
+            "Background pixels drawn at random for training", 1000, 20, 20000, advanced=False
         ),
-        Number(
-            name="seed",
-            description="Random seed for the background sample",
-            default=0,
-            minimum=0,
-            integer=True,
-            advanced=True,
-        ),
+        seed("Random seed for the background sample"),
         BLOCK_ROWS,
         RasterOut(name="output", description="SVDD score raster (GeoTIFF)"),
     ),

@@ -18,7 +18,7 @@ from ..dem.kriging import MODELS
 from ..dem.offset import estimate_offset, offset_angles, offset_profile
 from ..dem.relative import relative_dem
 from ..errors import InputError, ParameterError
-from .ratio import DUAL_PARAMS, TOLERANCE, open_dual_from
+from ._common import DUAL_PARAMS, TOLERANCE, open_dual_from
 from .spec import (
     Algorithm,
     Enum,

@@ -6,7 +6,7 @@ import os
 import shutil
 
 from .. import io
-from .ratio import BAND_PARAMS, DUAL_PARAMS
+from ._common import BAND_PARAMS, DUAL_PARAMS
 from .spec import Algorithm, FileOut, Flag, FolderOut, Number, RasterIn
 
 

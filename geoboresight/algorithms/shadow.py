@@ -23,7 +23,7 @@ from ..shadow.fraction import (
     FractionModel,
 )
 from ..shadow.illumination import check_sun, grid_matrix, halo_rows, hillshade, shadow_fraction
-from .ratio import BLOCK_ROWS
+from ._common import BLOCK_ROWS, sample_size, seed
 from .spec import (
     Algorithm,
     Band,
@@ -336,23 +336,8 @@ CLUSTER = Algorithm(
             minimum=0.0,
             maximum=1.0,
         ),
-        Number(
-            name="sample_size",
-            description="Pixels sampled at random to fit the mixture",
-            default=50000,
-            minimum=500,
-            maximum=5_000_000,
-            integer=True,
-            advanced=True,
-        ),
-        Number(
-            name="seed",
-            description="Random seed (same seed, same result)",
-            default=0,
-            minimum=0,
-            integer=True,
-            advanced=True,
-        ),
+        sample_size("Pixels sampled at random to fit the mixture", 50000, 500, 5_000_000),
+        seed(),
         BLOCK_ROWS,
         RasterOut(name="output", description="Shadow mask (byte: 1 shadow, 0 not)"),
         RasterOut(name="probability_output", description="Shadow probability (0–1)", optional=True),
@@ -864,23 +849,8 @@ DARK_PIXEL = Algorithm(
             minimum=0.0,
             maximum=2.0,
         ),
-        Number(
-            name="sample_size",
-            description="Pixels sampled at random for the statistics",
-            default=50000,
-            minimum=500,
-            maximum=5_000_000,
-            integer=True,
-            advanced=True,
-        ),
-        Number(
-            name="seed",
-            description="Random seed (same seed, same result)",
-            default=0,
-            minimum=0,
-            integer=True,
-            advanced=True,
-        ),
+        sample_size("Pixels sampled at random for the statistics", 50000, 500, 5_000_000),
+        seed(),
         BLOCK_ROWS,
         RasterOut(name="output", description="Dark-pixel shadow mask (byte: 1 shadow, 0 not)"),
         RasterOut(name="shadow_function", description="Shadow function Φ (float32)", optional=True),

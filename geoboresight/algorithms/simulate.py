@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from ..errors import ParameterError
+from ._common import seed
 from .spec import Algorithm, Enum, Flag, FolderOut, Number, Text
 
 HELP = """\
@@ -106,13 +107,8 @@ ALGORITHMS = (
                 maximum=10000,
                 integer=True,
             ),
-            Number(
-                name="seed",
-                description="Random seed: the same seed gives the same scene, byte for byte",
-                default=0,
-                minimum=0,
-                maximum=2**31 - 1,
-                integer=True,
+            seed(
+                "Random seed: the same seed gives the same scene, byte for byte", maximum=2**31 - 1
             ),
             Enum(
                 name="geometry",

@@ -7,7 +7,7 @@ import json
 from .. import io
 from ..html import page, png_img, table
 from ..stats import DEFAULT_PERCENTILES, Descriptives, describe_blocks
-from .ratio import BLOCK_ROWS
+from ._common import BLOCK_ROWS
 from .spec import Algorithm, Band, FileOut, Number, RasterIn, Text
 
 

@@ -1,0 +1,134 @@
+"""Parameters and helpers shared by the specs (not an operation: the registry skips ``_`` modules)."""
+
+from __future__ import annotations
+
+from .. import io
+from ..io.dual import DENOMINATOR_NM, NUMERATOR_NM, SEAM_NM, open_dual
+from .spec import Enum, Number, RasterIn, Text, Wavelength
+
+# Parameters shared by every operation that reads a dual-sensor dataset.
+DUAL_PARAMS = (
+    RasterIn(
+        name="vnir",
+        description="VNIR image (ENVI .hdr/.img or GeoTIFF), or the merged VNIR+SWIR cube",
+    ),
+    RasterIn(
+        name="swir",
+        description="SWIR image on the same pixel grid (leave empty for a merged cube)",
+        optional=True,
+    ),
+    Wavelength(
+        name="seam_nm",
+        description="Merged cube only: bands below this wavelength are VNIR, the rest SWIR (nm)",
+        default=SEAM_NM,
+        advanced=True,
+    ),
+    Text(
+        name="vnir_wavelengths",
+        description="Band centres of the VNIR file in nm, comma-separated (only if the file has none)",
+        optional=True,
+        advanced=True,
+    ),
+    Text(
+        name="swir_wavelengths",
+        description="Band centres of the SWIR file in nm, comma-separated (only if the file has none)",
+        optional=True,
+        advanced=True,
+    ),
+)
+
+TOLERANCE = Number(
+    name="tolerance_nm",
+    description="Largest allowed distance between a requested wavelength and a band centre (nm)",
+    default=10.0,
+    minimum=0.0,
+    maximum=500.0,
+    unit="nm",
+    advanced=True,
+)
+
+BAND_PARAMS = (
+    Enum(
+        name="band_mode",
+        description="How to pick the two bands: nearest to the wavelengths below, or the first SWIR band over the last VNIR band",
+        choices=("wavelength", "edges"),
+        default="wavelength",
+    ),
+    Wavelength(
+        name="numerator_nm",
+        description="Numerator wavelength, taken from the SWIR bands (nm; paper: 1010)",
+        default=NUMERATOR_NM,
+    ),
+    Wavelength(
+        name="denominator_nm",
+        description="Denominator wavelength, taken from the VNIR bands (nm; paper: 920)",
+        default=DENOMINATOR_NM,
+    ),
+    TOLERANCE,
+)
+
+
+def block_rows(default: int = io.DEFAULT_BLOCK_ROWS) -> Number:
+    """Lines read at a time: memory is bounded by a few blocks, whatever the flight line."""
+    return Number(
+        name="block_rows",
+        description="Lines read at a time (memory is bounded by a few blocks of lines)",
+        default=default,
+        minimum=1,
+        maximum=100000,
+        integer=True,
+        advanced=True,
+    )
+
+
+BLOCK_ROWS = block_rows()
+
+
+def seed(
+    description: str = "Random seed (same seed, same result)", advanced=True, **limits
+) -> Number:
+    """A random seed parameter: the same seed gives the same result."""
+    return Number(
+        name="seed",
+        description=description,
+        default=0,
+        minimum=0,
+        integer=True,
+        advanced=advanced,
+        **limits,
+    )
+
+
+def sample_size(
+    description: str, default: int, minimum: int, maximum: int, advanced=True
+) -> Number:
+    """How many pixels a statistical fit draws at random from the whole flight line."""
+    return Number(
+        name="sample_size",
+        description=description,
+        default=default,
+        minimum=minimum,
+        maximum=maximum,
+        integer=True,
+        advanced=advanced,
+    )
+
+
+def open_dual_from(values: dict):
+    """The DualSensor described by the DUAL_PARAMS in ``values``."""
+    return open_dual(
+        values["vnir"],
+        values.get("swir"),
+        seam_nm=values["seam_nm"],
+        vnir_wavelengths=values.get("vnir_wavelengths"),
+        swir_wavelengths=values.get("swir_wavelengths"),
+    )
+
+
+def ratio_bands_from(dual, values: dict) -> tuple[int, int]:
+    return dual.ratio_bands(
+        values["numerator_nm"],
+        values["denominator_nm"],
+        values["band_mode"],
+        values["tolerance_nm"],
+    )
