@@ -108,7 +108,9 @@ ALGORITHMS = (
                 integer=True,
             ),
             seed(
-                "Random seed: the same seed gives the same scene, byte for byte", maximum=2**31 - 1
+                "Random seed: the same seed gives the same scene, byte for byte",
+                advanced=False,
+                maximum=2**31 - 1,
             ),
             Enum(
                 name="geometry",
