@@ -148,7 +148,12 @@ def steps(scene: Path, out: Path) -> list[tuple[str, dict]]:
             ),
             (
                 "view-3d",
-                {"dem": o("relative_dem.tif"), "vnir": v, "swir": s, "output": o("relative_dem_3d.png")},
+                {
+                    "dem": o("relative_dem.tif"),
+                    "vnir": v,
+                    "swir": s,
+                    "output": o("relative_dem_3d.png"),
+                },
             ),
         ]
     todo += [
