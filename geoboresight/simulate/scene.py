@@ -739,35 +739,21 @@ def write_scene(scene: Scene, folder, merged: bool = False, overwrite: bool = Fa
             "seed": truth["seed"],
             "grid": "VNIR pixel grid (raw geometry)",
         }
-        write_raster(
-            os.path.join(tmp, "truth_dsm.tif"),
-            scene.dsm.astype("float32"),
-            nodata=None,
-            tags={**tags, "units": "m above the lowest ground"},
-            band_names=["dsm_m"],
+        continuous = (
+            ("dsm", scene.dsm, "float32", {"units": "m above the lowest ground"}, "dsm_m"),
+            ("shadow_fraction", scene.shadow_fraction, "float32", {}, "shadow_fraction"),
+            ("target_abundance", scene.target_abundance, "float32", {}, "target_abundance"),
+            ("cloud_mask", scene.cloud_mask, "uint8", {}, "cloud_mask"),
         )
-        write_raster(
-            os.path.join(tmp, "truth_shadow_fraction.tif"),
-            scene.shadow_fraction.astype("float32"),
-            nodata=None,
-            tags=tags,
-            band_names=["shadow_fraction"],
-        )
-        write_raster(
-            os.path.join(tmp, "truth_target_abundance.tif"),
-            scene.target_abundance.astype("float32"),
-            nodata=None,
-            tags=tags,
-            band_names=["target_abundance"],
-        )
-        write_raster(
-            os.path.join(tmp, "truth_cloud_mask.tif"),
-            scene.cloud_mask.astype("uint8"),
-            nodata=None,
-            dtype="uint8",
-            tags=tags,
-            band_names=["cloud_mask"],
-        )
+        for name, array, dtype, extra, band in continuous:
+            write_raster(
+                os.path.join(tmp, f"truth_{name}.tif"),
+                array.astype(dtype),
+                nodata=None,
+                dtype=dtype,
+                tags={**tags, **extra},
+                band_names=[band],
+            )
         classes = {f"CLASS_{k}": v for k, v in scene.material_names.items()}
         write_raster(
             os.path.join(tmp, "truth_material.tif"),
