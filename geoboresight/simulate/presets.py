@@ -150,6 +150,23 @@ def _trees(rng, candidates_xy, radius=(2.0, 4.5), height=(6.0, 14.0)):
     return np.column_stack([candidates_xy, r, h])
 
 
+def _built_surface(x, y, terrain, ground, roads, buildings, rng, pts) -> Surface:
+    """A surface with roads and buildings, and trees at the candidate sites ``pts`` that stay
+    clear of roads (1 m) and buildings (3 m)."""
+    pts = _free(pts, [r[:4] for r in roads], 1.0)
+    pts = _free(pts, buildings[:, :4], 3.0)
+    return Surface(
+        x0=x[0],
+        y0=y[0],
+        cell=COARSE_CELL,
+        terrain=terrain,
+        ground=ground,
+        roads=np.array(roads, float).reshape(-1, 5),
+        buildings=buildings,
+        trees=_trees(rng, pts),
+    )
+
+
 def _free(points, boxes, pad):
     """Points not inside any box (x_min, x_max, y_min, y_max) grown by ``pad``."""
     keep = np.ones(len(points), bool)
@@ -180,18 +197,7 @@ def urban(rng: np.random.Generator, extent, core=None) -> Surface:
             rng.uniform(extent[2], extent[3], int(area / 250)),
         ]
     )
-    pts = _free(pts, [r[:4] for r in roads], 1.0)
-    pts = _free(pts, buildings[:, :4], 3.0)
-    return Surface(
-        x0=x[0],
-        y0=y[0],
-        cell=COARSE_CELL,
-        terrain=terrain,
-        ground=ground,
-        roads=np.array(roads, float).reshape(-1, 5),
-        buildings=buildings,
-        trees=_trees(rng, pts),
-    )
+    return _built_surface(x, y, terrain, ground, roads, buildings, rng, pts)
 
 
 def dunes(rng: np.random.Generator, extent, core=None) -> Surface:
@@ -281,18 +287,7 @@ def mixed(rng: np.random.Generator, extent, core=None) -> Surface:
     # Trees: in the village and on the hill, not in the open field between them.
     field_lo, field_hi = gx + 6.0, gx + 0.3 * (core[1] - core[0])
     pts = pts[(pts[:, 0] < field_lo - 8) | (pts[:, 0] > field_hi)]
-    pts = _free(pts, [r[:4] for r in roads], 1.0)
-    pts = _free(pts, buildings[:, :4], 3.0)
-    return Surface(
-        x0=x[0],
-        y0=y[0],
-        cell=COARSE_CELL,
-        terrain=terrain,
-        ground=ground,
-        roads=np.array(roads, float).reshape(-1, 5),
-        buildings=buildings,
-        trees=_trees(rng, pts),
-    )
+    return _built_surface(x, y, terrain, ground, roads, buildings, rng, pts)
 
 
 BUILDERS = {"urban": urban, "dunes": dunes, "glade": glade, "mixed": mixed}
