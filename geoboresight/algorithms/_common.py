@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from .. import io
-from ..io.dual import DENOMINATOR_NM, NUMERATOR_NM, SEAM_NM, open_dual
+from ..io.dual import SEAM_NM, SWIR_NM, TOLERANCE_NM, VNIR_NM
 from .spec import Enum, Number, RasterIn, Text, Wavelength
 
 # Parameters shared by every operation that reads a dual-sensor dataset.
@@ -40,11 +40,25 @@ DUAL_PARAMS = (
 TOLERANCE = Number(
     name="tolerance_nm",
     description="Largest allowed distance between a requested wavelength and a band centre (nm)",
-    default=10.0,
+    default=TOLERANCE_NM,
     minimum=0.0,
     maximum=500.0,
     unit="nm",
     advanced=True,
+)
+
+#: The boresight ratio's two bands (Eq. 3), also the bands of the offset and co-registration.
+VNIR_BAND = Wavelength(
+    name="vnir_nm",
+    description="VNIR band, nearest this wavelength: the ratio's denominator (nm; paper: 920)",
+    default=VNIR_NM,
+    aliases=("denominator_nm",),
+)
+SWIR_BAND = Wavelength(
+    name="swir_nm",
+    description="SWIR band, nearest this wavelength: the ratio's numerator (nm; paper: 1010)",
+    default=SWIR_NM,
+    aliases=("numerator_nm",),
 )
 
 BAND_PARAMS = (
@@ -54,16 +68,8 @@ BAND_PARAMS = (
         choices=("wavelength", "edges"),
         default="wavelength",
     ),
-    Wavelength(
-        name="numerator_nm",
-        description="Numerator wavelength, taken from the SWIR bands (nm; paper: 1010)",
-        default=NUMERATOR_NM,
-    ),
-    Wavelength(
-        name="denominator_nm",
-        description="Denominator wavelength, taken from the VNIR bands (nm; paper: 920)",
-        default=DENOMINATOR_NM,
-    ),
+    VNIR_BAND,
+    SWIR_BAND,
     TOLERANCE,
 )
 
@@ -111,24 +117,4 @@ def sample_size(
         maximum=maximum,
         integer=True,
         advanced=advanced,
-    )
-
-
-def open_dual_from(values: dict):
-    """The DualSensor described by the DUAL_PARAMS in ``values``."""
-    return open_dual(
-        values["vnir"],
-        values.get("swir"),
-        seam_nm=values["seam_nm"],
-        vnir_wavelengths=values.get("vnir_wavelengths"),
-        swir_wavelengths=values.get("swir_wavelengths"),
-    )
-
-
-def ratio_bands_from(dual, values: dict) -> tuple[int, int]:
-    return dual.ratio_bands(
-        values["numerator_nm"],
-        values["denominator_nm"],
-        values["band_mode"],
-        values["tolerance_nm"],
     )

@@ -1,22 +1,27 @@
 """Declarative algorithm specs: the single list every face (CLI, QGIS, rio) is generated from.
 
 An :class:`Algorithm` is data (name, group, help, typed parameters with defaults and ranges)
-plus one ``run(values, progress) -> dict`` function. Outputs are parameters too (like QGIS
-"destination" parameters), so each face can ask the user where to write them.
+plus ``run=``, one file-level operation of :mod:`geoboresight.operations`. Outputs are
+parameters too (like QGIS "destination" parameters), so each face can ask the user where to
+write them. At import, each spec checks that its parameters and its operation's signature agree
+(names, defaults, which are inputs and outputs), so no face can drift from the library.
 
 Faces never validate by themselves: they collect raw values and call :func:`execute`, which
-fills defaults, checks types and ranges, checks bands against their rasters, refuses outputs that
-would overwrite an input or an existing file, and removes every output of a run that failed.
+fills defaults, checks types and ranges, and checks bands against their rasters; the operation
+itself refuses outputs that would overwrite an input or an existing file, and removes every
+output of a run that failed.
 """
 
 from __future__ import annotations
 
+import inspect
+import math
 import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
-from ..errors import GeoboresightError, OutputError, ParameterError
+from ..errors import GeoboresightError, ParameterError
 from ..progress import Progress, as_progress
 
 #: Groups, following the paper's applications (QGIS toolbox groups, CLI listing order).
@@ -39,6 +44,8 @@ class Param:
     default: Any = None
     optional: bool = False
     advanced: bool = False
+    #: Former names still accepted (hidden on the command line) for one release.
+    aliases: tuple[str, ...] = ()
     kind: ClassVar[str] = "param"
     is_output: ClassVar[bool] = False
 
@@ -108,7 +115,7 @@ class Band(Param):
 
 @dataclass(frozen=True, kw_only=True)
 class Number(Param):
-    """A number with an optional inclusive range; ``integer=True`` for whole numbers."""
+    """A finite number with an optional inclusive range; ``integer=True`` for whole numbers."""
 
     minimum: float | None = None
     maximum: float | None = None
@@ -121,6 +128,8 @@ class Number(Param):
             number = int(value) if self.integer else float(value)
         except (TypeError, ValueError):
             raise self._fail(f"expected a number, got {value!r}") from None
+        if not math.isfinite(number):
+            raise self._fail(f"expected a finite number, got {value!r}")
         if self.integer and float(value) != number:
             raise self._fail(f"expected a whole number, got {value!r}")
         unit = f" {self.unit}" if self.unit else ""
@@ -228,10 +237,9 @@ class FolderOut(_Out):
 class Algorithm:
     """One GIS operation: what every face shows, and the one function that does the work.
 
-    ``run(values, progress)`` receives validated values (defaults filled in, outputs included)
-    and returns a dict of results: the output paths plus any small values worth showing
-    (e.g. an offset in pixels). It must write outputs through
-    :func:`geoboresight.io.atomic_output` so a failure leaves no half file.
+    ``run`` is a file-level operation (:func:`geoboresight.operations.operation`) whose keyword
+    arguments are the parameters; it returns a dict of results: the output paths plus any
+    small values worth showing (e.g. an offset in pixels).
     """
 
     name: str
@@ -251,6 +259,7 @@ class Algorithm:
         for p in self.params:
             if isinstance(p, Band) and p.raster not in names:
                 raise ValueError(f"{self.name}: band {p.name} refers to unknown {p.raster}")
+        _check_signature(self)
 
     @property
     def inputs(self) -> tuple[Param, ...]:
@@ -268,6 +277,7 @@ class Algorithm:
 
     def validate(self, values: Mapping[str, Any]) -> dict:
         """Fill defaults and coerce; raise ParameterError naming the parameter at fault."""
+        values = _resolve_aliases(self, values)
         known = {p.name for p in self.params}
         unknown = sorted(set(values) - known)
         if unknown:
@@ -308,40 +318,56 @@ def _check_bands(alg: Algorithm, values: dict) -> None:
                 )
 
 
-def output_paths(alg: Algorithm, values: Mapping[str, Any]) -> list[str]:
-    return [values[p.name] for p in alg.outputs if values.get(p.name)]
+def _resolve_aliases(alg: Algorithm, values: Mapping[str, Any]) -> dict:
+    """Values given under a former parameter name, under the current one."""
+    rename = {a: p.name for p in alg.params for a in p.aliases}
+    out: dict = {}
+    for key, value in values.items():
+        name = rename.get(key, key)
+        if name in out and key != name:
+            raise ParameterError(
+                f"{alg.name}: '{key}' is the former name of '{name}': give only one of them"
+            )
+        if value is not None or name not in out:
+            out[name] = value
+    return out
 
 
-def input_paths(alg: Algorithm, values: Mapping[str, Any]) -> list[str]:
-    paths: list[str] = []
-    for p in alg.inputs:
-        v = values.get(p.name)
-        if v is None:
-            continue
-        if p.kind in ("raster", "file"):
-            paths.append(v)
-        elif p.kind == "multiraster":
-            paths.extend(v)
-    return paths
+#: Parameters of every file-level operation that are not spec parameters.
+_RUN_ONLY = ("progress", "overwrite")
 
 
-def check_outputs(alg: Algorithm, values: Mapping[str, Any], overwrite: bool) -> None:
-    """Refuse an output equal to an input (or its ENVI sidecar), or an existing one."""
-    from ..io.write import check_output_path
-
-    ins = input_paths(alg, values)
-    outs = output_paths(alg, values)
-    seen: set[str] = set()
-    for p in alg.outputs:
-        path = values.get(p.name)
-        if not path:
-            continue
-        real = os.path.realpath(path)
-        if real in seen:
-            raise OutputError(f"output '{p.name}' ({path}) is also given for another output")
-        seen.add(real)
-        check_output_path(path, ins, overwrite=overwrite, label=f"output '{p.name}'")
-    del outs
+def _check_signature(alg: Algorithm) -> None:
+    """The spec and its operation must agree: same names, same defaults, same inputs and
+    outputs. Raised at import, so a renamed parameter cannot reach a face."""
+    sig = inspect.signature(alg.run)
+    fn = {n: p for n, p in sig.parameters.items() if n not in _RUN_ONLY}
+    names = {p.name for p in alg.params}
+    where = f"spec {alg.name!r} and {getattr(alg.run, '__name__', alg.run)}()"
+    if set(fn) != names:
+        raise TypeError(
+            f"{where} disagree: only in the spec {sorted(names - set(fn))}, "
+            f"only in the function {sorted(set(fn) - names)}"
+        )
+    for p in alg.params:
+        default = fn[p.name].default
+        if p.required:
+            if default is not inspect.Parameter.empty and default is not None:
+                raise TypeError(f"{where}: '{p.name}' is required but has a default {default!r}")
+        elif default is inspect.Parameter.empty or default != p.default:
+            raise TypeError(
+                f"{where}: '{p.name}' defaults to {p.default!r} in the spec but "
+                f"{'nothing' if default is inspect.Parameter.empty else repr(default)} "
+                "in the function"
+            )
+    ins = {p.name for p in alg.inputs if p.kind in ("raster", "multiraster", "file")}
+    outs = {p.name for p in alg.outputs}
+    if set(getattr(alg.run, "inputs", ())) != ins or set(getattr(alg.run, "outputs", ())) != outs:
+        raise TypeError(
+            f"{where}: inputs/outputs {sorted(ins)}/{sorted(outs)} in the spec but "
+            f"{sorted(getattr(alg.run, 'inputs', ()))}/{sorted(getattr(alg.run, 'outputs', ()))} "
+            "in the function's @operation"
+        )
 
 
 def execute(
@@ -350,30 +376,10 @@ def execute(
     progress: Progress | None = None,
     overwrite: bool = False,
 ) -> dict:
-    """Validate ``values``, run ``alg``, and on any failure remove the outputs it created."""
+    """Validate ``values`` and run ``alg``'s operation (which refuses unsafe outputs and
+    removes the outputs it created when it fails)."""
     values = alg.validate(values)
-    check_outputs(alg, values, overwrite)
-    outs = output_paths(alg, values)
-    existed = {o for o in outs if os.path.lexists(o)}
-    try:
-        return alg.run(values, as_progress(progress))
-    except BaseException:
-        for o in outs:
-            if o not in existed:
-                _remove(o)
-        raise
-
-
-def _remove(path: str) -> None:
-    import shutil
-
-    try:
-        if os.path.isdir(path) and not os.path.islink(path):
-            shutil.rmtree(path)
-        elif os.path.lexists(path):
-            os.remove(path)
-    except OSError:
-        pass
+    return alg.run(**values, progress=as_progress(progress), overwrite=overwrite)
 
 
 __all__ = [

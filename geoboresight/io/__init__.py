@@ -1,51 +1,67 @@
-"""The I/O layer: files, bands, wavelengths, nodata and masks, CRS and transform, atomic writes.
+"""The I/O layer: files, bands, wavelengths, nodata and masks, CRS and transform, windows and
+atomic writes.
 
 Core kernels never see a file; everything about files lives here (DESIGN.md).
 """
 
-from .dual import DualSensor, SensorFile, open_dual
+from .cube import Cube, open_cube
+from .dual import DualSensor, RatioBands, SensorFile, open_dual
+from .grid import FLOAT_NODATA, Grid, is_georeferenced, require_same_grid
 from .raster import (
-    DEFAULT_BLOCK_ROWS,
-    FLOAT_NODATA,
+    band_count,
     create_class_raster,
     create_raster,
-    grid_of,
-    is_georeferenced,
     open_raster,
-    output_profile,
     quiet_georef,
-    read_masked,
-    require_same_grid,
-    row_windows,
-    sample_pixels,
     write_envi,
     write_raster,
 )
 from .wavelengths import nearest_band, read_wavelengths, wavelengths_of
-from .write import atomic_output, check_output_path
+from .windows import (
+    DEFAULT_BLOCK_ROWS,
+    Block,
+    band_reader,
+    bands_reader,
+    map_windows,
+    read_masked,
+    reduce_windows,
+    row_windows,
+    sample_windows,
+)
+from .write import atomic_output, check_output_path, write_json, write_text
 
 __all__ = [
     "DEFAULT_BLOCK_ROWS",
     "FLOAT_NODATA",
+    "Block",
+    "Cube",
     "DualSensor",
+    "Grid",
+    "RatioBands",
     "SensorFile",
     "atomic_output",
+    "band_count",
+    "band_reader",
+    "bands_reader",
     "check_output_path",
     "create_class_raster",
     "create_raster",
-    "grid_of",
     "is_georeferenced",
+    "map_windows",
     "nearest_band",
+    "open_cube",
     "open_dual",
     "open_raster",
-    "output_profile",
     "quiet_georef",
     "read_masked",
     "read_wavelengths",
+    "reduce_windows",
     "require_same_grid",
     "row_windows",
-    "sample_pixels",
+    "sample_windows",
     "wavelengths_of",
     "write_envi",
+    "write_json",
     "write_raster",
+    "write_text",
 ]

@@ -5,26 +5,24 @@ ENVI BIL cube band by band and line by line, which is ~10× slower than the disk
 ENVI files (BSQ, BIL, BIP; any byte order, any header offset) the strip is read with one
 sequential ``readinto`` and reordered in NumPy. Other formats go through rasterio.
 
-:meth:`Cube.map_strips` runs a per-strip function in a few worker threads (NumPy and BLAS
-release the GIL) and hands the results back in order, with at most two strips per worker in
-flight, so memory stays bounded by a few strips whatever the flight line's length.
+:meth:`Cube.reader` gives :func:`~geoboresight.io.windows.map_windows` a thread-safe reader
+that reuses one buffer per worker thread, so memory stays bounded by a few strips whatever the
+flight line's length.
 """
 
 from __future__ import annotations
 
-import contextlib
 import os
 import re
 import threading
-from collections import deque
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InputError
-from .raster import is_georeferenced, open_raster, row_windows
+from .grid import Grid
+from .raster import open_raster
 from .wavelengths import read_wavelengths
+from .windows import default_workers, map_windows
 
 _ENVI_DTYPES = {1: "u1", 2: "i2", 3: "i4", 4: "f4", 5: "f8", 12: "u2", 13: "u4", 14: "i8", 15: "u8"}
 
@@ -89,26 +87,18 @@ class Cube:
     Use :func:`open_cube`. ``wavelengths``/``fwhm`` are in nm (None when the files have none).
     """
 
-    def __init__(self, parts, height, width, crs, transform, wavelengths, fwhm):
+    def __init__(self, parts, grid: Grid, wavelengths, fwhm):
         self._parts = parts
-        self.height = height
-        self.width = width
-        self.crs = crs
-        self.transform = transform
+        self.grid = grid
+        self.height = grid.height
+        self.width = grid.width
+        self.crs = grid.crs
+        self.transform = grid.transform
         self.wavelengths = wavelengths
         self.fwhm = fwhm
         self.count = sum(p.count for p in parts)
         self.paths = [p.path for p in parts]
         self._local = threading.local()
-
-    @property
-    def grid(self) -> dict:
-        return {
-            "width": self.width,
-            "height": self.height,
-            "crs": self.crs,
-            "transform": self.transform,
-        }
 
     def close(self):
         for p in self._parts:
@@ -121,9 +111,6 @@ class Cube:
 
     def __exit__(self, *exc):
         self.close()
-
-    def windows(self, block_rows: int):
-        return row_windows(self.height, self.width, block_rows)
 
     @property
     def dtype(self) -> np.dtype:
@@ -216,54 +203,33 @@ class Cube:
             for b, j in zip(local, sel, strict=True):
                 data[j] = buf[:, :, b]
 
-    def map_strips(self, func, block_rows: int, bands=None, dtype=None, workers: int | None = None):
-        """Yield ``(window, func(data, valid))`` for every strip of ``block_rows`` lines, in order.
-
-        Strips are read (:meth:`read`, in ``dtype``; None: the files' own type) and passed to
-        ``func`` in ``workers`` threads (default: the CPU count, at most 4); ``func`` must be
-        thread-safe. Each thread reuses one read buffer, and at most two strips per worker are
-        in flight, so memory is a few strips. While it runs, BLAS is limited to one thread per
-        worker: each strip is one matrix product, and a threaded BLAS splitting a product with a
-        long inner dimension synchronises its threads every few hundred pixels, which stalls
-        whenever another process holds a core (measured: 5× slower on a loaded 2-core machine).
-        """
-        workers = max(1, min(os.cpu_count() or 1, 4) if workers is None else int(workers))
+    def reader(self, bands=None, dtype="float64"):
+        """``read(row0, row1) -> (data, valid)`` for :func:`~geoboresight.io.windows.map_windows`:
+        :meth:`read` of ``bands`` in ``dtype`` (None: the files' own type), into one buffer
+        reused per thread (a new one per strip would be page-faulted in again each time:
+        measured as much time as the read itself). A kernel must not keep the buffer."""
         local = threading.local()
 
-        def task(win):
+        def read(row0: int, row1: int):
             buf = getattr(local, "buf", None)
-            data, valid = self.read(win.row_off, win.row_off + win.height, bands, dtype, out=buf)
+            data, valid = self.read(row0, row1, bands, dtype, out=buf)
             if buf is None or buf.shape[1] < data.shape[1]:
                 local.buf = data
-            return func(data, valid)
+            return data, valid
 
-        wins = iter(self.windows(block_rows))
-        pending = deque()
-        with _single_threaded_blas(), ThreadPoolExecutor(workers) as pool:
-            try:
-                for win in wins:
-                    pending.append((win, pool.submit(task, win)))
-                    if len(pending) >= 2 * workers:
-                        win0, fut = pending.popleft()
-                        yield win0, fut.result()
-                while pending:
-                    win0, fut = pending.popleft()
-                    yield win0, fut.result()
-            finally:
-                for _, fut in pending:
-                    fut.cancel()
+        return read
 
-
-@contextlib.contextmanager
-def _single_threaded_blas():
-    """One BLAS thread while worker threads run (threadpoolctl ships with scikit-learn)."""
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # pragma: no cover - then BLAS keeps its own threads
-        yield
-        return
-    with threadpool_limits(1, user_api="blas"):
-        yield
+    def map_strips(self, func, block_rows: int, bands=None, dtype=None, workers: int | None = None):
+        """Yield ``(window, func(data, valid))`` for every strip of ``block_rows`` lines, in
+        order, ``func`` running in ``workers`` threads (default: the CPU count, at most 4)."""
+        return map_windows(
+            self.reader(bands, dtype),
+            func,
+            height=self.height,
+            width=self.width,
+            block_rows=block_rows,
+            workers=default_workers() if workers is None else max(1, int(workers)),
+        )
 
 
 def open_cube(paths, label: str = "image") -> Cube:
@@ -279,14 +245,11 @@ def open_cube(paths, label: str = "image") -> Cube:
         path = os.fspath(path)
         with open_raster(path, label) as src:
             data_path = src.files[0] if src.files else path
-            g = (src.height, src.width, src.crs, src.transform if is_georeferenced(src) else None)
+            g = Grid.of(src)
             if grid is None:
                 grid = g
-            elif g[:2] != grid[:2]:
-                raise InputError(
-                    f"{label} {path} is {g[1]} × {g[0]} pixels but {paths[0]} is "
-                    f"{grid[1]} × {grid[0]}: stacked files must share one pixel grid"
-                )
+            else:
+                grid.require_same(g, f"{label} {paths[0]}", f"{label} {path}")
             wl, fw = read_wavelengths(src)
             wls.append(wl)
             fws.append(fw)
@@ -301,5 +264,4 @@ def open_cube(paths, label: str = "image") -> Cube:
             )
     wavelengths = None if any(w is None for w in wls) else np.concatenate(wls)
     fwhm = None if any(f is None for f in fws) else np.concatenate(fws)
-    crs = next((p for p in [grid[2]] if p is not None), None)
-    return Cube(parts, grid[0], grid[1], crs, grid[3], wavelengths, fwhm)
+    return Cube(parts, grid, wavelengths, fwhm)

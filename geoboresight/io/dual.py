@@ -11,13 +11,27 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from .raster import is_georeferenced, open_raster
+from .grid import Grid
+from .raster import open_raster
 from .wavelengths import nearest_band, wavelengths_of
 
-#: Eq. 3 of Brook & Ben-Dor (2011): b(1010 nm) / b(920 nm).
-NUMERATOR_NM = 1010.0
-DENOMINATOR_NM = 920.0
+#: Eq. 3 of Brook & Ben-Dor (2011): b(1010 nm) / b(920 nm), the SWIR band over the VNIR band.
+SWIR_NM = 1010.0
+VNIR_NM = 920.0
 SEAM_NM = 975.0
+#: Largest distance between a requested wavelength and a band centre, for every operation.
+TOLERANCE_NM = 10.0
+
+
+@dataclass(frozen=True)
+class RatioBands:
+    """The two bands of the boresight ratio (Eq. 3): 1-based band numbers in their files and
+    their centre wavelengths (nm). The ratio is SWIR over VNIR."""
+
+    vnir_band: int
+    vnir_nm: float
+    swir_band: int
+    swir_nm: float
 
 
 @dataclass(frozen=True)
@@ -55,42 +69,46 @@ class DualSensor:
 
     vnir: SensorFile
     swir: SensorFile
-    width: int
-    height: int
-    crs: object | None
-    transform: object | None  # None in raw sensor geometry
+    grid: Grid  # raw sensor geometry: crs and transform None
     merged: bool
 
     @property
-    def grid(self) -> dict:
-        return {
-            "width": self.width,
-            "height": self.height,
-            "crs": self.crs,
-            "transform": self.transform,
-        }
+    def width(self) -> int:
+        return self.grid.width
+
+    @property
+    def height(self) -> int:
+        return self.grid.height
+
+    @property
+    def crs(self):
+        return self.grid.crs
+
+    @property
+    def transform(self):
+        return self.grid.transform
 
     def ratio_bands(
         self,
-        numerator_nm: float = NUMERATOR_NM,
-        denominator_nm: float = DENOMINATOR_NM,
-        mode: str = "wavelength",
-        tolerance_nm: float = 10.0,
-    ) -> tuple[int, int]:
-        """(SWIR band, VNIR band), 1-based, for the boresight ratio (Eq. 3).
+        vnir_nm: float = VNIR_NM,
+        swir_nm: float = SWIR_NM,
+        band_mode: str = "wavelength",
+        tolerance_nm: float = TOLERANCE_NM,
+    ) -> RatioBands:
+        """The two bands of the boresight ratio b(1010 nm) / b(920 nm) (Eq. 3).
 
-        ``mode="wavelength"``: nearest centres to ``numerator_nm`` (SWIR) and ``denominator_nm``
-        (VNIR) within ``tolerance_nm``. ``mode="edges"``: the first SWIR band over the last VNIR
-        band, whatever their wavelengths (the paper's choice on AISA-Dual).
+        ``band_mode="wavelength"``: the band centres nearest ``vnir_nm`` (VNIR) and ``swir_nm``
+        (SWIR), within ``tolerance_nm``. ``band_mode="edges"``: the first SWIR band over the
+        last VNIR band, whatever their wavelengths (the paper's choice on AISA-Dual).
         """
-        if mode == "edges":
-            return self.swir.first, self.vnir.last
-        if mode != "wavelength":
-            raise InputError(f"unknown band mode {mode!r}: use 'wavelength' or 'edges'")
-        return (
-            self.swir.band_for(numerator_nm, tolerance_nm),
-            self.vnir.band_for(denominator_nm, tolerance_nm),
-        )
+        if band_mode == "edges":
+            vb, sb = self.vnir.last, self.swir.first
+        elif band_mode == "wavelength":
+            vb = self.vnir.band_for(vnir_nm, tolerance_nm)
+            sb = self.swir.band_for(swir_nm, tolerance_nm)
+        else:
+            raise InputError(f"unknown band mode {band_mode!r}: use 'wavelength' or 'edges'")
+        return RatioBands(vb, self.vnir.wavelength_of(vb), sb, self.swir.wavelength_of(sb))
 
 
 def _sensor_wavelengths(
@@ -123,9 +141,7 @@ def open_dual(
     with open_raster(vnir, "VNIR" if swir else "merged cube") as src:
         label = "VNIR" if swir else "merged cube"
         wl_v, fw_v = _sensor_wavelengths(src, vnir, vnir_wavelengths, "VNIR")
-        shape_v = (src.height, src.width)
-        crs_v = src.crs
-        tr_v = src.transform if is_georeferenced(src) else None
+        grid_v = Grid.of(src)
         nodata_v = src.nodata
     if swir is None:
         below = np.flatnonzero(wl_v < seam_nm)
@@ -144,32 +160,16 @@ def open_dual(
             None if fw_v is None else fw_v[idx],
             nodata_v,
         )
-        return DualSensor(
-            mk(below, "VNIR"), mk(above, "SWIR"), shape_v[1], shape_v[0], crs_v, tr_v, True
-        )
+        return DualSensor(mk(below, "VNIR"), mk(above, "SWIR"), grid_v, True)
 
     with open_raster(swir, "SWIR") as src:
         wl_s, fw_s = _sensor_wavelengths(src, swir, swir_wavelengths, "SWIR")
-        shape_s = (src.height, src.width)
-        crs_s = src.crs
-        tr_s = src.transform if is_georeferenced(src) else None
+        grid_s = Grid.of(src)
         nodata_s = src.nodata
-    if shape_v != shape_s:
-        raise InputError(
-            f"VNIR {vnir} is {shape_v[1]} × {shape_v[0]} pixels (columns × lines) but SWIR "
-            f"{swir} is {shape_s[1]} × {shape_s[0]}: both must be on the same pixel grid "
-            "(crop or resample one of them to the other first)"
-        )
-    if crs_v is not None and crs_s is not None and crs_v != crs_s:
-        raise InputError(
-            f"VNIR {vnir} is in {crs_v.to_string()} but SWIR {swir} is in {crs_s.to_string()}: "
-            "reproject one onto the other's grid first"
-        )
-    if tr_v is not None and tr_s is not None and not tr_v.almost_equals(tr_s):
-        raise InputError(
-            f"VNIR {vnir} and SWIR {swir} have different geotransforms ({tuple(tr_v)[:6]} vs "
-            f"{tuple(tr_s)[:6]}): they must share one pixel grid"
-        )
+    grid_v.require_same(grid_s, f"VNIR {vnir}", f"SWIR {swir}")
     vn = SensorFile(vnir, "VNIR", tuple(range(1, len(wl_v) + 1)), wl_v, fw_v, nodata_v)
     sw = SensorFile(swir, "SWIR", tuple(range(1, len(wl_s) + 1)), wl_s, fw_s, nodata_s)
-    return DualSensor(vn, sw, shape_v[1], shape_v[0], crs_v or crs_s, tr_v or tr_s, False)
+    grid = Grid(
+        grid_v.width, grid_v.height, grid_v.crs or grid_s.crs, grid_v.transform or grid_s.transform
+    )
+    return DualSensor(vn, sw, grid, False)

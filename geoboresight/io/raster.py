@@ -9,26 +9,21 @@ from __future__ import annotations
 import contextlib
 import os
 import warnings
-from collections.abc import Iterator
 from xml.sax.saxutils import escape
 
 import numpy as np
 import rasterio
 from rasterio.errors import NotGeoreferencedWarning, RasterioIOError
 from rasterio.transform import Affine
-from rasterio.windows import Window
 
 from .. import __version__
 from ..errors import InputError
+from .grid import FLOAT_NODATA, Grid
 from .wavelengths import format_wavelengths
 from .write import atomic_output
 
-#: Nodata written into float outputs.
-FLOAT_NODATA = -9999.0
 #: GDAL block cache (MB) while reading: enough for a few strips of a full-width cube.
 GDAL_CACHE_MB = 64
-#: Rows per block when streaming a flight line (pushbroom lines run along rows).
-DEFAULT_BLOCK_ROWS = 256
 
 
 @contextlib.contextmanager
@@ -83,69 +78,6 @@ def band_count(path: str) -> int:
         return src.count
 
 
-def is_georeferenced(src) -> bool:
-    """True when the dataset has a CRS or a non-identity geotransform."""
-    return src.crs is not None or (src.transform != Affine.identity())
-
-
-def row_windows(height: int, width: int, block_rows: int = DEFAULT_BLOCK_ROWS) -> Iterator[Window]:
-    """Full-width strips of ``block_rows`` lines: memory bounded by a strip, not a flight line."""
-    block_rows = max(1, int(block_rows))
-    for row in range(0, height, block_rows):
-        yield Window(0, row, width, min(block_rows, height - row))
-
-
-def read_masked(src, band: int, window: Window | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(float32 values, valid mask) of one band: invalid where nodata, masked or non-finite."""
-    data = src.read(band, window=window)
-    valid = np.ones(data.shape, dtype=bool)
-    if src.nodata is not None:
-        valid &= data != src.nodata
-        if np.isnan(src.nodata):
-            valid &= ~np.isnan(data)
-    else:
-        # Honour an internal mask band (e.g. a GeoTIFF with a per-dataset mask).
-        flags = src.mask_flag_enums[band - 1]
-        if rasterio.enums.MaskFlags.all_valid not in flags:
-            valid &= src.read_masks(band, window=window) > 0
-    values = data.astype("float32", copy=False)
-    valid &= np.isfinite(values)
-    return values, valid
-
-
-def output_profile(src, count: int = 1, dtype: str = "float32", nodata=FLOAT_NODATA) -> dict:
-    """A tiled, compressed GeoTIFF profile on the grid of ``src``; no CRS is invented."""
-    profile = {
-        "driver": "GTiff",
-        "width": src.width,
-        "height": src.height,
-        "count": count,
-        "dtype": dtype,
-        "nodata": nodata,
-        "tiled": True,
-        "blockxsize": 256,
-        "blockysize": 256,
-        "compress": "deflate",
-        "predictor": 3 if np.dtype(dtype).kind == "f" else 2,
-        "BIGTIFF": "IF_SAFER",
-    }
-    if src.crs is not None:
-        profile["crs"] = src.crs
-    if is_georeferenced(src):
-        profile["transform"] = src.transform
-    return profile
-
-
-def grid_of(src) -> dict:
-    """The grid (size, CRS, transform) of an open dataset, for comparing or creating rasters."""
-    return {
-        "width": src.width,
-        "height": src.height,
-        "crs": src.crs,
-        "transform": src.transform if is_georeferenced(src) else None,
-    }
-
-
 def base_tags(**extra) -> dict:
     tags = {"GEOBORESIGHT_VERSION": __version__}
     tags.update({k.upper(): str(v) for k, v in extra.items()})
@@ -169,51 +101,35 @@ def write_raster(
 ) -> str:
     """Write one or more bands (2-D arrays, or a 3-D stack) to a GeoTIFF atomically.
 
-    The grid comes from ``like`` (an open dataset or a :func:`grid_of` dict), or from ``crs``
-    and ``transform``. Masked entries of ``numpy.ma`` arrays are written as ``nodata``.
+    The grid comes from ``like`` (an open dataset or a :class:`Grid`), or from ``crs`` and
+    ``transform``. Masked entries of ``numpy.ma`` arrays are written as ``nodata``.
     """
     stack = np.ma.asarray(arrays)
     if stack.ndim == 2:
         stack = stack[np.newaxis]
     dtype = dtype or str(stack.dtype if stack.dtype != np.float64 else np.dtype("float32"))
     height, width = stack.shape[1:]
-    profile = {
-        "driver": "GTiff",
-        "width": width,
-        "height": height,
-        "count": stack.shape[0],
-        "dtype": dtype,
-        "tiled": width >= 256 and height >= 256,
-        "compress": "deflate",
-        "BIGTIFF": "IF_SAFER",
-    }
-    if profile["tiled"]:
-        profile.update(blockxsize=256, blockysize=256)
-    if nodata is not None:
-        profile["nodata"] = nodata
     if like is not None:
-        grid = like if isinstance(like, dict) else grid_of(like)
-        crs = grid.get("crs") if crs is None else crs
-        transform = grid.get("transform") if transform is None else transform
-    if crs is not None:
-        profile["crs"] = crs
-    if transform is not None and transform != Affine.identity():
-        profile["transform"] = transform
+        grid = Grid.of(like)
+        crs = grid.crs if crs is None else crs
+        transform = grid.transform if transform is None else transform
+    grid = Grid(width, height, crs, transform)
     data = (
         stack.filled(nodata if nodata is not None else 0) if np.ma.isMaskedArray(stack) else stack
     )
-    with atomic_output(path, overwrite=overwrite) as tmp, quiet_georef():
-        with rasterio.open(tmp, "w", **profile) as dst:
-            dst.write(np.asarray(data).astype(dtype, copy=False))
-            dst.update_tags(**base_tags(**(tags or {})))
-            if band_names:
-                for i, name in enumerate(band_names, start=1):
-                    dst.set_band_description(i, name)
-            if band_tags:
-                for i, bt in enumerate(band_tags, start=1):
-                    dst.update_tags(i, **{k: str(v) for k, v in bt.items()})
-            if colormap:
-                dst.write_colormap(1, colormap)
+    with create_raster(
+        path,
+        grid,
+        count=stack.shape[0],
+        dtype=dtype,
+        nodata=nodata,
+        tags=tags,
+        band_names=band_names,
+        band_tags=band_tags,
+        colormap=colormap,
+        overwrite=overwrite,
+    ) as dst:
+        dst.write(np.asarray(data).astype(dtype, copy=False))
     return path
 
 
@@ -270,76 +186,42 @@ def write_envi(
 @contextlib.contextmanager
 def create_raster(
     path: str,
-    grid: dict,
+    grid: Grid,
     *,
     count: int = 1,
     dtype: str = "float32",
     nodata=FLOAT_NODATA,
     tags: dict | None = None,
     band_names: list[str] | None = None,
+    band_tags: list[dict] | None = None,
+    colormap: dict | None = None,
+    category_names: dict[int, str] | None = None,
     overwrite: bool = True,
 ):
-    """Open a new tiled, compressed GeoTIFF for block-by-block writing; atomic on success.
+    """Open a new GeoTIFF on ``grid`` for block-by-block writing; atomic on success.
 
-    ``grid`` is a :func:`grid_of`-style dict (width, height, crs, transform or None for raw
-    sensor geometry). Yields the open rasterio dataset.
+    The profile is :meth:`Grid.profile`'s (tiled, compressed, predictor, nodata); raw sensor
+    geometry stays raw. Tags, band names and a colour table are written once the caller's
+    block has run; category names go in the GDAL PAM sidecar (.aux.xml), where GDAL and QGIS
+    read them. Yields the open rasterio dataset.
     """
-    profile = {
-        "driver": "GTiff",
-        "width": grid["width"],
-        "height": grid["height"],
-        "count": count,
-        "dtype": dtype,
-        "tiled": True,
-        "blockxsize": 256,
-        "blockysize": 256,
-        "compress": "deflate",
-        "BIGTIFF": "IF_SAFER",
-    }
-    if nodata is not None:
-        profile["nodata"] = nodata
-    if grid.get("crs") is not None:
-        profile["crs"] = grid["crs"]
-    if grid.get("transform") is not None:
-        profile["transform"] = grid["transform"]
+    extra = {"photometric": "palette"} if colormap else {}
+    profile = Grid.of(grid).profile(count=count, dtype=dtype, nodata=nodata, **extra)
     with atomic_output(path, overwrite=overwrite) as tmp, quiet_georef():
         with rasterio.open(tmp, "w", **profile) as dst:
+            if colormap:
+                dst.write_colormap(1, colormap)
             yield dst
             dst.update_tags(**base_tags(**(tags or {})))
-            if band_names:
-                for i, name in enumerate(band_names, start=1):
-                    dst.set_band_description(i, name)
-
-
-def require_same_grid(a, b, label_a: str, label_b: str) -> None:
-    """Raise InputError naming both files when two open datasets differ in size."""
-    if (a.height, a.width) != (b.height, b.width):
-        raise InputError(
-            f"{label_a} {a.name} is {a.width} × {a.height} pixels but {label_b} {b.name} is "
-            f"{b.width} × {b.height}: both must be on the same pixel grid"
-        )
-
-
-def sample_pixels(srcs_bands, height, width, block_rows, size, seed, progress):
-    """A reproducible random sample (about ``size`` pixels) of several bands, streamed.
-
-    ``srcs_bands`` is a list of (dataset, band). Returns (values (n_bands, n), valid (n,)).
-    """
-    rng = np.random.default_rng(seed)
-    p = min(1.0, size / max(1, height * width))
-    cols, oks = [], []
-    windows = list(row_windows(height, width, block_rows))
-    for i, win in enumerate(windows):
-        pick = rng.random((win.height, win.width)) < p
-        vals, ok = [], np.ones(int(pick.sum()), bool)
-        for src, band in srcs_bands:
-            v, valid = read_masked(src, band, win)
-            vals.append(v[pick])
-            ok &= valid[pick]
-        cols.append(np.stack(vals))
-        oks.append(ok)
-        progress.update((i + 1) / len(windows), "sampling")
-    return np.concatenate(cols, axis=1), np.concatenate(oks)
+            for i, name in enumerate(band_names or (), start=1):
+                dst.set_band_description(i, name)
+            for i, bt in enumerate(band_tags or (), start=1):
+                dst.update_tags(i, **{k: str(v) for k, v in bt.items()})
+        if category_names:
+            # After the TIFF is closed (GDAL would rewrite its PAM file on close), beside the
+            # temporary file so that it is renamed along with it.
+            with open(tmp + ".aux.xml", "w", encoding="utf-8") as f:
+                f.write(_pam_categories(category_names))
 
 
 def _pam_categories(names: dict[int, str]) -> str:
@@ -353,37 +235,19 @@ def _pam_categories(names: dict[int, str]) -> str:
     )
 
 
-@contextlib.contextmanager
 def create_class_raster(
     path, grid, *, tags, band_name, colormap, category_names, band_tags=None, nodata=255
 ):
-    """A uint8 GeoTIFF (nodata 255) with a colour table and GDAL category names, written
-    block by block; atomic. Category names go in the GDAL PAM sidecar (.aux.xml), where GDAL
-    and QGIS read them (the colour table is inside the TIFF)."""
-    profile = {
-        "driver": "GTiff",
-        "width": grid["width"],
-        "height": grid["height"],
-        "count": 1,
-        "dtype": "uint8",
-        "nodata": nodata,
-        "tiled": True,
-        "blockxsize": 256,
-        "blockysize": 256,
-        "compress": "deflate",
-        "photometric": "palette",
-    }
-    if grid.get("crs") is not None:
-        profile["crs"] = grid["crs"]
-    if grid.get("transform") is not None:
-        profile["transform"] = grid["transform"]
-    with atomic_output(path) as tmp:
-        with quiet_georef(), rasterio.open(tmp, "w", **profile) as dst:
-            dst.write_colormap(1, colormap)
-            yield dst
-            dst.update_tags(**base_tags(**tags))
-            dst.set_band_description(1, band_name)
-            if band_tags:
-                dst.update_tags(1, **{k: str(v) for k, v in band_tags.items()})
-        with open(tmp + ".aux.xml", "w", encoding="utf-8") as f:
-            f.write(_pam_categories(category_names))
+    """A uint8 class GeoTIFF (nodata 255) with a colour table and category names, written
+    block by block; atomic (a :func:`create_raster` context)."""
+    return create_raster(
+        path,
+        grid,
+        dtype="uint8",
+        nodata=nodata,
+        tags=tags,
+        band_names=[band_name],
+        band_tags=[band_tags] if band_tags else None,
+        colormap=colormap,
+        category_names=category_names,
+    )

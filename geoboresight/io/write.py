@@ -92,3 +92,17 @@ def atomic_output(path: str | os.PathLike, overwrite: bool = True) -> Iterator[s
                 shutil.rmtree(leftover, ignore_errors=True)
             elif os.path.lexists(leftover):
                 os.remove(leftover)
+
+
+def write_text(path: str | os.PathLike, text: str, overwrite: bool = True) -> str:
+    """Write a text file (HTML, CSV, JSON) atomically."""
+    with atomic_output(path, overwrite=overwrite) as tmp, open(tmp, "w", encoding="utf-8") as f:
+        f.write(text)
+    return os.fspath(path)
+
+
+def write_json(path: str | os.PathLike, data, overwrite: bool = True) -> str:
+    """Write ``data`` as indented JSON atomically (NumPy scalars as numbers)."""
+    import json
+
+    return write_text(path, json.dumps(data, indent=2, default=float), overwrite=overwrite)

@@ -1,0 +1,121 @@
+"""The pixel grid of a raster, the one same-grid check and the one GeoTIFF profile builder.
+
+Raw sensor geometry (no CRS, no geotransform) is common for pushbroom data: its grid has
+``crs=None`` and ``transform=None``, and outputs on it stay raw (no Earth position is invented).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from rasterio.transform import Affine
+
+from ..errors import InputError
+
+#: Nodata written into float outputs.
+FLOAT_NODATA = -9999.0
+#: Tile size of every GeoTIFF output.
+TILE = 256
+
+
+def is_georeferenced(src) -> bool:
+    """True when the dataset has a CRS or a non-identity geotransform."""
+    return src.crs is not None or (src.transform != Affine.identity())
+
+
+@dataclass(frozen=True)
+class Grid:
+    """Size, CRS and geotransform of a raster; ``transform`` is None in raw sensor geometry."""
+
+    width: int
+    height: int
+    crs: Any = None
+    transform: Any = None
+
+    @classmethod
+    def of(cls, src) -> Grid:
+        """The grid of an open rasterio dataset (or of a :class:`Grid`, returned as is)."""
+        if isinstance(src, Grid):
+            return src
+        return cls(
+            int(src.width),
+            int(src.height),
+            src.crs,
+            src.transform if is_georeferenced(src) else None,
+        )
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(lines, columns), as NumPy arrays of one band are shaped."""
+        return self.height, self.width
+
+    @property
+    def georeferenced(self) -> bool:
+        return self.crs is not None or self.transform is not None
+
+    def require_same(self, other: Grid, label: str, other_label: str) -> None:
+        """Raise :class:`InputError` naming both rasters when ``other`` is on another grid.
+
+        Size must match; CRS and geotransform must match where both rasters carry one (a raw
+        raster may sit beside a georeferenced one of the same size: its pixels are the same).
+        """
+        if self.shape != other.shape:
+            raise InputError(
+                f"{label} is {self.width} × {self.height} pixels (columns × lines) but "
+                f"{other_label} is {other.width} × {other.height}: both must be on the same "
+                "pixel grid (crop or resample one of them onto the other first)"
+            )
+        if self.crs is not None and other.crs is not None and self.crs != other.crs:
+            raise InputError(
+                f"{label} is in {self.crs.to_string()} but {other_label} is in "
+                f"{other.crs.to_string()}: reproject one onto the other's grid first"
+            )
+        if (
+            self.transform is not None
+            and other.transform is not None
+            and not self.transform.almost_equals(other.transform)
+        ):
+            raise InputError(
+                f"{label} and {other_label} have different geotransforms "
+                f"({tuple(self.transform)[:6]} vs {tuple(other.transform)[:6]}): they must "
+                "share one pixel grid"
+            )
+
+    def profile(
+        self, *, count: int = 1, dtype: str = "float32", nodata=FLOAT_NODATA, **extra
+    ) -> dict:
+        """A GeoTIFF profile on this grid: tiled, deflate-compressed with the predictor that
+        suits ``dtype``, BigTIFF when needed; no CRS or transform is invented for raw data."""
+        profile = {
+            "driver": "GTiff",
+            "width": self.width,
+            "height": self.height,
+            "count": int(count),
+            "dtype": str(np.dtype(dtype)),
+            "compress": "deflate",
+            "predictor": 3 if np.dtype(dtype).kind == "f" else 2,
+            "tiled": True,
+            "blockxsize": TILE,
+            "blockysize": TILE,
+            "BIGTIFF": "IF_SAFER",
+        }
+        if nodata is not None:
+            profile["nodata"] = nodata
+        if self.crs is not None:
+            profile["crs"] = self.crs
+        if self.transform is not None and self.transform != Affine.identity():
+            profile["transform"] = self.transform
+        profile.update(extra)
+        return profile
+
+
+def require_same_grid(a, b, label_a: str, label_b: str) -> None:
+    """Raise :class:`InputError` naming both files when two rasters are on different grids.
+
+    ``a`` and ``b`` are open datasets (their file names are added to the labels) or grids.
+    """
+    name_a = f"{label_a} {a.name}" if hasattr(a, "name") else label_a
+    name_b = f"{label_b} {b.name}" if hasattr(b, "name") else label_b
+    Grid.of(a).require_same(Grid.of(b), name_a, name_b)

@@ -1,0 +1,99 @@
+"""What every file-level operation shares: outputs checked before any work, removed after a
+failure, and progress optional.
+
+A file-level operation is a plain function a rasterio script calls (``ratio_file(vnir, swir,
+output="ratio.tif")``); the specs declare the same function as their ``run``. Decorating it with
+:func:`operation` makes the promises of DESIGN.md hold for scripts and faces alike:
+
+- an output may not be an input, nor one of an input's sidecar files (ENVI header, .aux.xml);
+- an existing output is replaced only with ``overwrite=True``;
+- an output the run created is removed when the run fails or is cancelled (the writers in
+  :mod:`geoboresight.io` are atomic, so a replaced output is either the old or the new file).
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import os
+import shutil
+from collections.abc import Callable
+
+from ..errors import OutputError
+from ..io.write import check_output_path
+from ..progress import as_progress
+
+
+def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) -> Callable:
+    """Declare a file-level operation whose parameters ``inputs`` name files it reads (a path
+    or a list of paths) and ``outputs`` the files or folders it writes.
+
+    The decorated function takes ``progress`` (a :class:`~geoboresight.progress.Progress` or
+    None) and gains ``overwrite`` (default False).
+    """
+
+    def decorate(func: Callable) -> Callable:
+        sig = inspect.signature(func)
+        missing = [n for n in (*inputs, *outputs, "progress") if n not in sig.parameters]
+        if missing:
+            raise TypeError(f"{func.__name__}: no parameter(s) {', '.join(missing)}")
+
+        @functools.wraps(func)
+        def run(*args, overwrite: bool = False, **kwargs):
+            bound = sig.bind(*args, **kwargs)
+            bound.apply_defaults()
+            values = bound.arguments
+            values["progress"] = as_progress(values.get("progress"))
+            outs = check_paths(values, inputs, outputs, overwrite)
+            existed = {o for o in outs if os.path.lexists(o)}
+            try:
+                return func(*bound.args, **bound.kwargs)
+            except BaseException:
+                for o in outs:
+                    if o not in existed:
+                        _remove(o)
+                raise
+
+        params = list(sig.parameters.values())
+        params.append(inspect.Parameter("overwrite", inspect.Parameter.KEYWORD_ONLY, default=False))
+        run.__signature__ = sig.replace(parameters=params)
+        run.inputs = tuple(inputs)
+        run.outputs = tuple(outputs)
+        return run
+
+    return decorate
+
+
+def _paths(value) -> list[str]:
+    if value is None or value == "":
+        return []
+    if isinstance(value, str | os.PathLike):
+        return [os.fspath(value)]
+    return [os.fspath(v) for v in value]
+
+
+def check_paths(values: dict, inputs, outputs, overwrite: bool) -> list[str]:
+    """Refuse an output that is an input (or its sidecar), given twice, or existing without
+    ``overwrite``; return the output paths."""
+    ins = [p for name in inputs for p in _paths(values.get(name))]
+    outs: list[str] = []
+    seen: set[str] = set()
+    for name in outputs:
+        for path in _paths(values.get(name)):
+            real = os.path.realpath(path)
+            if real in seen:
+                raise OutputError(f"output '{name}' ({path}) is also given for another output")
+            seen.add(real)
+            check_output_path(path, ins, overwrite=overwrite, label=f"output '{name}'")
+            outs.append(path)
+    return outs
+
+
+def _remove(path: str) -> None:
+    try:
+        if os.path.isdir(path) and not os.path.islink(path):
+            shutil.rmtree(path)
+        elif os.path.lexists(path):
+            os.remove(path)
+    except OSError:
+        pass

@@ -1,0 +1,117 @@
+"""File-level boresight ratio (Eq. 3): a whole flight line, streamed block by block."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import io
+from ..io.dual import SEAM_NM, SWIR_NM, TOLERANCE_NM, VNIR_NM
+from ..ratio import boresight_ratio
+from ._operation import operation
+
+
+@operation(inputs=("vnir", "swir"), outputs=("output",))
+def ratio_file(
+    vnir,
+    swir=None,
+    *,
+    output,
+    seam_nm=SEAM_NM,
+    vnir_wavelengths=None,
+    swir_wavelengths=None,
+    band_mode="wavelength",
+    vnir_nm=VNIR_NM,
+    swir_nm=SWIR_NM,
+    tolerance_nm=TOLERANCE_NM,
+    block_rows=io.DEFAULT_BLOCK_ROWS,
+    progress=None,
+) -> dict:
+    """Write the boresight band ratio b(1010 nm) / b(920 nm) of a flight line to a GeoTIFF.
+
+    Parameters
+    ----------
+    vnir : path
+        VNIR file (ENVI or GeoTIFF), or a merged VNIR+SWIR cube when ``swir`` is None.
+    swir : path, optional
+        SWIR file on the same pixel grid.
+    output : path
+        The float32 ratio GeoTIFF (nodata -9999), on the input's grid: raw sensor geometry stays
+        raw, a CRS and geotransform are carried over.
+    seam_nm : float
+        Merged cube only: bands below it are VNIR, the rest SWIR.
+    vnir_wavelengths, swir_wavelengths : str, optional
+        Band centres in nm, comma-separated, for files without wavelength metadata.
+    band_mode : {"wavelength", "edges"}
+        Bands nearest ``vnir_nm``/``swir_nm``, or the last VNIR band and the first SWIR band.
+    vnir_nm, swir_nm : float
+        Wavelengths of the denominator (VNIR) and numerator (SWIR) bands.
+    tolerance_nm : float
+        Largest distance between a requested wavelength and a band centre.
+    block_rows : int
+        Lines read at a time.
+    progress : Progress, optional
+
+    Returns
+    -------
+    dict
+        ``output``, the bands and wavelengths used and the number of valid pixels.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (Eq. 3).
+    """
+    dual = io.open_dual(vnir, swir, seam_nm, vnir_wavelengths, swir_wavelengths)
+    bands = dual.ratio_bands(vnir_nm, swir_nm, band_mode, tolerance_nm)
+    progress.info(
+        f"boresight ratio: SWIR band {bands.swir_band} ({bands.swir_nm:.1f} nm) / VNIR band "
+        f"{bands.vnir_band} ({bands.vnir_nm:.1f} nm); "
+        f"{'merged cube' if dual.merged else 'two files'}; "
+        f"{'georeferenced' if dual.grid.georeferenced else 'raw sensor geometry'}"
+    )
+    tags = {
+        "product": "boresight band ratio (Brook & Ben-Dor 2011, Eq. 3)",
+        "numerator_file": dual.swir.path,
+        "numerator_band": bands.swir_band,
+        "numerator_wavelength_nm": f"{bands.swir_nm:.3f}",
+        "denominator_file": dual.vnir.path,
+        "denominator_band": bands.vnir_band,
+        "denominator_wavelength_nm": f"{bands.vnir_nm:.3f}",
+    }
+    n_valid = 0
+    with (
+        io.open_raster(dual.swir.path, "SWIR") as s_src,
+        io.open_raster(dual.vnir.path, "VNIR") as v_src,
+        io.create_raster(
+            output,
+            dual.grid,
+            tags=tags,
+            band_names=[f"boresight ratio {bands.swir_nm:.0f}/{bands.vnir_nm:.0f} nm"],
+        ) as dst,
+    ):
+        read = io.bands_reader([(s_src, bands.swir_band), (v_src, bands.vnir_band)])
+
+        def kernel(pair, valid):
+            ratio, ok = boresight_ratio(pair[0], pair[1], valid)
+            return np.where(ok, ratio, io.FLOAT_NODATA).astype("float32"), int(ok.sum())
+
+        for win, (ratio, n) in io.map_windows(
+            read,
+            kernel,
+            height=dual.height,
+            width=dual.width,
+            block_rows=block_rows,
+            progress=progress,
+            message="ratio",
+        ):
+            dst.write(ratio, 1, window=win)
+            n_valid += n
+    progress.info(f"{n_valid} of {dual.width * dual.height} pixels valid")
+    return {
+        "output": output,
+        "swir_band": bands.swir_band,
+        "swir_wavelength_nm": round(bands.swir_nm, 3),
+        "vnir_band": bands.vnir_band,
+        "vnir_wavelength_nm": round(bands.vnir_nm, 3),
+        "valid_pixels": n_valid,
+    }
