@@ -1,12 +1,64 @@
 """geoboresight: the boresight effect of dual pushbroom hyperspectral sensors as information.
 
 Implements Brook & Ben-Dor, "Advantages of the boresight effect in hyperspectral data
-analysis", Remote Sensing 3 (2011): the boresight band ratio b(1010 nm)/b(920 nm) (Eq. 3) and
-its statistics, a shadow map, a relative DEM and a sub-pixel anomaly indicator.
+analysis", Remote Sensing 3 (2011) 484–502, https://doi.org/10.3390/rs3030484: the boresight
+band ratio b(1010 nm)/b(920 nm) (Eq. 3) and its statistics, a shadow map, a relative DEM and a
+sub-pixel anomaly indicator.
 
-Layers (DESIGN.md): core kernels (``ratio``, ``stats``, ...) on arrays; the I/O layer
-(``geoboresight.io``) on files; algorithm specs (``geoboresight.algorithms``) from which the
-CLI, the QGIS provider and the rio plugin are generated.
+One flat public API, loaded lazily (``import geoboresight`` imports neither NumPy nor GDAL):
+
+- kernels, on NumPy arrays and a validity mask: ``boresight_ratio``, ``describe``, ``rx``, ...
+  (``KERNELS``);
+- file-level operations, on whole flight lines: ``ratio_file``, ``shadow_classes_file``, ...
+  (``OPERATIONS``), the same functions the command line, ``rio boresight`` and QGIS run;
+- the dual-sensor reader ``open_dual`` and the windowed map ``map_windows``.
+
+>>> import geoboresight as gb                                   # doctest: +SKIP
+>>> gb.ratio_file("line_vnir.hdr", "line_swir.hdr", output="ratio.tif")   # doctest: +SKIP
 """
 
+from __future__ import annotations
+
+import importlib
+
 __version__ = "0.1.0"
+
+#: Kernels: arrays in, arrays (or small frozen dataclasses) out; ``f(data..., valid=None, *,
+#: options)``.
+KERNELS = {
+    "boresight_ratio": "geoboresight.ratio",
+    "describe": "geoboresight.stats",
+}
+
+#: File-level operations: one per operation of the command line and the QGIS toolbox.
+OPERATIONS = {
+    "ratio_file": "geoboresight.operations.ratio",
+    "stats_file": "geoboresight.operations.stats",
+}
+
+#: The I/O entry points a script needs beside the operations.
+IO = {
+    "open_dual": "geoboresight.io.dual",
+    "open_cube": "geoboresight.io.cube",
+    "map_windows": "geoboresight.io.windows",
+    "reduce_windows": "geoboresight.io.windows",
+    "Grid": "geoboresight.io.grid",
+    "Progress": "geoboresight.progress",
+    "GeoboresightError": "geoboresight.errors",
+}
+
+_API = {**KERNELS, **OPERATIONS, **IO}
+__all__ = sorted(_API)
+
+
+def __getattr__(name: str):
+    module = _API.get(name)
+    if module is None:
+        raise AttributeError(f"module 'geoboresight' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later look-ups skip this function
+    return value
+
+
+def __dir__():
+    return sorted({*globals(), *_API})

@@ -83,6 +83,17 @@ def _option(p: Param) -> click.Option:
     return click.Option(decls, **kwargs)
 
 
+def _alias_options(p: Param) -> list[click.Option]:
+    """Hidden options for a parameter's former names (kept for one release)."""
+    out = []
+    for alias in p.aliases:
+        kwargs = {"hidden": True, "default": None, "help": f"Former name of {option_name(p)}."}
+        if p.kind in ("number", "wavelength"):
+            kwargs["type"] = click.INT if p.integer else click.FLOAT
+        out.append(click.Option(["--" + alias.replace("_", "-"), alias], **kwargs))
+    return out
+
+
 class _Bar:
     """A click progress bar fed by Progress callbacks (silent when stderr is not a terminal)."""
 
@@ -117,6 +128,14 @@ def make_command(alg: Algorithm) -> click.Command:
             v = raw.get(p.name)
             if p.kind == "multiraster":
                 v = list(v) or None
+            for alias in p.aliases:
+                if raw.get(alias) is not None:
+                    if ctx_source(p.name) == "commandline":
+                        raise click.UsageError(
+                            f"give {option_name(p)} or its former name "
+                            f"--{alias.replace('_', '-')}, not both"
+                        )
+                    v = raw[alias]
             values[p.name] = v
         bar = _Bar(alg.display_name, quiet)
         log = None if quiet else (lambda m: click.echo(m, err=True))
@@ -139,7 +158,12 @@ def make_command(alg: Algorithm) -> click.Command:
             for k, v in result.items():
                 click.echo(f"{k}: {v}")
 
+    def ctx_source(name: str):
+        source = click.get_current_context().get_parameter_source(name)
+        return source.name.lower() if source is not None else None
+
     params = [_option(p) for p in alg.params]
+    params += [o for p in alg.params for o in _alias_options(p)]
     params += [
         click.Option(
             ["--overwrite"],

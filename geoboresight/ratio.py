@@ -30,6 +30,11 @@ def boresight_ratio(
         The ratio; undefined (NaN) where not valid.
     valid : bool array
         False where either band is invalid or non-finite, or the denominator is <= 0.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (Eq. 3).
     """
     num = np.asarray(numerator, dtype="float32")
     den = np.asarray(denominator, dtype="float32")

@@ -279,10 +279,37 @@ def describe_blocks(
 def describe(
     values: np.ndarray,
     valid: np.ndarray | None = None,
+    *,
     bins: int = 50,
     percentiles: Iterable[float] = DEFAULT_PERCENTILES,
 ) -> Descriptives:
-    """In-memory :func:`describe_blocks` of an array (optionally masked by ``valid``)."""
+    """SPSS-style descriptive statistics of an array (Table 1): :func:`describe_blocks` on one
+    block.
+
+    Parameters
+    ----------
+    values : array
+        Any shape; non-finite values are ignored.
+    valid : bool array, optional
+        Pixels to describe (same shape as ``values``).
+    bins : int
+        Histogram bins between the minimum and the maximum (Figure 3).
+    percentiles : iterable of float
+        Percentiles (0–100) to report (NumPy's linear definition).
+
+    Returns
+    -------
+    Descriptives
+        N, mean and its SE, std, variance, skewness and kurtosis with SEs and z tests, 3σ
+        outliers, percentiles and the histogram.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (Table 1, Figure 3).
+    Pébay, P. Formulas for robust, one-pass parallel computation of covariances and
+    arbitrary-order statistical moments. Sandia report SAND2008-6212, 2008.
+    """
     v = np.asarray(values, dtype="float64")
     v = v[valid] if valid is not None else v.ravel()
     v = v[np.isfinite(v)]

@@ -45,9 +45,7 @@ def test_ratio_matches_numpy_for_every_interleave_and_dtype(tmp_path, interleave
     res = RATIO(vnir=v, swir=s, output=out, block_rows=7)
     got, _ = read(out)
     np.testing.assert_allclose(got, reference(vn, sw), rtol=1e-6, equal_nan=True)
-    assert res["numerator_wavelength_nm"] == pytest.approx(
-        SWIR_WL[nearest(SWIR_WL, 1010)], abs=1e-3
-    )
+    assert res["swir_wavelength_nm"] == pytest.approx(SWIR_WL[nearest(SWIR_WL, 1010)], abs=1e-3)
 
 
 def test_merged_cube_split_at_seam_equals_two_files(tmp_path):
@@ -123,8 +121,22 @@ def test_wavelength_out_of_tolerance_names_file_and_range(tmp_path):
     v = write_envi(tmp_path / "v.img", cube(len(VNIR_WL)), VNIR_WL)
     s = write_envi(tmp_path / "s.img", cube(len(SWIR_WL)), SWIR_WL)
     with pytest.raises(InputError, match=r"s\.img.*980\.0–2450\.0 nm"):
-        RATIO(vnir=v, swir=s, numerator_nm=1300, tolerance_nm=5, output=tmp_path / "r.tif")
+        RATIO(vnir=v, swir=s, swir_nm=1300, tolerance_nm=5, output=tmp_path / "r.tif")
     assert not (tmp_path / "r.tif").exists()
+
+
+def test_former_band_names_are_aliases(tmp_path):
+    """numerator_nm/denominator_nm (0.1) still reach swir_nm/vnir_nm, and not beside them."""
+    from geoboresight.errors import ParameterError
+
+    v = write_envi(tmp_path / "v.img", cube(len(VNIR_WL)), VNIR_WL)
+    s = write_envi(tmp_path / "s.img", cube(len(SWIR_WL)), SWIR_WL)
+    old = RATIO(vnir=v, swir=s, numerator_nm=1100, denominator_nm=866, output=tmp_path / "a.tif")
+    new = RATIO(vnir=v, swir=s, swir_nm=1100, vnir_nm=866, output=tmp_path / "b.tif")
+    assert (old["swir_band"], old["vnir_band"]) == (new["swir_band"], new["vnir_band"])
+    assert old["swir_wavelength_nm"] == pytest.approx(SWIR_WL[nearest(SWIR_WL, 1100)], abs=1e-3)
+    with pytest.raises(ParameterError, match="numerator_nm.*swir_nm"):
+        RATIO(vnir=v, swir=s, numerator_nm=1100, swir_nm=1010, output=tmp_path / "c.tif")
 
 
 def test_missing_wavelengths_can_be_given_by_hand(tmp_path):

@@ -110,14 +110,14 @@ def test_rio_errors_are_messages_not_tracebacks(pair, tmp_path):
             vnir,
             "--swir",
             swir,
-            "--numerator-nm",
+            "--swir-nm",
             "9000",
             "-o",
             str(out),
         ],
     )
     assert result.exit_code != 0
-    assert "numerator_nm" in result.output and "Traceback" not in result.output
+    assert "swir_nm" in result.output and "Traceback" not in result.output
     assert not out.exists()
 
 
@@ -135,4 +135,26 @@ def test_rio_executable(pair, tmp_path):
         timeout=120,
     )
     assert run.returncode == 0, run.stderr
-    assert out.exists() and '"numerator_band"' in run.stdout
+    assert out.exists() and '"swir_band"' in run.stdout
+
+
+def test_former_option_names_are_hidden_aliases(pair, tmp_path):
+    """--numerator-nm (0.1) still works for one release, is not in --help, and cannot be given
+    beside its new name --swir-nm."""
+    vnir, swir = pair
+    runner = CliRunner()
+    base = ["ratio", "--vnir", vnir, "--swir", swir, "-q", "--json"]
+    old = runner.invoke(cli.main, [*base, "--numerator-nm", "1100", "-o", str(tmp_path / "a.tif")])
+    new = runner.invoke(cli.main, [*base, "--swir-nm", "1100", "-o", str(tmp_path / "b.tif")])
+    assert old.exit_code == 0 and new.exit_code == 0, old.output + new.output
+    assert (
+        '"swir_wavelength_nm": 1100.0' in old.output
+        and '"swir_wavelength_nm": 1100.0' in new.output
+    )
+    assert "numerator" not in runner.invoke(cli.main, ["ratio", "--help"]).output
+    both = runner.invoke(
+        cli.main,
+        [*base, "--numerator-nm", "1100", "--swir-nm", "1040", "-o", str(tmp_path / "c.tif")],
+    )
+    assert both.exit_code != 0 and "not both" in both.output
+    assert not (tmp_path / "c.tif").exists()

@@ -80,10 +80,10 @@ def test_range_is_checked_by_qgis(provider, inputs, tmp_path):
     out = tmp_path / "r.tif"
     fb = _feedback()
     params = {"vnir": inputs.scene["vnir"], "swir": inputs.scene["swir"], "output": str(out)}
-    params["numerator_nm"] = 5000.0  # above the Wavelength maximum
+    params["swir_nm"] = 5000.0  # above the Wavelength maximum
     with pytest.raises(QgsProcessingException) as err:
         _run("ratio", params, fb)
-    assert "numerator_nm" in str(err.value) or "Wavelength" in str(err.value), str(err.value)
+    assert "swir_nm" in str(err.value) or "Wavelength" in str(err.value), str(err.value)
     assert not out.exists()
 
 
@@ -96,7 +96,7 @@ def test_library_error_message_reaches_the_user(provider, inputs, tmp_path):
     params = {
         "vnir": inputs.scene["vnir"],
         "swir": inputs.scene["swir"],
-        "numerator_nm": 2590.0,  # in range, but no SWIR band within the tolerance
+        "swir_nm": 2590.0,  # in range, but no SWIR band within the tolerance
         "tolerance_nm": 1.0,
         "output": str(out),
     }

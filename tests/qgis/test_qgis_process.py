@@ -112,7 +112,7 @@ def test_qgis_process_runs_the_ratio(qgis_env, inputs, tmp_path):
     assert report["results"]["output"] == str(out)
     ref = tmp_path / "ref.tif"
     lib = registry()["ratio"](vnir=vnir, swir=swir, output=str(ref))
-    assert report["results"]["numerator_band"] == lib["numerator_band"]
+    assert report["results"]["swir_band"] == lib["swir_band"]
     assert report["results"]["valid_pixels"] == lib["valid_pixels"]
     with quiet_georef(), rasterio.open(out) as a, rasterio.open(ref) as b:
         np.testing.assert_array_equal(a.read(), b.read())

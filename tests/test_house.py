@@ -1,0 +1,180 @@
+"""The house rules (DESIGN.md "Shape"), checked over the whole package so they cannot drift:
+one public API, specs that are declarations of file-level operations, one name per concept,
+kernels free of files, no pyplot."""
+
+from __future__ import annotations
+
+import ast
+import inspect
+import pathlib
+import subprocess
+import sys
+
+import pytest
+
+import geoboresight as gb
+from geoboresight.algorithms import registry
+from geoboresight.algorithms.spec import Algorithm
+
+PKG = pathlib.Path(gb.__file__).parent
+SPEC_MODULES = sorted(p for p in (PKG / "algorithms").glob("*.py") if p.name != "spec.py")
+KERNEL_FILES = sorted(
+    [PKG / "ratio.py", PKG / "stats.py"]
+    + [p for d in ("shadow", "dem", "anomaly", "simulate") for p in (PKG / d).glob("*.py")]
+)
+
+#: Parameters that name one concept in every operation: same kind, default, range and unit.
+SHARED = (
+    "vnir",
+    "swir",
+    "seam_nm",
+    "vnir_wavelengths",
+    "swir_wavelengths",
+    "band_mode",
+    "vnir_nm",
+    "swir_nm",
+    "vnir_to_nm",
+    "swir_to_nm",
+    "tolerance_nm",
+    "block_rows",
+    "seed",
+    "cloud_mask",
+    "flying_height",
+    "ifov_mrad",
+    "squint_deg",
+    "sun_zenith",
+    "sun_azimuth",
+    "include_nm",
+    "exclude_nm",
+)
+#: Where one operation legitimately uses another default for a shared concept, and why.
+DEFAULT_EXCEPTIONS = {
+    # Dense matching averages band ranges (900–970 against 980–1,100 nm): the single 1,010 nm
+    # band is too weak to match (docs/dem.md); offset and co-registration use the ratio's bands.
+    ("disparity", "vnir_nm"),
+    ("disparity", "swir_nm"),
+    ("disparity", "vnir_to_nm"),
+    ("disparity", "swir_to_nm"),
+    ("relative-dem", "vnir_nm"),
+    ("relative-dem", "swir_nm"),
+    ("relative-dem", "vnir_to_nm"),
+    ("relative-dem", "swir_to_nm"),
+}
+#: Spellings retired for one name per concept (kept only as hidden aliases).
+RETIRED = {"numerator_nm", "denominator_nm", "image", "wavelengths"}
+
+
+def _ops():
+    return list(registry().values())
+
+
+def test_every_spec_runs_its_file_level_operation_exported_at_the_top():
+    for alg in _ops():
+        fn = alg.run
+        assert fn.__name__ == alg.name.replace("-", "_") + "_file", alg.name
+        assert getattr(gb, fn.__name__) is fn, fn.__name__
+        assert fn.__module__.startswith("geoboresight.operations."), fn.__module__
+        assert fn.__doc__ and "References" in fn.__doc__ and "Parameters" in fn.__doc__, fn
+
+
+def test_a_spec_whose_operation_disagrees_is_refused_at_import():
+    alg = registry()["ratio"]
+    with pytest.raises(TypeError, match="tolerance_nm"):
+        Algorithm(
+            name="x",
+            display_name="x",
+            group=alg.group,
+            short_help="",
+            help="",
+            params=tuple(p for p in alg.params if p.name != "tolerance_nm"),
+            run=alg.run,
+        )
+
+
+def test_one_name_per_concept_and_one_default_per_shared_parameter():
+    seen: dict[str, tuple] = {}
+    for alg in _ops():
+        for p in alg.params:
+            assert p.name not in RETIRED, f"{alg.name}: retired name {p.name}"
+            if p.name not in SHARED:
+                continue
+            key = (
+                p.kind,
+                None if (alg.name, p.name) in DEFAULT_EXCEPTIONS else p.default,
+                getattr(p, "minimum", None),
+                getattr(p, "maximum", None),
+                getattr(p, "unit", None),
+            )
+            if (alg.name, p.name) in DEFAULT_EXCEPTIONS:
+                key = (key[0], "*", *key[2:])
+            first = seen.setdefault(p.name, (alg.name, key))
+            if key[1] == "*" or first[1][1] == "*":
+                assert key[0] == first[1][0] and key[2:] == first[1][2:], (p.name, alg.name)
+            else:
+                assert key == first[1], f"{p.name}: {first[0]} {first[1]} vs {alg.name} {key}"
+
+
+def test_specs_are_declarations_no_loops_and_short():
+    for path in SPEC_MODULES:
+        tree = ast.parse(path.read_text())
+        loops = [n.lineno for n in ast.walk(tree) if isinstance(n, ast.For | ast.While)]
+        assert not loops, f"{path.name}: loops at lines {loops}"
+        assert len(path.read_text().splitlines()) <= 450, path.name
+
+
+def _imports(tree):
+    for n in ast.walk(tree):
+        if isinstance(n, ast.Import):
+            yield from (a.name for a in n.names)
+        elif isinstance(n, ast.ImportFrom):
+            yield ("." * n.level) + (n.module or "")
+
+
+def test_kernels_do_not_touch_files():
+    for path in KERNEL_FILES:
+        tree = ast.parse(path.read_text())
+        mods = set(_imports(tree))
+        assert not {m for m in mods if m.startswith("rasterio")}, path
+        assert not {m for m in mods if m.endswith(".io") or ".io." in m}, path
+        calls = [
+            n.lineno
+            for n in ast.walk(tree)
+            if isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.func.id == "open"
+        ]
+        assert not calls, f"{path}: open() at lines {calls}"
+
+
+def test_no_pyplot_and_no_backend_switch():
+    for path in PKG.rglob("*.py"):
+        text = path.read_text()
+        assert "pyplot" not in text, path
+        assert "matplotlib.use(" not in text, path
+
+
+def test_import_is_lazy_and_the_api_resolves():
+    code = (
+        "import sys, geoboresight as gb; "
+        "heavy = [m for m in ('rasterio', 'numpy', 'sklearn', 'matplotlib') if m in sys.modules]; "
+        "print(','.join(heavy)); "
+        "missing = [n for n in gb.__all__ if getattr(gb, n, None) is None]; print(missing)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    heavy, missing = out.stdout.splitlines()
+    assert heavy == ""
+    assert missing == "[]"
+    assert set(gb.__all__) <= set(dir(gb))
+
+
+def test_kernels_share_one_calling_convention():
+    """f(data..., valid=None, *, options): where a public kernel takes a validity mask, it is
+    the first parameter with a default, and every later parameter is keyword-only."""
+    for name in gb.KERNELS:
+        fn = getattr(gb, name)
+        params = list(inspect.signature(fn).parameters.values())
+        names = [p.name for p in params]
+        if "valid" not in names:
+            continue
+        i = names.index("valid")
+        assert params[i].default is None, name
+        assert all(p.default is inspect.Parameter.empty for p in params[:i]), name
+        assert all(p.kind is inspect.Parameter.KEYWORD_ONLY for p in params[i + 1 :]), name

@@ -1,0 +1,183 @@
+"""The one windowed map (io.windows) against whole-array results, as xarray-spatial tests its
+NumPy kernels against their Dask versions."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import rasterio
+from scipy import ndimage
+
+from geoboresight import io
+from geoboresight.errors import Cancelled, InputError
+from geoboresight.progress import Progress
+
+
+def _array_reader(*arrays):
+    def read(r0, r1):
+        return tuple(a[..., r0:r1, :] for a in arrays)
+
+    return read
+
+
+@pytest.fixture(scope="module")
+def image():
+    rng = np.random.default_rng(7)
+    return rng.normal(size=(3, 97, 41)).astype("float32"), rng.random((97, 41)) > 0.1
+
+
+@pytest.mark.parametrize("block_rows", [1, 7, 16, 96, 97, 500])
+@pytest.mark.parametrize("workers", [1, 3])
+def test_pointwise_map_equals_whole_array(image, block_rows, workers):
+    data, valid = image
+
+    def kernel(x, ok):
+        return np.where(ok, x[0] / (np.abs(x[1]) + 1), np.nan)
+
+    whole = kernel(data, valid)
+    got = np.full_like(whole, -1)
+    order = []
+    for win, part in io.map_windows(
+        _array_reader(data, valid),
+        kernel,
+        height=97,
+        width=41,
+        block_rows=block_rows,
+        workers=workers,
+    ):
+        got[win.row_off : win.row_off + win.height] = part
+        order.append(win.row_off)
+    assert order == sorted(order)  # results come back in order, threads or not
+    np.testing.assert_array_equal(got, whole)
+
+
+@pytest.mark.parametrize("block_rows", [1, 5, 13, 40, 97])
+@pytest.mark.parametrize("size", [3, 7, 11])
+def test_neighbourhood_map_with_halo_equals_whole_array(image, block_rows, size):
+    """A uniform filter (reflecting at the image's edges) needs size//2 lines of halo; strips
+    with that halo reproduce the whole-array filter exactly."""
+    band = image[0][0].astype("float64")
+    whole = ndimage.uniform_filter(band, size, mode="reflect")
+    h = size // 2
+    got = np.empty_like(whole)
+    for win, part in io.map_windows(
+        _array_reader(band),
+        lambda x: ndimage.uniform_filter(x, size, mode="reflect"),
+        height=97,
+        width=41,
+        block_rows=block_rows,
+        halo=(h, h),
+    ):
+        assert part.shape == (win.height, 41)
+        got[win.row_off : win.row_off + win.height] = part
+    # Inside the image the halo gives every strip the lines the filter reads.
+    np.testing.assert_allclose(got, whole, rtol=1e-12, atol=1e-12)
+
+
+def test_halo_too_small_is_visible(image):
+    """The comparison above can fail: with no halo the strips' edges differ from the whole."""
+    band = image[0][0].astype("float64")
+    whole = ndimage.uniform_filter(band, 7, mode="reflect")
+    got = np.vstack(
+        [
+            p
+            for _, p in io.map_windows(
+                _array_reader(band),
+                lambda x: ndimage.uniform_filter(x, 7, mode="reflect"),
+                height=97,
+                width=41,
+                block_rows=10,
+            )
+        ]
+    )
+    assert not np.allclose(got, whole)
+
+
+def test_pass_block_gives_image_coordinates(image):
+    band = image[0][0]
+    seen = []
+
+    def kernel(x, block):
+        seen.append((block.row0, block.rows, block.inner))
+        return x[block.inner] * 2
+
+    got = np.vstack(
+        [
+            p
+            for _, p in io.map_windows(
+                _array_reader(band),
+                kernel,
+                height=97,
+                width=41,
+                block_rows=30,
+                halo=(2, 3),
+                pass_block=True,
+            )
+        ]
+    )
+    np.testing.assert_array_equal(got, band * 2)
+    assert seen[0] == (0, (0, 30), slice(0, 30))
+    assert seen[1] == (28, (30, 60), slice(2, 32))
+    assert seen[-1] == (88, (90, 97), slice(2, 9))
+
+
+@pytest.mark.parametrize("block_rows", [1, 9, 50, 200])
+def test_reduce_windows_merges_exactly(image, block_rows):
+    data, valid = image
+    total = io.reduce_windows(
+        _array_reader(data[0], valid),
+        lambda x, ok: np.array([ok.sum(), x[ok].astype("float64").sum()]),
+        np.add,
+        np.zeros(2),
+        height=97,
+        width=41,
+        block_rows=block_rows,
+    )
+    assert total[0] == valid.sum()
+    assert total[1] == pytest.approx(data[0][valid].astype("float64").sum(), rel=1e-12)
+
+
+def test_cancel_stops_within_one_strip(image):
+    data, valid = image
+    calls = []
+
+    def cancelled():
+        return len(calls) >= 2
+
+    with pytest.raises(Cancelled):
+        for _ in io.map_windows(
+            _array_reader(data[0]),
+            lambda x: calls.append(1) or x,
+            height=97,
+            width=41,
+            block_rows=10,
+            progress=Progress(is_cancelled=cancelled),
+        ):
+            pass
+    assert len(calls) == 2
+
+
+def test_sample_windows_is_uniform_reproducible_and_block_independent(tmp_path):
+    rng = np.random.default_rng(3)
+    arr = rng.normal(size=(2, 300, 50)).astype("float32")
+    path = tmp_path / "a.tif"
+    io.write_raster(str(path), arr, nodata=None)
+    with rasterio.open(path) as src:
+        read = io.bands_reader([(src, 1), (src, 2)])
+        a, ok_a = io.sample_windows(read, height=300, width=50, size=3000, seed=5, block_rows=64)
+        b, _ = io.sample_windows(read, height=300, width=50, size=3000, seed=5, block_rows=64)
+    np.testing.assert_array_equal(a, b)
+    assert a.shape[0] == 2 and ok_a.all()
+    assert 2700 < a.shape[1] < 3300  # about `size` pixels
+    # Drawn uniformly: the sample's mean matches the image's within its standard error.
+    assert abs(a[0].mean() - arr[0].mean()) < 4 * arr[0].std() / np.sqrt(a.shape[1])
+
+
+def test_grid_check_names_both_files(tmp_path):
+    io.write_raster(str(tmp_path / "a.tif"), np.zeros((10, 12), "float32"))
+    io.write_raster(str(tmp_path / "b.tif"), np.zeros((10, 13), "float32"))
+    with io.open_raster(tmp_path / "a.tif") as a, io.open_raster(tmp_path / "b.tif") as b:
+        with pytest.raises(InputError) as err:
+            io.require_same_grid(a, b, "ratio raster", "mask")
+    msg = str(err.value)
+    assert "a.tif" in msg and "b.tif" in msg and "12 × 10" in msg and "13 × 10" in msg
