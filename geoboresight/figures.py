@@ -1,35 +1,54 @@
-"""Figures (PNG) shared by every application: one place for the backend, style and atomic save."""
+"""Figures (PNG) shared by every application: one place for the style and the atomic save.
+
+Only matplotlib's object-oriented API is used: a :class:`matplotlib.figure.Figure` drawn by its
+own Agg canvas. No pyplot and no ``matplotlib.use``: pyplot keeps global state (the current
+figure, the backend of the whole process) that QGIS owns and that Processing's worker threads
+must not touch, whereas a Figure with its own canvas is a plain object, safe in any thread and
+garbage-collected like one (nothing to close).
+"""
 
 from __future__ import annotations
 
-import matplotlib
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")  # headless: CLI, QGIS and CI have no display
+from .io.write import atomic_output
 
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+#: Resolution of the project's figures (dots per inch).
+DPI = 110
 
-from .io.write import atomic_output  # noqa: E402
+
+def blank_figure(
+    width: float = 6.4, height: float = 4.2, *, dpi: float | None = DPI, layout="constrained"
+) -> Figure:
+    """A figure without axes, drawn by its own Agg canvas (``fig.subplots(...)``,
+    ``fig.add_subplot(projection="3d")`` add them). ``dpi=None`` and ``layout=None`` give
+    matplotlib's defaults."""
+    kwargs = {"figsize": (width, height), "layout": layout}
+    if dpi is not None:
+        kwargs["dpi"] = dpi
+    fig = Figure(**kwargs)
+    FigureCanvasAgg(fig)
+    return fig
 
 
 def new_figure(width: float = 6.4, height: float = 4.2):
-    """A figure and axes with the project's style."""
-    fig, ax = plt.subplots(figsize=(width, height), dpi=110, layout="constrained")
+    """A figure and one axes with the project's style: ``(fig, ax)``."""
+    fig = blank_figure(width, height)
+    ax = fig.add_subplot()
     ax.grid(True, alpha=0.3)
     return fig, ax
 
 
-def save_figure(fig, path: str, overwrite: bool = True) -> str:
-    """Save ``fig`` as PNG atomically (temp file then rename) and close it."""
-    try:
-        with atomic_output(path, overwrite=overwrite) as tmp:
-            fig.savefig(tmp, format="png")
-    finally:
-        plt.close(fig)
+def save_figure(fig: Figure, path: str, overwrite: bool = True) -> str:
+    """Save ``fig`` as PNG atomically (temporary file, then rename); ``path``."""
+    with atomic_output(path, overwrite=overwrite) as tmp:
+        fig.savefig(tmp, format="png")
     return path
 
 
-def histogram_figure(counts, edges, title: str, xlabel: str, mean=None, std=None):
+def histogram_figure(counts, edges, title: str, xlabel: str, mean=None, std=None) -> Figure:
     """Figure 3 of the paper: the distribution of boresight values, with mean and ±3σ."""
     fig, ax = new_figure()
     edges = np.asarray(edges)
@@ -53,3 +72,6 @@ def histogram_figure(counts, edges, title: str, xlabel: str, mean=None, std=None
     ax.set_xlabel(xlabel)
     ax.set_ylabel("Number of pixels")
     return fig
+
+
+__all__ = ["DPI", "blank_figure", "histogram_figure", "new_figure", "save_figure"]
