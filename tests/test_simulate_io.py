@@ -16,10 +16,12 @@ import numpy as np
 import pytest
 import rasterio
 
-from geoboresight.algorithms import get
+from geoboresight.algorithms.simulate import SIMULATE
 from geoboresight.errors import OutputError, ParameterError
 from geoboresight.io import open_dual, quiet_georef
-from geoboresight.simulate import SCENE_FILES, simulate_scene, write_scene
+from geoboresight.io.scene import SCENE_FILES, write_scene
+from geoboresight.operations.simulate import simulate_file
+from geoboresight.simulate import simulate_scene
 
 
 @pytest.fixture(scope="module")
@@ -48,9 +50,10 @@ def test_envi_cubes_carry_wavelengths_and_stay_raw(folder, small):
     assert np.allclose(dual.swir.wavelengths, small.swir_wavelengths, atol=1e-3)
     assert np.allclose(dual.vnir.fwhm, small.vnir_fwhm, atol=1e-3)
     assert len(dual.vnir.bands) + len(dual.swir.bands) == 198
-    num, den = dual.ratio_bands(1010.0, 920.0, "wavelength", 10.0)
+    bands = dual.ratio_bands(920.0, 1010.0, "wavelength", 10.0)
     assert (
-        abs(dual.swir.wavelength_of(num) - 1010) < 2 and abs(dual.vnir.wavelength_of(den) - 920) < 3
+        abs(dual.swir.wavelength_of(bands.swir_band) - 1010) < 2
+        and abs(dual.vnir.wavelength_of(bands.vnir_band) - 920) < 3
     )
     with quiet_georef(), rasterio.open(folder / "vnir.img") as src:
         assert (
@@ -132,7 +135,7 @@ def test_existing_folder_is_refused_and_nothing_is_left(tmp_path, small):
 
 
 def test_spec_runs_and_reports_the_offset(tmp_path):
-    alg = get("simulate")
+    alg = SIMULATE
     assert alg.group == "Simulation"
     names = {p.name for p in alg.params}
     assert {"preset", "lines", "seed", "output", "squint_deg", "flying_height", "nominal_altitude",
@@ -153,7 +156,7 @@ def test_spec_runs_and_reports_the_offset(tmp_path):
 
 def test_boresight_angles_from_the_spec(tmp_path):
     out = tmp_path / "angles"
-    get("simulate")(
+    SIMULATE(
         preset="urban", lines=12, seed=1, output=str(out), supersample=1,
         boresight_vnir="0.1,0.2,0", boresight_swir="0.1,1.2,0",
     )  # fmt: skip
@@ -172,3 +175,62 @@ def test_bad_parameters_name_the_parameter():
         simulate_scene("urban", lines=16, geometry="wide")
     with pytest.raises(ParameterError, match="sun_zenith"):
         simulate_scene("urban", lines=16, sun_zenith=95)
+
+
+def test_operation_is_the_spec_run(tmp_path):
+    """A script calling the file-level function gets the spec's files, and the same refusals."""
+    assert SIMULATE.run is simulate_file
+    a, b = tmp_path / "a", tmp_path / "b"
+    res = simulate_file(output=str(a), preset="dunes", lines=12, seed=2, supersample=1)
+    SIMULATE(output=str(b), preset="dunes", lines=12, seed=2, supersample=1)
+    names = sorted(os.listdir(a))
+    assert names == sorted(os.listdir(b)) and set(SCENE_FILES) <= set(names)
+    match, mismatch, errors = filecmp.cmpfiles(a, b, names, shallow=False)
+    assert mismatch == [] and errors == []
+    assert res["output"] == str(a)
+    with pytest.raises(OutputError, match="already exists"):
+        simulate_file(output=str(a), preset="dunes", lines=12)
+    res = simulate_file(output=str(a), preset="dunes", lines=12, seed=3, overwrite=True)
+    assert json.loads((a / "truth.json").read_text())["seed"] == 3
+    with pytest.raises(ParameterError, match="boresight_vnir"):
+        simulate_file(output=str(tmp_path / "c"), lines=12, boresight_vnir="0,20,0")
+    assert not (tmp_path / "c").exists()
+
+
+def test_writer_moved_to_io_is_still_reachable_from_simulate():
+    import geoboresight.simulate as sim
+
+    assert sim.write_scene is write_scene and sim.SCENE_FILES == SCENE_FILES
+
+
+SAMPLE = os.path.join(os.path.dirname(__file__), os.pardir, "sample_data", "scene")
+
+
+@pytest.mark.skipif(
+    not os.path.exists(os.path.join(SAMPLE, "truth.json")), reason="no sample scene"
+)
+@pytest.mark.skipif(
+    int(np.__version__.split(".")[0]) < 2,
+    reason="the sample was made with NumPy 2 (sample_data/README.md)",
+)
+def test_sample_scene_regenerates_from_its_recipe(tmp_path):
+    """sample_data/README.md's recipe gives the committed files: the ENVI cubes and headers,
+    truth.json and endmembers.csv byte for byte, the truth rasters' values and tags."""
+    out = tmp_path / "scene"
+    simulate_file(
+        output=str(out), preset="mixed", lines=192, seed=4, geometry="large-squint", clouds=1
+    )
+    exact = ["vnir.img", "vnir.hdr", "swir.img", "swir.hdr", "truth.json", "endmembers.csv"]
+    match, mismatch, errors = filecmp.cmpfiles(SAMPLE, out, exact, shallow=False)
+    assert mismatch == [] and errors == [], (mismatch, errors)
+    for name in SCENE_FILES:
+        if not name.endswith(".tif"):
+            continue
+        with (
+            quiet_georef(),
+            rasterio.open(out / name) as a,
+            rasterio.open(os.path.join(SAMPLE, name)) as b,
+        ):
+            assert np.array_equal(a.read(), b.read()), name
+            assert a.tags() == b.tags() and a.tags(1) == b.tags(1), name
+            assert a.descriptions == b.descriptions and a.nodata == b.nodata, name

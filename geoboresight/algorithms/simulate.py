@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
-from ..errors import ParameterError
+from ..operations.simulate import MAX_BORESIGHT_DEG, simulate_file
+from ..simulate.atmosphere import AOT550, WATER_VAPOUR_CM
+from ..simulate.presets import GEOMETRIES, SCENES
+from ..simulate.scene import GEOMETRY, LINES, MIN_LINES, PRESET, SUPERSAMPLE
 from ._common import seed
 from .spec import Algorithm, Enum, Flag, FolderOut, Number, Text
 
@@ -27,214 +30,156 @@ modelled.
 """
 
 
-def _angles(values: dict, name: str):
-    text = values.get(name)
-    if not text:
-        return None
-    try:
-        angles = tuple(float(v) for v in str(text).replace(";", ",").split(","))
-    except ValueError:
-        angles = ()
-    if len(angles) != 3 or any(abs(a) > 10 for a in angles):
-        raise ParameterError(
-            f"parameter '{name}': give roll,pitch,yaw in degrees (each within ±10), e.g. 0,0.3,0; "
-            f"got {text!r}"
-        )
-    return angles
-
-
-def _run(values: dict, progress) -> dict:
-    from ..simulate import simulate_scene, write_scene
-
-    scene = simulate_scene(
-        values["preset"],
-        lines=values["lines"],
-        seed=values["seed"],
-        geometry=values["geometry"],
-        squint_deg=values.get("squint_deg"),
-        flying_height=values.get("flying_height"),
-        nominal_altitude=values.get("nominal_altitude"),
-        sun_zenith=values.get("sun_zenith"),
-        sun_azimuth=values.get("sun_azimuth"),
-        targets=values.get("targets"),
-        clouds=values["clouds"],
-        cloud_height=values.get("cloud_height"),
-        aot550=values["aot550"],
-        water_vapour_cm=values["water_vapour_cm"],
-        noise=not values["noise_free"],
-        supersample=values["supersample"],
-        boresight_vnir_deg=_angles(values, "boresight_vnir"),
-        boresight_swir_deg=_angles(values, "boresight_swir"),
-        progress=progress.sub(0.0, 0.9),
-    )
-    progress.update(0.92, "writing files")
-    write_scene(scene, values["output"], merged=values["merged"], overwrite=True)
-    progress.update(1.0, "done")
-    t = scene.truth
-    progress.info(
-        f"offset SWIR−VNIR on flat ground: along {t['offset_px']['along']:+.3f} px, across "
-        f"{t['offset_px']['across']:+.3f} px; parallax {t['disparity_px_per_m']['along']:.4f} px/m; "
-        f"height precision {t['height_precision_m_per_px']:.1f} m per pixel of matching error"
-    )
-    return {
-        "output": values["output"],
-        "offset_along_px": t["offset_px"]["along"],
-        "offset_across_px": t["offset_px"]["across"],
-        "disparity_px_per_m": t["disparity_px_per_m"]["along"],
-        "height_precision_m_per_px": t["height_precision_m_per_px"],
-    }
-
-
-ALGORITHMS = (
-    Algorithm(
-        name="simulate",
-        display_name="Simulate a dual-sensor scene",
-        group="Simulation",
-        short_help="Simulate an AISA-Dual VNIR+SWIR scene with shadows, relief, targets and its ground truth",
-        help=HELP,
-        params=(
-            Enum(
-                name="preset",
-                description="Scene type: urban (buildings, streets, trees), dunes (~30 m sand relief), glade (forest clearing), mixed (relief + village + targets)",
-                choices=("urban", "dunes", "glade", "mixed"),
-                default="urban",
-            ),
-            Number(
-                name="lines",
-                description="Number of along-track lines to simulate (286 pixels each)",
-                default=128,
-                minimum=8,
-                maximum=10000,
-                integer=True,
-            ),
-            seed(
-                "Random seed: the same seed gives the same scene, byte for byte",
-                advanced=False,
-                maximum=2**31 - 1,
-            ),
-            Enum(
-                name="geometry",
-                description="Viewing geometry: realistic (0.3° squint, the paper's regime) or large-squint (3°, relief measurable)",
-                choices=("realistic", "large-squint"),
-                default="realistic",
-            ),
-            Number(
-                name="squint_deg",
-                description="Along-track squint between the VNIR and SWIR lines of sight (degrees; default from the geometry)",
-                optional=True,
-                minimum=-10.0,
-                maximum=10.0,
-                unit="°",
-            ),
-            Number(
-                name="flying_height",
-                description="Flying height above the lowest ground (m; default 1,500 m = 1.5 m pixels)",
-                optional=True,
-                minimum=100.0,
-                maximum=10000.0,
-                unit="m",
-            ),
-            Number(
-                name="nominal_altitude",
-                description="Altitude for which the vendor co-registered SWIR to VNIR (m; default 1,828.8 m = 6,000 ft, or the flying height for large-squint)",
-                optional=True,
-                minimum=100.0,
-                maximum=10000.0,
-                unit="m",
-            ),
-            Number(
-                name="sun_zenith",
-                description="Sun zenith angle (degrees; default from the paper's scene for the preset)",
-                optional=True,
-                minimum=0.0,
-                maximum=85.0,
-                unit="°",
-            ),
-            Number(
-                name="sun_azimuth",
-                description="Sun azimuth, clockwise from the flight direction (degrees; default from the paper)",
-                optional=True,
-                minimum=0.0,
-                maximum=360.0,
-                unit="°",
-            ),
-            Number(
-                name="targets",
-                description="Number of sub-pixel gray plastic bags (35 × 55 cm) on open ground (default: 24 for mixed, 12 for glade, else 0)",
-                optional=True,
-                minimum=0,
-                maximum=1000,
-                integer=True,
-            ),
-            Number(
-                name="clouds",
-                description="Number of small clouds (seen with parallax, casting shadows); 0 for none",
-                default=0,
-                minimum=0,
-                maximum=50,
-                integer=True,
-            ),
-            Flag(
-                name="merged",
-                description="Also write merged.img/.hdr with all 198 bands",
-            ),
-            Text(
-                name="boresight_vnir",
-                description="VNIR boresight angles roll,pitch,yaw in degrees (default 0,0,0)",
-                optional=True,
-                advanced=True,
-            ),
-            Text(
-                name="boresight_swir",
-                description="SWIR boresight angles roll,pitch,yaw in degrees (default 0,<squint>,0; overrides the squint)",
-                optional=True,
-                advanced=True,
-            ),
-            Number(
-                name="cloud_height",
-                description="Cloud height above the ground (m; default 40 % of the flying height)",
-                optional=True,
-                minimum=10.0,
-                maximum=9000.0,
-                unit="m",
-                advanced=True,
-            ),
-            Number(
-                name="aot550",
-                description="Aerosol optical depth at 550 nm",
-                default=0.15,
-                minimum=0.0,
-                maximum=2.0,
-                advanced=True,
-            ),
-            Number(
-                name="water_vapour_cm",
-                description="Water vapour column (cm)",
-                default=2.0,
-                minimum=0.0,
-                maximum=8.0,
-                unit="cm",
-                advanced=True,
-            ),
-            Flag(
-                name="noise_free",
-                description="Write noise-free DN (no shot/read noise); still rounded to 12 bits",
-                advanced=True,
-            ),
-            Number(
-                name="supersample",
-                description="Rays per pixel side (footprint integration, sub-pixel shadow fraction)",
-                default=3,
-                minimum=1,
-                maximum=8,
-                integer=True,
-                advanced=True,
-            ),
-            FolderOut(
-                name="output",
-                description="Folder to create for the scene (ENVI images, truth rasters, truth.json)",
-            ),
+SIMULATE = Algorithm(
+    name="simulate",
+    display_name="Simulate a dual-sensor scene",
+    group="Simulation",
+    short_help="Simulate an AISA-Dual VNIR+SWIR scene with shadows, relief, targets and its ground truth",
+    help=HELP,
+    params=(
+        Enum(
+            name="preset",
+            description="Scene type: urban (buildings, streets, trees), dunes (~30 m sand relief), glade (forest clearing), mixed (relief + village + targets)",
+            choices=SCENES,
+            default=PRESET,
         ),
-        run=_run,
+        Number(
+            name="lines",
+            description="Number of along-track lines to simulate (286 pixels each)",
+            default=LINES,
+            minimum=MIN_LINES,
+            maximum=10000,
+            integer=True,
+        ),
+        seed(
+            "Random seed: the same seed gives the same scene, byte for byte",
+            advanced=False,
+            maximum=2**31 - 1,
+        ),
+        Enum(
+            name="geometry",
+            description="Viewing geometry: realistic (0.3° squint, the paper's regime) or large-squint (3°, relief measurable)",
+            choices=tuple(GEOMETRIES),
+            default=GEOMETRY,
+        ),
+        Number(
+            name="squint_deg",
+            description="Along-track squint between the VNIR and SWIR lines of sight (degrees; default from the geometry)",
+            optional=True,
+            minimum=-10.0,
+            maximum=10.0,
+            unit="°",
+        ),
+        Number(
+            name="flying_height",
+            description="Flying height above the lowest ground (m; default 1,500 m = 1.5 m pixels)",
+            optional=True,
+            minimum=100.0,
+            maximum=10000.0,
+            unit="m",
+        ),
+        Number(
+            name="nominal_altitude",
+            description="Altitude for which the vendor co-registered SWIR to VNIR (m; default 1,828.8 m = 6,000 ft, or the flying height for large-squint)",
+            optional=True,
+            minimum=100.0,
+            maximum=10000.0,
+            unit="m",
+        ),
+        Number(
+            name="sun_zenith",
+            description="Sun zenith angle (degrees; default from the paper's scene for the preset)",
+            optional=True,
+            minimum=0.0,
+            maximum=85.0,
+            unit="°",
+        ),
+        Number(
+            name="sun_azimuth",
+            description="Sun azimuth, clockwise from the flight direction (degrees; default from the paper)",
+            optional=True,
+            minimum=0.0,
+            maximum=360.0,
+            unit="°",
+        ),
+        Number(
+            name="targets",
+            description="Number of sub-pixel gray plastic bags (35 × 55 cm) on open ground (default: 24 for mixed, 12 for glade, else 0)",
+            optional=True,
+            minimum=0,
+            maximum=1000,
+            integer=True,
+        ),
+        Number(
+            name="clouds",
+            description="Number of small clouds (seen with parallax, casting shadows); 0 for none",
+            default=0,
+            minimum=0,
+            maximum=50,
+            integer=True,
+        ),
+        Flag(
+            name="merged",
+            description="Also write merged.img/.hdr with all 198 bands",
+        ),
+        Text(
+            name="boresight_vnir",
+            description=f"VNIR boresight angles roll,pitch,yaw in degrees, each within ±{MAX_BORESIGHT_DEG:g} (default 0,0,0)",
+            optional=True,
+            advanced=True,
+        ),
+        Text(
+            name="boresight_swir",
+            description=f"SWIR boresight angles roll,pitch,yaw in degrees, each within ±{MAX_BORESIGHT_DEG:g} (default 0,<squint>,0; overrides the squint)",
+            optional=True,
+            advanced=True,
+        ),
+        Number(
+            name="cloud_height",
+            description="Cloud height above the ground (m; default 40 % of the flying height)",
+            optional=True,
+            minimum=10.0,
+            maximum=9000.0,
+            unit="m",
+            advanced=True,
+        ),
+        Number(
+            name="aot550",
+            description="Aerosol optical depth at 550 nm",
+            default=AOT550,
+            minimum=0.0,
+            maximum=2.0,
+            advanced=True,
+        ),
+        Number(
+            name="water_vapour_cm",
+            description="Water vapour column (cm)",
+            default=WATER_VAPOUR_CM,
+            minimum=0.0,
+            maximum=8.0,
+            unit="cm",
+            advanced=True,
+        ),
+        Flag(
+            name="noise_free",
+            description="Write noise-free DN (no shot/read noise); still rounded to 12 bits",
+            advanced=True,
+        ),
+        Number(
+            name="supersample",
+            description="Rays per pixel side (footprint integration, sub-pixel shadow fraction)",
+            default=SUPERSAMPLE,
+            minimum=1,
+            maximum=8,
+            integer=True,
+            advanced=True,
+        ),
+        FolderOut(
+            name="output",
+            description="Folder to create for the scene (ENVI images, truth rasters, truth.json)",
+        ),
     ),
+    run=simulate_file,
 )
+
+ALGORITHMS = (SIMULATE,)

@@ -4,10 +4,14 @@ No public raw-geometry AISA-Dual data exists, so every application of Brook & Be
 validated on scenes whose truth is known. The simulator is also a planning tool: choose the
 flying height, squint and sun, and see what offset, parallax and shadow ratio to expect.
 
->>> from geoboresight.simulate import simulate_scene, write_scene
+>>> from geoboresight.simulate import simulate_scene
+>>> from geoboresight.io.scene import write_scene
 >>> scene = simulate_scene("urban", lines=128, seed=0)          # doctest: +SKIP
 >>> scene.truth["offset_px"], scene.truth["disparity_px_per_m"]  # doctest: +SKIP
 >>> write_scene(scene, "urban_scene")                            # doctest: +SKIP
+
+The kernels take and return arrays; the files are written by :mod:`geoboresight.io.scene`
+(``geoboresight.operations.simulate.simulate_file`` does both).
 
 **Modelled** (each in its module):
 
@@ -41,7 +45,7 @@ noise, moving objects, spectral variability within a material (the texture is a 
 
 from .geometry import Geometry, Instrument
 from .presets import GEOMETRIES, SCENES
-from .scene import SCENE_FILES, Scene, simulate_scene, write_scene
+from .scene import Scene, simulate_scene
 from .spectra import MATERIALS, aisa_dual_bands
 from .surface import Surface, Window
 
@@ -49,7 +53,6 @@ __all__ = [
     "GEOMETRIES",
     "MATERIALS",
     "SCENES",
-    "SCENE_FILES",
     "Geometry",
     "Instrument",
     "Scene",
@@ -57,5 +60,15 @@ __all__ = [
     "Window",
     "aisa_dual_bands",
     "simulate_scene",
-    "write_scene",
 ]
+
+#: Former homes of the scene writer, kept for one release: use :mod:`geoboresight.io.scene`.
+_MOVED_TO_IO = ("SCENE_FILES", "MATERIAL_COLOURS", "write_scene")
+
+
+def __getattr__(name):
+    if name in _MOVED_TO_IO:
+        from ..io import scene
+
+        return getattr(scene, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

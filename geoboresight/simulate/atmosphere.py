@@ -39,6 +39,9 @@ SOLAR_CONSTANT_W_M2 = 1361.0
 ANGSTROM_ALPHA = 1.3
 AEROSOL_SSA = 0.92
 AEROSOL_G = 0.70
+#: Default aerosol optical depth at 550 nm and water-vapour column (cm).
+AOT550 = 0.15
+WATER_VAPOUR_CM = 2.0
 SCALE_HEIGHT_M = {"rayleigh": 8000.0, "aerosol": 1500.0, "water": 2000.0, "mixed": 8000.0}
 
 #: (centre nm, sigma nm, vertical optical depth for 2 cm of water vapour)
@@ -77,7 +80,7 @@ def rayleigh_depth(wl_nm=FINE_NM) -> np.ndarray:
     return 0.008569 * um**-4 * (1 + 0.0113 * um**-2 + 0.00013 * um**-4)
 
 
-def aerosol_depth(wl_nm=FINE_NM, aot550: float = 0.15) -> np.ndarray:
+def aerosol_depth(wl_nm=FINE_NM, aot550: float = AOT550) -> np.ndarray:
     return aot550 * (np.asarray(wl_nm, float) / 550.0) ** -ANGSTROM_ALPHA
 
 
@@ -112,8 +115,8 @@ def illumination(
     fwhm,
     sun_zenith_deg: float,
     flying_height_m: float,
-    aot550: float = 0.15,
-    water_cm: float = 2.0,
+    aot550: float = AOT550,
+    water_cm: float = WATER_VAPOUR_CM,
 ) -> Illumination:
     """Direct, diffuse, path and up-transmittance terms for a band set (see module docstring)."""
     wl = FINE_NM

@@ -1,50 +1,71 @@
-"""Simulating a dual pushbroom scene (:func:`simulate_scene`) and writing it (:func:`write_scene`).
+"""Simulating a dual pushbroom scene: :func:`simulate_scene`, arrays in, a :class:`Scene` out.
 
-The simulation runs in along-track blocks of lines, so memory is bounded by a block:
+The simulation runs in stages, each a function below; the ray tracing runs in along-track
+blocks of lines, so its memory is bounded by a block:
 
-1. the surface (:mod:`.surface`) is rasterised on a fine grid (a third of a pixel) covering the
-   block's footprints, plus the up-sun margin whose objects can cast shadows into it;
-2. sun geometry on the fine grid (:mod:`.shadow`): cos i, cast shadows, sky view, cloud shadows;
+1. the layout (:func:`scene_extent`): the area every ray of the flight line can hit, plus
+   the margin whose objects can cast shadows into it; the surface (:func:`preset_surface`,
+   :mod:`.surface`) and the cloud layer (:func:`cloud_layer`) over it;
+2. per block, the fine grid (a third of a pixel, :func:`block_window`) covering the block's
+   footprints and its up-sun margin, and the sun geometry on it (:func:`sun_maps`,
+   :mod:`.shadow`): cos i, cast shadows, sky view, cloud shadows;
 3. each instrument's pixels are sampled by ``supersample²`` rays spread over the pixel's
    IFOV and line period, intersected with the DSM (:mod:`.geometry`); at each hit the material
-   fractions and illumination are interpolated from the fine grid;
-4. per pixel and material: the mean direct-light and sky-light coefficients, times the
-   sub-material brightness factor of each ray's ground cell (the texture within a material,
-   :data:`.presets.TEXTURE`; it scales the signal, not the truth abundances); sub-pixel targets
-   replace a fraction of the pixel exactly (footprint ∩ target rectangle); clouds above the
-   ground are seen at each instrument's own footprint on the cloud layer;
-5. the instrument PSF blurs the coefficient images; radiance per band follows from the
-   material spectra and the atmosphere (:mod:`.atmosphere`):
+   fractions and illumination are interpolated from the fine grid (:func:`trace_block`);
+4. per pixel and material: the mean direct-light and sky-light coefficients
+   (:class:`Footprints`), times the sub-material brightness factor of each ray's ground cell
+   (the texture within a material, :data:`.presets.TEXTURE`; it scales the signal, not the
+   truth abundances); clouds above the ground are seen at each instrument's own footprint on
+   the cloud layer; sub-pixel targets replace a fraction of the pixel exactly, footprint ∩
+   target rectangle (:func:`add_targets`);
+5. the instrument PSF blurs the coefficient images (:func:`psf_blur`); radiance per band
+   follows from the material spectra and the atmosphere (:mod:`.atmosphere`,
+   :func:`at_sensor_radiance`):
    ``L = T_up/π · Σ_m (D_m ρ_m E_dir + F_m ρ_m E_sky) + L_path``;
-6. the detectors turn radiance into noisy 12-bit DN (:mod:`.sensor`).
+6. the detectors turn radiance into noisy 12-bit DN (:mod:`.sensor`, :func:`instrument_cube`).
 
 The truth rasters are computed from the VNIR rays of step 3 (box footprint, no PSF).
+Writing a scene to files is :func:`geoboresight.io.scene.write_scene`.
 """
 
 from __future__ import annotations
 
-import json
-import os
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import ndimage
 
-from ..errors import OutputError, ParameterError
+from ..errors import ParameterError
+from ..io.windows import map_windows
 from ..progress import Progress, as_progress
 from . import presets as _presets
-from .atmosphere import illumination
+from .atmosphere import AOT550, WATER_VAPOUR_CM, Illumination, illumination
 from .geometry import COLS, IFOV_MRAD, Geometry, Heights, Instrument, intersect
-from .sensor import SWIR, VNIR
+from .sensor import SWIR, VNIR, Detector
 from .shadow import cast_shadow, incidence, sky_view, sun_vector
 from .spectra import MATERIAL_IDS, MATERIALS, aisa_dual_bands, band_average, material_spectrum
 from .surface import Surface, Window, smooth_field
 
 #: The paper's targets: 24 gray plastic bags of 35 × 55 cm (section 3.3).
 BAG_SIZE_M = (0.35, 0.55)
+TARGET = "plastic_bag"
 BLOCK_LINES = 96
 NOISE_BLOCK_LINES = 256
 OPEN_GROUND = ("grass", "soil", "dark_soil", "sand", "dry_vegetation")
+INSTRUMENTS = ("vnir", "swir")
+
+#: Defaults of :func:`simulate_scene`, shared by the ``simulate`` operation and spec.
+PRESET = "urban"
+LINES = 128
+MIN_LINES = 8
+GEOMETRY = "realistic"
+SUPERSAMPLE = 3
+#: Cloud height above the ground, as a fraction of the flying height, unless given.
+CLOUD_HEIGHT_FRACTION = 0.4
+#: Heights (m) up to which the layout is planned before the surface exists, and the farthest
+#: distance (m) at which an object is allowed to cast a shadow into the image.
+Z_BOUND_M = 100.0
+MAX_SHADOW_REACH_M = 400.0
 
 
 @dataclass(frozen=True)
@@ -97,72 +118,123 @@ class Scene:
         return np.einsum("kb,klc->blc", spectra, self.abundances).astype("float32")
 
 
-def _geometry(geometry, squint_deg, flying_height, nominal_altitude, line_spacing, bore_v, bore_s):
-    if geometry not in _presets.GEOMETRIES:
-        raise ParameterError(
-            f"parameter 'geometry': {geometry!r} is not one of {', '.join(_presets.GEOMETRIES)}"
+@dataclass(frozen=True)
+class Sun:
+    """The sun's direction: zenith and azimuth (degrees, azimuth clockwise from the flight
+    direction) and the unit vector towards it."""
+
+    zenith_deg: float
+    azimuth_deg: float
+
+    @property
+    def vector(self) -> np.ndarray:
+        return sun_vector(self.zenith_deg, self.azimuth_deg)
+
+    @property
+    def tan_zenith(self):
+        return np.tan(np.radians(self.zenith_deg))
+
+    @property
+    def cos_zenith(self) -> float:
+        return float(np.cos(np.radians(self.zenith_deg)))
+
+
+@dataclass(frozen=True)
+class Clouds:
+    """The cloud layer: opacity (0–1) on a coarse ``window`` at ``height_m`` above ground."""
+
+    window: Window
+    opacity: np.ndarray
+    height_m: float
+
+
+@dataclass(frozen=True)
+class SunMaps:
+    """The sun geometry of one block on its fine grid ``window``.
+
+    ``maps`` (K + 4, ny, nx): the K material fractions, the direct-sun factor (cos i, cast
+    and cloud shadows), the sky view, the shadow fraction and the texture's brightness
+    factor; ``heights``: the surface for ray intersection, between ``z_lo`` and ``z_hi``.
+    """
+
+    window: Window
+    maps: np.ndarray
+    heights: Heights
+    z_lo: float
+    z_hi: float
+
+
+@dataclass
+class Footprints:
+    """Per-pixel coefficients of one instrument (lines, 286), averaged over each pixel's rays.
+
+    ``direct``/``sky`` (K, lines, cols): fraction of each material times its direct-sun
+    (cos i, unshadowed, cloud-free, texture factor) and sky-view terms; ``direct_plain``/
+    ``sky_plain``: the same for a texture-free surface of any material (a target's share);
+    ``cloud_direct``/``cloud_sky``: the cloud's share lit by the sun and the sky; ``x``/``y``:
+    the mean ground point (m, track frame).
+    """
+
+    direct: np.ndarray
+    sky: np.ndarray
+    cloud_direct: np.ndarray
+    cloud_sky: np.ndarray
+    direct_plain: np.ndarray
+    sky_plain: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+
+    @classmethod
+    def zeros(cls, materials: int, lines: int) -> Footprints:
+        per_material = (materials, lines, COLS)
+        return cls(
+            direct=np.zeros(per_material, "float32"),
+            sky=np.zeros(per_material, "float32"),
+            cloud_direct=np.zeros((lines, COLS), "float32"),
+            cloud_sky=np.zeros((lines, COLS), "float32"),
+            direct_plain=np.zeros((lines, COLS), "float32"),
+            sky_plain=np.zeros((lines, COLS), "float32"),
+            x=np.zeros((lines, COLS), "float64"),
+            y=np.zeros((lines, COLS), "float64"),
         )
-    g = _presets.GEOMETRIES[geometry]
-    squint = g["squint_deg"] if squint_deg is None else float(squint_deg)
-    H = g["flying_height"] if flying_height is None else float(flying_height)
-    Hn = nominal_altitude if nominal_altitude is not None else g["nominal_altitude"]
-    Hn = H if Hn is None else float(Hn)
-    if not 100.0 <= H <= 10000.0:
-        raise ParameterError(f"parameter 'flying_height': {H} m is outside 100–10,000 m")
-    if abs(squint) > 10:
-        raise ParameterError(f"parameter 'squint_deg': {squint}° is outside ±10°")
-    spacing = H * IFOV_MRAD * 1e-3 if line_spacing is None else float(line_spacing)
-    bv = tuple(bore_v) if bore_v is not None else (0.0, 0.0, 0.0)
-    bs = tuple(bore_s) if bore_s is not None else (0.0, bv[1] + squint, 0.0)
-    return Geometry(
-        flying_height_m=H,
-        nominal_altitude_m=Hn,
-        vnir=Instrument(*bv),
-        swir=Instrument(*bs),
-        line_spacing_m=spacing,
-    )
+
+    def put(self, rows: slice, block: Footprints) -> None:
+        """Store a block's coefficients at image lines ``rows``."""
+        for name, array in vars(block).items():
+            getattr(self, name)[..., rows, :] = array
 
 
-def _bilinear(maps: np.ndarray, win: Window, x, y) -> np.ndarray:
-    """Sample (K, ny, nx) maps at points (x, y): (K, n), bilinear, edges clamped."""
-    i, j = win.ij(x, y)
-    i = np.clip(i, 0, win.ny - 1.000001)
-    j = np.clip(j, 0, win.nx - 1.000001)
-    i0 = np.floor(i).astype(np.intp)
-    j0 = np.floor(j).astype(np.intp)
-    fi = (i - i0).astype("float32")
-    fj = (j - j0).astype("float32")
-    flat = maps.reshape(maps.shape[0], -1)
-    k00 = i0 * win.nx + j0
-    out = flat[:, k00] * ((1 - fi) * (1 - fj))
-    out += flat[:, k00 + 1] * ((1 - fi) * fj)
-    out += flat[:, k00 + win.nx] * (fi * (1 - fj))
-    out += flat[:, k00 + win.nx + 1] * (fi * fj)
-    return out
+@dataclass
+class GroundTruth:
+    """The truth on the VNIR pixel grid (box footprints, no PSF): material ``abundances``
+    (K, lines, cols), ``shadow`` fraction, surface height ``z`` and ``cloud`` cover."""
 
+    abundances: np.ndarray
+    shadow: np.ndarray
+    z: np.ndarray
+    cloud: np.ndarray
 
-def _clouds(rng, extent, image_area, count, cell=4.0):
-    """Cloud opacity field (0–1) on a coarse grid over ``extent``: ``count`` fractal blobs."""
-    x0, x1, y0, y1 = extent
-    nx, ny = int((x1 - x0) / cell) + 2, int((y1 - y0) / cell) + 2
-    Y, X = np.mgrid[0:ny, 0:nx] * cell
-    X, Y = X + x0, Y + y0
-    opacity = np.zeros((ny, nx))
-    texture = smooth_field(rng, (ny, nx), 2.5)
-    for _ in range(count):
-        cx, cy = rng.uniform(*image_area[:2]), rng.uniform(*image_area[2:])
-        rx, ry = rng.uniform(25, 70), rng.uniform(25, 70)
-        d = np.sqrt(((X - cx) / rx) ** 2 + ((Y - cy) / ry) ** 2)
-        opacity = np.maximum(opacity, np.clip(2.5 * (1 - d) + 0.4 * texture, 0, 1))
-    return Window(x0 - 0.5 * cell, y0 - 0.5 * cell, nx, ny, cell), opacity.astype("float32")
+    @classmethod
+    def zeros(cls, materials: int, lines: int) -> GroundTruth:
+        return cls(
+            abundances=np.zeros((materials, lines, COLS), "float32"),
+            shadow=np.zeros((lines, COLS), "float32"),
+            z=np.zeros((lines, COLS), "float32"),
+            cloud=np.zeros((lines, COLS), "float32"),
+        )
+
+    def put(self, rows: slice, block: GroundTruth) -> None:
+        """Store a block's truth at image lines ``rows``."""
+        for name, array in vars(block).items():
+            getattr(self, name)[..., rows, :] = array
 
 
 def simulate_scene(
-    preset: str = "urban",
-    lines: int = 128,
+    preset: str = PRESET,
+    lines: int = LINES,
     seed: int = 0,
     *,
-    geometry: str = "realistic",
+    geometry: str = GEOMETRY,
     squint_deg: float | None = None,
     flying_height: float | None = None,
     nominal_altitude: float | None = None,
@@ -174,10 +246,10 @@ def simulate_scene(
     targets: int | None = None,
     clouds: int = 0,
     cloud_height: float | None = None,
-    aot550: float = 0.15,
-    water_vapour_cm: float = 2.0,
+    aot550: float = AOT550,
+    water_vapour_cm: float = WATER_VAPOUR_CM,
     noise: bool = True,
-    supersample: int = 3,
+    supersample: int = SUPERSAMPLE,
     surface: Surface | None = None,
     texture: bool = True,
     progress: Progress | None = None,
@@ -219,16 +291,31 @@ def simulate_scene(
         stones, grass density, sand patches, stains; :data:`.presets.TEXTURE`, drawn from
         its own generator so the scene's layout is the same either way). False gives
         uniform materials (each exactly its library spectrum): for tests and comparisons.
+    progress : Progress, optional
+
+    Returns
+    -------
+    Scene
+        The two DN cubes, the band set and the truth arrays (nothing is written: see
+        :func:`geoboresight.io.scene.write_scene`).
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (section 2: the
+    AISA-Dual's two optics and their boresight offset; Eq. 3; section 3.3: the targets).
     """
     if preset not in _presets.SCENES:
         raise ParameterError(
             f"parameter 'preset': {preset!r} is not one of {', '.join(_presets.SCENES)}"
         )
     lines = int(lines)
-    if lines < 8:
-        raise ParameterError(f"parameter 'lines': {lines} is too few; simulate at least 8 lines")
+    if lines < MIN_LINES:
+        raise ParameterError(
+            f"parameter 'lines': {lines} is too few; simulate at least {MIN_LINES} lines"
+        )
     progress = as_progress(progress)
-    geo = _geometry(
+    geo = flight_geometry(
         geometry,
         squint_deg,
         flying_height,
@@ -237,248 +324,68 @@ def simulate_scene(
         boresight_vnir_deg,
         boresight_swir_deg,
     )
-    zen = _presets.SUN[preset][0] if sun_zenith is None else float(sun_zenith)
-    azi = _presets.SUN[preset][1] if sun_azimuth is None else float(sun_azimuth)
-    if not 0.0 <= zen < 85.0:
-        raise ParameterError(f"parameter 'sun_zenith': {zen}° is outside 0–85°")
+    sun = _sun(preset, sun_zenith, sun_azimuth)
     n_targets = _presets.DEFAULT_TARGETS[preset] if targets is None else int(targets)
     H = geo.flying_height_m
-    z_cloud = 0.4 * H if cloud_height is None else float(cloud_height)
-    sub = int(supersample)
+    z_cloud = CLOUD_HEIGHT_FRACTION * H if cloud_height is None else float(cloud_height)
     rng = np.random.default_rng(seed)
 
-    # The world: every ray's ground point, for heights up to a generous bound, plus margins.
-    z_bound = 100.0
-    tan_z = np.tan(np.radians(zen))
-    sun = sun_vector(zen, azi)
-    shadow_reach = min(z_bound * tan_z, 400.0)
-    ext = []
-    for inst in ("vnir", "swir"):
-        t, u, v = geo.rays(inst, np.array([0, lines - 1]), np.array([0, COLS - 1]), 1)
-        for z in (0.0, z_bound):
-            ext.append(((H - z) * u, t * geo.line_spacing_m + (H - z) * v))
-    xs = np.concatenate([e[0].ravel() for e in ext])
-    ys = np.concatenate([e[1].ravel() for e in ext])
-    pad = 10.0 + geo.line_spacing_m * 2
-    # Objects up to shadow_reach away (any direction) may cast shadows into the image.
-    extent = (
-        xs.min() - pad - shadow_reach,
-        xs.max() + pad + shadow_reach,
-        ys.min() - pad - shadow_reach,
-        ys.max() + pad + shadow_reach,
-    )
+    # 1. Layout, surface and clouds (one generator, drawn in this order: same seed, same scene).
+    extent, core = scene_extent(geo, lines, sun)
     if surface is None:
-        surface = _presets.BUILDERS[preset](
-            rng, extent, core=(xs.min(), xs.max(), ys.min(), ys.max())
-        )
-        if texture:
-            surface = _presets.add_texture(surface, np.random.default_rng([seed, 303]))
+        surface = preset_surface(preset, rng, extent, core, seed=seed, texture=texture)
     progress.update(0.05, "surface built")
-
     names = list(surface.materials)
     if n_targets:
-        names.append("plastic_bag")
-    K = len(names)
-    # Cloud centres over the image as seen at the cloud layer (the swath narrows with height).
-    shrink = (H - z_cloud) / H
-    image_area = (xs.min() * shrink, xs.max() * shrink, ys.min(), ys.max())
-    cloud_win, cloud_op = _clouds(rng, extent, image_area, int(clouds)) if clouds else (None, None)
+        names.append(TARGET)
+    cloud = cloud_layer(rng, geo, extent, core, int(clouds), z_cloud) if clouds else None
 
     # Spectra and atmosphere at the band set.
     vwl, vfw, swl, sfw = aisa_dual_bands()
     all_wl, all_fw = np.concatenate([vwl, swl]), np.concatenate([vfw, sfw])
-    spectra = {n: band_average(material_spectrum(n), all_wl, all_fw) for n in names}
-    spectra["cloud"] = band_average(material_spectrum("cloud"), all_wl, all_fw)
-    ill = illumination(all_wl, all_fw, zen, H, aot550=aot550, water_cm=water_vapour_cm)
+    spectra = band_spectra([*names, "cloud"], all_wl, all_fw)
+    ill = illumination(all_wl, all_fw, sun.zenith_deg, H, aot550=aot550, water_cm=water_vapour_cm)
 
-    cell = geo.gsd_m / 3.0
-    z_top = surface.max_height() + 0.5
-    cos_z = float(np.cos(np.radians(zen)))
-    acc = {
-        inst: {
-            "D": np.zeros((K, lines, COLS), "float32"),
-            "F": np.zeros((K, lines, COLS), "float32"),
-            "Dc": np.zeros((lines, COLS), "float32"),
-            "Fc": np.zeros((lines, COLS), "float32"),
-            "Du": np.zeros((lines, COLS), "float32"),  # D and F of a factor-1 surface
-            "Fu": np.zeros((lines, COLS), "float32"),
-            "x": np.zeros((lines, COLS), "float64"),
-            "y": np.zeros((lines, COLS), "float64"),
-        }
-        for inst in ("vnir", "swir")
-    }
-    truth_a = np.zeros((K, lines, COLS), "float32")
-    truth_shadow = np.zeros((lines, COLS), "float32")
-    truth_z = np.zeros((lines, COLS), "float32")
-    truth_cloud = np.zeros((lines, COLS), "float32")
-    cols = np.arange(COLS)
-    nblocks = -(-lines // BLOCK_LINES)
-    for b in range(nblocks):
-        l0, l1 = b * BLOCK_LINES, min((b + 1) * BLOCK_LINES, lines)
-        blk = np.arange(l0, l1)
-        rays = {inst: geo.rays(inst, blk, cols, sub) for inst in ("vnir", "swir")}
-        # Fine window: all rays of the block at z in [0, z_top], plus the up-sun margin.
-        px, py = [], []
-        for t, u, v in rays.values():
-            for z in (0.0, z_top):
-                px.append(((H - z) * u).ravel())
-                py.append((t * geo.line_spacing_m + (H - z) * v).ravel())
-        px, py = np.concatenate(px), np.concatenate(py)
-        reach = min(z_top * tan_z, 400.0)
-        m = 3 * cell
-        # Extend the window towards the sun: objects there cast shadows into the block.
-        wx0 = px.min() - m - reach * (sun[0] < 0)
-        wx1 = px.max() + m + reach * (sun[0] > 0)
-        wy0 = py.min() - m - reach * (sun[1] < 0)
-        wy1 = py.max() + m + reach * (sun[1] > 0)
-        win = Window(
-            wx0, wy0, int(np.ceil((wx1 - wx0) / cell)), int(np.ceil((wy1 - wy0) / cell)), cell
-        )
-        dsm, frac, ground_z = surface.rasterize(win, names[: K - 1] if n_targets else names)
-        heights = Heights(ground_z, dsm, win)
-        if n_targets:
-            frac = np.concatenate([frac, np.zeros((1, *dsm.shape), "float32")])
-        cos_i = incidence(dsm, cell, zen, azi, ground_z)
-        lit = (~cast_shadow(dsm, cell, zen, azi)) & (cos_i > 0)
-        if cloud_op is not None:
-            gx, gy = win.xy(np.arange(win.ny)[:, None], np.arange(win.nx)[None, :])
-            d = np.clip(z_cloud - dsm, 0, None) * tan_z / max(np.hypot(*sun[:2]), 1e-9)
-            cx = gx + d * sun[0]
-            cy = gy + d * sun[1]
-            c_sh = _bilinear(cloud_op[None], cloud_win, cx.ravel(), cy.ravel())[0].reshape(
-                dsm.shape
-            )
-            sunlit = lit * (1.0 - c_sh)
-        else:
-            sunlit = lit.astype("float32")
-        direct = (np.clip(cos_i, 0, None) * sunlit).astype("float32")
-        sky = sky_view(dsm, cell, ground_z).astype("float32")
-        bright = surface.brightness_on(win, frac, names)
-        maps = np.concatenate(
-            [
-                frac,
-                direct[None],
-                sky[None],
-                (1.0 - sunlit)[None].astype("float32"),
-                bright[None],
-            ]
-        )
-        del bright
-        z_lo = float(dsm.min()) - 0.01
-        z_hi = float(dsm.max()) + 0.01
-        for inst, (t, u, v) in rays.items():
-            tt, uu, vv = t.ravel(), u.ravel(), v.ravel()
-            x, y, z = intersect(tt, uu, vv, geo, heights, z_lo, z_hi)
-            s = _bilinear(maps, win, x, y)
-            fr, di, sk = s[:K], s[K], s[K + 1]
-            if cloud_op is not None:
-                c = _bilinear(
-                    cloud_op[None],
-                    cloud_win,
-                    (H - z_cloud) * uu,
-                    tt * geo.line_spacing_m + (H - z_cloud) * vv,
-                )[0]
-            else:
-                c = np.zeros_like(di)
-            shape = (K, l1 - l0, COLS, sub * sub)
-            a = acc[inst]
-            ground = 1.0 - c
-            br = s[K + 3]
-            a["D"][:, l0:l1] = (fr * (di * ground * br)).reshape(shape).mean(-1)
-            a["F"][:, l0:l1] = (fr * (sk * ground * br)).reshape(shape).mean(-1)
-            a["Du"][l0:l1] = (di * ground).reshape(shape[1:]).mean(-1)
-            a["Fu"][l0:l1] = (sk * ground).reshape(shape[1:]).mean(-1)
-            a["Dc"][l0:l1] = (c * cos_z).reshape(shape[1:]).mean(-1)
-            a["Fc"][l0:l1] = c.reshape(shape[1:]).mean(-1)
-            a["x"][l0:l1] = x.reshape(shape[1:]).mean(-1)
-            a["y"][l0:l1] = y.reshape(shape[1:]).mean(-1)
-            if inst == "vnir":
-                truth_a[:, l0:l1] = fr.reshape(shape).mean(-1)
-                truth_shadow[l0:l1] = s[K + 2].reshape(shape[1:]).mean(-1)
-                truth_z[l0:l1] = z.reshape(shape[1:]).mean(-1)
-                truth_cloud[l0:l1] = c.reshape(shape[1:]).mean(-1)
-        progress.update(0.05 + 0.6 * (b + 1) / nblocks, f"ray-traced lines {l0}-{l1 - 1}")
-
-    # Sub-pixel targets: exact footprint ∩ bag rectangle, for each instrument's pixels.
-    target_list = []
-    truth_target = np.zeros((lines, COLS), "float32")
+    # 2–4. Ray tracing, block by block; then the targets.
+    footprints, truth = trace_footprints(
+        geo, surface, names, lines, sun, cloud, int(supersample), progress.sub(0.05, 0.65)
+    )
+    target_list, target_abundance = [], np.zeros((lines, COLS), "float32")
     if n_targets:
-        target_list = _place_targets(
-            rng,
-            n_targets,
-            names,
-            truth_a,
-            truth_shadow,
-            truth_z,
-            truth_cloud,
-            acc["vnir"],
-        )
+        target_list = place_targets(rng, n_targets, names, truth, footprints["vnir"])
         if len(target_list) < n_targets:
             progress.info(
                 f"only {len(target_list)} of {n_targets} targets fit on open, flat, sunlit ground "
                 "at least 6 pixels apart: simulate more lines for more targets"
             )
-        k = names.index("plastic_bag")
-        for inst in ("vnir", "swir"):
-            a = acc[inst]
-            cover = _target_cover(target_list, a["x"], a["y"], geo)
-            # The bag has its own reflectance: the ground's texture does not apply to it.
-            total_d = a["Du"]
-            total_f = a["Fu"]
-            a["D"] *= 1.0 - cover
-            a["F"] *= 1.0 - cover
-            a["D"][k] += cover * total_d
-            a["F"][k] += cover * total_f
-            if inst == "vnir":
-                truth_target = cover.astype("float32")
-                for t in target_list:
-                    t["abundance"] = float(cover[t["row"], t["col"]])
-                truth_a *= 1.0 - cover
-                truth_a[k] += cover
-    # Radiance and DN, blockwise over lines, per instrument.
-    out = {}
+        target_abundance = add_targets(target_list, names.index(TARGET), footprints, truth)
+
+    # 5–6. Radiance and DN, per instrument.
     spec = np.stack([spectra[n] for n in names])  # (K, 198)
     nv = len(vwl)
+    cubes = {}
     for n_inst, (inst, det, sl) in enumerate(
         (("vnir", VNIR, slice(0, nv)), ("swir", SWIR, slice(nv, None)))
     ):
-        a = acc[inst]
-        sig = det.psf_sigma_px
-        for key in ("D", "F"):
-            a[key] = ndimage.gaussian_filter(a[key], (0, sig, sig), mode="nearest")
-        for key in ("Dc", "Fc"):
-            a[key] = ndimage.gaussian_filter(a[key], sig, mode="nearest")
-        e_dir = ill.direct[sl]
-        e_sky = ill.diffuse[sl]
-        rho = spec[:, sl]
-        rho_c = spectra["cloud"][sl]
-        nrng = np.random.default_rng([seed, 101 + n_inst]) if noise else None
-        cube = np.zeros((rho.shape[1], lines, COLS), "uint16" if noise else "float32")
-        for l0 in range(0, lines, NOISE_BLOCK_LINES):
-            l1 = min(l0 + NOISE_BLOCK_LINES, lines)
-            rad = np.einsum("kb,klc->blc", rho * e_dir, a["D"][:, l0:l1])
-            rad += np.einsum("kb,klc->blc", rho * e_sky, a["F"][:, l0:l1])
-            rad += (rho_c * e_dir)[:, None, None] * a["Dc"][None, l0:l1]
-            rad += (rho_c * e_sky)[:, None, None] * a["Fc"][None, l0:l1]
-            rad = rad * (ill.t_up[sl] / np.pi)[:, None, None] + ill.path[sl][:, None, None]
-            cube[:, l0:l1] = det.to_dn(rad.astype("float32"), all_wl[sl], nrng)
-        out[inst] = cube
+        cubes[inst] = instrument_cube(
+            psf_blur(footprints[inst], det.psf_sigma_px),
+            det,
+            spec[:, sl],
+            spectra["cloud"][sl],
+            _band_slice(ill, sl),
+            all_wl[sl],
+            np.random.default_rng([seed, 101 + n_inst]) if noise else None,
+        )
     progress.update(0.95, "radiometry done")
 
-    material_ids = np.array([MATERIAL_IDS[n] for n in names], "uint8")
-    material = material_ids[np.argmax(truth_a[: K - 1] if n_targets else truth_a, axis=0)]
-    used = sorted(set(np.unique(material).tolist()) | {int(i) for i in material_ids})
-    material_names = {int(i): MATERIALS[int(i)] for i in used}
-    cloud_mask = truth_cloud > 0.5
-    abundances = np.concatenate([truth_a * (1 - truth_cloud), truth_cloud[None]])
-    ab_names = (*names, "cloud")
-    truth = _truth_dict(
+    material, material_names = material_map(truth.abundances, names, has_target=bool(n_targets))
+    truth_json = _truth_dict(
         preset,
         seed,
         lines,
         geo,
-        zen,
-        azi,
+        sun.zenith_deg,
+        sun.azimuth_deg,
         material_names,
         target_list,
         noise,
@@ -489,35 +396,332 @@ def simulate_scene(
         supersample,
         geometry,
     )
-    endmembers = {n: spectra[n].astype("float64") for n in ab_names}
+    abundances = np.concatenate([truth.abundances * (1 - truth.cloud), truth.cloud[None]])
+    ab_names = (*names, "cloud")
     return Scene(
-        vnir=out["vnir"],
-        swir=out["swir"],
+        vnir=cubes["vnir"],
+        swir=cubes["swir"],
         vnir_wavelengths=vwl,
         swir_wavelengths=swl,
         vnir_fwhm=vfw,
         swir_fwhm=sfw,
-        dsm=np.maximum(truth_z, 0.0),  # bisection leaves < 1 cm; heights are >= 0
-        shadow_fraction=np.clip(truth_shadow, 0, 1),
-        target_abundance=np.clip(truth_target, 0, 1),
-        cloud_mask=cloud_mask,
+        dsm=np.maximum(truth.z, 0.0),  # bisection leaves < 1 cm; heights are >= 0
+        shadow_fraction=np.clip(truth.shadow, 0, 1),
+        target_abundance=np.clip(target_abundance, 0, 1),
+        cloud_mask=truth.cloud > 0.5,
         material=material,
         material_names=material_names,
         abundances=np.clip(abundances, 0, 1).astype("float32"),
         abundance_names=ab_names,
-        endmember_spectra=endmembers,
-        truth=truth,
+        endmember_spectra={n: spectra[n].astype("float64") for n in ab_names},
+        truth=truth_json,
     )
 
 
-def _place_targets(rng, n, names, ab, shadow, z, cloud, vnir_acc):
-    """Bags at VNIR pixel centres on open, sunlit, flat ground, at least 6 px apart."""
+def flight_geometry(
+    geometry: str = GEOMETRY,
+    squint_deg=None,
+    flying_height=None,
+    nominal_altitude=None,
+    line_spacing=None,
+    boresight_vnir_deg=None,
+    boresight_swir_deg=None,
+) -> Geometry:
+    """The flight and both instruments' lines of sight: a geometry preset (see
+    :mod:`.presets`) with any of its values overridden (see :func:`simulate_scene`)."""
+    if geometry not in _presets.GEOMETRIES:
+        raise ParameterError(
+            f"parameter 'geometry': {geometry!r} is not one of {', '.join(_presets.GEOMETRIES)}"
+        )
+    g = _presets.GEOMETRIES[geometry]
+    squint = g["squint_deg"] if squint_deg is None else float(squint_deg)
+    H = g["flying_height"] if flying_height is None else float(flying_height)
+    Hn = nominal_altitude if nominal_altitude is not None else g["nominal_altitude"]
+    Hn = H if Hn is None else float(Hn)
+    if not 100.0 <= H <= 10000.0:
+        raise ParameterError(f"parameter 'flying_height': {H} m is outside 100–10,000 m")
+    if abs(squint) > 10:
+        raise ParameterError(f"parameter 'squint_deg': {squint}° is outside ±10°")
+    spacing = H * IFOV_MRAD * 1e-3 if line_spacing is None else float(line_spacing)
+    bv = tuple(boresight_vnir_deg) if boresight_vnir_deg is not None else (0.0, 0.0, 0.0)
+    bs = tuple(boresight_swir_deg) if boresight_swir_deg is not None else (0.0, bv[1] + squint, 0.0)
+    return Geometry(
+        flying_height_m=H,
+        nominal_altitude_m=Hn,
+        vnir=Instrument(*bv),
+        swir=Instrument(*bs),
+        line_spacing_m=spacing,
+    )
+
+
+def _sun(preset: str, zenith, azimuth) -> Sun:
+    zen = _presets.SUN[preset][0] if zenith is None else float(zenith)
+    azi = _presets.SUN[preset][1] if azimuth is None else float(azimuth)
+    if not 0.0 <= zen < 85.0:
+        raise ParameterError(f"parameter 'sun_zenith': {zen}° is outside 0–85°")
+    return Sun(zen, azi)
+
+
+def scene_extent(geo: Geometry, lines: int, sun: Sun):
+    """Stage 1, the layout: ``(extent, core)`` as (x0, x1, y0, y1) in metres (track frame).
+
+    ``core`` holds every ray's ground point for heights 0 to :data:`Z_BOUND_M`; ``extent``
+    adds a margin and the reach of shadows cast from outside (any direction).
+    """
+    H = geo.flying_height_m
+    shadow_reach = min(Z_BOUND_M * sun.tan_zenith, MAX_SHADOW_REACH_M)
+    ext = []
+    for inst in INSTRUMENTS:
+        t, u, v = geo.rays(inst, np.array([0, lines - 1]), np.array([0, COLS - 1]), 1)
+        for z in (0.0, Z_BOUND_M):
+            ext.append(((H - z) * u, t * geo.line_spacing_m + (H - z) * v))
+    xs = np.concatenate([e[0].ravel() for e in ext])
+    ys = np.concatenate([e[1].ravel() for e in ext])
+    pad = 10.0 + geo.line_spacing_m * 2
+    extent = (
+        xs.min() - pad - shadow_reach,
+        xs.max() + pad + shadow_reach,
+        ys.min() - pad - shadow_reach,
+        ys.max() + pad + shadow_reach,
+    )
+    return extent, (xs.min(), xs.max(), ys.min(), ys.max())
+
+
+def preset_surface(
+    preset: str, rng: np.random.Generator, extent, core, *, seed: int = 0, texture: bool = True
+) -> Surface:
+    """Stage 1, the surface of a preset over ``extent`` (relief normalised over ``core``),
+    with its sub-material texture drawn from its own generator ``(seed, 303)``."""
+    surface = _presets.BUILDERS[preset](rng, extent, core=core)
+    if texture:
+        surface = _presets.add_texture(surface, np.random.default_rng([seed, 303]))
+    return surface
+
+
+def cloud_layer(
+    rng: np.random.Generator, geo: Geometry, extent, core, count: int, height_m: float
+) -> Clouds:
+    """Stage 1, the clouds: ``count`` blobs centred over the image as seen at the cloud
+    layer (the swath narrows with height)."""
+    H = geo.flying_height_m
+    shrink = (H - height_m) / H
+    image_area = (core[0] * shrink, core[1] * shrink, core[2], core[3])
+    window, opacity = _clouds(rng, extent, image_area, count)
+    return Clouds(window, opacity, height_m)
+
+
+def band_spectra(names, wavelengths, fwhm) -> dict[str, np.ndarray]:
+    """Each material's reflectance averaged over the bands' Gaussian responses."""
+    return {n: band_average(material_spectrum(n), wavelengths, fwhm) for n in names}
+
+
+def _bilinear(maps: np.ndarray, win: Window, x, y) -> np.ndarray:
+    """Sample (K, ny, nx) maps at points (x, y): (K, n), bilinear, edges clamped."""
+    i, j = win.ij(x, y)
+    i = np.clip(i, 0, win.ny - 1.000001)
+    j = np.clip(j, 0, win.nx - 1.000001)
+    i0 = np.floor(i).astype(np.intp)
+    j0 = np.floor(j).astype(np.intp)
+    fi = (i - i0).astype("float32")
+    fj = (j - j0).astype("float32")
+    flat = maps.reshape(maps.shape[0], -1)
+    k00 = i0 * win.nx + j0
+    out = flat[:, k00] * ((1 - fi) * (1 - fj))
+    out += flat[:, k00 + 1] * ((1 - fi) * fj)
+    out += flat[:, k00 + win.nx] * (fi * (1 - fj))
+    out += flat[:, k00 + win.nx + 1] * (fi * fj)
+    return out
+
+
+def _clouds(rng, extent, image_area, count, cell=4.0):
+    """Cloud opacity field (0–1) on a coarse grid over ``extent``: ``count`` fractal blobs."""
+    x0, x1, y0, y1 = extent
+    nx, ny = int((x1 - x0) / cell) + 2, int((y1 - y0) / cell) + 2
+    Y, X = np.mgrid[0:ny, 0:nx] * cell
+    X, Y = X + x0, Y + y0
+    opacity = np.zeros((ny, nx))
+    texture = smooth_field(rng, (ny, nx), 2.5)
+    for _ in range(count):
+        cx, cy = rng.uniform(*image_area[:2]), rng.uniform(*image_area[2:])
+        rx, ry = rng.uniform(25, 70), rng.uniform(25, 70)
+        d = np.sqrt(((X - cx) / rx) ** 2 + ((Y - cy) / ry) ** 2)
+        opacity = np.maximum(opacity, np.clip(2.5 * (1 - d) + 0.4 * texture, 0, 1))
+    return Window(x0 - 0.5 * cell, y0 - 0.5 * cell, nx, ny, cell), opacity.astype("float32")
+
+
+def trace_footprints(
+    geo: Geometry,
+    surface: Surface,
+    names: list[str],
+    lines: int,
+    sun: Sun,
+    clouds: Clouds | None,
+    sub: int,
+    progress: Progress | None = None,
+    block_lines: int = BLOCK_LINES,
+) -> tuple[dict[str, Footprints], GroundTruth]:
+    """Stages 2–4 for the whole flight line, in blocks of ``block_lines`` lines (each block
+    has its own fine grid, so the block size moves the grid by a fraction of a cell).
+
+    ``names`` are the surface's materials, then the target's if any (its fractions start
+    at 0 and are set by :func:`add_targets`). Returns each instrument's :class:`Footprints`
+    and the :class:`GroundTruth` on the VNIR grid.
+    """
+    K = len(names)
+    cell = geo.gsd_m / 3.0
+    z_top = surface.max_height() + 0.5
+    footprints = {inst: Footprints.zeros(K, lines) for inst in INSTRUMENTS}
+    truth = GroundTruth.zeros(K, lines)
+
+    def block(l0, l1):
+        rays = {
+            inst: geo.rays(inst, np.arange(l0, l1), np.arange(COLS), sub) for inst in INSTRUMENTS
+        }
+        win = block_window(rays, geo, z_top, sun, cell)
+        return trace_block(rays, geo, sun_maps(surface, win, names, sun, clouds), K, clouds, sun)
+
+    for win, (blocks, vnir_truth) in map_windows(
+        lambda l0, l1: (l0, l1),
+        block,
+        height=lines,
+        width=COLS,
+        block_rows=block_lines,
+        progress=progress,
+        message="ray tracing",
+    ):
+        rows = slice(win.row_off, win.row_off + win.height)
+        for inst in INSTRUMENTS:
+            footprints[inst].put(rows, blocks[inst])
+        truth.put(rows, vnir_truth)
+    return footprints, truth
+
+
+def block_window(rays: dict, geo: Geometry, z_top: float, sun: Sun, cell: float) -> Window:
+    """Stage 2, the fine grid of a block: every ray of the block at heights 0 to ``z_top``,
+    extended towards the sun (objects there cast shadows into the block)."""
+    H = geo.flying_height_m
+    s = sun.vector
+    px, py = [], []
+    for t, u, v in rays.values():
+        for z in (0.0, z_top):
+            px.append(((H - z) * u).ravel())
+            py.append((t * geo.line_spacing_m + (H - z) * v).ravel())
+    px, py = np.concatenate(px), np.concatenate(py)
+    reach = min(z_top * sun.tan_zenith, MAX_SHADOW_REACH_M)
+    m = 3 * cell
+    wx0 = px.min() - m - reach * (s[0] < 0)
+    wx1 = px.max() + m + reach * (s[0] > 0)
+    wy0 = py.min() - m - reach * (s[1] < 0)
+    wy1 = py.max() + m + reach * (s[1] > 0)
+    return Window(
+        wx0, wy0, int(np.ceil((wx1 - wx0) / cell)), int(np.ceil((wy1 - wy0) / cell)), cell
+    )
+
+
+def sun_maps(
+    surface: Surface, win: Window, names: list[str], sun: Sun, clouds: Clouds | None
+) -> SunMaps:
+    """Stage 2, the sun geometry on the fine grid ``win`` (see :class:`SunMaps`)."""
+    has_target = names[-1] == TARGET
+    cell = win.cell
+    dsm, frac, ground_z = surface.rasterize(win, names[:-1] if has_target else names)
+    heights = Heights(ground_z, dsm, win)
+    if has_target:
+        frac = np.concatenate([frac, np.zeros((1, *dsm.shape), "float32")])
+    zen, azi = sun.zenith_deg, sun.azimuth_deg
+    cos_i = incidence(dsm, cell, zen, azi, ground_z)
+    lit = (~cast_shadow(dsm, cell, zen, azi)) & (cos_i > 0)
+    if clouds is not None:
+        s = sun.vector
+        gx, gy = win.xy(np.arange(win.ny)[:, None], np.arange(win.nx)[None, :])
+        d = np.clip(clouds.height_m - dsm, 0, None) * sun.tan_zenith / max(np.hypot(*s[:2]), 1e-9)
+        cx = gx + d * s[0]
+        cy = gy + d * s[1]
+        c_sh = _bilinear(clouds.opacity[None], clouds.window, cx.ravel(), cy.ravel())[0]
+        sunlit = lit * (1.0 - c_sh.reshape(dsm.shape))
+    else:
+        sunlit = lit.astype("float32")
+    direct = (np.clip(cos_i, 0, None) * sunlit).astype("float32")
+    sky = sky_view(dsm, cell, ground_z).astype("float32")
+    bright = surface.brightness_on(win, frac, names)
+    maps = np.concatenate(
+        [
+            frac,
+            direct[None],
+            sky[None],
+            (1.0 - sunlit)[None].astype("float32"),
+            bright[None],
+        ]
+    )
+    return SunMaps(win, maps, heights, float(dsm.min()) - 0.01, float(dsm.max()) + 0.01)
+
+
+def trace_block(
+    rays: dict,
+    geo: Geometry,
+    fine: SunMaps,
+    K: int,
+    clouds: Clouds | None,
+    sun: Sun,
+) -> tuple[dict[str, Footprints], GroundTruth]:
+    """Stages 3–4 for one block: each instrument's rays intersected with the surface, the
+    maps of ``fine`` (:func:`sun_maps`) sampled at the hits and averaged per pixel.
+
+    Returns each instrument's block :class:`Footprints` and the block's VNIR truth.
+    """
+    H = geo.flying_height_m
+    cos_z = sun.cos_zenith
+    out = {}
+    truth = None
+    for inst, (t, u, v) in rays.items():
+        n_lines, _, rays_per_pixel = t.shape
+        tt, uu, vv = t.ravel(), u.ravel(), v.ravel()
+        x, y, z = intersect(tt, uu, vv, geo, fine.heights, fine.z_lo, fine.z_hi)
+        s = _bilinear(fine.maps, fine.window, x, y)
+        fr, di, sk = s[:K], s[K], s[K + 1]
+        if clouds is not None:
+            h = H - clouds.height_m
+            c = _bilinear(
+                clouds.opacity[None], clouds.window, h * uu, tt * geo.line_spacing_m + h * vv
+            )[0]
+        else:
+            c = np.zeros_like(di)
+        shape = (K, n_lines, COLS, rays_per_pixel)
+
+        def mean(a, shape=shape[1:]):
+            return a.reshape(shape).mean(-1)
+
+        ground = 1.0 - c
+        br = s[K + 3]
+        out[inst] = Footprints(
+            direct=mean(fr * (di * ground * br), shape),
+            sky=mean(fr * (sk * ground * br), shape),
+            cloud_direct=mean(c * cos_z),
+            cloud_sky=mean(c),
+            direct_plain=mean(di * ground),
+            sky_plain=mean(sk * ground),
+            x=mean(x),
+            y=mean(y),
+        )
+        if inst == "vnir":
+            truth = GroundTruth(
+                abundances=mean(fr, shape), shadow=mean(s[K + 2]), z=mean(z), cloud=mean(c)
+            )
+    return out, truth
+
+
+def place_targets(
+    rng: np.random.Generator, n: int, names: list[str], truth: GroundTruth, vnir: Footprints
+) -> list[dict]:
+    """Stage 4: up to ``n`` bags at VNIR pixel centres on open, sunlit, cloud-free, flat
+    ground, at least 6 pixels apart (a list of target dicts, as in ``truth.json``)."""
     open_ids = [names.index(m) for m in OPEN_GROUND if m in names]
-    openness = ab[open_ids].sum(0) if open_ids else np.zeros(shadow.shape)
-    ok = (openness > 0.99) & (shadow < 0.01) & (cloud < 0.01)
+    shadow = truth.shadow
+    openness = truth.abundances[open_ids].sum(0) if open_ids else np.zeros(shadow.shape)
+    ok = (openness > 0.99) & (shadow < 0.01) & (truth.cloud < 0.01)
     # Flat: no height change within 3 pixels (no building or tree nearby).
-    zmax = ndimage.maximum_filter(z, 7)
-    zmin = ndimage.minimum_filter(z, 7)
+    zmax = ndimage.maximum_filter(truth.z, 7)
+    zmin = ndimage.minimum_filter(truth.z, 7)
     ok &= (zmax - zmin) < 2.0
     ok[:4] = ok[-4:] = False
     ok[:, :4] = ok[:, -4:] = False
@@ -530,23 +734,22 @@ def _place_targets(rng, n, names, ab, shadow, z, cloud, vnir_acc):
             chosen.append((int(r), int(c)))
         if len(chosen) == n:
             break
-    out = []
-    for r, c in chosen:
-        out.append(
-            {
-                "row": r,
-                "col": c,
-                "x_m": float(vnir_acc["x"][r, c]),
-                "y_m": float(vnir_acc["y"][r, c]),
-                "size_m": list(BAG_SIZE_M),
-                "material": "plastic_bag",
-            }
-        )
-    return out
+    return [
+        {
+            "row": r,
+            "col": c,
+            "x_m": float(vnir.x[r, c]),
+            "y_m": float(vnir.y[r, c]),
+            "size_m": list(BAG_SIZE_M),
+            "material": TARGET,
+        }
+        for r, c in chosen
+    ]
 
 
-def _target_cover(targets, x, y, geo: Geometry) -> np.ndarray:
-    """Fraction of each pixel's footprint covered by the bags (rectangle overlap)."""
+def target_cover(targets: list[dict], x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Fraction of each pixel's footprint covered by the bags (rectangle overlap); ``x``,
+    ``y`` are the footprint centres (m)."""
     cover = np.zeros(x.shape, "float64")
     lines, cols = x.shape
     for t in targets:
@@ -565,6 +768,125 @@ def _target_cover(targets, x, y, geo: Geometry) -> np.ndarray:
         oy = np.clip(np.minimum(py + wy / 2, by1) - np.maximum(py - wy / 2, by0), 0, None)
         cover[r0:r1, c0:c1] += ox * oy / (wx * wy)
     return np.clip(cover, 0, 1)
+
+
+def add_targets(
+    targets: list[dict],
+    k: int,
+    footprints: dict[str, Footprints],
+    truth: GroundTruth,
+) -> np.ndarray:
+    """Stage 4: the bags replace their share of each instrument's footprints (material
+    ``k``, in place); the VNIR truth abundances follow, and each target gets its
+    ``abundance``. Returns the target abundance on the VNIR grid (float32)."""
+    abundance = None
+    for inst in INSTRUMENTS:
+        a = footprints[inst]
+        cover = target_cover(targets, a.x, a.y)
+        # The bag has its own reflectance: the ground's texture does not apply to it.
+        a.direct *= 1.0 - cover
+        a.sky *= 1.0 - cover
+        a.direct[k] += cover * a.direct_plain
+        a.sky[k] += cover * a.sky_plain
+        if inst == "vnir":
+            abundance = cover.astype("float32")
+            for t in targets:
+                t["abundance"] = float(cover[t["row"], t["col"]])
+            truth.abundances *= 1.0 - cover
+            truth.abundances[k] += cover
+    return abundance
+
+
+def psf_blur(footprints: Footprints, sigma_px: float) -> Footprints:
+    """Stage 5: the instrument's Gaussian PSF (σ in pixels) over the coefficient images that
+    make radiance (a new :class:`Footprints`; the ground points are kept)."""
+    sig = sigma_px
+    return Footprints(
+        direct=ndimage.gaussian_filter(footprints.direct, (0, sig, sig), mode="nearest"),
+        sky=ndimage.gaussian_filter(footprints.sky, (0, sig, sig), mode="nearest"),
+        cloud_direct=ndimage.gaussian_filter(footprints.cloud_direct, sig, mode="nearest"),
+        cloud_sky=ndimage.gaussian_filter(footprints.cloud_sky, sig, mode="nearest"),
+        direct_plain=footprints.direct_plain,
+        sky_plain=footprints.sky_plain,
+        x=footprints.x,
+        y=footprints.y,
+    )
+
+
+def _band_slice(ill: Illumination, bands: slice) -> Illumination:
+    return Illumination(ill.direct[bands], ill.diffuse[bands], ill.path[bands], ill.t_up[bands])
+
+
+def at_sensor_radiance(
+    direct: np.ndarray,
+    sky: np.ndarray,
+    cloud_direct: np.ndarray,
+    cloud_sky: np.ndarray,
+    reflectance: np.ndarray,
+    cloud_reflectance: np.ndarray,
+    ill: Illumination,
+) -> np.ndarray:
+    """Stage 5: (bands, lines, cols) radiance at the sensor, float32:
+    ``L = T_up/π · (Σ_m ρ_m (D_m E_dir + F_m E_sky) + ρ_c (D_c E_dir + F_c E_sky)) + L_path``.
+
+    ``direct``/``sky`` (K, lines, cols) and ``cloud_direct``/``cloud_sky`` (lines, cols) are
+    the coefficients of :class:`Footprints`, ``reflectance`` (K, bands) the materials' and
+    ``cloud_reflectance`` (bands,) the cloud's, ``ill`` the atmosphere at the bands.
+    """
+    rad = np.einsum("kb,klc->blc", reflectance * ill.direct, direct)
+    rad += np.einsum("kb,klc->blc", reflectance * ill.diffuse, sky)
+    rad += (cloud_reflectance * ill.direct)[:, None, None] * cloud_direct[None]
+    rad += (cloud_reflectance * ill.diffuse)[:, None, None] * cloud_sky[None]
+    rad = rad * (ill.t_up / np.pi)[:, None, None] + ill.path[:, None, None]
+    return rad.astype("float32")
+
+
+def instrument_cube(
+    footprints: Footprints,
+    detector: Detector,
+    reflectance: np.ndarray,
+    cloud_reflectance: np.ndarray,
+    ill: Illumination,
+    wavelengths: np.ndarray,
+    rng: np.random.Generator | None,
+    block_lines: int = NOISE_BLOCK_LINES,
+) -> np.ndarray:
+    """Stages 5–6 for one instrument: radiance and then DN (:meth:`.sensor.Detector.to_dn`),
+    in blocks of ``block_lines`` lines. ``rng=None``: noise-free float32 DN (the noise, drawn
+    block by block, depends on the block size)."""
+    lines = footprints.x.shape[0]
+    cube = np.zeros((reflectance.shape[1], lines, COLS), "uint16" if rng is not None else "float32")
+
+    def block(l0, l1):
+        rows = slice(l0, l1)
+        rad = at_sensor_radiance(
+            footprints.direct[:, rows],
+            footprints.sky[:, rows],
+            footprints.cloud_direct[rows],
+            footprints.cloud_sky[rows],
+            reflectance,
+            cloud_reflectance,
+            ill,
+        )
+        return detector.to_dn(rad, wavelengths, rng)
+
+    # In line order in this thread: the noise generator draws the same numbers every run.
+    for win, dn in map_windows(
+        lambda l0, l1: (l0, l1), block, height=lines, width=COLS, block_rows=block_lines
+    ):
+        cube[:, win.row_off : win.row_off + win.height] = dn
+    return cube
+
+
+def material_map(
+    abundances: np.ndarray, names: list[str], has_target: bool
+) -> tuple[np.ndarray, dict[int, str]]:
+    """The dominant surface material id per pixel (targets left out) and the names of the
+    ids used (those of the map and of every material of the scene)."""
+    material_ids = np.array([MATERIAL_IDS[n] for n in names], "uint8")
+    material = material_ids[np.argmax(abundances[:-1] if has_target else abundances, axis=0)]
+    used = sorted(set(np.unique(material).tolist()) | {int(i) for i in material_ids})
+    return material, {int(i): MATERIALS[int(i)] for i in used}
 
 
 def _truth_dict(
@@ -639,160 +961,3 @@ def _truth_dict(
         "supersample": int(sub),
         "heights": "metres above the lowest ground of the simulated area (z = 0)",
     }
-
-
-#: Colours of the material classes in truth_material.tif (QGIS shows the colour table).
-MATERIAL_COLOURS = {
-    0: (0, 0, 0, 0),
-    1: (60, 60, 60, 255),
-    2: (190, 190, 180, 255),
-    3: (140, 70, 50, 255),
-    4: (200, 110, 70, 255),
-    5: (150, 170, 200, 255),
-    6: (160, 120, 80, 255),
-    7: (100, 75, 50, 255),
-    8: (230, 210, 150, 255),
-    9: (120, 190, 80, 255),
-    10: (30, 110, 40, 255),
-    11: (180, 160, 100, 255),
-    12: (150, 140, 130, 255),
-    13: (255, 0, 255, 255),
-    14: (255, 255, 255, 255),
-}
-
-SCENE_FILES = (
-    "vnir.img",
-    "vnir.hdr",
-    "swir.img",
-    "swir.hdr",
-    "truth_dsm.tif",
-    "truth_shadow_fraction.tif",
-    "truth_target_abundance.tif",
-    "truth_cloud_mask.tif",
-    "truth_material.tif",
-    "truth.json",
-    "endmembers.csv",
-)
-
-
-def write_scene(scene: Scene, folder, merged: bool = False, overwrite: bool = False) -> str:
-    """Write a scene to ``folder`` (created; written whole or not at all).
-
-    Files: ``vnir.img/.hdr`` and ``swir.img/.hdr`` (ENVI, BIL, uint16 DN, wavelengths and FWHM
-    in nm, raw geometry), optionally ``merged.img/.hdr`` (all 198 bands), the truth rasters
-    on the VNIR grid as GeoTIFF (``truth_dsm.tif``, ``truth_shadow_fraction.tif``,
-    ``truth_target_abundance.tif``, ``truth_cloud_mask.tif``, ``truth_material.tif`` with a
-    colour table and class names in its tags), ``truth.json`` and ``endmembers.csv``
-    (``wavelength_nm`` + one reflectance column per material).
-    """
-    import rasterio
-
-    from ..io import atomic_output, write_envi, write_raster
-
-    folder = os.fspath(folder)
-    if os.path.lexists(folder) and not overwrite:
-        raise OutputError(
-            f"output folder {folder} already exists: choose another folder, or pass "
-            "--overwrite (overwrite=True) to replace it"
-        )
-    parent = os.path.dirname(os.path.abspath(folder))
-    if not os.path.isdir(parent):
-        raise OutputError(
-            f"output folder {folder}: its parent {parent} does not exist; create it first"
-        )
-    truth = scene.truth
-    # The ENVI headers hold wavelengths, FWHM and band names: no redundant .aux.xml sidecars
-    # (which GDAL applications would rewrite when they open the scene).
-    with atomic_output(folder, overwrite=overwrite) as tmp, rasterio.Env(GDAL_PAM_ENABLED="NO"):
-        os.makedirs(tmp)
-        vnir, swir = _as_dn(scene.vnir), _as_dn(scene.swir)
-        dtype = vnir.dtype
-        desc = f"geoboresight simulate preset={truth['preset']} seed={truth['seed']}"
-        write_envi(
-            os.path.join(tmp, "vnir.img"),
-            vnir,
-            scene.vnir_wavelengths,
-            scene.vnir_fwhm,
-            description=desc + " VNIR",
-        )
-        write_envi(
-            os.path.join(tmp, "swir.img"),
-            swir,
-            scene.swir_wavelengths,
-            scene.swir_fwhm,
-            description=desc + " SWIR",
-        )
-        for name in ("vnir", "swir"):
-            _fix_envi_description(os.path.join(tmp, name + ".hdr"), f"{desc} {name.upper()}")
-        if merged:
-            cube = np.concatenate([vnir, swir]).astype(dtype, copy=False)
-            write_envi(
-                os.path.join(tmp, "merged.img"),
-                cube,
-                scene.wavelengths,
-                scene.fwhm,
-                description=desc + " VNIR+SWIR",
-            )
-            _fix_envi_description(os.path.join(tmp, "merged.hdr"), f"{desc} VNIR+SWIR")
-        tags = {
-            "preset": truth["preset"],
-            "seed": truth["seed"],
-            "grid": "VNIR pixel grid (raw geometry)",
-        }
-        continuous = (
-            ("dsm", scene.dsm, "float32", {"units": "m above the lowest ground"}, "dsm_m"),
-            ("shadow_fraction", scene.shadow_fraction, "float32", {}, "shadow_fraction"),
-            ("target_abundance", scene.target_abundance, "float32", {}, "target_abundance"),
-            ("cloud_mask", scene.cloud_mask, "uint8", {}, "cloud_mask"),
-        )
-        for name, array, dtype, extra, band in continuous:
-            write_raster(
-                os.path.join(tmp, f"truth_{name}.tif"),
-                array.astype(dtype),
-                nodata=None,
-                dtype=dtype,
-                tags={**tags, **extra},
-                band_names=[band],
-            )
-        classes = {f"CLASS_{k}": v for k, v in scene.material_names.items()}
-        write_raster(
-            os.path.join(tmp, "truth_material.tif"),
-            scene.material.astype("uint8"),
-            nodata=0,
-            dtype="uint8",
-            tags={**tags, **classes},
-            band_names=["material"],
-            band_tags=[classes],
-            colormap=MATERIAL_COLOURS,
-        )
-        with open(os.path.join(tmp, "truth.json"), "w", encoding="utf-8") as f:
-            json.dump(truth, f, indent=2, sort_keys=False)
-            f.write("\n")
-        names = list(scene.abundance_names)
-        with open(os.path.join(tmp, "endmembers.csv"), "w", encoding="utf-8", newline="\n") as f:
-            f.write(",".join(["wavelength_nm", "fwhm_nm", *names]) + "\n")
-            for b, (wl, fw) in enumerate(zip(scene.wavelengths, scene.fwhm, strict=True)):
-                vals = [f"{scene.endmember_spectra[n][b]:.6f}" for n in names]
-                f.write(",".join([f"{wl:.3f}", f"{fw:.3f}", *vals]) + "\n")
-    return folder
-
-
-def _fix_envi_description(hdr: str, text: str) -> None:
-    """Replace GDAL's ENVI ``description`` (the temporary file's path) by ``text``.
-
-    Keeps the header free of machine-specific paths, so that the same seed gives the same bytes.
-    """
-    import re
-
-    with open(hdr, encoding="utf-8") as f:
-        content = f.read()
-    content = re.sub(r"description = \{[^}]*\}", "description = {" + text + "}", content, count=1)
-    with open(hdr, "w", encoding="utf-8", newline="\n") as f:
-        f.write(content)
-
-
-def _as_dn(cube: np.ndarray) -> np.ndarray:
-    """uint16 DN: noise-free (float) cubes are rounded and clipped to 12 bits."""
-    if cube.dtype == np.uint16:
-        return cube
-    return np.clip(np.rint(cube), 0, 4095).astype("uint16")

@@ -1,0 +1,195 @@
+"""The simulator's files: a simulated scene (:class:`geoboresight.simulate.Scene`) written to a
+folder, whole or not at all.
+
+Files: ``vnir.img/.hdr`` and ``swir.img/.hdr`` (ENVI, BIL, uint16 DN, wavelengths and FWHM in
+nm, raw geometry), optionally ``merged.img/.hdr`` (all 198 bands), the truth rasters on the VNIR
+grid as GeoTIFF (``truth_dsm.tif``, ``truth_shadow_fraction.tif``,
+``truth_target_abundance.tif``, ``truth_cloud_mask.tif``, ``truth_material.tif`` with a colour
+table and class names in its tags), ``truth.json`` and ``endmembers.csv`` (``wavelength_nm``,
+``fwhm_nm`` + one reflectance column per material). The same scene always gives the same bytes.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+
+import numpy as np
+
+from ..errors import OutputError
+from .raster import write_envi, write_raster
+from .write import atomic_output
+
+#: Colours of the material classes in truth_material.tif (QGIS shows the colour table).
+MATERIAL_COLOURS = {
+    0: (0, 0, 0, 0),
+    1: (60, 60, 60, 255),
+    2: (190, 190, 180, 255),
+    3: (140, 70, 50, 255),
+    4: (200, 110, 70, 255),
+    5: (150, 170, 200, 255),
+    6: (160, 120, 80, 255),
+    7: (100, 75, 50, 255),
+    8: (230, 210, 150, 255),
+    9: (120, 190, 80, 255),
+    10: (30, 110, 40, 255),
+    11: (180, 160, 100, 255),
+    12: (150, 140, 130, 255),
+    13: (255, 0, 255, 255),
+    14: (255, 255, 255, 255),
+}
+
+#: The files every scene folder holds (``merged.img/.hdr`` only when asked for).
+SCENE_FILES = (
+    "vnir.img",
+    "vnir.hdr",
+    "swir.img",
+    "swir.hdr",
+    "truth_dsm.tif",
+    "truth_shadow_fraction.tif",
+    "truth_target_abundance.tif",
+    "truth_cloud_mask.tif",
+    "truth_material.tif",
+    "truth.json",
+    "endmembers.csv",
+)
+
+
+def write_scene(scene, folder, merged: bool = False, overwrite: bool = False) -> str:
+    """Write ``scene`` to ``folder`` (created; written whole or not at all); ``folder``.
+
+    ``merged=True`` also writes ``merged.img/.hdr`` with all 198 bands. An existing folder is
+    replaced only with ``overwrite=True``.
+    """
+    import rasterio
+
+    folder = os.fspath(folder)
+    if os.path.lexists(folder) and not overwrite:
+        raise OutputError(
+            f"output folder {folder} already exists: choose another folder, or pass "
+            "--overwrite (overwrite=True) to replace it"
+        )
+    parent = os.path.dirname(os.path.abspath(folder))
+    if not os.path.isdir(parent):
+        raise OutputError(
+            f"output folder {folder}: its parent {parent} does not exist; create it first"
+        )
+    # The ENVI headers hold wavelengths, FWHM and band names: no redundant .aux.xml sidecars
+    # (which GDAL applications would rewrite when they open the scene).
+    with atomic_output(folder, overwrite=overwrite) as tmp, rasterio.Env(GDAL_PAM_ENABLED="NO"):
+        os.makedirs(tmp)
+        write_cubes(scene, tmp, merged=merged)
+        write_truth_rasters(scene, tmp)
+        write_truth_json(scene.truth, os.path.join(tmp, "truth.json"))
+        write_endmembers(scene, os.path.join(tmp, "endmembers.csv"))
+    return folder
+
+
+def write_cubes(scene, folder: str, merged: bool = False) -> None:
+    """``vnir.img/.hdr``, ``swir.img/.hdr`` and optionally ``merged.img/.hdr`` in ``folder``
+    (ENVI BIL uint16 DN; noise-free scenes are rounded to 12 bits)."""
+    truth = scene.truth
+    desc = f"geoboresight simulate preset={truth['preset']} seed={truth['seed']}"
+    vnir, swir = as_dn(scene.vnir), as_dn(scene.swir)
+    cubes = [
+        ("vnir", vnir, scene.vnir_wavelengths, scene.vnir_fwhm, "VNIR"),
+        ("swir", swir, scene.swir_wavelengths, scene.swir_fwhm, "SWIR"),
+    ]
+    if merged:
+        both = np.concatenate([vnir, swir]).astype(vnir.dtype, copy=False)
+        cubes.append(("merged", both, scene.wavelengths, scene.fwhm, "VNIR+SWIR"))
+    for name, cube, wavelengths, fwhm, label in cubes:
+        write_envi(
+            os.path.join(folder, f"{name}.img"),
+            cube,
+            wavelengths,
+            fwhm,
+            description=f"{desc} {label}",
+        )
+        _fix_envi_description(os.path.join(folder, f"{name}.hdr"), f"{desc} {label}")
+
+
+def write_truth_rasters(scene, folder: str) -> None:
+    """The truth GeoTIFFs on the VNIR pixel grid (raw geometry) in ``folder``."""
+    truth = scene.truth
+    tags = {
+        "preset": truth["preset"],
+        "seed": truth["seed"],
+        "grid": "VNIR pixel grid (raw geometry)",
+    }
+    continuous = (
+        ("dsm", scene.dsm, "float32", {"units": "m above the lowest ground"}, "dsm_m"),
+        ("shadow_fraction", scene.shadow_fraction, "float32", {}, "shadow_fraction"),
+        ("target_abundance", scene.target_abundance, "float32", {}, "target_abundance"),
+        ("cloud_mask", scene.cloud_mask, "uint8", {}, "cloud_mask"),
+    )
+    for name, array, dtype, extra, band in continuous:
+        write_raster(
+            os.path.join(folder, f"truth_{name}.tif"),
+            array.astype(dtype),
+            nodata=None,
+            dtype=dtype,
+            tags={**tags, **extra},
+            band_names=[band],
+        )
+    classes = {f"CLASS_{k}": v for k, v in scene.material_names.items()}
+    write_raster(
+        os.path.join(folder, "truth_material.tif"),
+        scene.material.astype("uint8"),
+        nodata=0,
+        dtype="uint8",
+        tags={**tags, **classes},
+        band_names=["material"],
+        band_tags=[classes],
+        colormap=MATERIAL_COLOURS,
+    )
+
+
+def write_truth_json(truth: dict, path: str) -> None:
+    """``truth.json``: indented, keys in the scene's order, ending with a newline."""
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(truth, f, indent=2, sort_keys=False)
+        f.write("\n")
+
+
+def write_endmembers(scene, path: str) -> None:
+    """``endmembers.csv``: ``wavelength_nm``, ``fwhm_nm`` and one reflectance column per
+    material (the scene's abundance names), one row per band."""
+    names = list(scene.abundance_names)
+    with open(path, "w", encoding="utf-8", newline="\n") as f:
+        f.write(",".join(["wavelength_nm", "fwhm_nm", *names]) + "\n")
+        for b, (wl, fw) in enumerate(zip(scene.wavelengths, scene.fwhm, strict=True)):
+            vals = [f"{scene.endmember_spectra[n][b]:.6f}" for n in names]
+            f.write(",".join([f"{wl:.3f}", f"{fw:.3f}", *vals]) + "\n")
+
+
+def _fix_envi_description(hdr: str, text: str) -> None:
+    """Replace GDAL's ENVI ``description`` (the temporary file's path) by ``text``.
+
+    Keeps the header free of machine-specific paths, so that the same seed gives the same bytes.
+    """
+    with open(hdr, encoding="utf-8") as f:
+        content = f.read()
+    content = re.sub(r"description = \{[^}]*\}", "description = {" + text + "}", content, count=1)
+    with open(hdr, "w", encoding="utf-8", newline="\n") as f:
+        f.write(content)
+
+
+def as_dn(cube: np.ndarray) -> np.ndarray:
+    """uint16 DN: noise-free (float) cubes are rounded and clipped to 12 bits."""
+    if cube.dtype == np.uint16:
+        return cube
+    return np.clip(np.rint(cube), 0, 4095).astype("uint16")
+
+
+__all__ = [
+    "MATERIAL_COLOURS",
+    "SCENE_FILES",
+    "as_dn",
+    "write_cubes",
+    "write_endmembers",
+    "write_scene",
+    "write_truth_json",
+    "write_truth_rasters",
+]
