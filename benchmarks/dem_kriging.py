@@ -67,7 +67,7 @@ def case(name: str, n: int) -> dict:
         h = bump(ROWS, COLS)
         v, s, _, _ = pair(ROWS, COLS, dsm=h, noise=5.0)
         t0 = time.perf_counter()
-        r = relative_dem(v, s, HeightFactor(1 / 30), point_spacing=5)
+        r = relative_dem(v, s, factor=HeightFactor(1 / 30), point_spacing=5)
         ok = np.isfinite(r.dem)
         e = r.dem[ok] - h[ok]
         out.update(

@@ -88,8 +88,8 @@ def dem_case(preset, args):
     r = relative_dem(
         v,
         s,
-        HeightFactor(k),
         valid,
+        factor=HeightFactor(k),
         window=args.window,
         min_peak=args.min_peak,
         require_meaningful=False,
@@ -226,8 +226,8 @@ def main(argv=None):
                 rw = relative_dem(
                     vv,
                     ss,
-                    HeightFactor(c["k"]),
                     c["valid"],
+                    factor=HeightFactor(c["k"]),
                     window=w,
                     min_peak=args.min_peak,
                     require_meaningful=False,
@@ -334,7 +334,7 @@ def main(argv=None):
         rr = relative_dem(
             vv,
             ss,
-            HeightFactor(kk),
+            factor=HeightFactor(kk),
             window=args.window,
             min_peak=args.min_peak,
             require_meaningful=False,

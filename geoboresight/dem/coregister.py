@@ -13,13 +13,21 @@ from scipy import ndimage
 
 from ..errors import InputError, ParameterError
 
+#: Spline order of the resampling (cubic).
+SPLINE_ORDER = 3
+#: Lines beyond the shift over which a strip's edge still changes a cubic spline's values: the
+#: spline prefilter is a recursive filter whose pole (−0.268) decays below 1e-17 in 30 lines.
+SPLINE_MARGIN = 32
+
 
 def coregister(
     swir: np.ndarray,
     along: float | np.ndarray,
     across: float | np.ndarray,
     valid: np.ndarray | None = None,
-    order: int = 3,
+    *,
+    order: int = SPLINE_ORDER,
+    fill: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Resample one SWIR band onto the VNIR grid.
 
@@ -35,6 +43,10 @@ def coregister(
         are invalid.
     order : int
         Spline order (0 nearest, 1 bilinear, 3 cubic).
+    fill : float, optional
+        Value given to invalid pixels before interpolation, so that they carry no texture: the
+        mean of the valid pixels by default. Strip by strip (:func:`coregister_halo`), give the
+        whole band's mean.
 
     Returns
     -------
@@ -52,7 +64,9 @@ def coregister(
     across = np.broadcast_to(np.asarray(across, dtype=np.float64), (rows,))
     if not (np.all(np.isfinite(along)) and np.all(np.isfinite(across))):
         raise ParameterError("the offset has non-finite values: fill gaps in the profile first")
-    filled = np.where(ok, img, np.mean(img[ok]) if ok.any() else 0.0)
+    if fill is None:
+        fill = np.mean(img[ok]) if ok.any() else 0.0
+    filled = np.where(ok, img, fill)
     if np.ptp(along) == 0 and np.ptp(across) == 0:
         # A constant shift: output[r, c] = input[r + along, c + across].
         shift = (-float(along[0]), -float(across[0]))
@@ -70,6 +84,14 @@ def coregister(
         out_ok = ndimage.binary_erosion(out_ok, np.ones((3, 3), bool), border_value=0)
     result = np.where(out_ok, out, np.nan).astype(np.float32)
     return result, out_ok
+
+
+def coregister_halo(along: float | np.ndarray, order: int = SPLINE_ORDER) -> int:
+    """Lines above and below a strip that :func:`coregister` needs to give, on the strip, the
+    values of the whole image: the largest along-track shift, the spline's reach and the
+    prefilter's decay."""
+    reach = float(np.max(np.abs(np.asarray(along, dtype=np.float64))))
+    return int(np.ceil(reach)) + int(order) + 1 + (SPLINE_MARGIN if order > 1 else 0)
 
 
 def profile_to_lines(rows: np.ndarray, values: np.ndarray, height: int) -> np.ndarray:

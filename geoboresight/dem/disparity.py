@@ -24,6 +24,18 @@ from scipy import ndimage
 from ..errors import InputError, ParameterError
 from ..progress import Progress, as_progress
 
+#: Matching window (odd, pixels): larger matches more pixels reliably but blurs relief.
+WINDOW = 15
+#: Integer search range around the global offset: the paper's matching accuracy (± px).
+SEARCH_ALONG = 3
+SEARCH_ACROSS = 1
+#: Reliable where the correlation peak is at least this (0–1) ...
+MIN_PEAK = 0.6
+#: ... and at least this sharp (curvature of the correlation at its peak).
+MIN_SHARPNESS = 0.005
+#: Sub-pixel refinement passes (warp and re-match: removes the peak-locking bias).
+REFINE = 1
+
 
 @dataclass(frozen=True)
 class Disparity:
@@ -142,13 +154,14 @@ def disparity_map(
     vnir: np.ndarray,
     swir: np.ndarray,
     valid: np.ndarray | None = None,
-    window: int | tuple[int, int] = 15,
-    search_along: int = 3,
-    search_across: int = 1,
+    *,
+    window: int | tuple[int, int] = WINDOW,
+    search_along: int = SEARCH_ALONG,
+    search_across: int = SEARCH_ACROSS,
     center: tuple[float, float] = (0.0, 0.0),
-    refine: int = 1,
-    min_peak: float = 0.6,
-    min_sharpness: float = 0.005,
+    refine: int = REFINE,
+    min_peak: float = MIN_PEAK,
+    min_sharpness: float = MIN_SHARPNESS,
     block_rows: int = 256,
     progress: Progress | None = None,
 ) -> Disparity:

@@ -68,11 +68,67 @@ def height_factor(
         raise ParameterError(f"parameter 'flying_height': must be > 0 m, got {flying_height_m}")
     if not (ifov_mrad > 0):
         raise ParameterError(f"parameter 'ifov_mrad': must be > 0, got {ifov_mrad}")
-    gsd = flying_height_m * ifov_mrad * 1e-3
+    gsd = ground_sample_distance(flying_height_m, ifov_mrad)
     return HeightFactor(
         along=math.tan(math.radians(squint_along_deg)) / gsd,
         across=math.tan(math.radians(squint_across_deg)) / gsd,
     ).check()
+
+
+def ground_sample_distance(flying_height_m: float | None, ifov_mrad: float | None) -> float | None:
+    """Pixel size on the ground at nadir, ``GSD = H · IFOV`` (m); None unless both are given."""
+    if flying_height_m is None or ifov_mrad is None:
+        return None
+    if not (flying_height_m > 0 and ifov_mrad > 0):
+        raise ParameterError("parameters 'flying_height' and 'ifov_mrad' must both be > 0")
+    return flying_height_m * ifov_mrad * 1e-3
+
+
+def parallax_factor(
+    height_factor_px_per_m: float | None = None,
+    *,
+    squint_deg: float | None = None,
+    flying_height_m: float | None = None,
+    ifov_mrad: float | None = None,
+    axis: str = "along",
+    invert: bool = False,
+) -> HeightFactor:
+    """The height-to-disparity factor of a flight: given (px per metre), or ``tan θ / GSD``.
+
+    Parameters
+    ----------
+    height_factor_px_per_m : float, optional
+        ``k`` itself, > 0 (its direction is ``axis`` and ``invert``).
+    squint_deg, flying_height_m, ifov_mrad : float, optional
+        Without ``k``: the angle between the two lines of sight, the flying height and the IFOV,
+        giving ``k = tan θ / (H · IFOV)`` (:func:`height_factor`).
+    axis : {"along", "across"}
+        The plane of the squint: the parallax is along-track or across-track.
+    invert : bool
+        Elevated features appear at lower line (column) numbers in the SWIR image.
+    """
+    sign = -1.0 if invert else 1.0
+    k = height_factor_px_per_m
+    if k is None:
+        if squint_deg is None or flying_height_m is None or ifov_mrad is None:
+            raise ParameterError(
+                "give the height-to-disparity factor ('height_factor', px per metre), or the "
+                "flying height, the IFOV and the squint angle between the two lines of sight"
+            )
+        if not squint_deg > 0:
+            raise ParameterError(
+                f"parameter 'squint_deg': must be > 0, got {squint_deg}; a zero squint makes no "
+                "parallax (use 'invert_parallax' for the direction)"
+            )
+        k = height_factor(flying_height_m, ifov_mrad, squint_deg).along
+    if not (isinstance(k, int | float) and math.isfinite(k) and k > 0):
+        raise ParameterError(
+            f"parameter 'height_factor': must be > 0 px per metre, got {k}; it is the size of the "
+            "parallax (use 'invert_parallax' for its direction)"
+        )
+    if axis not in ("along", "across"):
+        raise ParameterError(f"parameter 'parallax_axis': 'along' or 'across', got {axis!r}")
+    return HeightFactor(sign * k, 0.0) if axis == "along" else HeightFactor(0.0, sign * k)
 
 
 def disparity_to_height(along: np.ndarray, across: np.ndarray, factor: HeightFactor) -> np.ndarray:

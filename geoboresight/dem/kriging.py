@@ -25,6 +25,10 @@ from ..errors import InputError, ParameterError
 from ..progress import Progress, as_progress
 
 MODELS = ("spherical", "exponential", "gaussian", "linear", "power")
+#: The variogram model fitted by default.
+VARIOGRAM = "spherical"
+#: Control points in each local kriging neighbourhood.
+N_CLOSEST_POINTS = 32
 
 
 @dataclass(frozen=True)
@@ -57,7 +61,7 @@ def fit_variogram(
     x: np.ndarray,
     y: np.ndarray,
     z: np.ndarray,
-    model: str = "spherical",
+    model: str = VARIOGRAM,
     nlags: int = 20,
     max_fit_points: int = 2000,
     seed: int = 0,
@@ -117,7 +121,7 @@ def krige_points(
     xt: np.ndarray,
     yt: np.ndarray,
     variogram: Variogram,
-    n_closest_points: int = 32,
+    n_closest_points: int = N_CLOSEST_POINTS,
     backend: str = "C",
     chunk: int = 8192,
     max_local_points: int = 2500,
@@ -180,7 +184,7 @@ def krige_grid(
     shape: tuple[int, int],
     variogram: Variogram,
     mask: np.ndarray | None = None,
-    n_closest_points: int = 32,
+    n_closest_points: int = N_CLOSEST_POINTS,
     backend: str = "C",
     block_rows: int = 32,
     progress: Progress | None = None,
@@ -218,7 +222,7 @@ def cross_validate(
     y: np.ndarray,
     z: np.ndarray,
     variogram: Variogram,
-    n_closest_points: int = 32,
+    n_closest_points: int = N_CLOSEST_POINTS,
     backend: str = "C",
     fraction: float = 0.1,
     max_points: int = 2000,

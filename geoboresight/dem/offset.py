@@ -20,6 +20,13 @@ from scipy import ndimage
 
 from ..errors import InputError, ParameterError
 
+#: Lines per block of the drift profile (the offset measured block by block).
+PROFILE_ROWS = 256
+#: Upsampling of the DFT refinement: the offset is resolved to 1/100 px.
+UPSAMPLE = 100
+#: A block of the drift profile with less valid pixels than this fraction gives no offset.
+MIN_VALID_FRACTION = 0.5
+
 
 @dataclass(frozen=True)
 class Offset:
@@ -62,7 +69,8 @@ def estimate_offset(
     vnir: np.ndarray,
     swir: np.ndarray,
     valid: np.ndarray | None = None,
-    upsample: int = 100,
+    *,
+    upsample: int = UPSAMPLE,
 ) -> Offset:
     """Global sub-pixel shift of ``swir`` relative to ``vnir`` by phase correlation.
 
@@ -124,45 +132,101 @@ def estimate_offset(
     return Offset(along=float(-shift[0]), across=float(-shift[1]), error=float(error))
 
 
+def block_offset(
+    vnir: np.ndarray,
+    swir: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    upsample: int = UPSAMPLE,
+    min_valid_fraction: float = MIN_VALID_FRACTION,
+) -> tuple[float, float, float, float]:
+    """``(along, across, error, valid_fraction)`` of one block of lines of a drift profile.
+
+    The offset is NaN when less than ``min_valid_fraction`` of the block is valid (clouds,
+    nodata).
+    """
+    a = np.asarray(vnir)
+    ok = np.isfinite(a) & np.isfinite(swir)
+    if valid is not None:
+        ok = ok & valid
+    fraction = float(ok.mean())
+    if fraction < min_valid_fraction:
+        return float("nan"), float("nan"), float("nan"), fraction
+    off = estimate_offset(a, swir, ok, upsample=upsample)
+    return off.along, off.across, off.error, fraction
+
+
+def profile_block_rows(block_rows: int, height: int) -> int:
+    """Lines per block of a drift profile of a ``height``-line image (at least 8, at most all)."""
+    if block_rows < 8:
+        raise ParameterError(f"parameter 'block_rows': at least 8 lines, got {block_rows}")
+    return min(int(block_rows), height)
+
+
+def profile_starts(height: int, block_rows: int, step_rows: int | None = None) -> list[int]:
+    """First line of each block: every ``step_rows`` lines, the last block flush with the end
+    of the line (so that the tail is covered by a whole block)."""
+    step = int(step_rows or block_rows)
+    if step < 1:
+        raise ParameterError(f"parameter 'step_rows': must be >= 1, got {step_rows}")
+    starts = list(range(0, max(height - block_rows, 0) + 1, step))
+    if starts[-1] + block_rows < height:
+        starts.append(height - block_rows)  # cover the tail of the line
+    return starts
+
+
 def offset_profile(
     vnir: np.ndarray,
     swir: np.ndarray,
     valid: np.ndarray | None = None,
-    block_rows: int = 128,
+    *,
+    block_rows: int = PROFILE_ROWS,
     step_rows: int | None = None,
-    upsample: int = 100,
-    min_valid_fraction: float = 0.5,
+    upsample: int = UPSAMPLE,
+    min_valid_fraction: float = MIN_VALID_FRACTION,
 ) -> OffsetProfile:
     """The offset per block of ``block_rows`` lines, every ``step_rows`` lines (drift).
 
-    Blocks with less than ``min_valid_fraction`` valid pixels (clouds, nodata) get NaN.
+    Blocks with less than ``min_valid_fraction`` valid pixels (clouds, nodata) get NaN. This is
+    the whole-array form; the file-level operation maps :func:`block_offset` over the same
+    blocks of a flight line.
     """
     a = np.asarray(vnir)
     height = a.shape[0]
-    if block_rows < 8:
-        raise ParameterError(f"parameter 'block_rows': at least 8 lines, got {block_rows}")
-    block_rows = min(int(block_rows), height)
-    step = int(step_rows or block_rows)
-    if step < 1:
-        raise ParameterError(f"parameter 'step_rows': must be >= 1, got {step_rows}")
-    ok = np.isfinite(a) & np.isfinite(swir)
-    if valid is not None:
-        ok = ok & valid
-    starts = list(range(0, max(height - block_rows, 0) + 1, step))
-    if starts[-1] + block_rows < height:
-        starts.append(height - block_rows)  # cover the tail of the line
-    rows, al, ac, err, frac = [], [], [], [], []
-    for s in starts:
-        sl = slice(s, s + block_rows)
-        f = float(ok[sl].mean())
-        rows.append(s + (block_rows - 1) / 2)
-        frac.append(f)
-        if f < min_valid_fraction:
-            al.append(np.nan), ac.append(np.nan), err.append(np.nan)
-            continue
-        off = estimate_offset(a[sl], swir[sl], ok[sl], upsample=upsample)
-        al.append(off.along), ac.append(off.across), err.append(off.error)
+    block_rows = profile_block_rows(block_rows, height)
+    blocks = [
+        (s + (block_rows - 1) / 2,)
+        + block_offset(
+            a[s : s + block_rows],
+            swir[s : s + block_rows],
+            None if valid is None else valid[s : s + block_rows],
+            upsample=upsample,
+            min_valid_fraction=min_valid_fraction,
+        )
+        for s in profile_starts(height, block_rows, step_rows)
+    ]
+    return profile_of(blocks)
+
+
+def profile_of(blocks) -> OffsetProfile:
+    """An :class:`OffsetProfile` from ``(centre line, along, across, error, valid fraction)``
+    per block."""
+    rows, al, ac, err, frac = zip(*blocks, strict=True)
     return OffsetProfile(*(np.asarray(v, dtype=float) for v in (rows, al, ac, err, frac)))
+
+
+def profile_figure(profile: OffsetProfile):
+    """A figure of the offset per block of lines along the flight line (drift)."""
+    from ..figures import new_figure
+
+    fig, ax = new_figure()
+    ax.plot(profile.rows, profile.along, "o-", label="along-track")
+    ax.plot(profile.rows, profile.across, "s-", label="across-track")
+    ax.set_xlabel("Line (along the flight)")
+    ax.set_ylabel("SWIR − VNIR offset (pixels)")
+    ax.set_title("Boresight offset per block of lines")
+    ax.legend()
+    return fig
 
 
 def offset_angles(

@@ -16,7 +16,17 @@ import numpy as np
 
 from ..errors import InputError
 from ..progress import Progress, as_progress
-from .disparity import Disparity, disparity_map, disparity_noise
+from .disparity import (
+    MIN_PEAK,
+    MIN_SHARPNESS,
+    REFINE,
+    SEARCH_ACROSS,
+    SEARCH_ALONG,
+    WINDOW,
+    Disparity,
+    disparity_map,
+    disparity_noise,
+)
 from .height import (
     HeightFactor,
     HeightPrecision,
@@ -24,11 +34,20 @@ from .height import (
     height_precision,
     zero_lowest,
 )
-from .kriging import Variogram, cross_validate, fit_variogram, krige_grid
+from .kriging import (
+    N_CLOSEST_POINTS,
+    VARIOGRAM,
+    Variogram,
+    cross_validate,
+    fit_variogram,
+    krige_grid,
+)
 from .offset import Offset, estimate_offset
 
 #: Fewest reliable pixels worth a DEM.
 MIN_RELIABLE = 100
+#: One control point per cell of this many pixels (the median of its reliable heights).
+POINT_SPACING = 5
 
 
 @dataclass(frozen=True)
@@ -78,18 +97,18 @@ def control_points(
 def relative_dem(
     vnir: np.ndarray,
     swir: np.ndarray,
-    factor: HeightFactor,
     valid: np.ndarray | None = None,
     *,
-    window: int = 15,
-    search_along: int = 3,
-    search_across: int = 1,
-    min_peak: float = 0.6,
-    min_sharpness: float = 0.005,
-    refine: int = 1,
-    point_spacing: int = 5,
-    variogram_model: str = "spherical",
-    n_closest_points: int = 32,
+    factor: HeightFactor,
+    window: int = WINDOW,
+    search_along: int = SEARCH_ALONG,
+    search_across: int = SEARCH_ACROSS,
+    min_peak: float = MIN_PEAK,
+    min_sharpness: float = MIN_SHARPNESS,
+    refine: int = REFINE,
+    point_spacing: int = POINT_SPACING,
+    variogram_model: str = VARIOGRAM,
+    n_closest_points: int = N_CLOSEST_POINTS,
     backend: str = "C",
     zero_percentile: float = 1.0,
     validate: bool = True,
@@ -97,6 +116,8 @@ def relative_dem(
     progress: Progress | None = None,
 ) -> RelativeDem:
     """Relative DEM from one VNIR and one SWIR band on the same grid (paper §3.2).
+
+    ``factor`` is the height-to-disparity factor (:func:`~geoboresight.dem.height.parallax_factor`).
 
     Raises :class:`InputError` when there are no reliable matches, and when the relief does not
     stand out of the height noise σ_h (unless ``require_meaningful=False``).

@@ -11,6 +11,16 @@ import numpy as np
 
 from ..errors import InputError, ParameterError
 
+#: The RGB drawn on the DEM: VNIR bands nearest these wavelengths (nm).
+RED_NM = 640.0
+GREEN_NM = 550.0
+BLUE_NM = 460.0
+#: Vertical exaggeration (the paper's Figure 9E shows 30 m of relief over 1,500 × 500 m).
+EXAGGERATION = 3.0
+#: Viewing elevation and azimuth (degrees).
+ELEVATION = 35.0
+AZIMUTH = -60.0
+
 
 def stretch_rgb(red: np.ndarray, green: np.ndarray, blue: np.ndarray, percent: float = 2.0):
     """(rows, cols, 3) float RGB in 0–1 with a ``percent``–``100 − percent`` linear stretch."""
@@ -29,15 +39,16 @@ def stretch_rgb(red: np.ndarray, green: np.ndarray, blue: np.ndarray, percent: f
 def drape_figure(
     dem: np.ndarray,
     rgb: np.ndarray,
-    exaggeration: float = 3.0,
+    exaggeration: float = EXAGGERATION,
     pixel_size: tuple[float, float] = (1.0, 1.0),
     unit: str = "m",
     max_facets: int = 200,
-    elevation: float = 35.0,
-    azimuth: float = -60.0,
+    elevation: float = ELEVATION,
+    azimuth: float = AZIMUTH,
     title: str | None = None,
 ):
-    """A matplotlib figure of ``rgb`` draped on ``dem`` with vertical exaggeration.
+    """A matplotlib :class:`~matplotlib.figure.Figure` of ``rgb`` draped on ``dem`` with
+    vertical exaggeration (object-oriented API: a Figure with its own Agg canvas).
 
     Parameters
     ----------
@@ -48,7 +59,7 @@ def drape_figure(
     pixel_size : (along-track, across-track) size of a pixel, metres (1 px in raw geometry
         when unknown, then ``unit`` should say "px").
     """
-    from ..figures import new_figure  # sets the Agg backend
+    from ..figures import blank_figure
 
     dem = np.asarray(dem, np.float64)
     rgb = np.asarray(rgb, np.float64)
@@ -71,8 +82,7 @@ def drape_figure(
     rows, cols = np.mgrid[0 : dem.shape[0] : step, 0 : dem.shape[1] : step]
     y = rows * pixel_size[0]
     x = cols * pixel_size[1]
-    fig, ax0 = new_figure(8.0, 6.0)
-    ax0.remove()
+    fig = blank_figure(8.0, 6.0)
     ax = fig.add_subplot(projection="3d")
     ax.plot_surface(
         x,
