@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -10,19 +11,24 @@ from dem_synth import bump, pair, texture
 from pykrige.ok import OrdinaryKriging
 from scipy import ndimage
 
-from geoboresight.dem.coregister import coregister, profile_to_lines
+from geoboresight import io
+from geoboresight.dem.bands import band_mean
+from geoboresight.dem.coregister import coregister, coregister_halo, profile_to_lines
 from geoboresight.dem.disparity import disparity_map, disparity_noise
 from geoboresight.dem.height import (
     HeightFactor,
     disparity_to_height,
+    ground_sample_distance,
     height_factor,
     height_precision,
+    parallax_factor,
     zero_lowest,
 )
 from geoboresight.dem.kriging import cross_validate, fit_variogram, krige_grid
 from geoboresight.dem.offset import estimate_offset, offset_angles, offset_profile
 from geoboresight.dem.relative import control_points, relative_dem
 from geoboresight.errors import InputError, ParameterError
+from geoboresight.operations.offset import drift_profile
 
 
 def fourier_shift(img, shift):
@@ -282,7 +288,7 @@ def test_control_points_are_cell_medians():
 def test_relative_dem_recovers_relief():
     h = bump(180, 120, relief=30.0)
     v, s, _, _ = pair(180, 120, offset=(0.6, 0.2), dsm=h, k_along=1 / 30, noise=3.0)
-    r = relative_dem(v, s, HeightFactor(1 / 30), window=13)
+    r = relative_dem(v, s, factor=HeightFactor(1 / 30), window=13)
     ok = np.isfinite(r.dem)
     assert ok.all()
     assert np.corrcoef(r.dem[ok], h[ok])[0, 1] > 0.97
@@ -299,7 +305,7 @@ def test_relative_dem_refuses_invisible_relief():
     k = 0.0008  # a realistic small squint: 30 m → 0.024 px
     v, s, _, _ = pair(120, 100, offset=(0.6, 0.2), dsm=h, k_along=k, noise=20.0)
     with pytest.raises(InputError, match="no meaningful DEM"):
-        relative_dem(v, s, HeightFactor(k), window=13)
+        relative_dem(v, s, factor=HeightFactor(k), window=13)
 
 
 def test_relative_dem_no_reliable_matches():
@@ -307,4 +313,128 @@ def test_relative_dem_no_reliable_matches():
     v = rng.normal(size=(80, 80))
     s = rng.normal(size=(80, 80))  # unrelated images
     with pytest.raises(InputError, match="larger"):
-        relative_dem(v, s, HeightFactor(0.05), window=9)
+        relative_dem(v, s, factor=HeightFactor(0.05), window=9)
+
+
+# ------------------------------------------------------------------------------- height factor
+def test_parallax_factor_from_k_or_geometry():
+    assert parallax_factor(0.05) == HeightFactor(0.05, 0.0)
+    assert parallax_factor(0.05, axis="across", invert=True) == HeightFactor(0.0, -0.05)
+    k = parallax_factor(squint_deg=2.0, flying_height_m=1500.0, ifov_mrad=1.0).along
+    assert k == height_factor(1500.0, 1.0, 2.0).along
+    assert ground_sample_distance(1500.0, 1.0) == pytest.approx(1.5)
+    assert ground_sample_distance(None, 1.0) is None
+    with pytest.raises(ParameterError, match="squint_deg"):
+        parallax_factor(squint_deg=0.0, flying_height_m=1500.0, ifov_mrad=1.0)
+    with pytest.raises(ParameterError, match="height_factor"):
+        parallax_factor(-0.03)
+    with pytest.raises(ParameterError, match="flying height, the IFOV and the squint"):
+        parallax_factor(squint_deg=2.0)
+    with pytest.raises(ParameterError, match="must both be > 0"):
+        ground_sample_distance(0.0, 1.0)
+
+
+# ------------------------------------------------------------------------------- window vs whole
+# The kernels that run strip by strip in the file-level operations, against one call on the
+# whole array (as xarray-spatial tests its NumPy kernels against their blockwise versions).
+def _array_reader(*arrays):
+    def read(r0, r1):
+        return tuple(a[..., r0:r1, :] for a in arrays)
+
+    return read
+
+
+def _assemble(parts, shape, dtype):
+    out = np.full(shape, np.nan, dtype)
+    for win, part in parts:
+        out[..., win.row_off : win.row_off + win.height, :] = part
+    return out
+
+
+@pytest.mark.parametrize("block_rows", [1, 7, 40, 97, 500])
+def test_band_mean_by_windows_equals_whole(block_rows):
+    rng = np.random.default_rng(4)
+    stack = rng.normal(1000.0, 50.0, (6, 97, 41)).astype("float32")
+    valid = rng.random((97, 41)) > 0.1
+    whole, ok = band_mean(stack, valid)
+    parts = io.map_windows(
+        _array_reader(stack, valid), band_mean, height=97, width=41, block_rows=block_rows
+    )
+    got = _assemble(((w, m) for w, (m, _) in parts), whole.shape, np.float64)
+    np.testing.assert_array_equal(got, whole)
+    assert whole.dtype == np.float64
+    # The bands added in order, as a hand loop over bands would.
+    np.testing.assert_array_equal(whole, sum(b.astype(np.float64) for b in stack) / 6)
+    np.testing.assert_array_equal(ok, valid)
+
+
+@pytest.mark.parametrize(("rows", "block"), [(300, 128), (256, 64), (200, 256), (130, 40)])
+def test_drift_profile_by_windows_equals_whole(rows, block):
+    """The operation's profile (one block per map_windows strip, the tail block flush with the
+    end of the line) is the kernel's offset_profile on the whole image."""
+    cols = 100
+    coef = texture(rows, cols, seed=5)
+    r, c = np.mgrid[0:rows, 0:cols].astype(float)
+    drift = 0.2 + 0.6 * r / rows
+    v = ndimage.map_coordinates(coef, [r + 24, c + 24], prefilter=False)
+    s = ndimage.map_coordinates(coef, [r + 24 - drift, c + 24 + 0.3], prefilter=False)
+    valid = np.ones((rows, cols), bool)
+    valid[rows // 3 : rows // 3 + 30, 10:90] = False  # a cloud
+    valid[-12:] = False  # nodata at the end of the line
+    whole = offset_profile(v, s, valid, block_rows=block)
+    got = drift_profile(SimpleNamespace(vnir=v, swir=s, valid=valid), block)
+    for name in ("rows", "along", "across", "error", "valid_fraction"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(whole, name), err_msg=name)
+    with pytest.raises(ParameterError, match="at least 8 lines"):
+        drift_profile(SimpleNamespace(vnir=v, swir=s, valid=valid), 5)
+
+
+def _coregister_by_strips(band, along, across, valid, order, block_rows):
+    """coregister strip by strip, as coregister_file runs it: the halo the shift and the
+    spline reach, the whole band's mean as the fill value."""
+    height, width = band.shape
+    fill = float(np.mean(band[valid].astype(np.float64)))
+    per_line = np.ndim(along) > 0
+
+    def shift(x, ok, *, block):
+        lines = slice(block.row0, block.row0 + x.shape[0])
+        al, ac = (along[lines], across[lines]) if per_line else (along, across)
+        out, out_ok = coregister(x, al, ac, ok, order=order, fill=fill)
+        return out[block.inner], out_ok[block.inner]
+
+    halo = coregister_halo(along, order)
+    parts = list(
+        io.map_windows(
+            _array_reader(band, valid),
+            shift,
+            height=height,
+            width=width,
+            block_rows=block_rows,
+            halo=(halo, halo),
+            pass_block=True,
+        )
+    )
+    out = _assemble(((w, o) for w, (o, _) in parts), band.shape, np.float32)
+    ok = _assemble(((w, k) for w, (_, k) in parts), band.shape, np.float64) > 0
+    return out, ok
+
+
+@pytest.mark.parametrize("order", [1, 3])
+@pytest.mark.parametrize("drift", [False, True])
+@pytest.mark.parametrize("block_rows", [9, 32, 100])
+def test_coregister_by_strips_equals_whole(tex, order, drift, block_rows):
+    band = (1000.0 + 200.0 * tex / tex.std()).astype("float32")
+    valid = np.ones(band.shape, bool)
+    valid[40:52, 100:130] = False
+    valid[:, 300:] = False
+    rows = band.shape[0]
+    if drift:
+        along = profile_to_lines(np.array([20.0, 140.0]), np.array([1.3, 2.9]), rows)
+        across = np.full(rows, -0.6)
+    else:
+        along, across = 2.4, -0.6
+    whole, ok = coregister(band, along, across, valid, order=order)
+    got, got_ok = _coregister_by_strips(band, along, across, valid, order, block_rows)
+    np.testing.assert_array_equal(got_ok, ok)
+    np.testing.assert_allclose(got[ok], whole[ok], rtol=1e-6)  # float32 rounding at most
+    assert ok.sum() > 0.8 * valid.sum()

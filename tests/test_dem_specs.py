@@ -12,8 +12,19 @@ from dem_synth import bump, pair
 from rasterio.transform import from_origin
 from synth import SWIR_WL, UTM, VNIR_WL, write_envi, write_gtiff
 
-from geoboresight.algorithms import get
+from geoboresight import io
+from geoboresight.algorithms import dem as dem_specs
+from geoboresight.algorithms import offset as offset_specs
+from geoboresight.dem.coregister import coregister, profile_to_lines
+from geoboresight.dem.offset import offset_profile
 from geoboresight.errors import InputError, ParameterError
+from geoboresight.io.bands import read_matching_pair
+from geoboresight.operations.dem import view_3d_file
+from geoboresight.operations.offset import boresight_offset_file, coregister_file
+
+#: The Relative DEM specs by name (as ``geoboresight.algorithms.get`` gives them).
+SPECS = {a.name: a for a in (*dem_specs.ALGORITHMS, *offset_specs.ALGORITHMS)}
+get = SPECS.__getitem__
 
 K = 1 / 30  # px per metre
 
@@ -225,3 +236,87 @@ def test_band_ranges_average_bands_into_the_matching_images(scene, tmp_path):
             vnir=p["vnir"], swir=p["swir"], swir_to_nm=990.0, output=tmp_path / "c.json"
         )
     assert not (tmp_path / "c.json").exists()
+
+
+# ------------------------------------------------------------------------------- file level
+@pytest.mark.parametrize("block_rows", [7, 50, 119])
+def test_matching_pair_by_windows_equals_whole(scene, block_rows):
+    """The band-range means and the cloud-free mask read strip by strip are those of one
+    strip holding the whole image, and those of the bands read whole and averaged."""
+    d, p, h = scene
+    dual = io.open_dual(p["vnir"], p["swir"])
+    args = dict(vnir_nm=910.0, vnir_to_nm=970.0, swir_nm=980.0, swir_to_nm=1100.0)
+    whole = read_matching_pair(dual, **args, cloud_mask=p["cloud"], block_rows=120)
+    got = read_matching_pair(dual, **args, cloud_mask=p["cloud"], block_rows=block_rows)
+    for name in ("vnir", "swir", "valid"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(whole, name), err_msg=name)
+    assert got.vnir_bands == [11, 12] and got.swir_bands == [1, 2, 3, 4, 5]
+    with rasterio.open(p["vnir"]) as src:
+        bands = src.read([11, 12]).astype(np.float64)
+    np.testing.assert_array_equal(whole.vnir, (bands[0] + bands[1]) / 2)
+    assert not whole.valid[5:20, 5:30].any() and whole.valid.sum() == 120 * 96 - 15 * 25
+
+
+@pytest.mark.parametrize("drift", [False, True])
+@pytest.mark.parametrize("block_rows", [16, 256])
+def test_coregister_file_by_strips_equals_whole_band(scene, tmp_path, drift, block_rows):
+    """coregister_file resamples strip by strip; every band equals the kernel on the whole
+    band (the offset given, or followed per line from the measured profile)."""
+    d, p, h = scene
+    out = tmp_path / "co.tif"
+    if drift:
+        res = coregister_file(
+            p["vnir"],
+            p["swir"],
+            output=out,
+            follow_drift=True,
+            profile_rows=40,
+            order="1",
+            block_rows=block_rows,
+        )
+        pair = read_matching_pair(io.open_dual(p["vnir"], p["swir"]), vnir_nm=920.0, swir_nm=1010.0)
+        prof = offset_profile(pair.vnir, pair.swir, pair.valid, block_rows=40)
+        along = profile_to_lines(prof.rows, prof.along, 120)
+        across = profile_to_lines(prof.rows, prof.across, 120)
+        order = 1
+    else:
+        res = coregister_file(
+            p["vnir"], p["swir"], output=out, along=0.7, across=-0.2, block_rows=block_rows
+        )
+        along, across, order = 0.7, -0.2, 3
+    assert res["bands"] == len(SWIR_WL)
+    assert res["along_px"] == pytest.approx(float(np.mean(along)), abs=1e-4)
+    with rasterio.open(out) as dst, rasterio.open(p["swir"]) as src:
+        assert dst.tags()["OFFSET_PER_LINE"] == ("yes" if drift else "no")
+        assert dst.tags(3)["wavelength"] == f"{SWIR_WL[2]:.3f}"
+        for b in (1, 2, 17, len(SWIR_WL)):
+            band = src.read(b).astype("float32")
+            want, ok = coregister(band, along, across, np.ones(band.shape, bool), order=order)
+            got = dst.read(b, masked=True)
+            np.testing.assert_array_equal(~got.mask, ok)
+            np.testing.assert_allclose(got.data[ok], want[ok], rtol=1e-6)
+
+
+def test_operations_are_the_specs(scene, tmp_path):
+    """A script's call of the file-level operation and the spec's run are the same thing."""
+    d, p, h = scene
+    a = boresight_offset_file(p["vnir"], p["swir"], p["cloud"], output=tmp_path / "a.json")
+    b = get("boresight-offset")(
+        vnir=p["vnir"], swir=p["swir"], cloud_mask=p["cloud"], output=tmp_path / "b.json"
+    )
+    assert {k: v for k, v in a.items() if k != "output"} == {
+        k: v for k, v in b.items() if k != "output"
+    }
+    assert json.loads((tmp_path / "a.json").read_text()) == json.loads(
+        (tmp_path / "b.json").read_text()
+    )
+    for alg in SPECS.values():
+        assert alg.run.__name__ == alg.name.replace("-", "_") + "_file"
+
+
+def test_view3d_refuses_a_dem_on_another_grid(scene, tmp_path):
+    d, p, h = scene
+    dem = write_gtiff(tmp_path / "dem.tif", np.zeros((1, 119, 96), "float32"))
+    with pytest.raises(InputError, match="mismatched grids"):
+        view_3d_file(dem, p["vnir"], p["swir"], output=tmp_path / "v.png")
+    assert not (tmp_path / "v.png").exists()

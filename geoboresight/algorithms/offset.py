@@ -1,0 +1,107 @@
+"""Specs: the boresight offset between the VNIR and SWIR images, and the co-registration that
+removes it (paper §3.2)."""
+
+from __future__ import annotations
+
+from ..dem.coregister import SPLINE_ORDER
+from ..dem.offset import PROFILE_ROWS
+from ..operations.offset import boresight_offset_file, coregister_file
+from ._common import BLOCK_ROWS, DUAL_PARAMS
+from .dem import BAND_PARAMS, CLOUD, GEOMETRY, GROUP
+from .spec import Algorithm, Enum, FileOut, Flag, Number, RasterOut
+
+OFFSET = Algorithm(
+    name="boresight-offset",
+    display_name="Boresight offset (image-based)",
+    group=GROUP,
+    short_help="Sub-pixel VNIR→SWIR shift from the images alone, in pixels and angles, per block for drift.",
+    help=(
+        "Measures the boresight offset between the VNIR and the SWIR image: the sub-pixel shift "
+        "(along-track, across-track) that brings the VNIR band nearest 920 nm onto the SWIR band "
+        "nearest 1010 nm (the two bands of the boresight ratio). It uses Fourier "
+        "cross-correlation with upsampled-DFT refinement (scikit-image) and needs no GPS/INS.\n\n"
+        "Convention: a ground feature at VNIR line r, column c appears at SWIR line r + along, "
+        "column c + across. Over relief the shift also contains parallax, so the global value is "
+        "the offset of the average ground.\n\n"
+        "With the IFOV (and the flying height) the offset is also given as angles between the two "
+        "lines of sight (and metres on the ground). With 'profile rows' > 0 the offset is also "
+        "measured per block of lines, so drift along the flight line can be seen (JSON and an "
+        "optional PNG plot).\n\n"
+        "Output: a JSON report."
+    ),
+    params=(
+        *DUAL_PARAMS,
+        *BAND_PARAMS,
+        CLOUD,
+        *GEOMETRY,
+        Number(
+            name="profile_rows",
+            description="Also measure the offset per block of this many lines (0 = global only)",
+            default=PROFILE_ROWS,
+            minimum=0,
+            integer=True,
+        ),
+        FileOut(name="output", description="Offset report (JSON)", extension="json"),
+        FileOut(
+            name="plot",
+            description="Plot of the offset along the flight line (PNG)",
+            extension="png",
+            optional=True,
+        ),
+    ),
+    run=boresight_offset_file,
+)
+
+
+COREGISTER = Algorithm(
+    name="coregister",
+    display_name="Co-register SWIR onto VNIR",
+    group=GROUP,
+    short_help="Resample every SWIR band onto the VNIR pixel grid, removing the boresight offset.",
+    help=(
+        "Corrects the boresight effect after it has been used: every SWIR band is resampled "
+        "(cubic spline by default) so that SWIR pixel (r, c) sees the ground of VNIR pixel "
+        "(r, c). The offset is measured from the images (as 'Boresight offset') unless given; "
+        "with 'follow drift' it is measured per block of lines and interpolated line by line.\n\n"
+        "Output: a float32 GeoTIFF with all SWIR bands (band descriptions and tags carry the "
+        "wavelengths in nm), nodata -9999 where the shifted image has no data, on the VNIR grid "
+        "(CRS and transform carried over; raw sensor geometry stays raw)."
+    ),
+    params=(
+        *DUAL_PARAMS,
+        *BAND_PARAMS,
+        CLOUD,
+        Number(
+            name="along",
+            description="Known along-track offset (px); empty = measure it",
+            optional=True,
+        ),
+        Number(
+            name="across",
+            description="Known across-track offset (px); empty = measure it",
+            optional=True,
+        ),
+        Flag(
+            name="follow_drift", description="Measure the offset per block of lines and follow it"
+        ),
+        Number(
+            name="profile_rows",
+            description="Block of lines for 'follow drift'",
+            default=PROFILE_ROWS,
+            minimum=16,
+            integer=True,
+            advanced=True,
+        ),
+        Enum(
+            name="order",
+            description="Interpolation (spline order)",
+            choices=("1", "3"),
+            default=str(SPLINE_ORDER),
+        ),
+        BLOCK_ROWS,
+        RasterOut(name="output", description="Co-registered SWIR (GeoTIFF)"),
+    ),
+    run=coregister_file,
+)
+
+ALGORITHMS = (OFFSET, COREGISTER)

@@ -1,0 +1,178 @@
+"""Bands of a dual-sensor dataset read as whole images, strip by strip: band ranges, their
+means, and the VNIR/SWIR pair matched for the boresight offset and the relative DEM (§3.2).
+
+Every read goes through :func:`~geoboresight.io.windows.map_windows`; the per-pixel work (the
+mean of a band range) is the kernel :func:`geoboresight.dem.bands.band_mean`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from rasterio.windows import Window
+
+from ..dem.bands import band_mean
+from ..errors import InputError, ParameterError
+from ..progress import Progress
+from .dual import TOLERANCE_NM, DualSensor, SensorFile
+from .grid import Grid
+from .raster import open_raster
+from .windows import DEFAULT_BLOCK_ROWS, band_reader, bands_reader, map_windows, read_masked
+
+
+def band_range(
+    sensor: SensorFile,
+    from_nm: float,
+    to_nm: float | None = None,
+    tolerance_nm: float = TOLERANCE_NM,
+    name: str = "to_nm",
+) -> list[int]:
+    """File bands of ``sensor`` whose centres lie in [``from_nm``, ``to_nm``], by wavelength.
+
+    The band nearest ``from_nm`` (within ``tolerance_nm``) when no range is given or the range
+    holds no band centre. ``name`` is the parameter named in the error for a reversed range.
+    """
+    if to_nm is not None:
+        lo, hi = float(from_nm), float(to_nm)
+        if hi < lo:
+            raise ParameterError(
+                f"parameter '{name}': {hi:g} nm is below the start of the range ({lo:g} nm); "
+                "give the upper end of the wavelength range to average"
+            )
+        inside = [b for b in sensor.bands if lo <= sensor.wavelength_of(b) <= hi]
+        if inside:
+            return sorted(inside, key=sensor.wavelength_of)
+    return [sensor.band_for(from_nm, tolerance_nm)]
+
+
+def masked_bands_reader(src, bands) -> Callable[[int, int], tuple[np.ndarray, np.ndarray]]:
+    """``read(row0, row1) -> (values (n, rows, cols) float32, valid (n, rows, cols))`` of
+    several bands of one dataset, each with its own validity (nodata, masks)."""
+
+    def read(row0: int, row1: int):
+        window = Window(0, row0, src.width, row1 - row0)
+        pairs = [read_masked(src, b, window) for b in bands]
+        return np.stack([p[0] for p in pairs]), np.stack([p[1] for p in pairs])
+
+    return read
+
+
+def read_bands(
+    src, bands, *, block_rows: int = DEFAULT_BLOCK_ROWS, progress: Progress | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Whole bands of an open dataset: ``(values (n, lines, cols) float32, valid per band)``."""
+    values = np.empty((len(bands), src.height, src.width), np.float32)
+    valid = np.empty(values.shape, bool)
+    for win, (v, ok) in map_windows(
+        masked_bands_reader(src, bands),
+        lambda v, ok: (v, ok),
+        height=src.height,
+        width=src.width,
+        block_rows=block_rows,
+        progress=progress,
+        message="reading",
+    ):
+        rows = slice(win.row_off, win.row_off + win.height)
+        values[:, rows], valid[:, rows] = v, ok
+    return values, valid
+
+
+def require_on_grid(src, grid: Grid, label: str) -> None:
+    """Raise :class:`InputError` when ``src`` (a mask, a DEM) is not on the images' grid."""
+    if (src.height, src.width) != grid.shape:
+        raise InputError(
+            f"{label} is {src.width} × {src.height} pixels but the images are {grid.width} × "
+            f"{grid.height}: mismatched grids; give a raster on the image grid"
+        )
+    Grid.of(src).require_same(grid, label, "the images")
+
+
+@dataclass(frozen=True)
+class MatchingPair:
+    """The VNIR and SWIR images matched against each other (one band each, or band-range
+    means, float64), where both are valid and cloud-free, and the bands they come from."""
+
+    vnir: np.ndarray
+    swir: np.ndarray
+    valid: np.ndarray
+    vnir_bands: list[int]
+    swir_bands: list[int]
+    dual: DualSensor
+
+    def info(self) -> dict:
+        """The bands matched, for tags and reports (the bands averaged, if more than one)."""
+        vb, sb = self.vnir_bands[0], self.swir_bands[0]
+        info = {
+            "vnir_band": vb,
+            "vnir_wavelength_nm": round(self.dual.vnir.wavelength_of(vb), 3),
+            "swir_band": sb,
+            "swir_wavelength_nm": round(self.dual.swir.wavelength_of(sb), 3),
+        }
+        if len(self.vnir_bands) > 1 or len(self.swir_bands) > 1:
+            info["vnir_bands_averaged"] = self.vnir_bands
+            info["swir_bands_averaged"] = self.swir_bands
+        return info
+
+
+def read_matching_pair(
+    dual: DualSensor,
+    *,
+    vnir_nm: float,
+    swir_nm: float,
+    vnir_to_nm: float | None = None,
+    swir_to_nm: float | None = None,
+    tolerance_nm: float = TOLERANCE_NM,
+    cloud_mask: str | None = None,
+    block_rows: int = DEFAULT_BLOCK_ROWS,
+    progress: Progress | None = None,
+) -> MatchingPair:
+    """Read the VNIR and SWIR matching images of a flight line, strip by strip.
+
+    Each image is the band nearest ``vnir_nm`` (``swir_nm``), or the mean of the bands centred
+    in [``vnir_nm``, ``vnir_to_nm``] ([``swir_nm``, ``swir_to_nm``]). Valid where every band
+    read is valid and, with a ``cloud_mask`` (non-zero = cloud) on the same grid, cloud-free.
+    """
+    vbs = band_range(dual.vnir, vnir_nm, vnir_to_nm, tolerance_nm, "vnir_to_nm")
+    sbs = band_range(dual.swir, swir_nm, swir_to_nm, tolerance_nm, "swir_to_nm")
+    height, width = dual.grid.shape
+    vnir = np.empty((height, width), np.float64)
+    swir = np.empty((height, width), np.float64)
+    valid = np.empty((height, width), bool)
+    with (
+        open_raster(dual.vnir.path, "VNIR") as v_src,
+        open_raster(dual.swir.path, "SWIR") as s_src,
+        open_raster(cloud_mask, "cloud mask") if cloud_mask else contextlib.nullcontext() as c_src,
+    ):
+        if c_src is not None:
+            require_on_grid(c_src, dual.grid, f"cloud mask {cloud_mask}")
+        read_v = bands_reader([(v_src, b) for b in vbs])
+        read_s = bands_reader([(s_src, b) for b in sbs])
+        read_c = band_reader(c_src, 1) if c_src is not None else None
+
+        def read(row0: int, row1: int):
+            cloud = read_c(row0, row1) if read_c else (None, None)
+            return (*read_v(row0, row1), *read_s(row0, row1), *cloud)
+
+        def means(v, ok_v, s, ok_s, cloud, ok_c):
+            v, _ = band_mean(v, ok_v)
+            s, _ = band_mean(s, ok_s)
+            ok = ok_v & ok_s
+            if cloud is not None:
+                ok &= ~((cloud != 0) & ok_c)
+            return v, s, ok
+
+        for win, (v, s, ok) in map_windows(
+            read,
+            means,
+            height=height,
+            width=width,
+            block_rows=block_rows,
+            progress=progress,
+            message="reading the matching bands",
+        ):
+            rows = slice(win.row_off, win.row_off + win.height)
+            vnir[rows], swir[rows], valid[rows] = v, s, ok
+    return MatchingPair(vnir, swir, valid, vbs, sbs, dual)

@@ -1,0 +1,488 @@
+"""File-level disparity map, relative DEM and 3-D view (paper §3.2, Figure 9)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import io
+from ..dem.bands import MATCH_SWIR_NM, MATCH_SWIR_TO_NM, MATCH_VNIR_NM, MATCH_VNIR_TO_NM
+from ..dem.disparity import (
+    MIN_PEAK,
+    MIN_SHARPNESS,
+    REFINE,
+    SEARCH_ACROSS,
+    SEARCH_ALONG,
+    WINDOW,
+    disparity_map,
+)
+from ..dem.height import ground_sample_distance, parallax_factor
+from ..dem.kriging import N_CLOSEST_POINTS, VARIOGRAM
+from ..dem.offset import estimate_offset
+from ..dem.relative import POINT_SPACING, relative_dem
+from ..dem.view3d import (
+    AZIMUTH,
+    BLUE_NM,
+    ELEVATION,
+    EXAGGERATION,
+    GREEN_NM,
+    RED_NM,
+    drape_figure,
+    stretch_rgb,
+)
+from ..errors import InputError
+from ..io.bands import read_bands, read_matching_pair, require_on_grid
+from ..io.dual import SEAM_NM, TOLERANCE_NM
+from ._operation import operation
+
+#: The bands of a disparity raster.
+DISPARITY_BANDS = [
+    "disparity along-track (px)",
+    "disparity across-track (px)",
+    "correlation peak",
+    "peak sharpness",
+    "reliable (1/0)",
+]
+
+
+def _disparity_stack(d, valid) -> np.ndarray:
+    """The five float32 bands of a disparity raster, nodata outside the matched pixels."""
+    keep = np.isfinite(d.along) & valid
+    return np.stack(
+        [np.where(keep, b, io.FLOAT_NODATA) for b in (d.along, d.across, d.peak, d.sharpness)]
+        + [np.where(valid, d.reliable.astype("float32"), io.FLOAT_NODATA)]
+    ).astype("float32")
+
+
+@operation(inputs=("vnir", "swir", "cloud_mask"), outputs=("output",))
+def disparity_file(
+    vnir,
+    swir=None,
+    cloud_mask=None,
+    *,
+    output,
+    seam_nm=SEAM_NM,
+    vnir_wavelengths=None,
+    swir_wavelengths=None,
+    vnir_nm=MATCH_VNIR_NM,
+    swir_nm=MATCH_SWIR_NM,
+    vnir_to_nm=MATCH_VNIR_TO_NM,
+    swir_to_nm=MATCH_SWIR_TO_NM,
+    tolerance_nm=TOLERANCE_NM,
+    window=WINDOW,
+    search_along=SEARCH_ALONG,
+    search_across=SEARCH_ACROSS,
+    min_peak=MIN_PEAK,
+    min_sharpness=MIN_SHARPNESS,
+    refine=REFINE,
+    progress=None,
+) -> dict:
+    """Dense sub-pixel VNIR/SWIR disparity of a flight line, with per-pixel reliability.
+
+    Normalised cross-correlation in a window, searching ± ``search_along`` lines and
+    ± ``search_across`` columns around the global boresight offset, refined to sub-pixel.
+
+    Parameters
+    ----------
+    vnir : path
+        VNIR file (ENVI or GeoTIFF), or a merged VNIR+SWIR cube when ``swir`` is None.
+    swir : path, optional
+        SWIR file on the same pixel grid.
+    cloud_mask : path, optional
+        Cloud mask on the same grid (non-zero = cloud): masked in the matching.
+    output : path
+        5-band float32 GeoTIFF: disparity along-track and across-track (px, SWIR minus VNIR
+        position), correlation peak, peak sharpness and reliable (1/0); nodata -9999.
+    seam_nm : float
+        Merged cube only: bands below it are VNIR, the rest SWIR.
+    vnir_wavelengths, swir_wavelengths : str, optional
+        Band centres in nm, comma-separated, for files without wavelength metadata.
+    vnir_nm, vnir_to_nm, swir_nm, swir_to_nm : float
+        The matching images: the means of the bands centred in these ranges (one band each
+        when ``*_to_nm`` is None).
+    tolerance_nm : float
+        Largest distance between a requested wavelength and a band centre.
+    window : int
+        Matching window (odd, pixels).
+    search_along, search_across : int
+        Search range (± px) around the global offset.
+    min_peak, min_sharpness : float
+        Reliability thresholds on the correlation peak and its curvature.
+    refine : int
+        Sub-pixel refinement passes.
+    progress : Progress, optional
+
+    Returns
+    -------
+    dict
+        ``output``, the number of reliable pixels and the global offset (px).
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.2, image matching
+    within ± 3 pixels along-track and ± 1 across-track).
+    """
+    dual = io.open_dual(vnir, swir, seam_nm, vnir_wavelengths, swir_wavelengths)
+    pair = read_matching_pair(
+        dual,
+        vnir_nm=vnir_nm,
+        swir_nm=swir_nm,
+        vnir_to_nm=vnir_to_nm,
+        swir_to_nm=swir_to_nm,
+        tolerance_nm=tolerance_nm,
+        cloud_mask=cloud_mask,
+        progress=progress.sub(0.0, 0.05),
+    )
+    off = estimate_offset(pair.vnir, pair.swir, pair.valid)
+    progress.info(f"search centred on the global offset {off.along:+.3f}, {off.across:+.3f} px")
+    d = disparity_map(
+        pair.vnir,
+        pair.swir,
+        pair.valid,
+        window=window,
+        search_along=search_along,
+        search_across=search_across,
+        center=(off.along, off.across),
+        refine=refine,
+        min_peak=min_peak,
+        min_sharpness=min_sharpness,
+        progress=progress.sub(0.05, 0.9),
+    )
+    n_rel = int(d.reliable.sum())
+    progress.info(f"{n_rel} reliable pixels of {int(pair.valid.sum())} valid")
+    if n_rel == 0:
+        raise InputError(
+            f"no reliable matches with a {window} px window: use a larger window "
+            "(--window 21) or lower --min-peak"
+        )
+    tags = {
+        "product": "VNIR/SWIR disparity (SWIR minus VNIR position, px)",
+        **pair.info(),
+        "window_px": window,
+        "search_along_px": search_along,
+        "search_across_px": search_across,
+        "min_peak": min_peak,
+        "min_sharpness": min_sharpness,
+        "offset_along_px": f"{off.along:.4f}",
+        "offset_across_px": f"{off.across:.4f}",
+    }
+    io.write_raster(
+        output,
+        _disparity_stack(d, pair.valid),
+        like=dual.grid,
+        tags=tags,
+        band_names=DISPARITY_BANDS,
+    )
+    return {
+        "output": output,
+        "reliable_pixels": n_rel,
+        "offset_along_px": round(off.along, 4),
+        "offset_across_px": round(off.across, 4),
+    }
+
+
+@operation(
+    inputs=("vnir", "swir", "cloud_mask"),
+    outputs=("output", "variance", "disparity", "report"),
+)
+def relative_dem_file(
+    vnir,
+    swir=None,
+    cloud_mask=None,
+    *,
+    output,
+    variance=None,
+    disparity=None,
+    report=None,
+    seam_nm=SEAM_NM,
+    vnir_wavelengths=None,
+    swir_wavelengths=None,
+    vnir_nm=MATCH_VNIR_NM,
+    swir_nm=MATCH_SWIR_NM,
+    vnir_to_nm=MATCH_VNIR_TO_NM,
+    swir_to_nm=MATCH_SWIR_TO_NM,
+    tolerance_nm=TOLERANCE_NM,
+    height_factor=None,
+    squint_deg=None,
+    flying_height=None,
+    ifov_mrad=None,
+    parallax_axis="along",
+    invert_parallax=False,
+    window=WINDOW,
+    search_along=SEARCH_ALONG,
+    search_across=SEARCH_ACROSS,
+    min_peak=MIN_PEAK,
+    min_sharpness=MIN_SHARPNESS,
+    refine=REFINE,
+    point_spacing=POINT_SPACING,
+    variogram=VARIOGRAM,
+    n_closest_points=N_CLOSEST_POINTS,
+    force=False,
+    progress=None,
+) -> dict:
+    """The relative DEM of a flight line from the VNIR/SWIR parallax, kriged onto its grid.
+
+    The two images are matched pixel by pixel (:func:`disparity_file`); the disparity divided by
+    the height-to-disparity factor ``k = tan θ / GSD`` is a height, the lowest reliable region
+    being 0 m. Reliable heights are thinned to control points and interpolated by ordinary
+    kriging. The height precision ``σ_h = σ_d / k`` is reported, and the run stops when the
+    relief does not stand out of it (unless ``force``).
+
+    Parameters
+    ----------
+    vnir : path
+        VNIR file (ENVI or GeoTIFF), or a merged VNIR+SWIR cube when ``swir`` is None.
+    swir : path, optional
+        SWIR file on the same pixel grid.
+    cloud_mask : path, optional
+        Cloud mask on the same grid (non-zero = cloud): masked in the matching and the DEM.
+    output : path
+        The DEM: float32 GeoTIFF in metres, nodata -9999, on the input's grid, with tags giving
+        σ_d, σ_h, the factor, the offset and the variogram.
+    variance, disparity : path, optional
+        The kriging variance (m²); the disparity and reliability bands (as
+        :func:`disparity_file`).
+    report : path, optional
+        JSON report: σ_d, σ_h, offset, variogram, cross-validation of the kriging.
+    seam_nm : float
+        Merged cube only: bands below it are VNIR, the rest SWIR.
+    vnir_wavelengths, swir_wavelengths : str, optional
+        Band centres in nm, comma-separated, for files without wavelength metadata.
+    vnir_nm, vnir_to_nm, swir_nm, swir_to_nm : float
+        The matching images: the means of the bands centred in these ranges.
+    tolerance_nm : float
+        Largest distance between a requested wavelength and a band centre.
+    height_factor : float, optional
+        ``k`` in px per metre of height; else from ``squint_deg``, ``flying_height`` and
+        ``ifov_mrad``.
+    squint_deg, flying_height, ifov_mrad : float, optional
+        The angle between the two lines of sight (degrees), the flying height (m) and the IFOV
+        (mrad); with the last two, the ground sample distance is recorded.
+    parallax_axis : {"along", "across"}
+        The direction of the parallax.
+    invert_parallax : bool
+        Elevated features appear at lower line (column) numbers in the SWIR image.
+    window, search_along, search_across, min_peak, min_sharpness, refine
+        The matching (see :func:`disparity_file`).
+    point_spacing : int
+        One control point per cell of this many pixels (median).
+    variogram : str
+        The variogram model fitted for kriging.
+    n_closest_points : int
+        Control points in each local kriging neighbourhood.
+    force : bool
+        Write the DEM even where σ_h exceeds the relief (tagged as not meaningful).
+    progress : Progress, optional
+
+    Returns
+    -------
+    dict
+        ``output``, σ_d, σ_h, the relief above the noise, whether the DEM is meaningful, the
+        factor, offset, variogram, cross-validation, the DEM's range and the bands matched.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.2, the relative DEM
+    by kriging; Figure 9).
+    """
+    factor = parallax_factor(
+        height_factor,
+        squint_deg=squint_deg,
+        flying_height_m=flying_height,
+        ifov_mrad=ifov_mrad,
+        axis=parallax_axis,
+        invert=invert_parallax,
+    )
+    gsd = ground_sample_distance(flying_height, ifov_mrad)
+    dual = io.open_dual(vnir, swir, seam_nm, vnir_wavelengths, swir_wavelengths)
+    pair = read_matching_pair(
+        dual,
+        vnir_nm=vnir_nm,
+        swir_nm=swir_nm,
+        vnir_to_nm=vnir_to_nm,
+        swir_to_nm=swir_to_nm,
+        tolerance_nm=tolerance_nm,
+        cloud_mask=cloud_mask,
+        progress=progress.sub(0.0, 0.05),
+    )
+    info = pair.info()
+    progress.info(f"height-to-disparity factor {factor.magnitude:.5f} px/m ({parallax_axis}-track)")
+    r = relative_dem(
+        pair.vnir,
+        pair.swir,
+        pair.valid,
+        factor=factor,
+        window=window,
+        search_along=search_along,
+        search_across=search_across,
+        min_peak=min_peak,
+        min_sharpness=min_sharpness,
+        refine=refine,
+        point_spacing=point_spacing,
+        variogram_model=variogram,
+        n_closest_points=n_closest_points,
+        require_meaningful=not force,
+        progress=progress.sub(0.05, 0.95),
+    )
+    p = r.precision
+    tags = {
+        "product": "relative DEM (Brook & Ben-Dor 2011, 3.2): 0 m = lowest reliable region",
+        **info,
+        "sigma_d_px": f"{p.sigma_d_px:.4f}",
+        "sigma_h_m": f"{p.sigma_h_m:.4f}",
+        "relief_above_noise_m": f"{p.relief_m:.3f}",
+        "relief_to_noise": f"{p.snr:.3f}",
+        "meaningful": "yes" if p.meaningful else "NO: sigma_h exceeds the relief",
+        "height_factor_px_per_m": f"{factor.magnitude:.6f}",
+        "parallax_axis": parallax_axis,
+        "offset_along_px": f"{r.offset.along:.4f}",
+        "offset_across_px": f"{r.offset.across:.4f}",
+        "window_px": window,
+        "search_along_px": search_along,
+        "search_across_px": search_across,
+        "min_peak": min_peak,
+        "point_spacing_px": point_spacing,
+        "control_points": r.points[0].size,
+        "variogram": f"{r.variogram.model}: {r.variogram.describe()}",
+        "n_closest_points": n_closest_points,
+        "units": "metres",
+    }
+    if gsd is not None:
+        tags["gsd_m"] = f"{gsd:.4f}"
+    io.write_raster(
+        output,
+        np.where(np.isfinite(r.dem), r.dem, io.FLOAT_NODATA).astype("float32"),
+        like=dual.grid,
+        tags=tags,
+        band_names=["relative height (m)"],
+    )
+    if variance:
+        io.write_raster(
+            variance,
+            np.where(np.isfinite(r.variance), r.variance, io.FLOAT_NODATA).astype("float32"),
+            like=dual.grid,
+            tags={**tags, "product": "kriging variance of the relative DEM (m²)"},
+            band_names=["kriging variance (m²)"],
+        )
+    if disparity:
+        io.write_raster(
+            disparity,
+            _disparity_stack(r.disparity, pair.valid),
+            like=dual.grid,
+            tags={**tags, "product": "VNIR/SWIR disparity (px) and reliability"},
+            band_names=DISPARITY_BANDS,
+        )
+    result = {
+        "output": output,
+        "sigma_d_px": round(p.sigma_d_px, 4),
+        "sigma_h_m": round(p.sigma_h_m, 3),
+        "relief_above_noise_m": round(p.relief_m, 2),
+        "relief_to_noise": round(p.snr, 3),
+        "meaningful": bool(p.meaningful),
+        "message": p.message(),
+        "height_factor_px_per_m": factor.magnitude,
+        "offset_along_px": round(r.offset.along, 4),
+        "offset_across_px": round(r.offset.across, 4),
+        "reliable_pixels": int(r.disparity.reliable.sum()),
+        "control_points": int(r.points[0].size),
+        "variogram": {"model": r.variogram.model, "parameters": list(r.variogram.parameters)},
+        "cross_validation": r.cross_validation,
+        "dem_range_m": [float(np.nanmin(r.dem)), float(np.nanmax(r.dem))],
+        **info,
+    }
+    if report:
+        io.write_json(report, result)
+    progress.update(1.0, "relative DEM written")
+    return result
+
+
+@operation(inputs=("dem", "vnir", "swir"), outputs=("output",))
+def view_3d_file(
+    dem,
+    vnir,
+    swir=None,
+    *,
+    output,
+    seam_nm=SEAM_NM,
+    vnir_wavelengths=None,
+    swir_wavelengths=None,
+    red_nm=RED_NM,
+    green_nm=GREEN_NM,
+    blue_nm=BLUE_NM,
+    tolerance_nm=TOLERANCE_NM,
+    exaggeration=EXAGGERATION,
+    elevation=ELEVATION,
+    azimuth=AZIMUTH,
+    progress=None,
+) -> dict:
+    """A PNG of an RGB of the image draped on the relative DEM (Figure 9E).
+
+    Three VNIR bands with a 2–98 % stretch, drawn on the DEM with vertical exaggeration; pixels
+    without a height are black. Axes are in metres when the DEM is georeferenced or records its
+    pixel size (tag ``GSD_M``), in pixels otherwise.
+
+    Parameters
+    ----------
+    dem : path
+        The relative DEM (:func:`relative_dem_file`), on the image's grid.
+    vnir : path
+        VNIR file (ENVI or GeoTIFF), or a merged VNIR+SWIR cube when ``swir`` is None.
+    swir : path, optional
+        SWIR file on the same pixel grid.
+    output : path
+        The PNG.
+    seam_nm : float
+        Merged cube only: bands below it are VNIR, the rest SWIR.
+    vnir_wavelengths, swir_wavelengths : str, optional
+        Band centres in nm, comma-separated, for files without wavelength metadata.
+    red_nm, green_nm, blue_nm : float
+        The VNIR bands of the RGB, nearest these wavelengths.
+    tolerance_nm : float
+        Largest distance between a requested wavelength and a band centre.
+    exaggeration : float
+        Vertical exaggeration.
+    elevation, azimuth : float
+        Viewing angles (degrees).
+    progress : Progress, optional
+
+    Returns
+    -------
+    dict
+        ``output``.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.2, Figure 9E).
+    """
+    from ..figures import save_figure
+
+    dual = io.open_dual(vnir, swir, seam_nm, vnir_wavelengths, swir_wavelengths)
+    with io.open_raster(dem, "DEM") as src:
+        require_on_grid(src, dual.grid, f"DEM {dem}")
+        height, ok = io.read_masked(src, 1)
+        georef = io.is_georeferenced(src)
+        res = (abs(src.transform.e), abs(src.transform.a)) if georef else None
+        gsd_tag = src.tags().get("GSD_M")
+    bands = [dual.vnir.band_for(nm, tolerance_nm) for nm in (red_nm, green_nm, blue_nm)]
+    with io.open_raster(dual.vnir.path, "image") as src:
+        rgb, rgb_ok = read_bands(src, bands, progress=progress.sub(0.0, 0.3))
+    if res is not None:
+        size, unit = res, "m"
+    elif gsd_tag:
+        size, unit = (float(gsd_tag), float(gsd_tag)), "m"
+    else:
+        size, unit = (1.0, 1.0), "px"
+    fig = drape_figure(
+        np.where(ok, height, np.nan),
+        stretch_rgb(*np.where(rgb_ok, rgb, np.nan)),
+        exaggeration=exaggeration,
+        pixel_size=size,
+        unit=unit,
+        elevation=elevation,
+        azimuth=azimuth,
+    )
+    save_figure(fig, output)
+    progress.update(1.0, "3-D view written")
+    return {"output": output}
