@@ -11,10 +11,14 @@ from sklearn.metrics import roc_auc_score
 from sklearn.metrics import roc_curve as sk_roc_curve
 from sklearn.svm import OneClassSVM
 
+from geoboresight import io
 from geoboresight.anomaly import indicator, polygons, roc, svdd, unmix
 from geoboresight.anomaly import rx as rxmod
 from geoboresight.anomaly.bands import select_bands
 from geoboresight.errors import InputError, ParameterError
+from geoboresight.io.anomaly import label_polygons, pixel_points
+from geoboresight.io.spectra import read_spectral_library
+from geoboresight.io.vector import count_features, write_vector
 
 
 def _cube(k=16, rows=40, cols=30, seed=1, dtype=np.int16):
@@ -205,7 +209,7 @@ def test_resample_gaussian_srf_and_coverage(tmp_path):
         "wavelength units = Micrometers\nspectra names = {soil, bag}\n"
         f"wavelength = {{{wl_list}}}\n"
     )
-    w2, s2, names = unmix.read_library(str(tmp_path / "lib.sli"))
+    w2, s2, names = read_spectral_library(str(tmp_path / "lib.sli"))
     assert names == ["soil", "bag"]
     np.testing.assert_allclose(w2, wl, atol=1e-6)
     np.testing.assert_allclose(s2, lib, rtol=1e-6)
@@ -258,17 +262,32 @@ def test_anomaly_features_and_gpkg(tmp_path):
     from rasterio.transform import from_origin
 
     tr = from_origin(600000, 3500000, 1.5, 1.5)
-    geoms, table = polygons.anomaly_features(score, 3.0, tr, "polygon")
+    labels, table = polygons.label_anomalies(score, threshold=3.0)
+    outlines = label_polygons(labels, tr)
+    geoms = [outlines[i] for i in table["id"]]
     assert len(geoms) == 2
     assert sorted(table["n_pixels"]) == [2, 6]
     assert geoms[0].area == pytest.approx(6 * 1.5 * 1.5)
     i = int(np.argmax(table["score_max"]))
     assert (table["row"][i], table["col"][i]) == (20, 20)
+    points = pixel_points(table["row"], table["col"], tr)
+    assert (points[i].x, points[i].y) == (600000 + 20.5 * 1.5, 3500000 - 20.5 * 1.5)
+    # Invalid pixels are never flagged; small groups are dropped.
+    valid = np.ones(score.shape, bool)
+    valid[20, 20] = False
+    _, t2 = polygons.label_anomalies(score, valid, threshold=3.0, min_pixels=2)
+    assert list(t2["n_pixels"]) == [6]
     from rasterio.crs import CRS
 
     path = str(tmp_path / "a.gpkg")
-    polygons.write_gpkg(path, geoms, table, crs=CRS.from_epsg(32636))
-    assert polygons.read_gpkg_count(path) == 2
+    write_vector(
+        path,
+        geoms,
+        {k: table[k] for k in polygons.FIELDS},
+        crs=CRS.from_epsg(32636),
+        layer="anomalies",
+    )
+    assert count_features(path, "anomalies") == 2
     pyogrio = pytest.importorskip("pyogrio")
     info = pyogrio.read_info(path)
     assert info["features"] == 2 and "32636" in info["crs"]
@@ -289,3 +308,225 @@ def test_boresight_indicator_local_window_against_median_filter():
     assert loc.anomalies[12, 5] and not glob.anomalies[12, 5]
     with pytest.raises(ParameterError, match="odd"):
         indicator.boresight_indicator(ratio, window=4)
+
+
+# --- the streamed kernels, window by window against one whole-array call ----------------
+
+
+def _reader(*arrays):
+    """``read(r0, r1)`` over in-memory arrays, as io.band_reader/Cube.reader read files."""
+
+    def read(r0, r1):
+        return tuple(a[..., r0:r1, :] for a in arrays)
+
+    return read
+
+
+def _valid(shape, seed=3):
+    valid = np.random.default_rng(seed).random(shape) > 0.05
+    valid[0, :4] = False
+    return valid
+
+
+def _stitch(results, shape, dtype=float):
+    out = np.full(shape, np.nan, dtype=dtype)
+    for win, part in results:
+        out[..., win.row_off : win.row_off + win.height, :] = part
+    return out
+
+
+@pytest.mark.parametrize("block_rows", [1, 7, 16, 40])
+def test_rx_by_strips_in_two_workers_equals_whole(block_rows):
+    cube = _cube(rows=40)  # int16, as read in the files' own type
+    valid = _valid(cube.shape[1:])
+    k, rows, cols = cube.shape
+    strips = {"height": rows, "width": cols, "block_rows": block_rows, "workers": 2}
+    # Pass 1: the covariance accumulated over strips from two threads.
+    acc = rxmod.CovarianceAccumulator(
+        k, shift=rxmod.CovarianceAccumulator.strip_shift(cube[:, :block_rows], valid[:block_rows])
+    )
+    for _ in io.map_windows(_reader(cube, valid), acc.add_cube, **strips):
+        pass
+    stats = acc.stats()
+    whole_stats = rxmod.background_stats([(cube, valid)], k)
+    assert stats.n == whole_stats.n == valid.sum()
+    np.testing.assert_allclose(stats.mean, whole_stats.mean, rtol=1e-13)
+    np.testing.assert_allclose(stats.cov, whole_stats.cov, rtol=1e-11)
+    # Pass 2: scores by strips from two threads, against one call on the whole cube.
+    det = rxmod.RXDetector(stats)
+    for precision, rtol in (("float64", 1e-12), ("float32", 1e-5)):
+        got = _stitch(
+            io.map_windows(
+                _reader(cube, valid),
+                lambda d, v, precision=precision: det.score_cube(d, v, precision),
+                **strips,
+            ),
+            (rows, cols),
+        )
+        whole = det.score_cube(cube, valid, precision)
+        np.testing.assert_array_equal(np.isnan(got), ~valid)
+        np.testing.assert_allclose(got[valid], whole[valid], rtol=rtol)
+    np.testing.assert_allclose(
+        _stitch(
+            io.map_windows(_reader(cube, valid), lambda d, v: det.score_cube(d, v), **strips),
+            (rows, cols),
+        ),
+        rxmod.rx(cube, valid),
+        rtol=1e-9,
+    )
+
+
+@pytest.mark.parametrize("block_rows", [1, 4, 11, 30])
+@pytest.mark.parametrize(("inner", "outer"), [(3, 9), (1, 5), (5, 11)])
+def test_local_rx_by_strips_with_halo_equals_whole(block_rows, inner, outer):
+    """Windows are shifted to stay inside the image (as SPy's), so the first and last lines
+    reach outer - 1 lines away: that is the halo (outer // 2 is not enough there)."""
+    cube = _cube(k=10, rows=30, cols=24).astype(np.float64)
+    valid = _valid(cube.shape[1:])
+    det = rxmod.RXDetector(rxmod.background_stats([(cube, valid)], 10))
+    whole = rxmod.local_rx(cube, det, inner, outer, valid)
+
+    def score(data, ok, block):
+        return rxmod.local_rx(
+            data, det, inner, outer, ok, first_row=block.row0, height=block.height, rows=block.rows
+        )
+
+    got = _stitch(
+        io.map_windows(
+            _reader(cube, valid),
+            score,
+            height=30,
+            width=24,
+            block_rows=block_rows,
+            halo=(outer - 1, outer - 1),
+            pass_block=True,
+            workers=2,
+        ),
+        (30, 24),
+    )
+    np.testing.assert_array_equal(np.isnan(got), np.isnan(whole))
+    np.testing.assert_allclose(got, whole, rtol=1e-12)
+    if block_rows <= outer // 2:
+        with pytest.raises(ParameterError, match="margin"):
+            list(
+                io.map_windows(
+                    _reader(cube, valid),
+                    score,
+                    height=30,
+                    width=24,
+                    block_rows=block_rows,
+                    halo=(outer // 2, outer // 2),
+                    pass_block=True,
+                )
+            )
+
+
+@pytest.mark.parametrize("block_rows", [1, 6, 17, 50])
+@pytest.mark.parametrize(("window", "tail"), [(0, "both"), (5, "high"), (3, "low"), (7, "both")])
+def test_indicator_by_strips_equals_whole(block_rows, window, tail):
+    """The operation's passes: the valid values by strips, the local residual with
+    window // 2 lines of halo and the scene's median as fill, then the score by strips."""
+    rng = np.random.default_rng(9)
+    ratio = (
+        np.where(np.arange(40)[None, :] < 20, 1.0, 1.3) + rng.normal(0, 0.01, (50, 40))
+    ).astype(np.float32)
+    ratio[12, 5] += 0.06
+    valid = _valid(ratio.shape)
+    whole = indicator.boresight_indicator(ratio, valid, threshold=3.0, tail=tail, window=window)
+    strips = {"height": 50, "width": 40, "block_rows": block_rows}
+    read = _reader(ratio, valid)
+    values = np.concatenate([v for _, v in io.map_windows(read, indicator.valid_values, **strips)])
+    fill, halo = None, (0, 0)
+    if window:
+        fill, halo = float(np.median(values)), (window // 2, window // 2)
+
+        def residual(r, ok):
+            return indicator.local_residual(r, ok, window=window, fill=fill)
+
+        values = np.concatenate(
+            [
+                indicator.valid_values(x)
+                for _, x in io.map_windows(read, residual, **strips, halo=halo)
+            ]
+        )
+    median, sigma = indicator.robust_location(values)
+    assert (median, sigma) == pytest.approx((whole.median, whole.sigma), rel=1e-12, abs=1e-15)
+
+    def score(r, ok):
+        x = indicator.local_residual(r, ok, window=window, fill=fill) if window else r
+        return indicator.indicator_score(x, ok, median=median, sigma=sigma, tail=tail)
+
+    got = _stitch(io.map_windows(read, score, **strips, halo=halo), (50, 40), np.float32)
+    np.testing.assert_allclose(got, whole.score, rtol=1e-6, atol=1e-6)
+    np.testing.assert_array_equal(np.isnan(got), np.isnan(whole.score))
+
+
+@pytest.mark.parametrize("block_rows", [1, 9, 40])
+def test_svdd_sample_and_scores_by_strips_equal_whole(block_rows):
+    cube = _cube(k=12, rows=40, cols=30)
+    valid = _valid(cube.shape[1:])
+    rng = np.random.default_rng(0)
+    positions = svdd.sample_positions(40 * 30, 200, rng)
+    assert positions.size == 310 and np.all(np.diff(positions) > 0)
+    strips = {"height": 40, "width": 30, "block_rows": block_rows}
+
+    def pick(d, v, block):
+        return svdd.pixels_at(d, v, positions=positions, start=block.window.row_off * 30)
+
+    picked = np.concatenate(
+        [p for _, p in io.map_windows(_reader(cube, valid), pick, **strips, pass_block=True)]
+    )
+    whole = svdd.pixels_at(cube, valid, positions=positions, start=0)
+    np.testing.assert_array_equal(picked, whole)
+    keep = valid.ravel()[positions]
+    np.testing.assert_array_equal(whole, cube.reshape(12, -1)[:, positions[keep]].T)
+    sample = svdd.keep_at_most(picked, 200, rng)
+    assert sample.shape == (200, 12)
+    model = svdd.fit_svdd(sample, nu=0.05)
+    got = _stitch(
+        io.map_windows(_reader(cube, valid), model.score_cube, **strips, workers=2), (40, 30)
+    )
+    np.testing.assert_allclose(got, model.score_cube(cube, valid), rtol=1e-10, atol=1e-12)
+
+
+@pytest.mark.parametrize("block_rows", [1, 7, 20])
+def test_unmix_by_strips_equals_whole(block_rows):
+    E, X = _mixtures(N=3, k=20, n=20 * 16)
+    cube = X.reshape(20, 20, 16)
+    valid = _valid((20, 16))
+    whole = unmix.unmix_cube(cube, valid, endmembers=E, method="fcls", scale=2.0)
+    assert whole.shape == (4, 20, 16)
+    A, res = unmix.unmix(X[:, valid.ravel()] * 2.0, E, "fcls")
+    np.testing.assert_array_equal(whole[:3][:, valid], A)
+    np.testing.assert_array_equal(whole[3][valid], res)
+    assert np.isnan(whole[:, ~valid]).all()
+    got = _stitch(
+        io.map_windows(
+            _reader(cube, valid),
+            lambda d, v: unmix.unmix_cube(d, v, endmembers=E, method="fcls", scale=2.0),
+            height=20,
+            width=16,
+            block_rows=block_rows,
+            workers=2,
+        ),
+        (4, 20, 16),
+    )
+    np.testing.assert_allclose(got, whole, rtol=1e-12, atol=1e-14)
+
+
+def test_endmember_csv_and_selection(tmp_path):
+    path = tmp_path / "lib.csv"
+    path.write_text(
+        "wavelength_nm,fwhm_nm,soil,grass\n0.50,6.5,0.2,0.05\n0.40,6.5,0.1,0.04\n0.60,6.5,0.3,0.1\n"
+    )
+    wl, spectra, names = read_spectral_library(path)
+    assert names == ["soil", "grass"]  # the band-width column is not a material
+    np.testing.assert_allclose(wl, [400.0, 500.0, 600.0])  # µm → nm, sorted
+    np.testing.assert_allclose(spectra, [[0.1, 0.2, 0.3], [0.04, 0.05, 0.1]])
+    picked, chosen = unmix.select_endmembers(spectra, names, ["grass"])
+    assert chosen == ["grass"] and np.array_equal(picked, spectra[[1]])
+    assert unmix.select_endmembers(spectra, names, ["", ""])[1] == names
+    with pytest.raises(InputError, match=r"tree not in the library \(it has: soil, grass\)"):
+        unmix.select_endmembers(spectra, names, ["soil", "tree"])
+    with pytest.raises(InputError, match="does not exist"):
+        read_spectral_library(tmp_path / "missing.csv")

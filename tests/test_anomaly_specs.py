@@ -11,10 +11,13 @@ from rasterio.crs import CRS
 from rasterio.transform import from_origin
 from sklearn.svm import OneClassSVM
 
-from geoboresight.algorithms import get
+from geoboresight.algorithms.anomaly import ALGORITHMS
 from geoboresight.errors import InputError
 from geoboresight.io import write_envi
 from geoboresight.io.cube import open_cube
+
+#: The anomaly specs (the same objects as ``geoboresight.algorithms.get(name)``).
+get = {alg.name: alg for alg in ALGORITHMS}.__getitem__
 
 TR = from_origin(700000, 3600000, 1.5, 1.5)
 WL = np.linspace(400, 2450, 24)
@@ -91,7 +94,7 @@ def test_cancelling_threaded_rx_leaves_no_output_and_restores_blas(tmp_path, sto
         callback=lambda f, m: calls.append(f), is_cancelled=lambda: len(calls) >= stop_after
     )
     with pytest.raises(Cancelled):
-        get("rx")(image=path, exclude_nm="", block_rows=4, output=out, progress=progress)
+        get("rx")(vnir=path, exclude_nm="", block_rows=4, output=out, progress=progress)
     left = {f for f in os.listdir(tmp_path) if not f.startswith("cube_bil.")}
     assert not os.path.exists(out) and not left  # no output, no temporary file
     assert [i["num_threads"] for i in threadpool_info()] == threads
@@ -100,7 +103,7 @@ def test_cancelling_threaded_rx_leaves_no_output_and_restores_blas(tmp_path, sto
 def test_rx_spec_equals_spectral_and_carries_georeference(tmp_path):
     path, cube = _scene(tmp_path, nodata=-1)
     out = str(tmp_path / "rx.tif")
-    get("rx")(image=path, exclude_nm="", block_rows=7, output=out)
+    get("rx")(vnir=path, exclude_nm="", block_rows=7, output=out)
     with rasterio.open(out) as src:
         assert src.crs == CRS.from_epsg(32636) and src.transform == TR
         score = src.read(1, masked=True)
@@ -115,14 +118,14 @@ def test_rx_spec_equals_spectral_and_carries_georeference(tmp_path):
 def test_local_rx_and_svdd_specs(tmp_path):
     path, cube = _scene(tmp_path)
     out = str(tmp_path / "lrx.tif")
-    get("rx")(image=path, exclude_nm="", mode="local", inner=3, outer=9, block_rows=10, output=out)
+    get("rx")(vnir=path, exclude_nm="", mode="local", inner=3, outer=9, block_rows=10, output=out)
     with rasterio.open(out) as src:
         lrx = src.read(1)
     X = cube.transpose(1, 2, 0).astype(float)
     C = spectral.calc_stats(X).cov
     np.testing.assert_allclose(lrx, spectral.rx(X, window=(3, 9), cov=C), rtol=2e-6)
     out = str(tmp_path / "svdd.tif")
-    res = get("svdd")(image=path, exclude_nm="", sample_size=400, nu=0.05, block_rows=9, output=out)
+    res = get("svdd")(vnir=path, exclude_nm="", sample_size=400, nu=0.05, block_rows=9, output=out)
     with rasterio.open(out) as src:
         s = src.read(1)
         assert src.tags()["SIGMA"] and src.crs == CRS.from_epsg(32636)
@@ -152,7 +155,7 @@ def test_unmix_spec_with_csv_library(tmp_path):
     img = str(tmp_path / "refl.img")
     write_envi(img, cube, WL, np.full(WL.size, 12.0))
     out = str(tmp_path / "ab.tif")
-    get("unmix")(image=img, endmembers=lib, exclude_nm="", image_scale=1e-4, output=out)
+    get("unmix")(vnir=img, endmembers=lib, exclude_nm="", image_scale=1e-4, output=out)
     with rasterio.open(out) as src:
         assert src.count == 4 and src.crs is None  # raw geometry stays raw
         ab = src.read()
@@ -169,7 +172,7 @@ def test_unmix_spec_with_csv_library(tmp_path):
     )
     out2 = str(tmp_path / "ab2.tif")
     with pytest.raises(InputError, match="not covered"):
-        get("unmix")(image=img, endmembers=short, exclude_nm="", output=out2)
+        get("unmix")(vnir=img, endmembers=short, exclude_nm="", output=out2)
     assert not os.path.exists(out2)
 
 
@@ -217,9 +220,9 @@ def test_singular_covariance_spec_error_leaves_no_output(tmp_path):
     write_envi(str(tmp_path / "flat.img"), cube, WL)
     out = str(tmp_path / "rx.tif")
     with pytest.raises(InputError, match=rf"constant.*band 4 \({WL[3]:.1f} nm\)"):
-        get("rx")(image=str(tmp_path / "flat.img"), exclude_nm="", output=out)
+        get("rx")(vnir=str(tmp_path / "flat.img"), exclude_nm="", output=out)
     assert not os.path.exists(out)
-    get("rx")(image=str(tmp_path / "flat.img"), exclude_nm="", regularize=1e-6, output=out)
+    get("rx")(vnir=str(tmp_path / "flat.img"), exclude_nm="", regularize=1e-6, output=out)
     assert os.path.exists(out)
 
 
@@ -232,3 +235,97 @@ def test_svdd_sample_is_what_sklearn_scores(tmp_path):
     model = fit_svdd(X[:, ::3].T, nu=0.02)
     ref = OneClassSVM(kernel="rbf", gamma=model.gamma, nu=0.02, tol=1e-4).fit(X[:, ::3].T)
     np.testing.assert_allclose(model.decision(X), ref.decision_function(X.T), rtol=1e-9, atol=1e-12)
+
+
+def test_operations_are_the_specs_and_the_former_image_name_still_works(tmp_path):
+    from geoboresight.operations.anomaly import rx_file
+
+    path, cube = _scene(tmp_path)
+    a, b, c = (str(tmp_path / f"{n}.tif") for n in "abc")
+    assert get("rx").run is rx_file
+    rx_file(path, output=a, exclude_nm="", block_rows=5)
+    get("rx")(image=path, exclude_nm="", output=b)  # the former parameter name
+    get("rx")(vnir=path, exclude_nm="", output=c, block_rows=48)
+    with rasterio.open(a) as ra, rasterio.open(b) as rb, rasterio.open(c) as rc:
+        np.testing.assert_array_equal(ra.read(), rb.read())
+        np.testing.assert_allclose(ra.read(), rc.read(), rtol=1e-6)
+    with pytest.raises(Exception, match="former name"):
+        get("rx")(vnir=path, image=path, output=str(tmp_path / "d.tif"))
+
+
+def test_local_rx_spec_on_a_height_that_leaves_a_one_line_strip(tmp_path):
+    # 33 lines in strips of 16: the last strip is one line, whose shifted window reaches
+    # outer - 1 lines above it.
+    rng = np.random.default_rng(2)
+    k = 8
+    cube = (1000 + rng.normal(0, 30, (k, 33, 20))).astype(np.int16)
+    path = str(tmp_path / "c33.img")
+    write_envi(path, cube, np.linspace(400, 900, k))
+    out = str(tmp_path / "lrx.tif")
+    get("rx")(vnir=path, exclude_nm="", mode="local", inner=3, outer=17, output=out)
+    with rasterio.open(out) as src:
+        lrx = src.read(1)
+    X = cube.transpose(1, 2, 0).astype(float)
+    ref = spectral.rx(X, window=(3, 17), cov=spectral.calc_stats(X).cov)
+    np.testing.assert_allclose(lrx, ref, rtol=2e-6)
+
+
+@pytest.mark.parametrize(("window", "tail"), [(0, "both"), (5, "high")])
+def test_indicator_operation_by_strips_equals_the_kernel(tmp_path, window, tail):
+    from geoboresight.anomaly.indicator import boresight_indicator
+    from geoboresight.io import write_raster
+    from geoboresight.operations.anomaly import boresight_indicator_file
+
+    rng = np.random.default_rng(6)
+    ratio = (
+        np.where(np.arange(30)[None, :] < 15, 1.0, 1.2) + rng.normal(0, 0.01, (45, 30))
+    ).astype(np.float32)
+    ratio[20, 4] += 0.05
+    ratio[0, :3] = -9999
+    rp = str(tmp_path / "ratio.tif")
+    write_raster(rp, ratio, crs=CRS.from_epsg(32636), transform=TR)
+    valid = ratio != -9999
+    whole = boresight_indicator(ratio, valid, threshold=2.5, tail=tail, window=window)
+    sp, mp = str(tmp_path / "s.tif"), str(tmp_path / "m.tif")
+    res = boresight_indicator_file(
+        rp, output=sp, anomalies=mp, threshold=2.5, tail=tail, window=window, block_rows=4
+    )
+    assert res["count"] == whole.count and res["median"] == pytest.approx(whole.median)
+    assert res["robust_sigma"] == pytest.approx(whole.sigma, rel=1e-12)
+    with rasterio.open(sp) as s, rasterio.open(mp) as m:
+        score = s.read(1)
+        mask = m.read(1)
+        assert s.transform == TR and float(s.tags()["THRESHOLD"]) == 2.5
+    np.testing.assert_allclose(score[valid], whole.score[valid], rtol=1e-6)
+    assert (score[~valid] == -9999).all() and (mask[~valid] == 255).all()
+    np.testing.assert_array_equal(mask[valid], whole.anomalies[valid])
+
+
+def test_roc_scores_separated_by_commas_on_the_command_line(tmp_path):
+    from click.testing import CliRunner
+
+    from geoboresight.cli import main
+    from geoboresight.io import write_raster
+
+    rng = np.random.default_rng(1)
+    truth = np.zeros((30, 20), np.float32)
+    truth[[3, 12, 25], [4, 10, 15]] = 0.2
+    a = (rng.normal(size=truth.shape) + 40 * truth).astype(np.float32)
+    b = rng.normal(size=truth.shape).astype(np.float32)
+    paths = [str(tmp_path / n) for n in ("truth.tif", "good.tif", "noise.tif")]
+    for p, x in zip(paths, (truth, a, b), strict=True):
+        write_raster(p, x)
+    png, csv = str(tmp_path / "roc.png"), str(tmp_path / "roc.csv")
+    args = ["roc", "--truth", paths[0], "-o", png, "--csv", csv, "--json"]
+    one = CliRunner().invoke(main, [*args, "--scores", f"{paths[1]},{paths[2]}"])
+    assert one.exit_code == 0, one.output
+    import json
+
+    result = json.loads(one.output[one.output.index("{") :])
+    assert set(result) >= {"auc_good", "auc_noise"}
+    assert result["auc_good"] > 0.99 > result["auc_noise"]
+    two = CliRunner().invoke(
+        main, [*args, "--overwrite", "--scores", paths[1], "--scores", paths[2]]
+    )
+    assert two.exit_code == 0, two.output
+    assert json.loads(two.output[two.output.index("{") :]) == result

@@ -1,23 +1,28 @@
 """Specs: sub-pixel anomaly detection and unmixing (paper §3.3): RX, SVDD, the boresight
 indicator, linear unmixing, ROC curves and anomaly polygons.
 
-Kernel modules are imported inside the run functions: listing the operations (the registry)
-and running RX then load neither scikit-learn, matplotlib, shapely nor SciPy's image module.
+Declarations only; the work is done by :mod:`geoboresight.operations.anomaly`.
 """
 
 from __future__ import annotations
 
-import os
-
-import numpy as np
-
-from .. import io
-from ..anomaly.bands import WATER_BANDS_NM, select_bands
-from ..anomaly.indicator import TAILS
+from ..anomaly.bands import WATER_BANDS_NM
+from ..anomaly.indicator import TAILS, THRESHOLD
+from ..anomaly.polygons import GEOMETRIES
+from ..anomaly.roc import PFA, TITLE
+from ..anomaly.rx import INNER, MODES, OUTER, PRECISIONS
+from ..anomaly.svdd import NU, SAMPLE_SIZE
 from ..anomaly.unmix import METHODS
-from ..errors import InputError, ParameterError
-from ..io.cube import open_cube
-from ._common import block_rows, sample_size, seed
+from ..operations.anomaly import (
+    CUBE_BLOCK_ROWS,
+    anomaly_polygons_file,
+    boresight_indicator_file,
+    roc_file,
+    rx_file,
+    svdd_file,
+    unmix_file,
+)
+from ._common import BLOCK_ROWS, block_rows, sample_size, seed
 from .spec import (
     Algorithm,
     Enum,
@@ -33,12 +38,13 @@ from .spec import (
 
 IMAGE_PARAMS = (
     RasterIn(
-        name="image",
-        description="Hyperspectral image (ENVI .hdr/.img or GeoTIFF): a merged cube, or the VNIR file",
+        name="vnir",
+        description="Hyperspectral image (ENVI .hdr/.img or GeoTIFF): the merged VNIR+SWIR cube, or the VNIR file",
+        aliases=("image",),
     ),
     RasterIn(
         name="swir",
-        description="SWIR file on the same pixel grid, stacked after the image's bands (optional)",
+        description="SWIR file on the same pixel grid, stacked after the VNIR bands (optional)",
         optional=True,
     ),
     Text(
@@ -55,105 +61,8 @@ IMAGE_PARAMS = (
     ),
 )
 
-# 16 lines of a 286-sample AISA line = 4,576 pixels: a strip's float buffers stay within a few
-# MB (cache-friendly, and memory is a few strips per worker thread).
-BLOCK_ROWS = block_rows(16)
-
-
-def _open_image(values):
-    paths = [values["image"]] + ([values["swir"]] if values.get("swir") else [])
-    cube = open_cube(paths)
-    bands = select_bands(
-        cube.wavelengths, cube.count, values.get("include_nm"), values.get("exclude_nm")
-    )
-    wl = None if cube.wavelengths is None else cube.wavelengths[bands]
-    return cube, bands, wl
-
-
-def _strips(cube, bands, block_rows, dtype="float64"):
-    buf = None
-    for win in cube.windows(block_rows):
-        r0, r1 = win.row_off, win.row_off + win.height
-        data, valid = cube.read(r0, r1, bands, dtype, out=buf)
-        if buf is None:
-            buf = data
-        yield win, data, valid
-
-
-def _band_tags(wl, bands):
-    return {
-        "bands_used": ",".join(str(int(b) + 1) for b in bands),
-        "wavelengths_used_nm": "" if wl is None else ",".join(f"{w:.1f}" for w in wl),
-    }
-
-
-# --- RX ----------------------------------------------------------------------------------
-
-
-def _run_rx(values, progress):
-    from ..anomaly import rx as rxmod
-
-    cube, bands, wl = _open_image(values)
-    with cube:
-        rows = values["block_rows"]
-        nwin = -(-cube.height // rows)
-        precision = values["precision"]
-        # Pass 1: mean and covariance in one pass, strips in the files' own type (no float copy);
-        # the shift comes from the first strip so that the sums do not depend on thread timing.
-        first, first_valid = cube.read(0, min(rows, cube.height), bands, None)
-        acc = rxmod.CovarianceAccumulator(
-            len(bands), shift=rxmod.CovarianceAccumulator.strip_shift(first, first_valid)
-        )
-        del first, first_valid
-        p1 = progress.sub(0.0, 0.5)
-        for i, _ in enumerate(cube.map_strips(acc.add_cube, rows, bands)):
-            p1.update((i + 1) / nwin, "RX: background statistics")
-        stats = acc.stats()
-        det = rxmod.RXDetector(stats, values["regularize"], wavelengths=wl, band_numbers=bands + 1)
-        progress.info(f"RX on {len(bands)} bands, {stats.n} background pixels")
-        tags = {
-            "product": "RX anomaly score (squared Mahalanobis distance; paper §3.3)",
-            **_band_tags(wl, bands),
-        }
-        local = values["mode"] == "local"
-        if local:
-            tags["window"] = f"inner {values['inner']} px, outer {values['outer']} px"
-            h = values["outer"] // 2
-
-            def local_score(win):
-                a, b = win.row_off, win.row_off + win.height
-                e0, e1 = max(0, a - h), min(cube.height, b + h)
-                ext, ext_valid = cube.read(e0, e1, bands, "float64")
-                return rxmod.local_rx(
-                    ext,
-                    det,
-                    values["inner"],
-                    values["outer"],
-                    ext_valid,
-                    first_row=e0,
-                    height=cube.height,
-                    rows=(a, b),
-                    precision=precision,
-                )
-
-            scored = ((win, local_score(win)) for win in cube.windows(rows))
-        else:
-            scored = cube.map_strips(
-                lambda data, valid: det.score_cube(data, valid, precision), rows, bands
-            )
-        p2 = progress.sub(0.5, 1.0)
-        with io.create_raster(
-            values["output"], cube.grid, tags=tags, band_names=["RX score"]
-        ) as dst:
-            for i, (win, score) in enumerate(scored):
-                dst.write(
-                    np.where(np.isfinite(score), score, io.FLOAT_NODATA).astype("float32"),
-                    1,
-                    window=win,
-                )
-                p2.update((i + 1) / nwin, "RX: scoring")
-    return {"output": values["output"], "bands": len(bands), "background_pixels": stats.n}
-
+#: Per-pixel spectral work reads every band of a strip: few lines at a time.
+CUBE_BLOCK = block_rows(CUBE_BLOCK_ROWS)
 
 RX = Algorithm(
     name="rx",
@@ -179,13 +88,13 @@ RX = Algorithm(
         Enum(
             name="mode",
             description="Global (scene mean) or local (windowed mean) RX",
-            choices=("global", "local"),
+            choices=MODES,
             default="global",
         ),
         Number(
             name="inner",
             description="Local RX: inner guard window size (odd, pixels)",
-            default=3,
+            default=INNER,
             minimum=1,
             maximum=99,
             integer=True,
@@ -194,7 +103,7 @@ RX = Algorithm(
         Number(
             name="outer",
             description="Local RX: outer window size (odd, pixels)",
-            default=17,
+            default=OUTER,
             minimum=3,
             maximum=301,
             integer=True,
@@ -211,74 +120,15 @@ RX = Algorithm(
         Enum(
             name="precision",
             description="Arithmetic of the scoring pass: float64 (exact) or float32 (about 2× faster)",
-            choices=("float64", "float32"),
+            choices=PRECISIONS,
             default="float64",
             advanced=True,
         ),
-        BLOCK_ROWS,
+        CUBE_BLOCK,
         RasterOut(name="output", description="RX score raster (GeoTIFF)"),
     ),
-    run=_run_rx,
+    run=rx_file,
 )
-
-
-# --- SVDD --------------------------------------------------------------------------------
-
-
-def _run_svdd(values, progress):
-    from ..anomaly import svdd as svddmod
-
-    cube, bands, wl = _open_image(values)
-    with cube:
-        nwin = -(-cube.height // values["block_rows"])
-        # Random pixel positions over the whole image (extra, since some may be nodata).
-        rng = np.random.default_rng(values["seed"])
-        npix = cube.height * cube.width
-        want = values["sample_size"]
-        pos = np.sort(rng.choice(npix, min(npix, int(want * 1.5) + 10), replace=False))
-        picked = []
-        p1 = progress.sub(0.0, 0.2)
-        for i, (win, data, valid) in enumerate(
-            _strips(cube, bands, values["block_rows"], dtype=None)
-        ):
-            a = win.row_off * cube.width
-            lo, hi = np.searchsorted(pos, [a, a + win.height * cube.width])
-            local = pos[lo:hi] - a
-            local = local[valid.ravel()[local]]
-            picked.append(data.reshape(len(bands), -1)[:, local].T.astype(np.float64))
-            p1.update((i + 1) / nwin, "SVDD: background sample")
-        sample = np.concatenate(picked)
-        if len(sample) > want:
-            sample = sample[rng.permutation(len(sample))[:want]]
-        sigma = values["sigma"] or None
-        model = svddmod.fit_svdd(sample, sigma=sigma, nu=values["nu"])
-        progress.info(
-            f"SVDD: {len(sample)} training pixels, σ = {model.sigma:.4g}"
-            f"{' (median pairwise distance)' if sigma is None else ''}, ν = {model.nu}, "
-            f"{len(model.alpha)} support vectors"
-        )
-        tags = {
-            "product": "SVDD anomaly score ||Φ(y)−a||² − R² (RBF kernel; paper Eq. 7–9)",
-            "sigma": f"{model.sigma:.6g}",
-            "nu": model.nu,
-            "support_vectors": len(model.alpha),
-            **_band_tags(wl, bands),
-        }
-        p2 = progress.sub(0.2, 1.0)
-        with io.create_raster(
-            values["output"], cube.grid, tags=tags, band_names=["SVDD score"]
-        ) as dst:
-            # Strips in the files' own type, scored in worker threads (thread-safe model).
-            for i, (win, score) in enumerate(
-                cube.map_strips(model.score_cube, values["block_rows"], bands)
-            ):
-                dst.write(
-                    np.where(np.isfinite(score), score, io.FLOAT_NODATA).astype("float32"),
-                    1,
-                    window=win,
-                )
-                p2.update((i + 1) / nwin, "SVDD: scoring")
-    return {"output": values["output"], "sigma": model.sigma, "support_vectors": len(model.alpha)}
 
 
 SVDD = Algorithm(
@@ -310,68 +160,19 @@ SVDD = Algorithm(
         Number(
             name="nu",
             description="Fraction of background pixels allowed outside the description (0–1)",
-            default=0.01,
+            default=NU,
             minimum=1e-4,
             maximum=1.0,
         ),
         sample_size(
-            "Background pixels drawn at random for training", 1000, 20, 20000, advanced=False
+            "Background pixels drawn at random for training", SAMPLE_SIZE, 20, 20000, advanced=False
         ),
         seed("Random seed for the background sample"),
-        BLOCK_ROWS,
+        CUBE_BLOCK,
         RasterOut(name="output", description="SVDD score raster (GeoTIFF)"),
     ),
-    run=_run_svdd,
+    run=svdd_file,
 )
-
-
-# --- boresight indicator -----------------------------------------------------------------
-
-
-def _read_one(path, label):
-    with io.open_raster(path, label) as src:
-        data, valid = io.read_masked(src, 1)
-        return data, valid, io.grid_of(src)
-
-
-def _run_indicator(values, progress):
-    from ..anomaly import indicator as ind
-
-    ratio, valid, grid = _read_one(values["ratio"], "ratio raster")
-    res = ind.boresight_indicator(
-        ratio, valid, values["threshold"], values["tail"], values["window"]
-    )
-    progress.info(
-        f"boresight ratio median {res.median:.5g}, robust σ {res.sigma:.4g}; "
-        f"{res.count} pixel(s) beyond {res.threshold:g} σ"
-    )
-    tags = {
-        "product": "boresight indicator: robust z-score of the boresight ratio (paper §3.3)",
-        "median": f"{res.median:.8g}",
-        "robust_sigma": f"{res.sigma:.8g}",
-        "tail": values["tail"],
-        "threshold": values["threshold"],
-    }
-    score = np.where(np.isfinite(res.score), res.score, io.FLOAT_NODATA).astype("float32")
-    io.write_raster(values["output"], score, like=grid, tags=tags, band_names=["boresight z-score"])
-    if values.get("anomalies"):
-        mask = np.where(valid, res.anomalies, 255).astype("uint8")
-        io.write_raster(
-            values["anomalies"],
-            mask,
-            like=grid,
-            nodata=255,
-            dtype="uint8",
-            tags=tags,
-            band_names=["anomaly (1) / background (0)"],
-        )
-    return {
-        "output": values["output"],
-        "anomalies": values.get("anomalies"),
-        "count": res.count,
-        "median": res.median,
-        "robust_sigma": res.sigma,
-    }
 
 
 INDICATOR = Algorithm(
@@ -398,7 +199,7 @@ INDICATOR = Algorithm(
         Number(
             name="threshold",
             description="Anomaly threshold on the robust z-score (σ units)",
-            default=3.0,
+            default=THRESHOLD,
             minimum=0.1,
             maximum=100.0,
         ),
@@ -416,63 +217,14 @@ INDICATOR = Algorithm(
             maximum=101,
             integer=True,
         ),
+        BLOCK_ROWS,
         RasterOut(name="output", description="Indicator score raster (GeoTIFF)"),
         RasterOut(
             name="anomalies", description="0/1 anomaly mask (GeoTIFF, optional)", optional=True
         ),
     ),
-    run=_run_indicator,
+    run=boresight_indicator_file,
 )
-
-
-# --- unmixing ----------------------------------------------------------------------------
-
-
-def _run_unmix(values, progress):
-    from ..anomaly import unmix as unmixmod
-
-    wl_lib, spectra, names = unmixmod.read_library(values["endmembers"])
-    wanted = [n.strip() for n in (values.get("names") or "").split(",") if n.strip()]
-    if wanted:
-        missing = [n for n in wanted if n not in names]
-        if missing:
-            raise InputError(
-                f"endmember(s) {', '.join(missing)} not in {values['endmembers']} (it has: {', '.join(names)})"
-            )
-        spectra = spectra[[names.index(n) for n in wanted]]
-        names = wanted
-    cube, bands, wl = _open_image(values)
-    with cube:
-        if wl is None:
-            raise InputError(
-                f"{values['image']} has no wavelength metadata: endmembers cannot be resampled to its bands"
-            )
-        fwhm = None if cube.fwhm is None else cube.fwhm[bands]
-        E = unmixmod.resample(wl_lib, spectra, wl, fwhm, names)
-        unmixmod.check_endmembers(E, names)
-        scale = values["image_scale"]
-        nwin = -(-cube.height // values["block_rows"])
-        tags = {
-            "product": f"linear unmixing ({values['method']}; paper Eq. 10–11)",
-            "endmembers": ",".join(names),
-            "image_scale": scale,
-            **_band_tags(wl, bands),
-        }
-        band_names = [f"abundance {n}" for n in names] + ["residual RMS (phi)"]
-        with io.create_raster(
-            values["output"], cube.grid, count=len(names) + 1, tags=tags, band_names=band_names
-        ) as dst:
-            for i, (win, data, valid) in enumerate(_strips(cube, bands, values["block_rows"])):
-                flat = data.reshape(len(bands), -1)
-                v = valid.ravel()
-                out = np.full((len(names) + 1, flat.shape[1]), io.FLOAT_NODATA, dtype=np.float32)
-                if v.any():
-                    A, res = unmixmod.unmix(flat[:, v] * scale, E, values["method"])
-                    out[:-1, v] = A
-                    out[-1, v] = res
-                dst.write(out.reshape(len(names) + 1, win.height, win.width), window=win)
-                progress.update((i + 1) / nwin, "unmixing")
-    return {"output": values["output"], "endmembers": names}
 
 
 UNMIX = Algorithm(
@@ -518,57 +270,11 @@ UNMIX = Algorithm(
             default=1.0,
             minimum=0.0,
         ),
-        BLOCK_ROWS,
+        CUBE_BLOCK,
         RasterOut(name="output", description="Abundances + residual raster (GeoTIFF)"),
     ),
-    run=_run_unmix,
+    run=unmix_file,
 )
-
-
-# --- ROC ---------------------------------------------------------------------------------
-
-
-def _run_roc(values, progress):
-    from ..anomaly import roc as rocmod
-
-    paths = values["scores"]
-    names = [n.strip() for n in (values.get("names") or "").split(",") if n.strip()]
-    if names and len(names) != len(paths):
-        raise ParameterError(
-            f"parameter 'names': {len(names)} name(s) for {len(paths)} score raster(s)"
-        )
-    names = names or [os.path.splitext(os.path.basename(p))[0] for p in paths]
-    truth, tvalid, grid = _read_one(values["truth"], "truth raster")
-    truth = np.where(tvalid, truth, np.nan)
-    thr = values.get("truth_threshold")
-    targets, background = rocmod.truth_mask(truth, thr, values["guard_px"])
-    curves = {}
-    for i, (name, path) in enumerate(zip(names, paths, strict=True)):
-        s, sv, g = _read_one(path, "score raster")
-        if (g["width"], g["height"]) != (grid["width"], grid["height"]):
-            raise InputError(
-                f"score raster {path} is {g['width']} × {g['height']} but the truth {values['truth']} is "
-                f"{grid['width']} × {grid['height']}: they must share one grid"
-            )
-        try:
-            curves[name] = rocmod.roc_curve(np.where(sv, s, np.nan), targets, background)
-        except InputError as exc:
-            raise InputError(f"{values['truth']}: {exc}") from None
-        progress.update((i + 1) / len(paths), f"ROC {name}")
-    pfa = values["pfa"]
-    with io.atomic_output(values["output"]) as tmp:
-        rocmod.plot_roc(tmp, curves, title=values["title"], pfa_marker=pfa)
-    if values.get("csv"):
-        with io.atomic_output(values["csv"]) as tmp:
-            rocmod.write_curves_csv(tmp, curves)
-    result = {"output": values["output"], "csv": values.get("csv")}
-    for name, c in curves.items():
-        result[f"auc_{name}"] = round(c.auc, 6)
-        result[f"pd_at_pfa_{name}"] = round(c.pd_at(pfa), 6)
-        progress.info(
-            f"{name}: AUC {c.auc:.4f}, Pd {c.pd_at(pfa):.3f} at Pfa {pfa:g} ({c.n_targets} target px)"
-        )
-    return result
 
 
 ROC = Algorithm(
@@ -617,14 +323,14 @@ ROC = Algorithm(
         Number(
             name="pfa",
             description="False-alarm rate at which Pd is reported",
-            default=1e-3,
+            default=PFA,
             minimum=1e-9,
             maximum=1.0,
         ),
         Text(
             name="title",
             description="Figure title",
-            default="ROC: anomaly detectors",
+            default=TITLE,
             optional=True,
         ),
         FileOut(name="output", description="ROC figure (PNG)", extension="png"),
@@ -635,31 +341,8 @@ ROC = Algorithm(
             optional=True,
         ),
     ),
-    run=_run_roc,
+    run=roc_file,
 )
-
-
-# --- polygons ----------------------------------------------------------------------------
-
-
-def _run_polygons(values, progress):
-    from ..anomaly import polygons as poly
-
-    with io.open_raster(values["score"], "score raster") as src:
-        s, sv = io.read_masked(src, 1)
-        crs = src.crs
-        transform = src.transform if io.is_georeferenced(src) else None
-    geoms, table = poly.anomaly_features(
-        np.where(sv, s, np.nan),
-        values["threshold"],
-        transform,
-        values["geometry"],
-        values["min_pixels"],
-    )
-    with io.atomic_output(values["output"]) as tmp:
-        poly.write_gpkg(tmp, geoms, table, crs=crs)
-    progress.info(f"{len(geoms)} anomaly feature(s) at score ≥ {values['threshold']:g}")
-    return {"output": values["output"], "features": len(geoms)}
 
 
 POLYGONS = Algorithm(
@@ -682,7 +365,7 @@ POLYGONS = Algorithm(
         Enum(
             name="geometry",
             description="Polygons (pixel outlines) or points (peak pixel centres)",
-            choices=("polygon", "point"),
+            choices=GEOMETRIES,
             default="polygon",
         ),
         Number(
@@ -694,7 +377,7 @@ POLYGONS = Algorithm(
         ),
         VectorOut(name="output", description="Anomaly layer (GeoPackage)", extension="gpkg"),
     ),
-    run=_run_polygons,
+    run=anomaly_polygons_file,
 )
 
 ALGORITHMS = (RX, SVDD, INDICATOR, UNMIX, ROC, POLYGONS)

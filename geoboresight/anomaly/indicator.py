@@ -8,8 +8,9 @@ z-score against the scene's own distribution,
 
     z = (r − median(r)) / (1.4826 · MAD(r)),
 
-where MAD is the median absolute deviation (1.4826·MAD estimates σ for Gaussian data without
-being pulled by the anomalies themselves), and pixels with |z| (or z, or −z) above a threshold
+where MAD is the median absolute deviation (``scipy.stats.median_abs_deviation`` with
+``scale="normal"``: 1.4826·MAD estimates σ for Gaussian data without being pulled by the
+anomalies themselves), and pixels with |z| (or z, or −z) above a threshold
 are flagged. The threshold default 3 follows the paper's 3σ outlier rule (Table 1).
 
 With ``window`` > 1 the reference is local: ``r`` minus the median of the ratio in a
@@ -17,6 +18,11 @@ With ``window`` > 1 the reference is local: ``r`` minus the median of the ratio 
 sub-pixel target shifts the ratio by much less than the difference between materials (soil,
 grass, trees), so against the whole scene it hides in the spread of the background; against
 its neighbours it stands out.
+
+Streamed over a flight line, the scene's median and MAD come from a first pass
+(:func:`robust_location` of the valid values), then each strip is scored with
+:func:`indicator_score` (and :func:`local_residual`, given ``window // 2`` lines of halo and the
+scene's median as ``fill``): the same numbers as :func:`boresight_indicator` on the whole image.
 """
 
 from __future__ import annotations
@@ -27,8 +33,9 @@ import numpy as np
 
 from ..errors import InputError, ParameterError
 
-MAD_TO_SIGMA = 1.4826
 TAILS = ("both", "high", "low")
+#: Anomaly threshold on the robust z-score (the paper's 3σ rule, Table 1).
+THRESHOLD = 3.0
 
 
 @dataclass(frozen=True)
@@ -41,32 +48,83 @@ class IndicatorResult:
     count: int
 
 
-def robust_zscore(ratio: np.ndarray, valid: np.ndarray | None = None):
-    """(z float32 with NaN where invalid, median, 1.4826·MAD) of a ratio image."""
-    r = np.asarray(ratio, dtype=np.float64)
-    ok = np.isfinite(r) if valid is None else (valid & np.isfinite(r))
-    vals = r[ok]
+def check_options(threshold: float = THRESHOLD, tail: str = "both", window: int = 0) -> None:
+    """Raise :class:`ParameterError` for a threshold ≤ 0, an unknown tail or an even window."""
+    if window and window > 1 and window % 2 == 0:
+        raise ParameterError(f"parameter 'window' must be odd, got {window}")
+    if tail not in TAILS:
+        raise ParameterError(f"parameter 'tail' must be one of {', '.join(TAILS)}, got {tail!r}")
+    if not threshold > 0:
+        raise ParameterError(f"parameter 'threshold' must be > 0, got {threshold}")
+
+
+def robust_location(values: np.ndarray) -> tuple[float, float]:
+    """(median, σ = 1.4826·MAD) of a 1-D array of valid values (the standard deviation when
+    more than half of them share one value)."""
+    from scipy.stats import median_abs_deviation
+
+    vals = np.asarray(values, dtype=np.float64)
     if vals.size < 3:
         raise InputError(f"only {vals.size} valid ratio pixel(s): the indicator needs a scene")
     med = float(np.median(vals))
-    sigma = MAD_TO_SIGMA * float(np.median(np.abs(vals - med)))
+    sigma = float(median_abs_deviation(vals, scale="normal"))
     if sigma <= 0:
         # More than half the pixels share one value: fall back on the standard deviation.
         sigma = float(vals.std())
         if sigma <= 0:
             raise InputError("the boresight ratio is constant over the scene: nothing stands out")
+    return med, sigma
+
+
+def _ok(r: np.ndarray, valid: np.ndarray | None) -> np.ndarray:
+    return np.isfinite(r) if valid is None else (valid & np.isfinite(r))
+
+
+def valid_values(ratio: np.ndarray, valid: np.ndarray | None = None) -> np.ndarray:
+    """The valid, finite values of a ratio array (float64, 1-D)."""
+    r = np.asarray(ratio, dtype=np.float64)
+    return r[_ok(r, valid)]
+
+
+def indicator_score(
+    ratio: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    median: float,
+    sigma: float,
+    tail: str = "both",
+) -> np.ndarray:
+    """float32 score of a ratio (or residual) array against ``median`` and ``sigma``: |z|
+    (tail "both"), z ("high") or −z ("low"); NaN where not valid."""
+    r = np.asarray(ratio, dtype=np.float64)
+    ok = _ok(r, valid)
     z = np.full(r.shape, np.nan, dtype=np.float32)
-    z[ok] = (vals - med) / sigma
-    return z, med, sigma
+    z[ok] = (r[ok] - median) / sigma
+    return np.abs(z) if tail == "both" else (z if tail == "high" else -z)
 
 
-def local_residual(ratio: np.ndarray, valid: np.ndarray | None, window: int) -> np.ndarray:
-    """``ratio`` minus its median over a ``window`` × ``window`` neighbourhood of valid pixels."""
+def robust_zscore(ratio: np.ndarray, valid: np.ndarray | None = None):
+    """(z float32 with NaN where invalid, median, 1.4826·MAD) of a ratio image."""
+    med, sigma = robust_location(valid_values(ratio, valid))
+    return indicator_score(ratio, valid, median=med, sigma=sigma, tail="high"), med, sigma
+
+
+def local_residual(
+    ratio: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    window: int,
+    fill: float | None = None,
+) -> np.ndarray:
+    """``ratio`` minus its median over a ``window`` × ``window`` neighbourhood; NaN where not
+    valid. Invalid pixels enter the median filter as ``fill`` (default: the median of the
+    array's valid values; give the scene's median when filtering a strip)."""
     from scipy import ndimage
 
     r = np.asarray(ratio, dtype=np.float64)
-    ok = np.isfinite(r) if valid is None else (valid & np.isfinite(r))
-    fill = float(np.median(r[ok])) if ok.any() else 0.0
+    ok = _ok(r, valid)
+    if fill is None:
+        fill = float(np.median(r[ok])) if ok.any() else 0.0
     med = ndimage.median_filter(np.where(ok, r, fill), size=window, mode="reflect")
     return np.where(ok, r - med, np.nan)
 
@@ -74,25 +132,21 @@ def local_residual(ratio: np.ndarray, valid: np.ndarray | None, window: int) -> 
 def boresight_indicator(
     ratio: np.ndarray,
     valid: np.ndarray | None = None,
-    threshold: float = 3.0,
+    *,
+    threshold: float = THRESHOLD,
     tail: str = "both",
     window: int = 0,
 ) -> IndicatorResult:
-    """Score and flag boresight-ratio anomalies.
+    """Score and flag boresight-ratio anomalies of a whole image.
 
     ``tail``: "both" scores |z|, "high" scores z (ratio above the reference), "low" scores −z.
     ``window``: 0 or 1 for the scene-wide reference; an odd size (e.g. 5) for a local median.
     """
+    check_options(threshold, tail, window)
     if window and window > 1:
-        if window % 2 == 0:
-            raise ParameterError(f"parameter 'window' must be odd, got {window}")
-        ratio = local_residual(ratio, valid, window)
-    if tail not in TAILS:
-        raise ParameterError(f"parameter 'tail' must be one of {', '.join(TAILS)}, got {tail!r}")
-    if not threshold > 0:
-        raise ParameterError(f"parameter 'threshold' must be > 0, got {threshold}")
-    z, med, sigma = robust_zscore(ratio, valid)
-    score = np.abs(z) if tail == "both" else (z if tail == "high" else -z)
+        ratio = local_residual(ratio, valid, window=window)
+    med, sigma = robust_location(valid_values(ratio, valid))
+    score = indicator_score(ratio, valid, median=med, sigma=sigma, tail=tail)
     with np.errstate(invalid="ignore"):
         flags = score > threshold
     return IndicatorResult(score, flags, med, sigma, float(threshold), int(flags.sum()))

@@ -2,20 +2,25 @@
 
 For a score map and a truth mask, every distinct score is a threshold; Pd is the fraction of
 target pixels at or above it, Pfa the fraction of background pixels at or above it. The curve
-and its area (AUC, trapezoids) are computed exactly as ``sklearn.metrics.roc_curve``
-(``drop_intermediate=False``) and ``roc_auc_score``. Pd at a fixed Pfa is the best Pd among
-thresholds whose Pfa does not exceed it (no interpolation: an achievable operating point).
+is ``sklearn.metrics.roc_curve`` (``drop_intermediate=False``: every threshold kept) and its
+area ``sklearn.metrics.auc`` (trapezoids). Pd at a fixed Pfa is the best Pd among thresholds
+whose Pfa does not exceed it (no interpolation: an achievable operating point).
+
+SciPy's image module, scikit-learn and matplotlib are imported on first use.
 """
 
 from __future__ import annotations
 
-import csv
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
 from ..errors import InputError
+
+#: False-alarm rate at which Pd is reported by default.
+PFA = 1e-3
+#: Default figure title.
+TITLE = "ROC: anomaly detectors"
 
 
 @dataclass(frozen=True)
@@ -43,21 +48,28 @@ class ROC:
 
 
 def truth_mask(
-    truth: np.ndarray, threshold: float | None = None, guard_px: int = 0
+    truth: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    threshold: float | None = None,
+    guard_px: int = 0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(targets, background) masks from a truth mask or an abundance raster.
 
-    ``threshold``: a pixel is a target when its value is ≥ threshold (default: > 0).
-    ``guard_px``: pixels within this distance of a target are neither (excluded from both),
-    as is usual for sub-pixel targets whose signal spills into neighbours.
+    ``valid``: pixels outside it (and non-finite truth values) are neither target nor
+    background. ``threshold``: a pixel is a target when its value is ≥ threshold (default:
+    > 0). ``guard_px``: pixels within this distance of a target are neither, as is usual for
+    sub-pixel targets whose signal spills into neighbours.
     """
     t = np.asarray(truth, dtype=np.float64)
-    ok = np.isfinite(t)
+    ok = np.isfinite(t) if valid is None else (valid & np.isfinite(t))
     with np.errstate(invalid="ignore"):
         targets = (t >= threshold) if threshold is not None else (t > 0)
     targets &= ok
     background = ok & ~targets
     if guard_px > 0:
+        from scipy import ndimage
+
         near = ndimage.binary_dilation(targets, iterations=int(guard_px), structure=np.ones((3, 3)))
         background &= ~near
     return targets, background
@@ -65,10 +77,11 @@ def truth_mask(
 
 def roc_curve(scores: np.ndarray, targets: np.ndarray, background: np.ndarray) -> ROC:
     """ROC of one score map (higher = more anomalous); NaN scores are left out."""
+    from sklearn import metrics
+
     s = np.asarray(scores, dtype=np.float64)
     use = (targets | background) & np.isfinite(s)
     y = targets[use]
-    v = s[use]
     n_pos = int(y.sum())
     n_neg = int(y.size - n_pos)
     if n_pos == 0:
@@ -79,40 +92,17 @@ def roc_curve(scores: np.ndarray, targets: np.ndarray, background: np.ndarray) -
         )
     if n_neg == 0:
         raise InputError("the truth marks every valid pixel as a target: ROC needs background")
-    order = np.argsort(v, kind="mergesort")[::-1]
-    v = v[order]
-    y = y[order]
-    distinct = np.flatnonzero(np.diff(v)) if v.size > 1 else np.array([], int)
-    ends = np.r_[distinct, y.size - 1]
-    tps = np.cumsum(y)[ends]
-    fps = (ends + 1) - tps
-    pd = np.r_[0.0, tps / n_pos]
-    pfa = np.r_[0.0, fps / n_neg]
-    thr = np.r_[np.inf, v[ends]]
-    auc = float(np.sum(np.diff(pfa) * (pd[1:] + pd[:-1]) / 2.0))
-    return ROC(pfa, pd, thr, auc, n_pos, n_neg)
+    pfa, pd, thr = metrics.roc_curve(y, s[use], drop_intermediate=False)
+    return ROC(pfa, pd, thr, float(metrics.auc(pfa, pd)), n_pos, n_neg)
 
 
-def write_curves_csv(path: str, curves: dict[str, ROC], max_points: int = 2000) -> None:
-    """Long-format CSV: detector, pfa, pd, threshold (thinned to ~max_points per detector)."""
-    with open(path, "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["detector", "pfa", "pd", "threshold"])
-        for name, c in curves.items():
-            for i in c.thinned(max_points):
-                w.writerow([name, f"{c.pfa[i]:.8g}", f"{c.pd[i]:.8g}", f"{c.thresholds[i]:.8g}"])
+def roc_figure(curves: dict[str, ROC], title: str = TITLE, pfa_marker: float = PFA):
+    """Pd against Pfa of every detector (linear and logarithmic Pfa), AUC and Pd at
+    ``pfa_marker`` in the legend: a matplotlib Figure (object-oriented API, no pyplot)."""
+    from ..figures import blank_figure
 
-
-def plot_roc(
-    path: str, curves: dict[str, ROC], title: str = "ROC", pfa_marker: float = 1e-3
-) -> None:
-    """One PNG with all detectors' Pd vs Pfa (log Pfa axis), AUC and Pd@Pfa in the legend."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4.4))
+    fig = blank_figure(10, 4.4, dpi=120, layout=None)
+    axes = fig.subplots(1, 2)
     for name, c in curves.items():
         i = c.thinned(4000)
         label = f"{name} (AUC {c.auc:.3f}, Pd {c.pd_at(pfa_marker):.2f} @ Pfa {pfa_marker:g})"
@@ -131,6 +121,8 @@ def plot_roc(
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7, loc="lower right")
     fig.suptitle(title)
+    # Laid out at matplotlib's default 100 dpi, drawn at 120 dpi (as the figure always was).
+    fig.set_dpi(100)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    fig.set_dpi(120)
+    return fig

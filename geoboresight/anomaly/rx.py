@@ -22,6 +22,14 @@ from scipy import linalg
 from ..errors import InputError, ParameterError
 from .bands import band_label
 
+#: Global (scene mean) or local (windowed mean) RX.
+MODES = ("global", "local")
+#: Arithmetic of the scoring pass.
+PRECISIONS = ("float64", "float32")
+#: Local RX: inner guard window and outer window sizes (odd, pixels).
+INNER = 3
+OUTER = 17
+
 
 @dataclass(frozen=True)
 class GaussianStats:
@@ -291,6 +299,7 @@ def _dependent_bands(cov: np.ndarray) -> np.ndarray:
 def rx(
     cube: np.ndarray,
     valid: np.ndarray | None = None,
+    *,
     regularize: float = 0.0,
     precision: str = "float64",
     wavelengths=None,
@@ -313,6 +322,19 @@ def _window_bounds(n: int, size: int, inner: int):
     return o0, o0 + size, i0, i0 + inner
 
 
+def check_windows(inner: int, outer: int, height: int, width: int) -> None:
+    """Raise :class:`ParameterError` unless the local RX windows are odd, inner < outer, and
+    the outer window fits in an image of ``height`` × ``width`` pixels."""
+    if inner % 2 == 0 or outer % 2 == 0 or inner >= outer:
+        raise ParameterError(
+            "local RX windows must be odd sizes with inner < outer (e.g. 3 and 17)"
+        )
+    if outer > height or outer > width:
+        raise ParameterError(
+            f"the outer window ({outer} px) is larger than the image ({height} × {width})"
+        )
+
+
 def local_rx(
     cube: np.ndarray,
     detector: RXDetector,
@@ -333,20 +355,14 @@ def local_rx(
     pixels count.
 
     For strip-wise use: ``cube`` holds image lines ``first_row …`` of an image ``height`` lines
-    tall (include ``outer // 2`` extra lines each side), and ``rows`` = (start, stop) are the
+    tall (include ``outer - 1`` extra lines each side: the windows of the image's first and
+    last lines are shifted inwards, so they reach that far), and ``rows`` = (start, stop) are the
     image lines to score. Returns (stop - start, cols) float64 scores, NaN where not valid.
     """
-    if inner % 2 == 0 or outer % 2 == 0 or inner >= outer:
-        raise ParameterError(
-            "local RX windows must be odd sizes with inner < outer (e.g. 3 and 17)"
-        )
     k, nr, nc = cube.shape
     height = nr if height is None else height
     r0, r1 = rows if rows is not None else (first_row, first_row + nr)
-    if outer > height or outer > nc:
-        raise ParameterError(
-            f"the outer window ({outer} px) is larger than the image ({height} × {nc})"
-        )
+    check_windows(inner, outer, height, nc)
     v = np.ones((nr, nc), bool) if valid is None else valid
     data = np.where(v, cube, 0.0).astype(np.float64)
     # Integral images of the values and of the valid-pixel count.
@@ -357,7 +373,9 @@ def local_rx(
 
     ro0, ro1, ri0, ri1 = (a[r0:r1] - first_row for a in _window_bounds(height, outer, inner))
     if ro0.min() < 0 or ro1.max() > nr:
-        raise ParameterError("local RX strip lacks the outer//2 margin lines it needs")
+        raise ParameterError(
+            "local RX strip lacks the margin lines it needs (outer - 1 above and below)"
+        )
     co0, co1, ci0, ci1 = _window_bounds(nc, outer, inner)
 
     def box(T, a0, a1, b0, b1):

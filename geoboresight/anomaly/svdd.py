@@ -32,6 +32,11 @@ import numpy as np
 
 from ..errors import InputError, ParameterError
 
+#: Fraction of background pixels allowed outside the description (ν).
+NU = 0.01
+#: Background pixels drawn at random for training.
+SAMPLE_SIZE = 1000
+
 
 @dataclass(frozen=True)
 class SVDDModel:
@@ -132,33 +137,39 @@ def median_sigma(sample: np.ndarray, max_pairs: int = 2000, seed: int = 0) -> fl
     return float(np.median(d))
 
 
-def random_sample(blocks, k: int, size: int, total_valid: int, seed: int = 0) -> np.ndarray:
-    """A uniform random sample of ``size`` valid pixels from strips ``(cube, valid)``.
+def sample_positions(n_pixels: int, size: int, rng: np.random.Generator) -> np.ndarray:
+    """Sorted flat positions (line × width + column) of ``1.5 × size + 10`` distinct pixels
+    drawn uniformly from an image of ``n_pixels`` (extra, since some may be nodata)."""
+    return np.sort(rng.choice(n_pixels, min(n_pixels, int(size * 1.5) + 10), replace=False))
 
-    ``total_valid`` is the number of valid pixels over all strips (a first counting pass).
-    Returns (size, k) float64.
-    """
-    if total_valid == 0:
-        raise InputError("no valid pixels to train SVDD on (check nodata)")
-    size = min(size, total_valid)
-    rng = np.random.default_rng(seed)
-    chosen = np.sort(rng.choice(total_valid, size, replace=False))
-    out = np.empty((size, k))
-    seen = filled = 0
-    for cube, valid in blocks:
-        flat = cube.reshape(k, -1)
-        v = np.flatnonzero(valid.ravel()) if valid is not None else np.arange(flat.shape[1])
-        lo, hi = np.searchsorted(chosen, [seen, seen + v.size])
-        if hi > lo:
-            picks = v[chosen[lo:hi] - seen]
-            out[filled : filled + hi - lo] = flat[:, picks].T
-            filled += hi - lo
-        seen += v.size
-    return out[:filled]
+
+def pixels_at(
+    cube: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    positions: np.ndarray,
+    start: int,
+) -> np.ndarray:
+    """(m, k) float64 spectra of the valid pixels of a (k, rows, cols) strip found in the
+    sorted flat image ``positions``; ``start`` is the flat position of the strip's first pixel."""
+    k = cube.shape[0]
+    n = cube.shape[1] * cube.shape[2]
+    lo, hi = np.searchsorted(positions, [start, start + n])
+    local = positions[lo:hi] - start
+    if valid is not None:
+        local = local[valid.ravel()[local]]
+    return cube.reshape(k, -1)[:, local].T.astype(np.float64)
+
+
+def keep_at_most(sample: np.ndarray, size: int, rng: np.random.Generator) -> np.ndarray:
+    """``sample`` (n, k), or ``size`` of its rows drawn at random when it has more."""
+    if len(sample) > size:
+        return sample[rng.permutation(len(sample))[:size]]
+    return sample
 
 
 def fit_svdd(
-    sample: np.ndarray, sigma: float | None = None, nu: float = 0.01, tol: float = 1e-4
+    sample: np.ndarray, sigma: float | None = None, nu: float = NU, tol: float = 1e-4
 ) -> SVDDModel:
     """Train an RBF SVDD on a background sample (n, k) with scikit-learn's OneClassSVM.
 

@@ -1,4 +1,4 @@
-"""Linear spectral unmixing (paper §3.3, Eq. 10–11) and endmember libraries.
+"""Linear spectral unmixing (paper §3.3, Eq. 10–11), and endmember spectra resampled to a sensor.
 
 Eq. 10 models a pixel spectrum as ``ρ(λ) = Σₙ fₙ aₙ(λ) + φ`` with endmember spectra ``aₙ`` and
 abundances ``fₙ``; Eq. 11 constrains them to ``fₙ ≥ 0`` and ``Σ fₙ = 1`` (fully constrained
@@ -17,12 +17,13 @@ the smallest residual. This is exact (not an approximation with a weighted sum-t
 it is practical up to ~12 endmembers, the usual case for ground-spectra libraries.
 
 The residual ``φ`` reported per pixel is the RMS over bands of ``x − Σ fₙ aₙ``.
+
+Endmember libraries (CSV, ENVI .sli) are read by :func:`geoboresight.io.spectra.read_spectral_library`.
 """
 
 from __future__ import annotations
 
 import itertools
-import os
 
 import numpy as np
 
@@ -92,6 +93,48 @@ def unmix(X: np.ndarray, E: np.ndarray, method: str = "fcls", chunk: int = 65536
     return A, res
 
 
+def unmix_cube(
+    cube: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    endmembers: np.ndarray,
+    method: str = "fcls",
+    scale: float = 1.0,
+) -> np.ndarray:
+    """Abundances and residual of a (k, rows, cols) cube: (N + 1, rows, cols) float64, one
+    abundance per endmember then the residual RMS; NaN where not ``valid``.
+
+    ``scale`` turns the cube's values into the endmembers' units (e.g. 0.0001 for
+    reflectance × 10000).
+    """
+    k, rows, cols = cube.shape
+    flat = np.asarray(cube).reshape(k, -1)
+    v = np.ones(flat.shape[1], bool) if valid is None else np.asarray(valid).ravel()
+    out = np.full((len(endmembers) + 1, flat.shape[1]), np.nan)
+    if v.any():
+        A, res = unmix(flat[:, v] * scale, endmembers, method)
+        out[:-1, v] = A
+        out[-1, v] = res
+    return out.reshape(-1, rows, cols)
+
+
+def select_endmembers(spectra: np.ndarray, names, wanted=None) -> tuple[np.ndarray, list[str]]:
+    """The spectra (rows of ``spectra``) named in ``wanted`` (all when empty), in that order.
+
+    Raises :class:`InputError` naming the missing endmembers and the available ones.
+    """
+    names = list(names)
+    wanted = [n for n in (wanted or ()) if n]
+    if not wanted:
+        return np.asarray(spectra), names
+    missing = [n for n in wanted if n not in names]
+    if missing:
+        raise InputError(
+            f"endmember(s) {', '.join(missing)} not in the library (it has: {', '.join(names)})"
+        )
+    return np.asarray(spectra)[[names.index(n) for n in wanted]], wanted
+
+
 def _supports(gram: np.ndarray, method: str):
     """Per support S: (indexes, M (|S|, |S|) acting on g_S, c (|S|,)) so that f_S = M g_S + c."""
     N = gram.shape[0]
@@ -131,94 +174,6 @@ def _best_support(g, xx, gram, supports, N):
             f_best[:, take] = 0.0
             f_best[np.ix_(S, np.flatnonzero(take))] = np.maximum(fS[:, take], 0.0)
     return f_best
-
-
-# --- endmember libraries -------------------------------------------------------------------
-
-
-def read_library(path: str) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """(wavelengths_nm (w,), spectra (N, w), names) from a CSV or an ENVI spectral library.
-
-    CSV: a header row, the first column wavelength (nm, or µm when all values are < 100), one
-    column per endmember (the simulator's ``endmembers.csv``). ENVI: ``.sli`` + ``.hdr`` (or
-    the ``.hdr``), with ``wavelength`` and ``spectra names``.
-    """
-    path = os.fspath(path)
-    if not os.path.exists(path):
-        raise InputError(f"endmember library {path} does not exist: check the path")
-    low = path.lower()
-    if low.endswith(".csv") or low.endswith(".txt"):
-        wl, spectra, names = _read_csv(path)
-    else:
-        wl, spectra, names = _read_sli(path)
-    if wl.size < 2 or not np.all(np.diff(wl) > 0):
-        order = np.argsort(wl)
-        wl, spectra = wl[order], spectra[:, order]
-        if np.any(np.diff(wl) <= 0):
-            raise InputError(f"endmember library {path}: wavelengths must be distinct")
-    if wl.max() < 100:
-        wl = wl * 1000.0
-    return wl, spectra, names
-
-
-def _read_csv(path):
-    import csv
-
-    with open(path, newline="", encoding="utf-8-sig") as f:
-        rows = [r for r in csv.reader(f) if r and any(c.strip() for c in r)]
-    if len(rows) < 3 or len(rows[0]) < 2:
-        raise InputError(
-            f"endmember CSV {path}: expected a header row, then one row per wavelength with "
-            "the wavelength (nm) first and one reflectance column per endmember"
-        )
-    names = [c.strip() for c in rows[0][1:]]
-    try:
-        data = np.array([[float(c) for c in r[: len(names) + 1]] for r in rows[1:]])
-    except ValueError as exc:
-        raise InputError(f"endmember CSV {path}: non-numeric value ({exc})") from None
-    return data[:, 0], data[:, 1:].T.copy(), names
-
-
-def _read_sli(path):
-    stem = os.path.splitext(path)[0]
-    hdr = path if path.lower().endswith(".hdr") else stem + ".hdr"
-    if not os.path.exists(hdr):
-        raise InputError(f"ENVI spectral library {path}: header {hdr} not found")
-    from ..io.cube import _envi_header
-
-    data_path = None
-    for ext in (".sli", ".esl", ".dat", ".img", ""):
-        if os.path.isfile(stem + ext) and not (stem + ext).lower().endswith(".hdr"):
-            data_path = stem + ext
-            break
-    keys = _envi_header(data_path or stem)
-    if keys is None or data_path is None:
-        raise InputError(f"ENVI spectral library {path}: could not find the header and data file")
-    try:
-        samples, lines = int(keys["samples"]), int(keys["lines"])
-        code = int(keys["data type"])
-        offset = int(keys.get("header offset", "0"))
-        big = int(keys.get("byte order", "0")) == 1
-    except (KeyError, ValueError) as exc:
-        raise InputError(f"ENVI spectral library {hdr}: missing header key {exc}") from None
-    from ..io.cube import _ENVI_DTYPES
-
-    dt = np.dtype(_ENVI_DTYPES[code]).newbyteorder(">" if big else "<")
-    spectra = np.fromfile(data_path, dtype=dt, count=samples * lines, offset=offset)
-    spectra = spectra.reshape(lines, samples).astype(np.float64)
-    wl_text = keys.get("wavelength")
-    if not wl_text:
-        raise InputError(f"ENVI spectral library {hdr} has no 'wavelength' list")
-    from ..io.wavelengths import parse_list, unit_scale
-
-    wl = parse_list(wl_text)
-    wl = wl * unit_scale(keys.get("wavelength units"), wl)
-    names_text = keys.get("spectra names", "")
-    names = [s.strip() for s in names_text.strip("{} ").split(",")] if names_text else []
-    if len(names) != lines:
-        names = [f"spectrum {i + 1}" for i in range(lines)]
-    scale = float(keys.get("reflectance scale factor", "1") or 1)
-    return wl, spectra / scale, names
 
 
 def resample(
