@@ -20,27 +20,36 @@ A class table is a CSV (or JSON list of objects) with the columns::
 
 ``class`` 1–254, ``min < max`` (ratios), fractions in 0–1, ``colour`` as ``#rrggbb``. Rows must
 be listed in ratio order (all ascending or all descending) and intervals must not overlap
-(touching ends are fine).
+(touching ends are fine). Reading and writing such files is :mod:`geoboresight.io.shadow`'s job;
+this module validates the rows (:func:`class_from_row`, :func:`validate_classes`) and applies the
+table to arrays.
 """
 
 from __future__ import annotations
 
-import csv
-import io
-import json
 import math
-import os
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError, ParameterError
+from ..errors import ParameterError
 
 #: Class value of pixels with no valid ratio (the class raster's nodata).
 NODATA_CLASS = 255
 #: Class value of valid pixels outside every interval.
 NO_SHADOW = 0
 COLUMNS = ("class", "min", "max", "fraction_min", "fraction_max", "name", "colour")
+#: The shadow mask holds the classes whose shadow fraction starts at or above this.
+MASK_FRACTION = 0.5
+#: Values of a binary shadow mask.
+MASK_SHADOW, MASK_NOT_SHADOW, MASK_NODATA = 1, 0, NODATA_CLASS
+#: Colour table and category names of a binary shadow mask (shadow maroon, as class 1).
+MASK_COLORMAP = {
+    MASK_NOT_SHADOW: (255, 255, 255, 0),
+    MASK_SHADOW: (128, 0, 0, 255),
+    MASK_NODATA: (0, 0, 0, 0),
+}
+MASK_CATEGORIES = {MASK_NOT_SHADOW: "not shadow", MASK_SHADOW: "shadow"}
 
 
 @dataclass(frozen=True)
@@ -85,11 +94,11 @@ class ClassTable:
         """Ids of classes whose shadow fraction is at least ``min_fraction`` (their lower end)."""
         return tuple(c.id for c in self.classes if c.fraction_min >= min_fraction - 1e-9)
 
-    def mask(self, classes: np.ndarray, min_fraction: float) -> np.ndarray:
+    def mask(self, classes: np.ndarray, min_fraction: float = MASK_FRACTION) -> np.ndarray:
         """uint8 binary shadow mask from a class raster: 1 shadow, 0 not, 255 nodata."""
         ids = self.shadow_ids(min_fraction)
         out = np.isin(classes, ids).astype(np.uint8)
-        out[classes == NODATA_CLASS] = NODATA_CLASS
+        out[classes == NODATA_CLASS] = MASK_NODATA
         return out
 
     def colormap(self) -> dict[int, tuple[int, int, int, int]]:
@@ -107,34 +116,17 @@ class ClassTable:
             names[c.id] = c.name
         return names
 
-    def to_csv(self) -> str:
-        buf = io.StringIO()
-        w = csv.writer(buf, lineterminator="\n")
-        w.writerow(COLUMNS)
-        for c in self.classes:
-            w.writerow(
-                [
-                    c.id,
-                    _num(c.min),
-                    _num(c.max),
-                    _num(c.fraction_min),
-                    _num(c.fraction_max),
-                    c.name,
-                    c.hex,
-                ]
-            )
-        return buf.getvalue()
-
     def describe(self) -> str:
         """One line per class, for logs and band metadata."""
         return "; ".join(
-            f"{c.id}: ratio {_num(c.min)}–{_num(c.max)} → {c.fraction_min * 100:g}–"
+            f"{c.id}: ratio {format_ratio(c.min)}–{format_ratio(c.max)} → {c.fraction_min * 100:g}–"
             f"{c.fraction_max * 100:g} % shadow ({c.name})"
             for c in self.classes
         )
 
 
-def _num(x: float) -> str:
+def format_ratio(x: float) -> str:
+    """A ratio bound as written in a class table: ``inf`` or the shortest ``%g`` form."""
     return "inf" if math.isinf(x) else f"{x:g}"
 
 
@@ -166,7 +158,7 @@ def validate_classes(classes, source: str = "class table") -> ClassTable:
             raise ParameterError(f"{where}: min and max must be numbers")
         if not c.min < c.max:
             raise ParameterError(
-                f"{where}: interval {_num(c.min)}–{_num(c.max)} is unordered or empty; "
+                f"{where}: interval {format_ratio(c.min)}–{format_ratio(c.max)} is unordered or empty; "
                 "min must be below max"
             )
         if not (0 <= c.fraction_min <= c.fraction_max <= 1):
@@ -181,15 +173,15 @@ def validate_classes(classes, source: str = "class table") -> ClassTable:
     descending = all(a > b for a, b in zip(mins, mins[1:], strict=False))
     if not (ascending or descending):
         raise ParameterError(
-            f"{source}: rows are not in ratio order (mins {', '.join(map(_num, mins))}); "
+            f"{source}: rows are not in ratio order (mins {', '.join(map(format_ratio, mins))}); "
             "list the intervals from highest to lowest ratio (as Table 2) or lowest to highest"
         )
     ordered = sorted(classes, key=lambda c: c.min)
     for lo, hi in zip(ordered, ordered[1:], strict=False):
         if hi.min < lo.max:
             raise ParameterError(
-                f"{source}: class {lo.id} ({_num(lo.min)}–{_num(lo.max)}) overlaps class "
-                f"{hi.id} ({_num(hi.min)}–{_num(hi.max)}); intervals may touch but not overlap"
+                f"{source}: class {lo.id} ({format_ratio(lo.min)}–{format_ratio(lo.max)}) overlaps class "
+                f"{hi.id} ({format_ratio(hi.min)}–{format_ratio(hi.max)}); intervals may touch but not overlap"
             )
     return ClassTable(classes)
 
@@ -212,7 +204,9 @@ def parse_colour(text: str, where: str) -> tuple[int, int, int]:
     raise ParameterError(f"{where}: colour {text!r} is not '#rrggbb' or 'r,g,b' (0–255)")
 
 
-def _row_to_class(row: dict, where: str) -> ShadowClass:
+def class_from_row(row: dict, where: str) -> ShadowClass:
+    """One class from a table row (column name → text or number); ``where`` names the row in
+    errors. Empty fractions default to 0–1, an empty colour to grey."""
     missing = [k for k in ("class", "min", "max") if str(row.get(k, "")).strip() == ""]
     if missing:
         raise ParameterError(
@@ -249,37 +243,3 @@ def _row_to_class(row: dict, where: str) -> ShadowClass:
         str(row.get("name") or f"class {cid}").strip(),
         parse_colour(colour, where),
     )
-
-
-def read_class_table(path: str | os.PathLike) -> ClassTable:
-    """Read and validate a class table from CSV (header row) or JSON (list of objects)."""
-    path = os.fspath(path)
-    if not os.path.isfile(path):
-        raise InputError(f"class table {path} does not exist: check the path")
-    with open(path, encoding="utf-8-sig") as f:
-        text = f.read()
-    source = f"class table {path}"
-    if path.lower().endswith(".json") or text.lstrip().startswith(("[", "{")):
-        try:
-            data = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise InputError(f"{source} is not valid JSON ({exc})") from None
-        if isinstance(data, dict):
-            data = data.get("classes", [])
-        rows = list(data)
-        classes = [_row_to_class(r, f"{source}, entry {i + 1}") for i, r in enumerate(rows)]
-    else:
-        reader = csv.DictReader(io.StringIO(text))
-        fields = [f.strip().lower() for f in (reader.fieldnames or [])]
-        if "min" not in fields or "max" not in fields or "class" not in fields:
-            raise InputError(
-                f"{source}: the first line must name the columns {','.join(COLUMNS)} "
-                f"(found {','.join(fields) or 'nothing'})"
-            )
-        classes = []
-        for i, raw in enumerate(reader, start=2):
-            row = {(k or "").strip().lower(): (v or "").strip() for k, v in raw.items()}
-            if not any(row.values()):
-                continue
-            classes.append(_row_to_class(row, f"{source}, line {i}"))
-    return validate_classes(classes, source)

@@ -23,6 +23,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError, ParameterError
+from .classes import MASK_NODATA
+
+#: The near-infrared axis of Figure 4 (nm).
+NIR_NM = 941.0
+#: Posterior probability of the shadow component that makes a pixel shadow.
+PROBABILITY = 0.5
+#: Pixels drawn at random from the whole flight line to fit the mixture.
+SAMPLE_SIZE = 50000
 
 
 @dataclass(frozen=True)
@@ -131,7 +139,7 @@ def fit_shadow_cluster(
     ----------
     ratio, nir : arrays of the same shape
         Boresight ratio (Eq. 3) and the VNIR signal near 941 nm: a sample of pixels (the file
-        driver draws a random sample of a large raster; see ``sample_pixels``).
+        operation draws a random sample of a large raster with ``io.sample_windows``).
     valid : bool array, optional
         Pixels to use; non-finite and non-positive values are always left out.
     n_components : int, optional
@@ -202,3 +210,13 @@ def fit_shadow_cluster(
         isolation=isolation,
         shadow_share=share,
     )
+
+
+def shadow_mask(probability: np.ndarray, threshold: float = PROBABILITY) -> np.ndarray:
+    """uint8 shadow mask from :meth:`ShadowCluster.probability`: 1 where the probability
+    reaches ``threshold``, 0 below, 255 where it is NaN (no valid pixel)."""
+    p = np.asarray(probability)
+    ok = np.isfinite(p)
+    with np.errstate(invalid="ignore"):
+        m = np.where(ok, (p >= threshold).astype(np.uint8), MASK_NODATA)
+    return m.astype(np.uint8)

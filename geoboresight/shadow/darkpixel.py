@@ -21,9 +21,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError, ParameterError
+from .classes import MASK_NODATA, MASK_SHADOW
 
 #: Bands (nm) of the matched filter: blue, green, red, NIR.
 DEFAULT_BANDS_NM = (480.0, 550.0, 660.0, 850.0)
+#: Core-shadow candidates are darker than this percentile of the scene (NIR and visible).
+DARK_PERCENTILE = 10.0
+#: Shadow where the shadow function Φ reaches this value.
+THRESHOLD = 0.5
+#: Pixels drawn at random from the whole flight line for the scene statistics.
+SAMPLE_SIZE = 50000
 
 
 @dataclass(frozen=True)
@@ -52,19 +59,19 @@ class DarkPixelModel:
         phi = self.shadow_function(bands, valid)
         out = np.zeros(phi.shape, dtype=np.uint8)
         with np.errstate(invalid="ignore"):
-            out[phi >= self.threshold] = 1
-        out[~np.isfinite(phi)] = 255
+            out[phi >= self.threshold] = MASK_SHADOW
+        out[~np.isfinite(phi)] = MASK_NODATA
         return out
 
 
 def fit_dark_pixel(
     bands: np.ndarray,
-    nir_index: int = -1,
-    vis_indices: tuple[int, ...] | None = None,
     valid: np.ndarray | None = None,
     *,
-    dark_percentile: float = 10.0,
-    threshold: float = 0.5,
+    nir_index: int = -1,
+    vis_indices: tuple[int, ...] | None = None,
+    dark_percentile: float = DARK_PERCENTILE,
+    threshold: float = THRESHOLD,
 ) -> DarkPixelModel:
     """Fit the detector on a sample: ``bands`` is (n_bands, n_pixels) or (n_bands, rows, cols).
 

@@ -44,7 +44,7 @@ class FractionModel:
         return self.slope * np.asarray(fraction) + self.intercept
 
     def fraction(
-        self, ratio: np.ndarray, valid: np.ndarray | None = None, clip: bool = True
+        self, ratio: np.ndarray, valid: np.ndarray | None = None, *, clip: bool = True
     ) -> np.ndarray:
         """Invert the model: ``fraction = (ratio − intercept) / slope`` (float32; NaN invalid).
 
@@ -69,12 +69,12 @@ class FractionModel:
 
 
 def fit_fraction_model(
-    ratio: np.ndarray, fraction: np.ndarray, mask: np.ndarray | None = None
+    ratio: np.ndarray, fraction: np.ndarray, valid: np.ndarray | None = None
 ) -> FractionModel:
-    """Least-squares ``ratio = a · fraction + b`` over the pixels in ``mask`` (Figure 5(B)).
+    """Least-squares ``ratio = a · fraction + b`` over the pixels in ``valid`` (Figure 5(B)).
 
-    ``mask`` selects the detected shadow areas (and valid pixels); non-finite values are left
-    out. Raises InputError when fewer than 3 pixels remain or the fraction does not vary.
+    ``valid`` selects the pixels to fit: the detected shadow areas with a valid ratio and
+    ground truth; non-finite values are always left out. Raises InputError when fewer than 3 pixels remain or the fraction does not vary.
     """
     from scipy.stats import linregress
 
@@ -83,8 +83,8 @@ def fit_fraction_model(
     if r.shape != f.shape:
         raise InputError(f"ratio {r.shape} and shadow fraction {f.shape} differ in shape")
     ok = np.isfinite(r) & np.isfinite(f)
-    if mask is not None:
-        ok &= np.asarray(mask, bool)
+    if valid is not None:
+        ok &= np.asarray(valid, bool)
     if ok.sum() < 3:
         raise InputError(
             f"only {int(ok.sum())} shadow pixels have both a ratio and a ground-truth fraction: "
@@ -118,14 +118,18 @@ class FractionAccumulator:
         self._shift: tuple[float, float] | None = None
         self._s = np.zeros(5)  # Σx, Σy, Σxx, Σyy, Σxy about the shift
 
-    def add(self, ratio: np.ndarray, fraction: np.ndarray, mask: np.ndarray | None = None) -> None:
+    def add(
+        self, ratio: np.ndarray, fraction: np.ndarray, valid: np.ndarray | None = None
+    ) -> FractionAccumulator:
+        """Add the pixels of a block selected by ``valid`` (and finite); returns itself, so it
+        serves as the ``merge`` of :func:`~geoboresight.io.windows.reduce_windows`."""
         r = np.asarray(ratio, dtype=np.float64)
         f = np.asarray(fraction, dtype=np.float64)
         ok = np.isfinite(r) & np.isfinite(f)
-        if mask is not None:
-            ok &= np.asarray(mask, bool)
+        if valid is not None:
+            ok &= np.asarray(valid, bool)
         if not ok.any():
-            return
+            return self
         x, y = f[ok], r[ok]
         if self._shift is None:
             self._shift = (float(x.mean()), float(y.mean()))
@@ -133,6 +137,7 @@ class FractionAccumulator:
         y = y - self._shift[1]
         self._s += [x.sum(), y.sum(), (x * x).sum(), (y * y).sum(), (x * y).sum()]
         self.n += int(ok.sum())
+        return self
 
     def model(self) -> FractionModel:
         n = self.n

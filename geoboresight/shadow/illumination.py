@@ -23,11 +23,24 @@ is taken as the northern edge (image top = north, columns run east).
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
-from rasterio.transform import Affine
 
 from ..errors import ParameterError
+
+#: The first six coefficients of the identity geotransform: no georeferencing.
+IDENTITY = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
+#: Sub-cells per cell side for the shadow fraction.
+SUPERSAMPLE = 4
+#: How the surface between cell centres is modelled → the march's interpolation:
+#: flat-topped blocks (buildings, as GRASS r.sunmask) or smooth terrain.
+SURFACES = {"blocks": "nearest", "smooth": "bilinear"}
+SURFACE = "blocks"
+#: Vertical exaggeration of the hillshade (as ``gdaldem -z``).
+Z_FACTOR = 1.0
+#: A cell is in the shadow mask when its shadow fraction reaches this.
+MASK_FRACTION = 0.5
 
 
 def check_sun(sun_zenith: float, sun_azimuth: float) -> tuple[float, float]:
@@ -49,9 +62,7 @@ def check_sun(sun_zenith: float, sun_azimuth: float) -> tuple[float, float]:
     return z, a % 360.0
 
 
-def grid_matrix(
-    transform: Affine | np.ndarray | None = None, cell_size: float | None = None
-) -> np.ndarray:
+def grid_matrix(transform: Any = None, cell_size: float | None = None) -> np.ndarray:
     """The 2 × 2 matrix taking (Δcol, Δrow) to (Δeast, Δnorth) in ground units.
 
     From the affine ``transform`` when given (rotation allowed), else a north-up grid of square
@@ -59,7 +70,7 @@ def grid_matrix(
     """
     if isinstance(transform, np.ndarray):
         return np.asarray(transform, dtype=float).reshape(2, 2)
-    if transform is not None and transform != Affine.identity():
+    if transform is not None and tuple(transform)[:6] != IDENTITY:
         m = np.array([[transform.a, transform.b], [transform.d, transform.e]], dtype=float)
         if abs(np.linalg.det(m)) == 0:
             raise ParameterError("the surface model's geotransform is degenerate (zero cell size)")
@@ -94,28 +105,35 @@ def horn_gradient(dsm: np.ndarray, matrix: np.ndarray) -> tuple[np.ndarray, np.n
 
 def hillshade(
     dsm: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
     sun_zenith: float,
     sun_azimuth: float,
-    *,
-    transform: Affine | None = None,
+    transform: Any = None,
     cell_size: float | None = None,
-    z_factor: float = 1.0,
+    z_factor: float = Z_FACTOR,
 ) -> np.ndarray:
-    """Cosine of the solar incidence angle on each cell (float32, −1..1).
+    """Cosine of the solar incidence angle on each cell (float32, −1..1; NaN where invalid).
 
     ``cos i = cos Z cos S + sin Z sin S cos(A − aspect)`` written with the surface normal
     (−∂z/∂x, −∂z/∂y, 1) and Horn's gradient; ≤ 0 means the slope faces away from the sun
     (self shadow). ``gdaldem hillshade`` reports ``1 + 254·max(cos i, 0)`` as a byte.
+    Invalid cells (``valid`` False or not finite) are filled with the mean valid height for the
+    gradient of their neighbours.
     """
     z, a = check_sun(sun_zenith, sun_azimuth)
     m = grid_matrix(transform, cell_size)
+    dsm = np.asarray(dsm)
+    ok = np.isfinite(dsm) if valid is None else (np.asarray(valid, bool) & np.isfinite(dsm))
+    if not ok.all():
+        dsm = np.where(ok, dsm, dsm.dtype.type(np.mean(dsm[ok])) if ok.any() else 0)
     zx, zy = horn_gradient(dsm, m)
     zx *= z_factor
     zy *= z_factor
     zr, ar = math.radians(z), math.radians(a)
     sun = (math.sin(zr) * math.sin(ar), math.sin(zr) * math.cos(ar), math.cos(zr))
     cos_i = (-zx * sun[0] - zy * sun[1] + sun[2]) / np.sqrt(1.0 + zx * zx + zy * zy)
-    return cos_i.astype(np.float32)
+    return np.where(ok, cos_i, np.nan).astype(np.float32)
 
 
 def sun_step(
@@ -164,12 +182,12 @@ INTERPOLATIONS = ("nearest", "bilinear")
 
 def cast_shadow(
     dsm: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
     sun_zenith: float,
     sun_azimuth: float,
-    *,
-    transform: Affine | None = None,
+    transform: Any = None,
     cell_size: float | None = None,
-    valid: np.ndarray | None = None,
     step: float = 1.0,
     relief: float | None = None,
     interpolation: str = "nearest",
@@ -232,13 +250,13 @@ def cast_shadow(
 
 def shadow_fraction(
     dsm: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
     sun_zenith: float,
     sun_azimuth: float,
-    *,
-    transform: Affine | None = None,
+    transform: Any = None,
     cell_size: float | None = None,
-    valid: np.ndarray | None = None,
-    supersample: int = 4,
+    supersample: int = SUPERSAMPLE,
     relief: float | None = None,
     interpolation: str = "nearest",
 ) -> np.ndarray:
@@ -272,10 +290,10 @@ def shadow_fraction(
         fine_ok = np.kron(ok, np.ones((n, n), dtype=bool))
     cast = cast_shadow(
         fine,
-        sun_zenith,
-        sun_azimuth,
+        fine_ok,
+        sun_zenith=sun_zenith,
+        sun_azimuth=sun_azimuth,
         transform=m / n,
-        valid=fine_ok,
         relief=relief,
         interpolation=interpolation,
     )
@@ -297,3 +315,13 @@ def halo_rows(
     reach = int(math.ceil(march_steps(relief, rise, shape, drow, dcol) * abs(drow))) + 2
     reach = min(reach, shape[0])
     return (reach, 1) if drow < 0 else (1, reach)
+
+
+def height_range(dsm: np.ndarray, valid: np.ndarray | None = None) -> tuple[float, float, int]:
+    """(lowest, highest, count) of the valid heights; (inf, −inf, 0) when there are none.
+    Ranges of strips merge by min, max and sum; the relief is highest − lowest."""
+    z = np.asarray(dsm)
+    ok = np.isfinite(z) if valid is None else (np.asarray(valid, bool) & np.isfinite(z))
+    if not ok.any():
+        return math.inf, -math.inf, 0
+    return float(z[ok].min()), float(z[ok].max()), int(ok.sum())

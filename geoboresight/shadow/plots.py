@@ -1,5 +1,9 @@
 """Figures of the shadow application: Figure 4 (scatter with the shadow cluster outlined) and
-Figure 5(B) (shadow fraction vs boresight ratio with the fitted line)."""
+Figure 5(B) (shadow fraction vs boresight ratio with the fitted line).
+
+Drawn with matplotlib's object-oriented API only, on :func:`geoboresight.figures.new_figure`
+(a Figure with its own Agg canvas; no pyplot); saved by :func:`geoboresight.figures.save_figure`.
+"""
 
 from __future__ import annotations
 

@@ -1,20 +1,26 @@
 """Shadow polygons from a class raster (paper §3.1, Figures 6–7 as vectors).
 
-Connected pixels of one class become one polygon (``rasterio.features.shapes``, 4-connected),
-with the class id, its name, the shadow-fraction interval and the area. Coordinates are the
-raster's: map units in its CRS when it is georeferenced; in raw sensor geometry (no CRS, no
-geotransform) they are pixel coordinates (x = column, y = −line), and the area is in pixels —
-the layer's description says so.
+Connected pixels of one class become one polygon (4-connected), with the class id, its name,
+the shadow-fraction interval, the area and the number of pixels. The outlines are traced in the
+raster's coordinates by :func:`geoboresight.io.shadow.class_shapes`: map units in its CRS when
+it is georeferenced; in raw sensor geometry (no CRS, no geotransform) pixel coordinates
+(x = column, y = −line), and the area is in pixels — the layer's description says so. This
+module decides which pixels are traced and what each polygon says.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
-from rasterio.transform import Affine
 
 from .classes import NO_SHADOW, NODATA_CLASS, ClassTable
+
+#: Polygons smaller than this many pixels are dropped.
+MIN_PIXELS = 1
+#: Shadow patches are 4-connected (pixels touching only at a corner are separate polygons).
+CONNECTIVITY = 4
 
 
 @dataclass(frozen=True)
@@ -28,33 +34,31 @@ class ShadowPolygon:
     pixels: int
 
 
+def shadow_pixels(classes: np.ndarray) -> np.ndarray:
+    """The pixels that belong to a shadow class (not 0 = no shadow, not 255 = nodata)."""
+    classes = np.asarray(classes)
+    return (classes != NO_SHADOW) & (classes != NODATA_CLASS)
+
+
 def shadow_polygons(
-    classes: np.ndarray,
+    shapes: Iterable[tuple[object, int]],
     table: ClassTable,
-    transform: Affine | None = None,
     *,
-    min_pixels: int = 1,
+    pixel_area: float = 1.0,
+    min_pixels: int = MIN_PIXELS,
 ) -> list[ShadowPolygon]:
-    """Polygons of the shadow classes (not 0 = no shadow, not 255 = nodata).
+    """The polygons of the shadow classes, with their attributes, in a stable order.
 
-    ``transform`` maps pixels to map coordinates; None keeps raw pixel geometry (x = column,
-    y = −line, so that the layer is not upside down). Polygons smaller than ``min_pixels``
-    pixels are dropped.
+    ``shapes`` are (shapely polygon, class id) pairs, the outlines of the 4-connected patches of
+    :func:`shadow_pixels`; ``pixel_area`` is the area of one pixel in the polygons' units (1 in
+    raw pixel geometry). Polygons smaller than ``min_pixels`` pixels are dropped; a class id
+    missing from ``table`` keeps its id with a generic name and NaN fractions.
     """
-    from rasterio.features import shapes
-    from shapely.geometry import shape
-
-    classes = np.asarray(classes, dtype=np.uint8)
-    raw = transform is None or transform == Affine.identity()
-    tr = Affine(1, 0, 0, 0, -1, 0) if raw else transform
-    pixel_area = abs(tr.a * tr.e - tr.b * tr.d)
     by_id = {c.id: c for c in table.classes}
-    keep = (classes != NO_SHADOW) & (classes != NODATA_CLASS)
     out: list[ShadowPolygon] = []
-    for geom, value in shapes(classes, mask=keep, connectivity=4, transform=tr):
+    for poly, value in shapes:
         cid = int(value)
         c = by_id.get(cid)
-        poly = shape(geom)
         pixels = int(round(poly.area / pixel_area))
         if pixels < min_pixels:
             continue
