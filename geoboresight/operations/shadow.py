@@ -1,0 +1,628 @@
+"""File-level operations of the shadow application (paper §3.1) on the boresight ratio: Table 2
+classes and mask, the scene-adaptive shadow cluster (Figure 4), the shadow-fraction model
+(Figure 5B: fit and apply) and shadow polygons. Each streams a flight line strip by strip.
+
+The references the boresight shadow is compared with (ground truth from a surface model, the
+dark-pixel baseline) are in :mod:`geoboresight.operations.shadow_truth`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+
+import numpy as np
+
+from .. import io
+from ..errors import InputError, ParameterError
+from ..io.dual import TOLERANCE_NM
+from ..io.shadow import class_polygons, class_table_csv, read_class_table, read_fraction_model
+from ..io.wavelengths import nearest_band, wavelengths_of
+from ..shadow import classes as cls
+from ..shadow.cluster import NIR_NM, PROBABILITY, SAMPLE_SIZE, fit_shadow_cluster, shadow_mask
+from ..shadow.fraction import PAPER_INTERCEPT, PAPER_SLOPE, FractionAccumulator, FractionModel
+from ..shadow.polygons import MIN_PIXELS
+from ._operation import operation
+
+#: Points drawn at most for a scatter plot.
+PLOT_POINTS = 20000
+
+
+def no_valid_error(path: str, what: str = "ratio raster") -> InputError:
+    """The error of an input whose every pixel is nodata."""
+    return InputError(
+        f"{what} {path} has no valid pixel (every pixel is nodata or not finite): check the "
+        "file and its nodata value"
+    )
+
+
+def mask_raster(path, grid: io.Grid, tags: dict, band_name: str):
+    """A binary shadow mask GeoTIFF (1 shadow, 0 not, 255 nodata), styled, written by strips."""
+    return io.create_class_raster(
+        path,
+        grid,
+        tags=tags,
+        band_name=band_name,
+        colormap=cls.MASK_COLORMAP,
+        category_names=cls.MASK_CATEGORIES,
+    )
+
+
+def class_table(path=None) -> cls.ClassTable:
+    """The class table in ``path`` (CSV or JSON), or Table 2 when None."""
+    return read_class_table(path) if path else cls.default_table()
+
+
+def masked_reader(sources):
+    """``read(row0, row1) -> (values, valid, values, valid, ...)``: each (dataset, band) of
+    ``sources`` with its own validity mask (unlike :func:`io.bands_reader`, which ands them)."""
+    readers = [io.band_reader(src, band) for src, band in sources]
+
+    def read(row0: int, row1: int):
+        return tuple(a for r in readers for a in r(row0, row1))
+
+    return read
+
+
+# ------------------------------------------------------------------------------ shadow-classes
+
+
+@operation(inputs=("ratio", "classes"), outputs=("output", "mask"))
+def shadow_classes_file(
+    ratio,
+    classes=None,
+    *,
+    output,
+    mask=None,
+    band=1,
+    mask_fraction=cls.MASK_FRACTION,
+    block_rows=io.DEFAULT_BLOCK_ROWS,
+    progress=None,
+) -> dict:
+    """Classify a boresight ratio raster into shadow-fraction classes (Table 2), and a mask.
+
+    Parameters
+    ----------
+    ratio : path
+        Boresight ratio raster (output of ``ratio``).
+    classes : path, optional
+        Class table (CSV or JSON: class,min,max,fraction_min,fraction_max,name,colour);
+        None = Table 2 of the paper.
+    output : path
+        Byte class raster (0 no shadow, class ids, 255 nodata) with a colour table and
+        category names.
+    mask : path, optional
+        Binary shadow mask (1 shadow, 0 not, 255 nodata) of the classes whose shadow fraction
+        starts at or above ``mask_fraction``.
+    band : int
+        Band of the ratio raster.
+    mask_fraction : float
+        Lowest shadow fraction (0–1) of a class in the mask.
+    block_rows : int
+        Lines read at a time.
+    progress : Progress, optional
+
+    Returns
+    -------
+    dict
+        ``output`` (and ``mask``), the valid pixels and the pixels of each class.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1, Table 2).
+    """
+    table = class_table(classes)
+    ids = table.shadow_ids(mask_fraction)
+    if mask and not ids:
+        raise ParameterError(
+            f"parameter 'mask_fraction': no class reaches {mask_fraction:g} shadow fraction, so the "
+            "mask would be empty; lower it or change the class table"
+        )
+    progress.info(f"classes: {table.describe()}")
+    tags = {
+        "product": "boresight shadow classes (Brook & Ben-Dor 2011, §3.1, Table 2)",
+        "source": ratio,
+        "classes": table.describe(),
+        "class_table_csv": class_table_csv(table).replace("\n", " | "),
+    }
+
+    def kernel(values, valid):
+        c = table.classify(values, valid)
+        m = table.mask(c, mask_fraction) if mask else None
+        return c, m, np.bincount(c.ravel(), minlength=256)
+
+    counts = np.zeros(256, dtype=np.int64)
+    with contextlib.ExitStack() as stack:
+        src = stack.enter_context(io.open_raster(ratio, "ratio raster"))
+        grid = io.Grid.of(src)
+        dst = stack.enter_context(
+            io.create_class_raster(
+                output,
+                grid,
+                tags=tags,
+                band_name="shadow class",
+                colormap=table.colormap(),
+                category_names=table.names(),
+                band_tags={f"CLASS_{k}": v for k, v in table.names().items()},
+            )
+        )
+        mdst = None
+        if mask:
+            mdst = stack.enter_context(
+                mask_raster(
+                    mask,
+                    grid,
+                    {**tags, "mask": f"classes {list(ids)} (shadow fraction ≥ {mask_fraction:g})"},
+                    f"shadow mask (fraction ≥ {mask_fraction:g})",
+                )
+            )
+        for win, (c, m, n) in io.map_windows(
+            io.band_reader(src, band),
+            kernel,
+            height=grid.height,
+            width=grid.width,
+            block_rows=block_rows,
+            progress=progress,
+            message="classifying",
+        ):
+            dst.write(c, 1, window=win)
+            if mdst is not None:
+                mdst.write(m, 1, window=win)
+            counts += n
+        if counts[: cls.NODATA_CLASS].sum() == 0:
+            raise no_valid_error(ratio)
+    result = {"output": output, "valid_pixels": int(counts[: cls.NODATA_CLASS].sum())}
+    if mask:
+        result["mask"] = mask
+    for c in table.classes:
+        result[f"class_{c.id}_pixels"] = int(counts[c.id])
+    result["no_shadow_pixels"] = int(counts[cls.NO_SHADOW])
+    return result
+
+
+# ------------------------------------------------------------------------------ shadow-cluster
+
+
+@operation(inputs=("ratio", "vnir"), outputs=("output", "probability_output", "plot"))
+def shadow_cluster_file(
+    ratio,
+    vnir,
+    *,
+    output,
+    probability_output=None,
+    plot=None,
+    band=1,
+    nir_nm=NIR_NM,
+    tolerance_nm=TOLERANCE_NM,
+    vnir_wavelengths=None,
+    n_components=None,
+    probability=PROBABILITY,
+    sample_size=SAMPLE_SIZE,
+    seed=0,
+    block_rows=io.DEFAULT_BLOCK_ROWS,
+    progress=None,
+) -> dict:
+    """Find the isolated shadow cluster in the (boresight ratio, 941 nm) scatter and map it.
+
+    A Gaussian mixture (scikit-learn, BIC-selected) is fitted to a random sample of the whole
+    flight line; every pixel gets the posterior probability of the shadow component.
+
+    Parameters
+    ----------
+    ratio : path
+        Boresight ratio raster.
+    vnir : path
+        VNIR image (or merged cube) on the ratio's grid, with wavelengths.
+    output : path
+        Shadow mask (byte: 1 shadow, 0 not, 255 nodata).
+    probability_output : path, optional
+        Shadow probability (0–1, float32, nodata −9999).
+    plot : path, optional
+        PNG scatter with the shadow cluster outlined (Figure 4).
+    band : int
+        Band of the ratio raster.
+    nir_nm : float
+        Wavelength of the near-infrared axis (nm; paper: 941).
+    tolerance_nm : float
+        Largest distance from ``nir_nm`` to a band centre.
+    vnir_wavelengths : str, optional
+        Band centres of the VNIR file in nm, comma-separated (only if it has none).
+    n_components : int, optional
+        Mixture components; None = chosen by BIC among 2–5.
+    probability : float
+        Posterior probability of the shadow component that makes a pixel shadow.
+    sample_size : int
+        Pixels drawn at random to fit the mixture.
+    seed : int
+        Random seed (same seed, same result).
+    block_rows : int
+        Lines read at a time.
+    progress : Progress, optional
+
+    Returns
+    -------
+    dict
+        ``output``, the number of components, the cluster's isolation (Bhattacharyya distance),
+        the shadow pixels and the 941 nm band used.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1, Figure 4).
+    """
+    with (
+        io.open_raster(ratio, "ratio raster") as rsrc,
+        io.open_raster(vnir, "VNIR image") as vsrc,
+    ):
+        io.require_same_grid(rsrc, vsrc, "ratio raster", "VNIR image")
+        grid = io.Grid.of(rsrc)
+        wl = wavelengths_of(vsrc, vnir, vnir_wavelengths, "--vnir-wavelengths / vnir_wavelengths=")[
+            0
+        ]
+        nir_band = nearest_band(wl, nir_nm, tolerance_nm, vnir) + 1
+        nir_found = float(wl[nir_band - 1])
+        progress.info(f"941 nm axis: band {nir_band} of {vnir} ({nir_found:.1f} nm)")
+        read = io.bands_reader([(rsrc, band), (vsrc, nir_band)])
+        sample, ok = io.sample_windows(
+            read,
+            height=grid.height,
+            width=grid.width,
+            size=sample_size,
+            seed=seed,
+            block_rows=block_rows,
+            progress=progress.sub(0, 0.3),
+        )
+        good = ok & np.isfinite(sample).all(axis=0)
+        if not good.any():
+            raise no_valid_error(ratio)
+        cluster = fit_shadow_cluster(
+            sample[0], sample[1], good, n_components=n_components, seed=seed
+        )
+        progress.info(
+            f"Gaussian mixture: {cluster.n_components} components on {cluster.n_sample} pixels; "
+            f"shadow component holds {100 * cluster.shadow_share:.1f} % of them; isolation "
+            f"(Bhattacharyya distance) {cluster.isolation:.2f}"
+        )
+        tags = {
+            "product": "scene-adaptive boresight shadow mask (Brook & Ben-Dor 2011, §3.1, Fig. 4)",
+            "method": "scikit-learn GaussianMixture on (log ratio, log 941 nm), BIC-selected",
+            "ratio": ratio,
+            "vnir": vnir,
+            "nir_band": nir_band,
+            "components": cluster.n_components,
+            "probability_threshold": probability,
+        }
+
+        def kernel(pair, valid):
+            p = cluster.probability(pair[0], pair[1], valid)
+            return p, shadow_mask(p, probability)
+
+        n_shadow = 0
+        with contextlib.ExitStack() as stack:
+            dst = stack.enter_context(mask_raster(output, grid, tags, "shadow mask"))
+            pdst = None
+            if probability_output:
+                pdst = stack.enter_context(
+                    io.create_raster(
+                        probability_output, grid, tags=tags, band_names=["shadow probability"]
+                    )
+                )
+            for win, (p, m) in io.map_windows(
+                read,
+                kernel,
+                height=grid.height,
+                width=grid.width,
+                block_rows=block_rows,
+                progress=progress.sub(0.3, 0.95),
+                message="labelling",
+            ):
+                dst.write(m, 1, window=win)
+                n_shadow += int((m == cls.MASK_SHADOW).sum())
+                if pdst is not None:
+                    pdst.write(np.where(np.isfinite(p), p, io.FLOAT_NODATA), 1, window=win)
+            if plot:
+                from ..figures import save_figure
+                from ..shadow.plots import cluster_figure
+
+                keep = np.flatnonzero(good)[:PLOT_POINTS]
+                pr = cluster.probability(sample[0, keep], sample[1, keep])
+                save_figure(
+                    cluster_figure(
+                        sample[0, keep], sample[1, keep], pr >= probability, cluster, nir_found
+                    ),
+                    plot,
+                )
+    out = {
+        "output": output,
+        "components": cluster.n_components,
+        "isolation": round(cluster.isolation, 4),
+        "shadow_pixels": n_shadow,
+        "nir_band": nir_band,
+    }
+    if probability_output:
+        out["probability_output"] = probability_output
+    if plot:
+        out["plot"] = plot
+    return out
+
+
+# ------------------------------------------------------------------------- shadow-fraction-fit
+
+
+@operation(inputs=("ratio", "truth", "mask"), outputs=("report", "plot"))
+def shadow_fraction_fit_file(
+    ratio,
+    truth,
+    mask=None,
+    *,
+    report=None,
+    plot=None,
+    band=1,
+    block_rows=io.DEFAULT_BLOCK_ROWS,
+    progress=None,
+) -> dict:
+    """Fit ``ratio = a · fraction + b`` over detected shadow against a ground-truth fraction.
+
+    Exact least squares over every selected pixel, streamed strip by strip.
+
+    Parameters
+    ----------
+    ratio : path
+        Boresight ratio raster.
+    truth : path
+        Ground-truth shadow fraction (0–1) on the ratio's grid (e.g. from ``sun-shadow``).
+    mask : path, optional
+        Detected shadow mask (1 = shadow) on the same grid; without it, the pixels whose ground
+        truth is above 0 are fitted.
+    report : path, optional
+        The fitted model as JSON (the input of ``shadow-fraction-apply``).
+    plot : path, optional
+        PNG of the regression (Figure 5B).
+    band : int
+        Band of the ratio raster.
+    block_rows : int
+        Lines read at a time.
+    progress : Progress, optional
+
+    Returns
+    -------
+    dict
+        ``slope``, ``intercept``, ``r2`` and ``n`` (pixels fitted), and the outputs written.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1, Figure 5B:
+    a = −0.74, b = 1.31, R² = 0.913).
+    """
+    rng = np.random.default_rng(0)
+    with contextlib.ExitStack() as stack:
+        rsrc = stack.enter_context(io.open_raster(ratio, "ratio raster"))
+        tsrc = stack.enter_context(io.open_raster(truth, "shadow-fraction raster"))
+        io.require_same_grid(rsrc, tsrc, "ratio raster", "shadow-fraction raster")
+        sources = [(rsrc, band), (tsrc, 1)]
+        if mask:
+            msrc = stack.enter_context(io.open_raster(mask, "shadow mask"))
+            io.require_same_grid(rsrc, msrc, "ratio raster", "shadow mask")
+            sources.append((msrc, 1))
+        grid = io.Grid.of(rsrc)
+        share = PLOT_POINTS / max(1, grid.height * grid.width) * 4
+
+        def kernel(r, okr, f, okf, m=None, okm=None):
+            # Drawn in strip order in the calling thread: the plot's points are reproducible.
+            sel = okr & okf & ((okm & (m == 1)) if m is not None else (f > 0))
+            pick = None
+            if plot and sel.any():
+                pick = sel & (rng.random(sel.shape) < share)
+            return r, f, sel, bool(okr.any()), pick
+
+        acc = FractionAccumulator()
+        any_valid = False
+        keep_x, keep_y = [], []
+        for _, (r, f, sel, any_r, pick) in io.map_windows(
+            masked_reader(sources),
+            kernel,
+            height=grid.height,
+            width=grid.width,
+            block_rows=block_rows,
+            progress=progress,
+            message="fitting",
+        ):
+            acc.add(r, f, sel)
+            any_valid |= any_r
+            if pick is not None:
+                keep_x.append(f[pick])
+                keep_y.append(r[pick])
+        if not any_valid:
+            raise no_valid_error(ratio)
+    model = acc.model()
+    progress.info(
+        f"ratio = {model.slope:.4g} · fraction + {model.intercept:.4g}; R² = {model.r2:.3f} "
+        f"on {model.n} pixels (paper, Figure 5B: −0.74, 1.31, R² 0.913)"
+    )
+    if report:
+        io.write_json(report, {**model.as_dict(), "ratio": ratio, "truth": truth, "mask": mask})
+    if plot:
+        from ..figures import save_figure
+        from ..shadow.plots import regression_figure
+
+        x = np.concatenate(keep_x) if keep_x else np.zeros(0)
+        y = np.concatenate(keep_y) if keep_y else np.zeros(0)
+        save_figure(
+            regression_figure(x, y, model, FractionModel(PAPER_SLOPE, PAPER_INTERCEPT)), plot
+        )
+    out = {"slope": model.slope, "intercept": model.intercept, "r2": model.r2, "n": model.n}
+    if report:
+        out["report"] = report
+    if plot:
+        out["plot"] = plot
+    return out
+
+
+# ----------------------------------------------------------------------- shadow-fraction-apply
+
+
+@operation(inputs=("ratio", "model"), outputs=("output",))
+def shadow_fraction_apply_file(
+    ratio,
+    model=None,
+    *,
+    output,
+    band=1,
+    slope=PAPER_SLOPE,
+    intercept=PAPER_INTERCEPT,
+    no_clip=False,
+    block_rows=io.DEFAULT_BLOCK_ROWS,
+    progress=None,
+) -> dict:
+    """Turn the boresight ratio into a shadow fraction: ``fraction = (ratio − b) / a``.
+
+    Parameters
+    ----------
+    ratio : path
+        Boresight ratio raster.
+    model : path, optional
+        JSON report of ``shadow-fraction-fit``; its slope and intercept take precedence.
+    output : path
+        Shadow fraction (float32, nodata −9999).
+    band : int
+        Band of the ratio raster.
+    slope, intercept : float
+        a and b of ``ratio = a · fraction + b`` (default: the paper's Figure 5B).
+    no_clip : bool
+        Do not limit the fraction to 0–1.
+    block_rows : int
+        Lines read at a time.
+    progress : Progress, optional
+
+    Returns
+    -------
+    dict
+        ``output``, the slope and intercept used and the number of valid pixels.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1, Figure 5B).
+    """
+    if model:
+        slope, intercept = read_fraction_model(model)
+    line = FractionModel(slope, intercept)
+    tags = {
+        "product": "shadow fraction from the boresight ratio (Brook & Ben-Dor 2011, Fig. 5B)",
+        "model": f"ratio = {slope:.6g} * fraction + {intercept:.6g}",
+        "source": ratio,
+    }
+
+    def kernel(values, valid):
+        f = line.fraction(values, valid, clip=not no_clip)
+        return np.where(np.isfinite(f), f, io.FLOAT_NODATA).astype("float32"), int(valid.sum())
+
+    n_valid = 0
+    with io.open_raster(ratio, "ratio raster") as src:
+        grid = io.Grid.of(src)
+        with io.create_raster(output, grid, tags=tags, band_names=["shadow fraction"]) as dst:
+            for win, (f, n) in io.map_windows(
+                io.band_reader(src, band),
+                kernel,
+                height=grid.height,
+                width=grid.width,
+                block_rows=block_rows,
+                progress=progress,
+                message="applying",
+            ):
+                dst.write(f, 1, window=win)
+                n_valid += n
+            if n_valid == 0:
+                raise no_valid_error(ratio)
+    return {"output": output, "slope": slope, "intercept": intercept, "valid_pixels": n_valid}
+
+
+# ----------------------------------------------------------------------------- shadow-polygons
+
+
+@operation(inputs=("classes_raster", "classes"), outputs=("output",))
+def shadow_polygons_file(
+    classes_raster,
+    classes=None,
+    *,
+    output,
+    min_pixels=MIN_PIXELS,
+    progress=None,
+) -> dict:
+    """Vectorise a shadow class raster: one polygon per 4-connected patch of one class.
+
+    Parameters
+    ----------
+    classes_raster : path
+        Shadow class raster (output of ``shadow-classes``).
+    classes : path, optional
+        The class table it was made with (CSV or JSON); None = Table 2.
+    output : path
+        GeoPackage (.gpkg) or GeoJSON (.geojson) with the class id, name, shadow-fraction
+        interval, area and pixels of each polygon, in the raster's CRS (raw sensor geometry:
+        pixel coordinates, x = column, y = −line, area in pixels).
+    min_pixels : int
+        Polygons smaller than this many pixels are dropped.
+    progress : Progress, optional
+
+    Returns
+    -------
+    dict
+        ``output``, the number of polygons and the geometry ("map" or raw pixel geometry).
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1, Table 2,
+    Figures 6–7).
+    """
+    from ..io.vector import vector_format, write_vector
+
+    table = class_table(classes)
+    vector_format(output)  # a clear error for an unsupported extension, before any work
+    with io.open_raster(classes_raster, "class raster") as src:
+        data, ok = io.read_masked(src, 1)
+        if not ok.any():
+            raise no_valid_error(classes_raster, "class raster")
+        grid = io.Grid.of(src)
+        c = np.where(ok, data, cls.NODATA_CLASS).astype(np.uint8)
+        polys = class_polygons(c, table, grid.transform, min_pixels=min_pixels)
+    progress.update(0.7, "polygons")
+    georef = grid.georeferenced
+    units = (
+        "square map units of the raster CRS"
+        if grid.crs
+        else ("square map units" if georef else "pixels")
+    )
+    desc = (
+        "Boresight shadow classes (Brook & Ben-Dor 2011, Table 2) as polygons; area in "
+        f"{units}. "
+        + (
+            "Raw sensor geometry: no CRS; x = column, y = −line (pixel coordinates)."
+            if not georef
+            else ""
+        )
+    )
+    fields = {
+        "class": np.array([p.class_id for p in polys], dtype=np.int32),
+        "name": np.array([p.name for p in polys], dtype=object),
+        "fraction_min": np.array([p.fraction_min for p in polys], dtype=np.float64),
+        "fraction_max": np.array([p.fraction_max for p in polys], dtype=np.float64),
+        "area": np.array([p.area for p in polys], dtype=np.float64),
+        "pixels": np.array([p.pixels for p in polys], dtype=np.int64),
+    }
+    write_vector(
+        output,
+        [p.geometry for p in polys],
+        fields,
+        crs=grid.crs,
+        layer="shadow_polygons",
+        description=desc,
+    )
+    progress.update(1.0, "written")
+    return {
+        "output": output,
+        "polygons": len(polys),
+        "geometry": "map" if georef else "raw sensor (pixel) geometry",
+    }
