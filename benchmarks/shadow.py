@@ -60,7 +60,7 @@ def main(argv=None):
 import rasterio
 from geoboresight.shadow.illumination import cast_shadow
 with rasterio.open({dsm!r}) as s: z = s.read(1); tr = s.transform
-m = cast_shadow(z, 60.0, 205.8, transform=tr)
+m = cast_shadow(z, sun_zenith=60.0, sun_azimuth=205.8, transform=tr)
 """)
         script = os.path.join(tmp, "s.sh")
         with open(script, "w") as f:
@@ -81,7 +81,7 @@ subprocess.run(["grass", "--tmp-location", {dsm!r}, "--exec", "bash", {script!r}
 import rasterio
 from geoboresight.shadow.illumination import hillshade
 with rasterio.open({dsm!r}) as s: z = s.read(1); tr = s.transform
-h = hillshade(z, 60.0, 205.8, transform=tr)
+h = hillshade(z, sun_zenith=60.0, sun_azimuth=205.8, transform=tr)
 """)
         out = os.path.join(tmp, "hs.tif")
         gdal = (

@@ -2,8 +2,9 @@
 """Validate the shadow application (paper §3.1) on simulated scenes with known truth.
 
 For each preset × sun zenith, a scene is simulated and written to disk, and the published
-operations are run on the files exactly as a user would (ratio → shadow-cluster,
-shadow-classes, dark-pixel-shadow, shadow-fraction-fit, sun-shadow). Each shadow mask is scored
+file-level operations are run on the files exactly as a rasterio script would (ratio →
+shadow-cluster, shadow-classes, dark-pixel-shadow, shadow-fraction-fit, sun-shadow: the
+functions the specs run). Each shadow mask is scored
 against the simulator's ``truth_shadow_fraction.tif`` (truth shadow = fraction ≥ 0.5):
 precision, recall, F1; and the false-alarm rate on sunlit dark materials (asphalt, dark roofs,
 dark soil with truth fraction < 0.1), the paper's failure case for statistical detectors.
@@ -26,9 +27,16 @@ import tempfile
 import numpy as np
 import rasterio
 
-from geoboresight.algorithms import registry
 from geoboresight.io import quiet_georef
-from geoboresight.simulate import simulate_scene, write_scene
+from geoboresight.io.scene import write_scene
+from geoboresight.operations.ratio import ratio_file
+from geoboresight.operations.shadow import (
+    shadow_classes_file,
+    shadow_cluster_file,
+    shadow_fraction_fit_file,
+)
+from geoboresight.operations.shadow_truth import dark_pixel_shadow_file, sun_shadow_file
+from geoboresight.simulate import simulate_scene
 
 DARK = ("asphalt", "roof_shingle", "roof_tile", "dark_soil")
 CASES = (("urban", 30.8), ("urban", 60.0), ("mixed", 30.8), ("mixed", 60.0))
@@ -51,32 +59,31 @@ def scores(pred, truth, valid):
 
 
 def run_case(preset, zenith, lines, seed, folder):
-    alg = registry()
     scene = simulate_scene(preset, lines=lines, seed=seed, sun_zenith=zenith)
     d = os.path.join(folder, f"{preset}_{zenith:g}")
     write_scene(scene, d)
     j = lambda name: os.path.join(d, name)  # noqa: E731
-    alg["ratio"](vnir=j("vnir.hdr"), swir=j("swir.hdr"), output=j("ratio.tif"))
-    cl = alg["shadow-cluster"](
-        ratio=j("ratio.tif"), vnir=j("vnir.hdr"), output=j("cluster.tif"), plot=j("cluster.png")
+    ratio_file(j("vnir.hdr"), j("swir.hdr"), output=j("ratio.tif"))
+    cl = shadow_cluster_file(
+        j("ratio.tif"), j("vnir.hdr"), output=j("cluster.tif"), plot=j("cluster.png")
     )
-    alg["shadow-classes"](ratio=j("ratio.tif"), output=j("classes.tif"), mask=j("table2.tif"))
-    alg["dark-pixel-shadow"](image=j("vnir.hdr"), output=j("dark.tif"))
-    fit = alg["shadow-fraction-fit"](
-        ratio=j("ratio.tif"),
-        truth=j("truth_shadow_fraction.tif"),
-        mask=j("cluster.tif"),
+    shadow_classes_file(j("ratio.tif"), output=j("classes.tif"), mask=j("table2.tif"))
+    dark_pixel_shadow_file(j("vnir.hdr"), output=j("dark.tif"))
+    fit = shadow_fraction_fit_file(
+        j("ratio.tif"),
+        j("truth_shadow_fraction.tif"),
+        j("cluster.tif"),
         plot=j("fraction.png"),
     )
-    fit_all = alg["shadow-fraction-fit"](ratio=j("ratio.tif"), truth=j("truth_shadow_fraction.tif"))
+    fit_all = shadow_fraction_fit_file(j("ratio.tif"), j("truth_shadow_fraction.tif"))
     with open(j("truth.json")) as fh:
         truth_json = json.load(fh)
     gsd = float(truth_json["gsd_m"])
     # The simulator's azimuth is clockwise from the flight direction with lines running along
     # it; sun-shadow takes row 0 as north: flip the along-track axis (azimuth → 180° − azimuth).
     az = (180.0 - float(truth_json["sun"]["azimuth_deg"])) % 360.0
-    alg["sun-shadow"](
-        dsm=j("truth_dsm.tif"),
+    sun_shadow_file(
+        j("truth_dsm.tif"),
         sun_zenith=zenith,
         sun_azimuth=az,
         cell_size=gsd,

@@ -18,9 +18,18 @@ import pytest
 import rasterio
 from rasterio.transform import from_origin
 
-from geoboresight.algorithms import registry
+from geoboresight import io
+from geoboresight.algorithms.shadow_truth import SUN_SHADOW
 from geoboresight.errors import ParameterError
-from geoboresight.shadow.illumination import cast_shadow, hillshade, shadow_fraction
+from geoboresight.operations.shadow_truth import sun_shadow_file
+from geoboresight.shadow.illumination import (
+    cast_shadow,
+    grid_matrix,
+    halo_rows,
+    height_range,
+    hillshade,
+    shadow_fraction,
+)
 
 CRS = "EPSG:32636"
 
@@ -60,7 +69,7 @@ def test_box_shadow_length_is_h_tan_zenith(zenith, azimuth):
     z = np.zeros((120, 120))
     z[55:65, 55:65] = h
     length = h * math.tan(math.radians(zenith))
-    s = cast_shadow(z, zenith, azimuth, cell_size=cell)
+    s = cast_shadow(z, sun_zenith=zenith, sun_azimuth=azimuth, cell_size=cell)
     # Shadow on the side away from the sun, along the box's centre line (row 0 = north).
     away = {0.0: s[65:, 60], 180.0: s[:55, 60][::-1], 90.0: s[60, :55][::-1], 270.0: s[60, 65:]}
     line = away[azimuth]
@@ -68,7 +77,7 @@ def test_box_shadow_length_is_h_tan_zenith(zenith, azimuth):
     assert line[:n].all() and not line[n:].any()  # one contiguous shadow from the wall
     assert abs(n * cell - length) <= cell  # r.sunmask's whole-cell march: within one cell
     # Sub-cell accuracy from the supersampled fraction: the summed fraction is the length.
-    f = shadow_fraction(z, zenith, azimuth, cell_size=cell, supersample=8)
+    f = shadow_fraction(z, sun_zenith=zenith, sun_azimuth=azimuth, cell_size=cell, supersample=8)
     fline = {0.0: f[65:, 60], 180.0: f[:55, 60], 90.0: f[60, :55], 270.0: f[60, 65:]}[azimuth]
     assert abs(fline.sum() * cell - length) <= 0.25 * cell
     # Nothing on the sunward side, nothing on the roof.
@@ -79,7 +88,7 @@ def test_box_shadow_length_is_h_tan_zenith(zenith, azimuth):
 def test_oblique_sun_shadow_direction_and_length():
     z = np.zeros((100, 100))
     z[40:50, 40:50] = 10.0
-    s = cast_shadow(z, 45.0, 135.0, cell_size=1.0)  # sun in the south-east
+    s = cast_shadow(z, sun_zenith=45.0, sun_azimuth=135.0, cell_size=1.0)  # sun in the south-east
     rows, cols = np.nonzero(s)
     # Shadow falls to the north-west: above (smaller rows) and left (smaller cols) of the box.
     assert rows.min() < 40 and cols.min() < 40 and rows.max() < 50 and cols.max() < 50
@@ -89,10 +98,10 @@ def test_oblique_sun_shadow_direction_and_length():
 
 def test_flat_ground_and_overhead_sun_have_no_shadow():
     z = np.full((30, 30), 5.0)
-    assert not cast_shadow(z, 80.0, 10.0, cell_size=1.0).any()
+    assert not cast_shadow(z, sun_zenith=80.0, sun_azimuth=10.0, cell_size=1.0).any()
     z[10:15, 10:15] = 20
-    assert not cast_shadow(z, 0.0, 0.0, cell_size=1.0).any()
-    cos_i = hillshade(np.full((10, 10), 3.0), 30.0, 100.0, cell_size=2.0)
+    assert not cast_shadow(z, sun_zenith=0.0, sun_azimuth=0.0, cell_size=1.0).any()
+    cos_i = hillshade(np.full((10, 10), 3.0), sun_zenith=30.0, sun_azimuth=100.0, cell_size=2.0)
     np.testing.assert_allclose(cos_i, math.cos(math.radians(30.0)), rtol=1e-6)
 
 
@@ -106,7 +115,7 @@ def test_hillshade_of_a_plane_matches_the_incidence_formula():
         want = math.cos(zr) * math.cos(slope) + math.sin(zr) * math.sin(slope) * math.cos(
             ar - aspect
         )
-        got = hillshade(z, zen, az, cell_size=2.0)
+        got = hillshade(z, sun_zenith=zen, sun_azimuth=az, cell_size=2.0)
         np.testing.assert_allclose(got[1:-1, 1:-1], want, atol=1e-6)
 
 
@@ -132,7 +141,9 @@ def test_hillshade_agrees_with_gdaldem(tmp_path, zenith, azimuth):
     )
     with rasterio.open(out) as src:
         gdal = src.read(1).astype(float)
-    mine = 1.0 + 254.0 * np.clip(hillshade(z, zenith, azimuth, transform=tr), 0, None)
+    mine = 1.0 + 254.0 * np.clip(
+        hillshade(z, sun_zenith=zenith, sun_azimuth=azimuth, transform=tr), 0, None
+    )
     # gdaldem leaves the one-cell border as nodata; inside, it rounds to whole bytes.
     diff = np.abs(gdal - mine)[1:-1, 1:-1]
     assert diff.max() <= 0.51
@@ -171,7 +182,7 @@ def test_cast_shadow_agrees_with_grass_r_sunmask(tmp_path, zenith, azimuth):
     z = scene_dsm()
     tr = write_dsm(tmp_path / "dsm.tif", z)
     grass = run_sunmask(tmp_path, tmp_path / "dsm.tif", zenith, azimuth)
-    mine = cast_shadow(z, zenith, azimuth, transform=tr)
+    mine = cast_shadow(z, sun_zenith=zenith, sun_azimuth=azimuth, transform=tr)
     assert grass.sum() > 50  # a real shadow to compare
     # Same method (whole-cell march, flat-topped cells): identical up to rare rounding ties.
     assert (mine == grass).mean() >= 0.999
@@ -181,7 +192,7 @@ def test_cast_shadow_agrees_with_grass_r_sunmask(tmp_path, zenith, azimuth):
 def test_sun_shadow_spec_streams_and_matches_kernel(tmp_path):
     z = scene_dsm()
     tr = write_dsm(tmp_path / "dsm.tif", z)
-    alg = registry()["sun-shadow"]
+    alg = SUN_SHADOW
     res = alg(
         dsm=str(tmp_path / "dsm.tif"),
         sun_zenith=60,
@@ -191,7 +202,7 @@ def test_sun_shadow_spec_streams_and_matches_kernel(tmp_path):
         mask=str(tmp_path / "m.tif"),
         hillshade=str(tmp_path / "h.tif"),
     )
-    want = shadow_fraction(z, 60, 205.8, transform=tr)
+    want = shadow_fraction(z, sun_zenith=60, sun_azimuth=205.8, transform=tr)
     with rasterio.open(tmp_path / "f.tif") as src:
         assert src.crs.to_epsg() == 32636 and src.transform == tr
         np.testing.assert_array_equal(src.read(1), want)
@@ -200,14 +211,16 @@ def test_sun_shadow_spec_streams_and_matches_kernel(tmp_path):
         assert src.colormap(1)[1][:3] == (128, 0, 0)
         np.testing.assert_array_equal(m, (want >= 0.5).astype(np.uint8))
     with rasterio.open(tmp_path / "h.tif") as src:
-        np.testing.assert_allclose(src.read(1), hillshade(z, 60, 205.8, transform=tr), atol=1e-6)
+        np.testing.assert_allclose(
+            src.read(1), hillshade(z, sun_zenith=60, sun_azimuth=205.8, transform=tr), atol=1e-6
+        )
     assert res["shadow_pixels"] == int((want >= 0.5).sum())
 
 
 def test_dsm_without_geotransform_needs_cell_size(tmp_path):
     z = scene_dsm()
     write_dsm(tmp_path / "raw.tif", z, crs=None)
-    alg = registry()["sun-shadow"]
+    alg = SUN_SHADOW
     out = tmp_path / "f.tif"
     with pytest.raises(ParameterError, match="cell-size"):
         alg(dsm=str(tmp_path / "raw.tif"), sun_zenith=45, sun_azimuth=180, output=str(out))
@@ -221,7 +234,9 @@ def test_dsm_without_geotransform_needs_cell_size(tmp_path):
     )
     with rasterio.open(out) as src:
         assert src.crs is None  # raw stays raw
-        np.testing.assert_array_equal(src.read(1), shadow_fraction(z, 45, 180, cell_size=1.5))
+        np.testing.assert_array_equal(
+            src.read(1), shadow_fraction(z, sun_zenith=45, sun_azimuth=180, cell_size=1.5)
+        )
 
 
 @pytest.mark.parametrize("zenith", [-1.0, 90.5, 120.0])
@@ -229,9 +244,100 @@ def test_sun_zenith_outside_0_90_is_refused(tmp_path, zenith):
     write_dsm(tmp_path / "dsm.tif", scene_dsm())
     out = tmp_path / "f.tif"
     with pytest.raises(ParameterError, match="sun_zenith"):
-        registry()["sun-shadow"](
+        SUN_SHADOW(
             dsm=str(tmp_path / "dsm.tif"), sun_zenith=zenith, sun_azimuth=180, output=str(out)
         )
     with pytest.raises(ParameterError, match="sun_zenith"):
-        cast_shadow(scene_dsm(), zenith, 180, cell_size=1.0)
+        cast_shadow(scene_dsm(), sun_zenith=zenith, sun_azimuth=180, cell_size=1.0)
     assert not out.exists()
+
+
+# ------------------------------------------------- strips with a halo equal the whole surface
+
+
+def strips(func, z, valid, *, block_rows, halo):
+    """``func(z, valid)`` run strip by strip through io.map_windows with a halo, in memory."""
+
+    def read(r0, r1):
+        return z[r0:r1], valid[r0:r1]
+
+    parts = io.map_windows(
+        read, func, height=z.shape[0], width=z.shape[1], block_rows=block_rows, halo=halo
+    )
+    return np.concatenate([r for _, r in parts], axis=0)
+
+
+@pytest.mark.parametrize("block_rows", [1, 5, 16, 500])
+@pytest.mark.parametrize(
+    "zenith,azimuth,surface",
+    [
+        (60.0, 205.8, "nearest"),  # sun in the south-west: shadows reach north, halo below
+        (55.0, 20.0, "nearest"),  # sun in the north: shadows reach south, halo above
+        (70.0, 90.0, "bilinear"),  # sun in the east: no rows to cross
+        (0.0, 0.0, "nearest"),  # sun overhead
+    ],
+)
+def test_shadow_fraction_by_strips_with_the_halo_equals_the_whole_dsm(
+    block_rows, zenith, azimuth, surface
+):
+    z = scene_dsm().astype(np.float64)
+    valid = np.ones(z.shape, bool)
+    if surface == "nearest":
+        valid[30:33, 5:40] = False  # a nodata patch: it casts no shadow, in a strip or not
+    tr = from_origin(500000.0, 3500000.0, 1.5, 1.5)
+    lo, hi, n = height_range(z, valid)
+    assert n == valid.sum()
+    relief = hi - lo
+    halo = halo_rows(relief, zenith, azimuth, grid_matrix(tr), z.shape)
+    sun = {"sun_zenith": zenith, "sun_azimuth": azimuth, "transform": tr}
+    opts = {**sun, "relief": relief, "interpolation": surface, "supersample": 3}
+    whole = shadow_fraction(z, valid, **opts)
+    got = strips(
+        lambda zz, ok: shadow_fraction(zz, ok, **opts), z, valid, block_rows=block_rows, halo=halo
+    )
+    np.testing.assert_array_equal(got, whole)
+    if zenith > 0:
+        assert np.nansum(whole) > 20  # a real shadow crosses the strips
+    # Horn's 3 × 3 gradient needs one line either side.
+    full = np.ones(z.shape, bool)
+    hs = strips(
+        lambda zz, ok: hillshade(zz, ok, **sun), z, full, block_rows=block_rows, halo=(1, 1)
+    )
+    np.testing.assert_allclose(hs, hillshade(z, full, **sun), rtol=0, atol=1e-6)
+
+
+def test_sun_shadow_operation_with_nodata_equals_the_kernel(tmp_path):
+    """The operation as a rasterio script calls it: nodata cells stay nodata and cast no shadow."""
+    z = scene_dsm()
+    z[10:14, 55:60] = -9999.0
+    tr = from_origin(500000.0, 3500000.0, 1.5, 1.5)
+    path = tmp_path / "dsm.tif"
+    with rasterio.open(
+        path,
+        "w",
+        driver="GTiff",
+        width=z.shape[1],
+        height=z.shape[0],
+        count=1,
+        dtype="float32",
+        crs=CRS,
+        transform=tr,
+        nodata=-9999.0,
+    ) as dst:
+        dst.write(z, 1)
+    assert SUN_SHADOW.run is sun_shadow_file
+    res = sun_shadow_file(
+        str(path),
+        output=str(tmp_path / "f.tif"),
+        sun_zenith=50.0,
+        sun_azimuth=160.0,
+        block_rows=6,
+    )
+    valid = z != -9999.0
+    want = shadow_fraction(z, valid, sun_zenith=50.0, sun_azimuth=160.0, transform=tr)
+    with rasterio.open(tmp_path / "f.tif") as src:
+        got = src.read(1)
+    np.testing.assert_array_equal(got[valid], want[valid])
+    assert (got[~valid] == io.FLOAT_NODATA).all()
+    assert res["valid_pixels"] == int(valid.sum())
+    assert res["relief_m"] == pytest.approx(float(z[valid].max() - z[valid].min()), abs=1e-3)
