@@ -11,7 +11,7 @@ script down):
 * ``geoboresight rx`` end to end (two streaming passes from disk, GeoTIFF written), float64
   and float32 scoring; time from the call (imports excluded), peak RSS of the whole process
   (imports included: the operation is looked up through the algorithm registry, as the CLI
-  does; one more float64 row imports the anomaly spec module alone);
+  does; one more float64 row imports the operation's module alone, as a script does);
 * ``spectral.rx`` on the same cube loaded in memory (SPy needs it there; load time reported
   apart and *not* counted against SPy), with its default BLAS threads and with one BLAS thread.
   SPy peaks at ~9× the cube (~20 GB at 20,000 lines): it runs on all lines only when at least
@@ -19,7 +19,8 @@ script down):
   and geoboresight is timed again on that same prefix for the ratio;
 * SVDD scoring: scikit-learn's ``OneClassSVM.decision_function`` on the pixels in memory
   (float64, its best layout; conversion not counted) against geoboresight's scoring path
-  (``Cube.map_strips`` over the file + ``SVDDModel.decision``, reading and conversion counted),
+  (``map_windows`` over the file's strips + ``SVDDModel.decision``, reading and conversion
+  counted),
   for models trained by ``fit_svdd``'s own rule (σ = median pairwise distance) on the
   operation's default sample (1,000 px, ν = 0.01) and on larger samples and ν, which give
   hundreds of support vectors. Scores must be equal (largest difference printed).
@@ -90,7 +91,7 @@ def ours_rx(hdr, lines, out, precision, via="registry"):
     imp = (
         "from geoboresight.algorithms import get\nalg = get('rx')"
         if via == "registry"
-        else "from geoboresight.algorithms.anomaly import RX as alg"
+        else "from geoboresight.operations.anomaly import rx_file as alg"
     )
     # The kernel modules the run imports lazily are imported before the clock starts, as
     # `import spectral` is for SPy (their memory still counts in the peak).
@@ -99,7 +100,7 @@ def ours_rx(hdr, lines, out, precision, via="registry"):
 {imp}
 extra["import_peak_mib"] = peak_mib()
 t = time.perf_counter()
-alg(image={hdr!r}, exclude_nm="", precision={precision!r}, output={out!r}, overwrite=True)
+alg(vnir={hdr!r}, exclude_nm="", precision={precision!r}, output={out!r}, overwrite=True)
 extra["time"] = time.perf_counter() - t
 extra["run_peak_mib"] = peak_mib()
 import numpy as np, rasterio
@@ -133,6 +134,7 @@ import numpy as np
 from sklearn.svm import OneClassSVM
 from geoboresight.anomaly.svdd import fit_svdd
 from geoboresight.io.cube import open_cube
+from geoboresight.io.windows import default_workers, map_windows
 mm = np.memmap({img!r}, dtype="<i2", mode="r", shape=({lines}, {BANDS}, {COLS}))
 rng = np.random.default_rng(0)
 rows = rng.integers(0, {lines}, {size}); cols = rng.integers(0, {COLS}, {size})
@@ -147,8 +149,10 @@ extra["sk_time"] = time.perf_counter() - t
 del Xp
 with open_cube({hdr!r}) as cube:
     t = time.perf_counter()
-    got = np.concatenate([d.ravel() for _, d in cube.map_strips(
-        lambda data, valid: model.decision(data.reshape({BANDS}, -1)), 16)])
+    got = np.concatenate([d.ravel() for _, d in map_windows(
+        cube.reader(None, None),
+        lambda data, valid: model.decision(data.reshape({BANDS}, -1)),
+        height=cube.height, width=cube.width, block_rows=16, workers=default_workers())])
     extra["ours_time"] = time.perf_counter() - t
 extra["max_abs_diff"] = float(np.abs(got - ref).max())
 extra["max_rel_diff"] = float(np.abs(got - ref).max() / np.abs(ref).max())
@@ -229,7 +233,7 @@ def main():
                 "registry",
             ),
             (
-                "geoboresight rx float64, spec module imported alone",
+                "geoboresight rx float64, operation module imported alone",
                 hdr,
                 a.lines,
                 "float64",

@@ -30,6 +30,7 @@ import numpy as np
 from geoboresight.anomaly import indicator, roc, svdd
 from geoboresight.anomaly import rx as rxmod
 from geoboresight.anomaly.bands import select_bands
+from geoboresight.figures import save_figure
 from geoboresight.io.wavelengths import nearest_band
 from geoboresight.ratio import boresight_ratio
 from geoboresight.simulate import simulate_scene
@@ -96,7 +97,7 @@ def run(lines, out):
             # 5 × 5 local median, at the target pixels) against the ratio's noise (noisy − clean).
             r0, ok0 = boresight_ratio(c0[num], c0[den])
             r1, ok1 = boresight_ratio(c1[num], c1[den])
-            resid = indicator.local_residual(r0, ok0, 5)
+            resid = indicator.local_residual(r0, ok0, window=5)
             signal = float(np.median(np.abs(resid[targets]))) / float(np.nanmedian(r0))
             nz = (r1 - r0)[ok0 & ok1]
             noise_sigma = (
@@ -120,11 +121,13 @@ def run(lines, out):
                 rows.append(row)
                 print(_fmt(row), flush=True)
                 if abs(off - 1.15) < 1e-9 and m == 1.0:
-                    roc.plot_roc(
+                    save_figure(
+                        roc.roc_figure(
+                            curves,
+                            title=f"Simulated {label}: 24 sub-pixel bags, offset {measured:.2f} px, sensor noise",
+                            pfa_marker=PFA,
+                        ),
                         os.path.join(out, f"roc_{label}.png"),
-                        curves,
-                        title=f"Simulated {label}: 24 sub-pixel bags, offset {measured:.2f} px, sensor noise",
-                        pfa_marker=PFA,
                     )
     table = _table(rows)
     with open(os.path.join(out, "anomaly_validation.md"), "w") as f:
