@@ -28,12 +28,36 @@ __version__ = "0.1.0"
 KERNELS = {
     "boresight_ratio": "geoboresight.ratio",
     "describe": "geoboresight.stats",
+    "cast_shadow": "geoboresight.shadow.illumination",
+    "shadow_fraction": "geoboresight.shadow.illumination",
+    "hillshade": "geoboresight.shadow.illumination",
+    "fit_shadow_cluster": "geoboresight.shadow.cluster",
+    "fit_dark_pixel": "geoboresight.shadow.darkpixel",
+    "fit_fraction_model": "geoboresight.shadow.fraction",
+    "estimate_offset": "geoboresight.dem.offset",
+    "offset_profile": "geoboresight.dem.offset",
+    "coregister": "geoboresight.dem.coregister",
+    "disparity_map": "geoboresight.dem.disparity",
+    "relative_dem": "geoboresight.dem.relative",
+    "band_mean": "geoboresight.dem.bands",
 }
 
 #: File-level operations: one per operation of the command line and the QGIS toolbox.
 OPERATIONS = {
     "ratio_file": "geoboresight.operations.ratio",
     "stats_file": "geoboresight.operations.stats",
+    "shadow_classes_file": "geoboresight.operations.shadow",
+    "shadow_cluster_file": "geoboresight.operations.shadow",
+    "shadow_fraction_fit_file": "geoboresight.operations.shadow",
+    "shadow_fraction_apply_file": "geoboresight.operations.shadow",
+    "shadow_polygons_file": "geoboresight.operations.shadow",
+    "sun_shadow_file": "geoboresight.operations.shadow_truth",
+    "dark_pixel_shadow_file": "geoboresight.operations.shadow_truth",
+    "boresight_offset_file": "geoboresight.operations.offset",
+    "coregister_file": "geoboresight.operations.offset",
+    "disparity_file": "geoboresight.operations.dem",
+    "relative_dem_file": "geoboresight.operations.dem",
+    "view_3d_file": "geoboresight.operations.dem",
 }
 
 #: The I/O entry points a script needs beside the operations.

@@ -58,7 +58,9 @@ def _option(p: Param) -> click.Option:
         decls.insert(0, "-i")
     kwargs = {
         "help": _help_for(p),
-        "required": p.required,
+        # A parameter with a former name may come under that name: execute() names it if
+        # neither was given.
+        "required": p.required and not p.aliases,
         "show_default": p.default not in (None, False),
     }
     if p.kind == "bool":
