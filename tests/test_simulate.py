@@ -446,7 +446,7 @@ def test_presets_have_texture_in_open_ground_and_same_layout():
 
 # ------------------------------------------------------------------ streamed stages
 def test_radiance_and_dn_by_blocks_equal_one_whole_array_call():
-    """Stages 5–6 stream over lines (map_windows): any block size gives the whole-array result."""
+    """Stages 5–6 stream over blocks of lines: any block size gives the whole-array result."""
     from geoboresight.simulate.atmosphere import illumination
     from geoboresight.simulate.geometry import COLS
     from geoboresight.simulate.scene import Footprints, at_sensor_radiance, instrument_cube
@@ -478,7 +478,7 @@ def test_radiance_and_dn_by_blocks_equal_one_whole_array_call():
 
 
 def test_ray_tracing_by_blocks_agrees_with_one_block():
-    """Stages 2–4 stream over blocks of lines (map_windows). Each block has its own fine grid,
+    """Stages 2–4 stream over blocks of lines. Each block has its own fine grid,
     whose origin depends on the block, so pixels at sub-cell edges (walls, crowns, shadow
     edges) differ: the block size must not change the scene's content (means, fractions)."""
     from geoboresight.simulate.scene import (

@@ -197,12 +197,6 @@ def test_operation_is_the_spec_run(tmp_path):
     assert not (tmp_path / "c").exists()
 
 
-def test_writer_moved_to_io_is_still_reachable_from_simulate():
-    import geoboresight.simulate as sim
-
-    assert sim.write_scene is write_scene and sim.SCENE_FILES == SCENE_FILES
-
-
 SAMPLE = os.path.join(os.path.dirname(__file__), os.pardir, "sample_data", "scene")
 
 

@@ -61,14 +61,3 @@ __all__ = [
     "aisa_dual_bands",
     "simulate_scene",
 ]
-
-#: Former homes of the scene writer, kept for one release: use :mod:`geoboresight.io.scene`.
-_MOVED_TO_IO = ("SCENE_FILES", "MATERIAL_COLOURS", "write_scene")
-
-
-def __getattr__(name):
-    if name in _MOVED_TO_IO:
-        from ..io import scene
-
-        return getattr(scene, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

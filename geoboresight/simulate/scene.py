@@ -36,7 +36,6 @@ import numpy as np
 from scipy import ndimage
 
 from ..errors import ParameterError
-from ..io.windows import map_windows
 from ..progress import Progress, as_progress
 from . import presets as _presets
 from .atmosphere import AOT550, WATER_VAPOUR_CM, Illumination, illumination
@@ -580,19 +579,14 @@ def trace_footprints(
         win = block_window(rays, geo, z_top, sun, cell)
         return trace_block(rays, geo, sun_maps(surface, win, names, sun, clouds), K, clouds, sun)
 
-    for win, (blocks, vnir_truth) in map_windows(
-        lambda l0, l1: (l0, l1),
-        block,
-        height=lines,
-        width=COLS,
-        block_rows=block_lines,
-        progress=progress,
-        message="ray tracing",
-    ):
-        rows = slice(win.row_off, win.row_off + win.height)
+    progress = as_progress(progress)
+    for l0 in range(0, lines, block_lines):
+        rows = slice(l0, min(l0 + block_lines, lines))
+        blocks, vnir_truth = block(rows.start, rows.stop)
         for inst in INSTRUMENTS:
             footprints[inst].put(rows, blocks[inst])
         truth.put(rows, vnir_truth)
+        progress.update(rows.stop / lines, f"ray-traced lines {rows.start}-{rows.stop - 1}")
     return footprints, truth
 
 
@@ -870,11 +864,10 @@ def instrument_cube(
         )
         return detector.to_dn(rad, wavelengths, rng)
 
-    # In line order in this thread: the noise generator draws the same numbers every run.
-    for win, dn in map_windows(
-        lambda l0, l1: (l0, l1), block, height=lines, width=COLS, block_rows=block_lines
-    ):
-        cube[:, win.row_off : win.row_off + win.height] = dn
+    # In line order: the noise generator draws the same numbers every run.
+    for l0 in range(0, lines, block_lines):
+        l1 = min(l0 + block_lines, lines)
+        cube[:, l0:l1] = block(l0, l1)
     return cube
 
 

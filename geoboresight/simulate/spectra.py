@@ -27,7 +27,6 @@ texture comes from sub-pixel mixing of materials), BRDF (all surfaces are Lamber
 
 from __future__ import annotations
 
-import os
 from functools import cache
 
 import numpy as np
@@ -107,18 +106,18 @@ def _gauss(wl, centre, sigma):
 
 @cache
 def _earthlib() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(wavelengths_nm, spectra (n, bands), level_3 class per spectrum) from earthlib's files."""
-    import earthlib
-    import pandas as pd
-    import spectral.io.envi as envi
+    """(wavelengths_nm, spectra (n, bands), level_3 class per spectrum) of earthlib's full
+    library, through earthlib's own reader of its bundled data (band centres as its ENVI
+    header gives them)."""
+    from earthlib import config, read
 
-    folder = os.path.join(os.path.dirname(earthlib.__file__), "data")
-    lib = envi.open(os.path.join(folder, "spectra.sli.hdr"), os.path.join(folder, "spectra.sli"))
-    wl = np.asarray(lib.bands.centers, float)
+    spectra, _, sensor = read.envi_library(config.full_endmember_path)
+    wl = np.asarray(sensor.band_centers, float)
     if wl.max() < 100:  # the library is in micrometres
-        wl = wl * 1000.0
-    meta = pd.read_csv(os.path.join(folder, "spectra.csv"))
-    return wl, np.asarray(lib.spectra, dtype=float), meta["LEVEL_3"].to_numpy(str)
+        # earthlib keeps the header's centres (0.41, ... µm) as float32: back to the decimals
+        wl = np.round(wl, 6) * 1000.0
+    classes = config.full_metadata["LEVEL_3"].to_numpy(str)
+    return wl, np.asarray(spectra, dtype=float), classes
 
 
 def earthlib_spectrum(name: str) -> np.ndarray:
