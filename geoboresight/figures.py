@@ -1,10 +1,10 @@
 """Figures (PNG) shared by every application: one place for the style and the atomic save.
 
 Only matplotlib's object-oriented API is used: a :class:`matplotlib.figure.Figure` drawn by its
-own Agg canvas. No pyplot and no ``matplotlib.use``: pyplot keeps global state (the current
-figure, the backend of the whole process) that QGIS owns and that Processing's worker threads
-must not touch, whereas a Figure with its own canvas is a plain object, safe in any thread and
-garbage-collected like one (nothing to close).
+own Agg canvas. Matplotlib's state-machine interface and backend switch are never used: they
+keep global state (the current figure, the backend of the whole process) that QGIS owns and
+that Processing's worker threads must not touch, whereas a Figure with its own canvas is a
+plain object, safe in any thread and garbage-collected like one (nothing to close).
 """
 
 from __future__ import annotations

@@ -8,11 +8,14 @@ parameters each step used. Figures are embedded as base64 PNG, so the page is on
 opens anywhere, offline. A step that cannot run (an operation missing from this version, a
 missing input such as the sensor geometry for the DEM, a missing optional package) becomes a
 note in its section; the other sections are still written.
+
+The page is the ``report.html`` template (:mod:`geoboresight.html`, autoescaped); the file-level
+operation that writes it is :func:`geoboresight.operations.report.report_file`.
 """
 
 from __future__ import annotations
 
-import html
+import json
 import os
 import platform
 from dataclasses import dataclass, field
@@ -22,16 +25,12 @@ import numpy as np
 from . import __version__
 from .errors import Cancelled, GeoboresightError
 from .figures import new_figure, save_figure
-from .html import page, png_img, table
+from .html import macro, png_data_uri, render
 from .progress import Progress
 
-_EXTRA_STYLE = (
-    "<style>section{margin:2em 0;border-top:2px solid #dde3ea}"
-    "figure{display:inline-block;margin:0.5em 1em 0.5em 0;vertical-align:top}"
-    "figcaption{font-size:90%;color:#444;max-width:640px}"
-    ".missing{background:#fff6e0;border-left:4px solid #e0a000;padding:4px 10px}"
-    "details{margin:0.5em 0}code{font-size:90%}</style>"
-)
+#: The parameters of the ratio's two bands, as the report passes them to its operations.
+BAND_KEYS = ("band_mode", "vnir_nm", "swir_nm", "tolerance_nm")
+DUAL_KEYS = ("vnir", "swir", "seam_nm", "vnir_wavelengths", "swir_wavelengths")
 
 
 @dataclass
@@ -43,39 +42,58 @@ class Step:
     result: dict | None = None
     error: str | None = None
 
+    @property
+    def rows(self) -> list[tuple[str, object]]:
+        """(parameter, value) rows of the "Parameters used" table (file names without folders)."""
+        return [(k, _show(v)) for k, v in self.values.items() if v not in (None, "")]
+
 
 @dataclass
 class Section:
+    """One section of the report: a title, an introduction, parts (figures, notes, tables, the
+    statistics) and the steps whose parameters it lists. Rendered by the ``section`` macro
+    of ``templates/macros.html``."""
+
     title: str
     intro: str
-    parts: list[str] = field(default_factory=list)
+    parts: list[dict] = field(default_factory=list)
     steps: list[Step] = field(default_factory=list)
 
     def figure(self, png: str | None, caption: str) -> None:
+        """A PNG figure (embedded) with its caption; nothing if the PNG was not made."""
         if png and os.path.exists(png):
-            self.parts.append(
-                f"<figure>{png_img(png, caption)}<figcaption>{html.escape(caption)}</figcaption></figure>"
-            )
+            self.parts.append({"kind": "figure", "src": png_data_uri(png), "caption": caption})
 
     def note(self, text: str) -> None:
-        self.parts.append(f"<p class='missing'>{html.escape(text)}</p>")
+        """Why something is missing from the section."""
+        self.parts.append({"kind": "note", "text": text})
+
+    def table(self, rows, caption: str, header=("", "value")) -> None:
+        """A two-column table of (label, value)."""
+        self.parts.append(
+            {"kind": "table", "rows": list(rows), "caption": caption, "header": header}
+        )
+
+    def descriptives(self, stats: dict, histogram: str | None = None) -> None:
+        """Table 1 and the rest of a ``stats`` JSON (with its Figure 3 histogram PNG)."""
+        self.parts.append(
+            {
+                "kind": "descriptives",
+                "d": stats,
+                "title": stats["band_description"],
+                "source": f"{stats['input']}, band {stats['band']}",
+                "histogram": png_data_uri(histogram)
+                if histogram and os.path.exists(histogram)
+                else None,
+            }
+        )
 
     def html(self) -> str:
-        out = [f"<section><h2>{html.escape(self.title)}</h2><p>{html.escape(self.intro)}</p>"]
-        out.extend(self.parts)
-        if self.steps:
-            out.append("<details><summary>Parameters used</summary>")
-            for s in self.steps:
-                rows = [(k, _show(v)) for k, v in s.values.items() if v not in (None, "")]
-                out.append(
-                    table(rows, caption=f"geoboresight {s.name}", header=("parameter", "value"))
-                )
-            out.append("</details>")
-        out.append("</section>")
-        return "".join(out)
+        """The section as HTML."""
+        return str(macro("section")(self))
 
 
-def _show(value) -> str:
+def _show(value):
     if isinstance(value, list | tuple):
         return ", ".join(os.path.basename(str(v)) for v in value)
     if isinstance(value, str) and os.path.sep in value:
@@ -106,7 +124,7 @@ class Runner:
         if spec is None:
             step.error = f"the '{name}' operation is not available in this version of geoboresight"
         else:
-            known = {p.name for p in spec.params}
+            known = {name for p in spec.params for name in (p.name, *p.aliases)}
             step.values = {k: v for k, v in step.values.items() if k in known}
             sub.info(f"report: running {name}")
             try:
@@ -162,23 +180,11 @@ def raster_figure(path: str, title: str, label: str, out_png: str) -> str:
     return save_figure(fig, out_png)
 
 
-def _body_of(html_page: str) -> str:
-    """The content of a geoboresight HTML page without its <h1> (to nest it in the report)."""
-    start = html_page.find("</h1>")
-    start = start + 5 if start >= 0 else html_page.find("<body>") + 6
-    end = html_page.rfind("</body>")
-    return html_page[start:end]
-
-
 def build_report(values: dict, work_dir: str, progress: Progress) -> str:
-    """Run the operations for the scene described by ``values``; the whole HTML page."""
-    dual = {
-        k: values.get(k)
-        for k in ("vnir", "swir", "seam_nm", "vnir_wavelengths", "swir_wavelengths")
-    }
-    bands = {
-        k: values.get(k) for k in ("band_mode", "numerator_nm", "denominator_nm", "tolerance_nm")
-    }
+    """Run the operations for the scene described by ``values`` (the ``report`` operation's
+    parameters) with their products in ``work_dir``; the whole HTML page."""
+    dual = {k: values.get(k) for k in DUAL_KEYS}
+    bands = {k: values.get(k) for k in BAND_KEYS}
     anomaly_detectors = ["rx", "svdd"] if values.get("svdd") else ["rx"]
     run = Runner(work_dir, progress, n_steps=10 + len(anomaly_detectors))
     sections = []
@@ -208,8 +214,8 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
             },
         )
         if stats.result:
-            with open(stats.result["html"], encoding="utf-8") as f:
-                s.parts.append(_body_of(f.read()))
+            with open(stats.result["output"], encoding="utf-8") as f:
+                s.descriptives(json.load(f), stats.result.get("histogram"))
 
     # 2. Shadow (§3.1, Table 2, Figures 4 and 5)
     s = Section(
@@ -295,7 +301,7 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
             if isinstance(v, int | float) and not isinstance(v, bool)
         ]
         if rows:
-            s.parts.append(table(rows, caption="Relative DEM", header=("", "value")))
+            s.table(rows, caption="Relative DEM")
         view = run.run(
             s, "view-3d", {**dual, "dem": dem.result["output"], "output": run.path("view3d.png")}
         )
@@ -322,7 +328,7 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
         r = run.run(
             s,
             det,
-            {"image": values["vnir"], "swir": values.get("swir"), "output": run.path(f"{det}.tif")},
+            {"vnir": values["vnir"], "swir": values.get("swir"), "output": run.path(f"{det}.tif")},
         )
         if r.result:
             scores.append(r.result["output"])
@@ -347,13 +353,7 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
                 if isinstance(v, int | float) and not isinstance(v, bool)
             ]
             if rows:
-                s.parts.append(
-                    table(
-                        rows,
-                        caption="Detection at the chosen false-alarm rate",
-                        header=("", "value"),
-                    )
-                )
+                s.table(rows, caption="Detection at the chosen false-alarm rate")
     elif scores:
         s.note(
             "No target truth raster given: ROC curves need one (e.g. truth_target_abundance.tif of a simulated scene)."
@@ -364,29 +364,20 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
         )
 
     progress.update(1.0, "report")
-    return page(
-        "geoboresight scene report",
-        _header(values) + "".join(x.html() for x in sections) + _EXTRA_STYLE,
-    )
-
-
-def _header(values: dict) -> str:
-    rows = [
-        (k, _show(v))
-        for k, v in values.items()
-        if v not in (None, "") and k not in ("output", "products")
-    ]
-    meta = [
-        ("geoboresight", __version__),
-        ("Python", platform.python_version()),
-        ("NumPy", np.__version__),
-    ]
-    return (
-        "<p>Brook &amp; Ben-Dor (2011), “Advantages of the boresight effect in hyperspectral "
-        "data analysis”: the applications of the paper run on one scene. Each section lists the "
-        "parameters its operations used.</p>"
-        + table(rows, caption="Report parameters", header=("parameter", "value"))
-        + table(meta, caption="Software", header=("", "version"))
+    return render(
+        "report.html",
+        title="geoboresight scene report",
+        parameters=[
+            (k, _show(v))
+            for k, v in values.items()
+            if v not in (None, "") and k not in ("output", "products")
+        ],
+        software=[
+            ("geoboresight", __version__),
+            ("Python", platform.python_version()),
+            ("NumPy", np.__version__),
+        ],
+        sections=sections,
     )
 
 

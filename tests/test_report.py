@@ -8,14 +8,18 @@ import os
 import re
 import shutil
 import subprocess
+import sys
+import threading
 
 import numpy as np
 import pytest
 import rasterio
 
 from geoboresight.algorithms import registry
+from geoboresight.algorithms.report import REPORT
 from geoboresight.errors import Cancelled
 from geoboresight.io import quiet_georef
+from geoboresight.operations.report import report_file
 from geoboresight.progress import Progress
 
 CHROMIUM = ("/usr/bin/chromium", "/usr/bin/chromium-browser", "/usr/bin/google-chrome")
@@ -24,7 +28,8 @@ SECTIONS = ("Boresight ratio and statistics", "Shadow", "Relative DEM", "Anomaly
 
 @pytest.fixture(scope="module")
 def scene(tmp_path_factory):
-    from geoboresight.simulate import simulate_scene, write_scene
+    from geoboresight.io.scene import write_scene
+    from geoboresight.simulate import simulate_scene
 
     folder = tmp_path_factory.mktemp("report") / "sim"
     sim = simulate_scene(
@@ -39,7 +44,7 @@ def full_report(scene):
     folder, truth = scene
     out = folder.parent / "report.html"
     products = folder.parent / "products"
-    result = registry()["report"](
+    result = REPORT(
         vnir=str(folder / "vnir.img"),
         swir=str(folder / "swir.img"),
         shadow_truth=str(folder / "truth_shadow_fraction.tif"),
@@ -63,7 +68,8 @@ def test_report_is_self_contained_with_every_section(full_report):
     assert len(sources) >= 9  # ratio, histogram, classes, scatter, fit, 3-D, ROC, 2 scores
     assert all(s.startswith("data:image/png;base64,") for s in sources)
     assert "<link" not in text and "<script" not in text  # nothing fetched when opened
-    assert "Parameters used" in text and "numerator_nm" in text
+    assert "Parameters used" in text and "swir_nm" in text and "vnir_nm" in text
+    assert "numerator_nm" not in text and "denominator_nm" not in text  # former names
 
 
 def test_report_numbers_are_the_operations_own(full_report):
@@ -84,9 +90,7 @@ def test_report_numbers_are_the_operations_own(full_report):
 def test_missing_inputs_become_notes(scene, tmp_path):
     folder, _ = scene
     out = tmp_path / "r.html"
-    registry()["report"](
-        vnir=str(folder / "vnir.img"), swir=str(folder / "swir.img"), svdd=False, output=str(out)
-    )
+    report_file(str(folder / "vnir.img"), str(folder / "swir.img"), svdd=False, output=str(out))
     text = out.read_text(encoding="utf-8")
     notes = re.findall(r"class='missing'>([^<]*)<", text)
     assert any("Figure 5" in n for n in notes)
@@ -115,7 +119,7 @@ def test_cancel_leaves_nothing(scene, tmp_path):
         return len(calls) > 3
 
     with pytest.raises(Cancelled):
-        registry()["report"](
+        REPORT(
             progress=Progress(is_cancelled=cancelled),
             vnir=str(folder / "vnir.img"),
             swir=str(folder / "swir.img"),
@@ -203,3 +207,85 @@ def test_report_renders_in_chromium(full_report, tmp_path):
     assert saturated.mean() > 0.02
     shutil.rmtree(tmp_path / "p1", ignore_errors=True)
     shutil.rmtree(tmp_path / "p2", ignore_errors=True)
+
+
+def test_report_spec_runs_report_file():
+    assert REPORT.run is report_file and registry()["report"] is REPORT
+
+
+# ------------------------------------------------------------------ HTML templates
+def test_pages_escape_text_and_values():
+    from geoboresight.html import page, table
+    from geoboresight.report import Section, Step
+
+    evil = "<script>alert('x')</script>"
+    html = page(evil, table([(evil, evil), ("n", 12345), ("x", float("nan"))], caption=evil))
+    assert "<script>" not in html and "&lt;script&gt;" in html
+    assert "<td>12,345</td>" in html and "<td>–</td>" in html
+    section = Section(evil, evil)
+    section.note(evil)
+    section.table([(evil, 1.5)], caption=evil)
+    section.steps.append(Step("ratio", {"output": "/a/b/" + evil, "flag": True}))
+    text = section.html()
+    assert "<script>" not in text and text.count("&lt;script&gt;") == 5
+    assert "<td>yes</td>" in text  # a flag reads yes/no, not 1/0
+    assert "class='missing'" in text and "<details><summary>Parameters used</summary>" in text
+
+
+def test_stats_page_from_descriptives_and_from_its_json_agree():
+    """The stats operation renders a Descriptives, the report the stats JSON: one template,
+    the same Table 1."""
+    from dataclasses import asdict
+
+    from geoboresight.html import descriptives_html
+    from geoboresight.stats import describe
+
+    d = describe(np.random.default_rng(0).gamma(2.0, size=5000))
+    a = descriptives_html(d, "ratio", "r.tif, band 1", None)
+    b = descriptives_html(json.loads(json.dumps(asdict(d))), "ratio", "r.tif, band 1", None)
+    assert a == b
+    row = re.search(r"<tr><td class='l'>ratio</td>(.*?)</tr></table>", a).group(1)
+    cells = re.findall(r"<td>([^<]*)</td>", row)
+    assert len(cells) == 9 and int(cells[0].replace(",", "")) == 5000
+    assert float(cells[1]) == pytest.approx(d.mean, abs=1e-4)
+    assert "Tests of normality, outliers and percentiles" in a and "percentile 50" in a
+
+
+# ------------------------------------------------------------------ figures
+def test_figures_do_not_load_pyplot_or_switch_the_backend(tmp_path):
+    """Figures are plain objects with their own Agg canvas: QGIS keeps its backend."""
+    code = (
+        "import sys, matplotlib; before = matplotlib.get_backend(); "
+        "from geoboresight.figures import histogram_figure, save_figure; "
+        f"save_figure(histogram_figure([1, 3, 2], [0, 1, 2, 3], 't', 'x', 1.5, 0.2), {str(tmp_path / 'h.png')!r}); "
+        "print('matplotlib.pyplot' in sys.modules, matplotlib.get_backend() == before)"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        check=True,
+        env={**os.environ, "MPLBACKEND": "svg"},
+    )
+    assert out.stdout.split() == ["False", "True"]
+    assert (tmp_path / "h.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_figures_drawn_in_threads_equal_figures_drawn_one_by_one(tmp_path):
+    """Processing runs algorithms in worker threads: concurrent figures do not mix."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from geoboresight.figures import histogram_figure, save_figure
+
+    def draw(i):
+        rng = np.random.default_rng(i)
+        counts, edges = np.histogram(rng.normal(i, 1 + i, 2000), 30)
+        path = str(tmp_path / f"{i}_{threading.get_ident()}.png")
+        save_figure(histogram_figure(counts, edges, f"figure {i}", "x", i, 1 + i), path)
+        with open(path, "rb") as f:
+            return f.read()
+
+    serial = [draw(i) for i in range(6)]
+    with ThreadPoolExecutor(3) as pool:
+        threaded = list(pool.map(draw, range(6)))
+    assert threaded == serial

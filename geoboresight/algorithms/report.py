@@ -2,38 +2,9 @@
 
 from __future__ import annotations
 
-import os
-import shutil
-
-from .. import io
+from ..operations.report import report_file
 from ._common import BAND_PARAMS, DUAL_PARAMS
 from .spec import Algorithm, FileOut, Flag, FolderOut, Number, RasterIn
-
-
-def _run(values: dict, progress) -> dict:
-    from ..report import build_report  # matplotlib: imported only when a report is made
-
-    keep = values.get("products")
-    if keep:
-        os.makedirs(keep, exist_ok=True)
-        work = keep
-    else:
-        # beside the output (same file system), named after it: the same run gives the same page
-        work = os.path.abspath(values["output"]) + ".work"
-        shutil.rmtree(work, ignore_errors=True)
-        os.makedirs(work)
-    try:
-        page = build_report(values, work, progress)
-        with io.atomic_output(values["output"]) as tmp, open(tmp, "w", encoding="utf-8") as f:
-            f.write(page)
-    finally:
-        if not keep:
-            shutil.rmtree(work, ignore_errors=True)
-    result = {"output": values["output"]}
-    if keep:
-        result["products"] = keep
-    return result
-
 
 REPORT = Algorithm(
     name="report",
@@ -112,7 +83,7 @@ REPORT = Algorithm(
             optional=True,
         ),
     ),
-    run=_run,
+    run=report_file,
 )
 
 ALGORITHMS = (REPORT,)

@@ -1,0 +1,133 @@
+"""File-level scene report: one self-contained HTML page running every application of the paper."""
+
+from __future__ import annotations
+
+import os
+import shutil
+
+from .. import io
+from ..io.dual import SEAM_NM, SWIR_NM, TOLERANCE_NM, VNIR_NM
+from ._operation import operation
+
+
+@operation(
+    inputs=("vnir", "swir", "shadow_truth", "target_truth", "cloud_mask"),
+    outputs=("output", "products"),
+)
+def report_file(
+    vnir,
+    swir=None,
+    *,
+    output,
+    seam_nm=SEAM_NM,
+    vnir_wavelengths=None,
+    swir_wavelengths=None,
+    band_mode="wavelength",
+    vnir_nm=VNIR_NM,
+    swir_nm=SWIR_NM,
+    tolerance_nm=TOLERANCE_NM,
+    shadow_truth=None,
+    target_truth=None,
+    cloud_mask=None,
+    height_factor=None,
+    squint_deg=None,
+    flying_height=None,
+    ifov_mrad=None,
+    svdd=True,
+    products=None,
+    progress=None,
+) -> dict:
+    """Write an HTML report of one scene: ratio statistics, shadow, relative DEM, anomalies.
+
+    Runs the registered operations (``ratio``, ``stats``, ``shadow-classes``,
+    ``shadow-cluster``, ``shadow-fraction-fit``, ``relative-dem``, ``view-3d``,
+    ``boresight-indicator``, ``rx``, ``svdd``, ``roc``) through the registry, as any face
+    would, and lays out their figures and numbers (see :mod:`geoboresight.report`). A step
+    that cannot run becomes a note in its section.
+
+    Parameters
+    ----------
+    vnir : path
+        VNIR file (ENVI or GeoTIFF), or a merged VNIR+SWIR cube when ``swir`` is None.
+    swir : path, optional
+        SWIR file on the same pixel grid.
+    output : path
+        The report: one HTML file with every figure embedded (it opens offline).
+    seam_nm : float
+        Merged cube only: bands below it are VNIR, the rest SWIR.
+    vnir_wavelengths, swir_wavelengths : str, optional
+        Band centres in nm, comma-separated, for files without wavelength metadata.
+    band_mode : {"wavelength", "edges"}
+        The ratio's bands: nearest ``vnir_nm``/``swir_nm``, or the last VNIR band and the
+        first SWIR band.
+    vnir_nm, swir_nm : float
+        Wavelengths of the ratio's denominator (VNIR) and numerator (SWIR) bands.
+    tolerance_nm : float
+        Largest distance between a requested wavelength and a band centre.
+    shadow_truth : path, optional
+        Ground-truth shadow fraction (0–1) on the VNIR grid, for the Figure 5 fit.
+    target_truth : path, optional
+        Target mask or abundance on the VNIR grid, for the ROC curves (Figure 12).
+    cloud_mask : path, optional
+        Cloud mask on the VNIR grid (non-zero = cloud), left out of the relative DEM.
+    height_factor : float, optional
+        Relative DEM: height-to-disparity factor tan θ / GSD (px per metre); or give
+        ``squint_deg``, ``flying_height`` (m) and ``ifov_mrad``.
+    squint_deg, flying_height, ifov_mrad : float, optional
+        The flight geometry, for the relative DEM when ``height_factor`` is not given.
+    svdd : bool
+        Include the SVDD detector (slower) among the anomaly scores.
+    products : path, optional
+        Folder (created) to keep the intermediate rasters and figures in; by default they are
+        made in ``<output>.work`` beside the report and deleted.
+    progress : Progress, optional
+
+    Returns
+    -------
+    dict
+        ``output``, and ``products`` when kept.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (Eq. 3, Table 1 and
+    Figure 3; §3.1, Table 2, Figures 4 and 5; §3.2, Figure 9; §3.3, Figure 12).
+    """
+    from ..report import build_report  # matplotlib and jinja2: loaded only for a report
+
+    values = {
+        "vnir": vnir,
+        "swir": swir,
+        "seam_nm": seam_nm,
+        "vnir_wavelengths": vnir_wavelengths,
+        "swir_wavelengths": swir_wavelengths,
+        "band_mode": band_mode,
+        "vnir_nm": vnir_nm,
+        "swir_nm": swir_nm,
+        "tolerance_nm": tolerance_nm,
+        "shadow_truth": shadow_truth,
+        "target_truth": target_truth,
+        "cloud_mask": cloud_mask,
+        "height_factor": height_factor,
+        "squint_deg": squint_deg,
+        "flying_height": flying_height,
+        "ifov_mrad": ifov_mrad,
+        "svdd": svdd,
+    }
+    if products:
+        os.makedirs(products, exist_ok=True)
+        work = products
+    else:
+        # beside the output (same file system), named after it: the same run gives the same page
+        work = os.path.abspath(output) + ".work"
+        shutil.rmtree(work, ignore_errors=True)
+        os.makedirs(work)
+    try:
+        io.write_text(output, build_report(values, work, progress))
+    finally:
+        if not products:
+            shutil.rmtree(work, ignore_errors=True)
+    result = {"output": output}
+    if products:
+        result["products"] = products
+    return result
