@@ -40,6 +40,14 @@ KERNELS = {
     "disparity_map": "geoboresight.dem.disparity",
     "relative_dem": "geoboresight.dem.relative",
     "band_mean": "geoboresight.dem.bands",
+    "rx": "geoboresight.anomaly.rx",
+    "local_rx": "geoboresight.anomaly.rx",
+    "fit_svdd": "geoboresight.anomaly.svdd",
+    "boresight_indicator": "geoboresight.anomaly.indicator",
+    "unmix": "geoboresight.anomaly.unmix",
+    "unmix_cube": "geoboresight.anomaly.unmix",
+    "roc_curve": "geoboresight.anomaly.roc",
+    "label_anomalies": "geoboresight.anomaly.polygons",
 }
 
 #: File-level operations: one per operation of the command line and the QGIS toolbox.
@@ -58,6 +66,14 @@ OPERATIONS = {
     "disparity_file": "geoboresight.operations.dem",
     "relative_dem_file": "geoboresight.operations.dem",
     "view_3d_file": "geoboresight.operations.dem",
+    "rx_file": "geoboresight.operations.anomaly",
+    "svdd_file": "geoboresight.operations.anomaly",
+    "boresight_indicator_file": "geoboresight.operations.anomaly",
+    "unmix_file": "geoboresight.operations.anomaly",
+    "roc_file": "geoboresight.operations.anomaly",
+    "anomaly_polygons_file": "geoboresight.operations.anomaly",
+    "simulate_file": "geoboresight.operations.simulate",
+    "report_file": "geoboresight.operations.report",
 }
 
 #: The I/O entry points a script needs beside the operations.
@@ -67,6 +83,7 @@ IO = {
     "map_windows": "geoboresight.io.windows",
     "reduce_windows": "geoboresight.io.windows",
     "Grid": "geoboresight.io.grid",
+    "write_scene": "geoboresight.io.scene",
     "Progress": "geoboresight.progress",
     "GeoboresightError": "geoboresight.errors",
 }

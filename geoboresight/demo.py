@@ -157,7 +157,7 @@ def steps(scene: Path, out: Path) -> list[tuple[str, dict]]:
             ),
         ]
     todo += [
-        ("rx", {"image": v, "swir": s, "output": o("rx.tif")}),
+        ("rx", {"vnir": v, "swir": s, "output": o("rx.tif")}),
         ("boresight-indicator", {"ratio": ratio, "output": o("boresight_indicator.tif")}),
     ]
     if (scene / "truth_target_abundance.tif").exists():

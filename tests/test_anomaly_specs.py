@@ -59,10 +59,24 @@ def test_cube_reader_fast_path_equals_rasterio(tmp_path, interleave):
 
 
 @pytest.mark.parametrize("interleave", ["bil", "bsq"])
-def test_map_strips_yields_every_strip_in_order_from_threads(tmp_path, interleave):
+def test_cube_strips_come_in_order_from_threads(tmp_path, interleave):
+    """The cube's reader in map_windows' worker threads: every strip, in order, in the file's
+    own type, with its validity; an error in one strip reaches the caller."""
+    from geoboresight.io import map_windows
+
+    def strips(c, func, workers):
+        return map_windows(
+            c.reader(None, None),
+            func,
+            height=c.height,
+            width=c.width,
+            block_rows=5,
+            workers=workers,
+        )
+
     path, cube = _scene(tmp_path, interleave, nodata=-1)
     with open_cube(path) as c:
-        got = list(c.map_strips(lambda d, v: (d.copy(), v.copy()), 5, workers=3))
+        got = list(strips(c, lambda d, v: (d.copy(), v.copy()), 3))
         whole, whole_valid = c.read(0, c.height, None, None)
     assert [w.row_off for w, _ in got] == list(range(0, 48, 5))
     assert got[0][1][0].dtype == np.int16  # the file's own type: no float copy
@@ -76,7 +90,7 @@ def test_map_strips_yields_every_strip_in_order_from_threads(tmp_path, interleav
         return None
 
     with open_cube(path) as c, pytest.raises(ValueError, match="strip 3"):
-        list(c.map_strips(fail_on_strip_3, 5, workers=2))
+        list(strips(c, fail_on_strip_3, 2))
 
 
 @pytest.mark.parametrize("stop_after", [2, 12])  # in pass 1, in pass 2

@@ -151,7 +151,7 @@ def test_former_option_names_are_hidden_aliases(pair, tmp_path):
         '"swir_wavelength_nm": 1100.0' in old.output
         and '"swir_wavelength_nm": 1100.0' in new.output
     )
-    assert "numerator" not in runner.invoke(cli.main, ["ratio", "--help"]).output
+    assert "--numerator-nm" not in runner.invoke(cli.main, ["ratio", "--help"]).output
     both = runner.invoke(
         cli.main,
         [*base, "--numerator-nm", "1100", "--swir-nm", "1040", "-o", str(tmp_path / "c.tif")],

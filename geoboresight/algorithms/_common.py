@@ -90,18 +90,17 @@ def block_rows(default: int = io.DEFAULT_BLOCK_ROWS) -> Number:
 BLOCK_ROWS = block_rows()
 
 
-def seed(
-    description: str = "Random seed (same seed, same result)", advanced=True, **limits
-) -> Number:
-    """A random seed parameter: the same seed gives the same result."""
+def seed(description: str = "Random seed (same seed, same result)", advanced=True) -> Number:
+    """A random seed parameter: the same seed gives the same result. The range is a 32-bit
+    integer's, which every face (QGIS's integer parameters included) can hold."""
     return Number(
         name="seed",
         description=description,
         default=0,
         minimum=0,
+        maximum=2**31 - 1,
         integer=True,
         advanced=advanced,
-        **limits,
     )
 
 

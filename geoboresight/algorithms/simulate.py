@@ -54,7 +54,6 @@ SIMULATE = Algorithm(
         seed(
             "Random seed: the same seed gives the same scene, byte for byte",
             advanced=False,
-            maximum=2**31 - 1,
         ),
         Enum(
             name="geometry",

@@ -77,9 +77,9 @@ class MultiRaster(Param):
     kind: ClassVar[str] = "multiraster"
 
     def coerce(self, value):
-        if isinstance(value, str | os.PathLike):
-            value = [v for v in str(value).split(",") if v.strip()]
-        paths = [os.fspath(v).strip() for v in value]
+        from ..io.write import split_paths
+
+        paths = split_paths(value)
         if not paths:
             raise self._fail("give at least one raster")
         return paths
@@ -321,15 +321,16 @@ def _check_bands(alg: Algorithm, values: dict) -> None:
 def _resolve_aliases(alg: Algorithm, values: Mapping[str, Any]) -> dict:
     """Values given under a former parameter name, under the current one."""
     rename = {a: p.name for p in alg.params for a in p.aliases}
-    out: dict = {}
+    out = {k: v for k, v in values.items() if k not in rename}
     for key, value in values.items():
-        name = rename.get(key, key)
-        if name in out and key != name:
+        if key not in rename or value is None:
+            continue
+        name = rename[key]
+        if out.get(name) is not None:
             raise ParameterError(
                 f"{alg.name}: '{key}' is the former name of '{name}': give only one of them"
             )
-        if value is not None or name not in out:
-            out[name] = value
+        out[name] = value
     return out
 
 

@@ -28,7 +28,7 @@ from .windows import (
     row_windows,
     sample_windows,
 )
-from .write import atomic_output, check_output_path, write_json, write_text
+from .write import atomic_output, check_output_path, split_paths, write_json, write_text
 
 __all__ = [
     "DEFAULT_BLOCK_ROWS",
@@ -59,6 +59,7 @@ __all__ = [
     "require_same_grid",
     "row_windows",
     "sample_windows",
+    "split_paths",
     "wavelengths_of",
     "write_envi",
     "write_json",

@@ -12,9 +12,9 @@ import os
 
 import numpy as np
 import shapely
-from rasterio import features
 from rasterio.transform import Affine
 
+from .vector import trace_shapes
 from .write import atomic_output
 
 
@@ -24,13 +24,12 @@ def label_polygons(labels: np.ndarray, transform=None, *, connectivity: int = 8)
     ``transform`` maps pixels to map coordinates; None keeps pixel coordinates (x = column,
     y = line). A group whose pixels touch only at corners becomes one MultiPolygon.
     """
-    tr = transform if transform is not None else Affine.identity()
     labels = np.asarray(labels, dtype=np.int32)
     parts: dict[int, list] = {}
-    for geom, value in features.shapes(
-        labels, mask=labels > 0, transform=tr, connectivity=connectivity
+    for geom, value in trace_shapes(
+        labels, mask=labels > 0, transform=transform, connectivity=connectivity
     ):
-        parts.setdefault(int(value), []).append(shapely.geometry.shape(geom))
+        parts.setdefault(int(value), []).append(geom)
     return {i: shapely.unary_union(p) for i, p in parts.items()}
 
 

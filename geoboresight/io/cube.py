@@ -22,9 +22,9 @@ import numpy as np
 from .grid import Grid
 from .raster import open_raster
 from .wavelengths import read_wavelengths
-from .windows import default_workers, map_windows
 
-_ENVI_DTYPES = {1: "u1", 2: "i2", 3: "i4", 4: "f4", 5: "f8", 12: "u2", 13: "u4", 14: "i8", 15: "u8"}
+#: NumPy types of ENVI's "data type" codes.
+ENVI_DTYPES = {1: "u1", 2: "i2", 3: "i4", 4: "f4", 5: "f8", 12: "u2", 13: "u4", 14: "i8", 15: "u8"}
 
 
 @dataclass
@@ -38,7 +38,9 @@ class _Part:
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
 
-def _envi_header(data_path: str) -> dict | None:
+def envi_header(data_path: str) -> dict | None:
+    """The keys of the ENVI header beside ``data_path`` (lower-case names, raw text values),
+    or None when there is none."""
     stem = os.path.splitext(data_path)[0]
     for hdr in (data_path + ".hdr", stem + ".hdr"):
         if os.path.isfile(hdr):
@@ -62,7 +64,7 @@ def _raw_layout(src, data_path: str) -> dict | None:
     """The byte layout of an uncompressed ENVI file, or None (read through GDAL then)."""
     if src.driver != "ENVI":
         return None
-    keys = _envi_header(data_path)
+    keys = envi_header(data_path)
     if keys is None or keys.get("file compression", "0").strip() not in ("", "0"):
         return None
     try:
@@ -72,9 +74,9 @@ def _raw_layout(src, data_path: str) -> dict | None:
         big = int(keys.get("byte order", "0")) == 1
     except (KeyError, ValueError):
         return None
-    if code not in _ENVI_DTYPES or interleave not in ("bsq", "bil", "bip"):
+    if code not in ENVI_DTYPES or interleave not in ("bsq", "bil", "bip"):
         return None
-    dtype = np.dtype(_ENVI_DTYPES[code]).newbyteorder(">" if big else "<")
+    dtype = np.dtype(ENVI_DTYPES[code]).newbyteorder(">" if big else "<")
     expected = offset + src.count * src.height * src.width * dtype.itemsize
     if os.path.getsize(data_path) < expected:
         return None
@@ -218,18 +220,6 @@ class Cube:
             return data, valid
 
         return read
-
-    def map_strips(self, func, block_rows: int, bands=None, dtype=None, workers: int | None = None):
-        """Yield ``(window, func(data, valid))`` for every strip of ``block_rows`` lines, in
-        order, ``func`` running in ``workers`` threads (default: the CPU count, at most 4)."""
-        return map_windows(
-            self.reader(bands, dtype),
-            func,
-            height=self.height,
-            width=self.width,
-            block_rows=block_rows,
-            workers=default_workers() if workers is None else max(1, int(workers)),
-        )
 
 
 def open_cube(paths, label: str = "image") -> Cube:

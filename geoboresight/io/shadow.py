@@ -26,6 +26,7 @@ from ..shadow.polygons import (
     shadow_pixels,
     shadow_polygons,
 )
+from .vector import trace_shapes
 from .write import write_text
 
 #: Raw sensor geometry as polygons: x = column, y = −line (so a layer is not upside down).
@@ -121,14 +122,11 @@ def class_shapes(
     ``transform`` maps pixels to map coordinates; None (or the identity) keeps raw pixel
     geometry (x = column, y = −line), where a pixel's area is 1.
     """
-    from rasterio.features import shapes
-    from shapely.geometry import shape
-
     classes = np.asarray(classes, dtype=np.uint8)
     raw = transform is None or transform == Affine.identity()
     tr = RAW_TRANSFORM if raw else transform
-    traced = shapes(classes, mask=mask, connectivity=CONNECTIVITY, transform=tr)
-    return [(shape(g), int(v)) for g, v in traced], abs(tr.a * tr.e - tr.b * tr.d)
+    traced = trace_shapes(classes, mask=mask, transform=tr, connectivity=CONNECTIVITY)
+    return [(g, int(v)) for g, v in traced], abs(tr.a * tr.e - tr.b * tr.d)
 
 
 def class_polygons(

@@ -12,7 +12,7 @@ import os
 import numpy as np
 
 from ..errors import InputError
-from .cube import _ENVI_DTYPES, _envi_header
+from .cube import ENVI_DTYPES, envi_header
 from .wavelengths import parse_list, unit_scale
 
 #: CSV columns holding the library's band widths, not a material.
@@ -74,7 +74,7 @@ def _read_sli(path):
         if os.path.isfile(stem + ext) and not (stem + ext).lower().endswith(".hdr"):
             data_path = stem + ext
             break
-    keys = _envi_header(data_path or stem)
+    keys = envi_header(data_path or stem)
     if keys is None or data_path is None:
         raise InputError(f"ENVI spectral library {path}: could not find the header and data file")
     try:
@@ -84,9 +84,9 @@ def _read_sli(path):
         big = int(keys.get("byte order", "0")) == 1
     except (KeyError, ValueError) as exc:
         raise InputError(f"ENVI spectral library {hdr}: missing header key {exc}") from None
-    if code not in _ENVI_DTYPES:
+    if code not in ENVI_DTYPES:
         raise InputError(f"ENVI spectral library {hdr}: unsupported data type {code}")
-    dt = np.dtype(_ENVI_DTYPES[code]).newbyteorder(">" if big else "<")
+    dt = np.dtype(ENVI_DTYPES[code]).newbyteorder(">" if big else "<")
     spectra = np.fromfile(data_path, dtype=dt, count=samples * lines, offset=offset)
     if spectra.size != samples * lines:
         raise InputError(

@@ -18,6 +18,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 import shapely
+import shapely.geometry
 
 from ..errors import InputError, ParameterError
 from .write import atomic_output
@@ -27,6 +28,18 @@ _WGS84_WKT = (
     'PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433]]'
 )
 FORMATS = {".gpkg": "GPKG", ".geojson": "GeoJSON", ".json": "GeoJSON"}
+
+
+def trace_shapes(values, *, mask=None, transform=None, connectivity: int = 4) -> list:
+    """``[(shapely polygon, value), ...]``: the pixel outline of every connected patch of equal
+    ``values`` inside ``mask`` (rasterio.features.shapes), in the coordinates of ``transform``
+    (None: pixel coordinates, x = column, y = line)."""
+    from rasterio.features import shapes
+    from rasterio.transform import Affine
+
+    tr = Affine.identity() if transform is None else transform
+    traced = shapes(values, mask=mask, transform=tr, connectivity=connectivity)
+    return [(shapely.geometry.shape(g), v) for g, v in traced]
 
 
 def vector_format(path: str) -> str:

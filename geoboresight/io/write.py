@@ -106,3 +106,10 @@ def write_json(path: str | os.PathLike, data, overwrite: bool = True) -> str:
     import json
 
     return write_text(path, json.dumps(data, indent=2, default=float), overwrite=overwrite)
+
+
+def split_paths(value) -> list[str]:
+    """Paths from one path, a comma-separated string of paths, or a list of either (the command
+    line gives a list of options, each of which may hold commas)."""
+    items = [value] if isinstance(value, str | os.PathLike) else list(value or ())
+    return [p.strip() for v in items for p in os.fspath(v).split(",") if p.strip()]

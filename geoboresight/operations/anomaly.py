@@ -610,12 +610,6 @@ def unmix_file(
     return {"output": output, "endmembers": chosen}
 
 
-def split_paths(value) -> list[str]:
-    """Paths from a list of paths, each possibly comma-separated, or one comma-separated string."""
-    items = [value] if isinstance(value, str | os.PathLike) else list(value or ())
-    return [p.strip() for v in items for p in os.fspath(v).split(",") if p.strip()]
-
-
 @operation(inputs=("scores", "truth"), outputs=("output", "csv"))
 def roc_file(
     scores,
@@ -669,7 +663,7 @@ def roc_file(
     from ..figures import save_figure
     from ..io.anomaly import write_roc_csv
 
-    paths = split_paths(scores)
+    paths = io.split_paths(scores)
     labels = [n.strip() for n in (names or "").split(",") if n.strip()]
     if labels and len(labels) != len(paths):
         raise ParameterError(

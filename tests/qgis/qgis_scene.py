@@ -16,7 +16,8 @@ LINES = 48
 def make_scene(folder: str) -> dict:
     """Write the scene into ``folder``; a dict of its files (vnir, swir, truth_*, ...)."""
     try:
-        from geoboresight.simulate import simulate_scene, write_scene
+        from geoboresight.io.scene import write_scene
+        from geoboresight.simulate import simulate_scene
     except ImportError:
         return _random_scene(folder)
     scene = simulate_scene(preset="mixed", lines=LINES, seed=3)
