@@ -102,7 +102,7 @@ def _show(value):
 
 
 class Runner:
-    """Runs registered operations into a work folder; failures become notes, not crashes."""
+    """Runs file-level operations into a work folder; failures become notes, not crashes."""
 
     def __init__(self, work_dir: str, progress: Progress, n_steps: int):
         self.work_dir = work_dir
@@ -114,21 +114,20 @@ class Runner:
         return os.path.join(self.work_dir, name)
 
     def run(self, section: Section, name: str, values: dict) -> Step:
-        from .algorithms import registry
-        from .algorithms.spec import execute
+        import inspect
 
         step = Step(name, {k: v for k, v in values.items() if v is not None})
         sub = self.progress.sub(self.done / self.n_steps, (self.done + 1) / self.n_steps)
         self.done = min(self.done + 1, self.n_steps)
-        spec = registry().get(name)
-        if spec is None:
+        operation = _operation(name)
+        if operation is None:
             step.error = f"the '{name}' operation is not available in this version of geoboresight"
         else:
-            known = {name for p in spec.params for name in (p.name, *p.aliases)}
+            known = inspect.signature(operation).parameters
             step.values = {k: v for k, v in step.values.items() if k in known}
             sub.info(f"report: running {name}")
             try:
-                step.result = execute(spec, step.values, progress=sub, overwrite=True)
+                step.result = operation(**step.values, progress=sub, overwrite=True)
             except Cancelled:
                 raise
             except (GeoboresightError, ImportError) as exc:
@@ -381,13 +380,22 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
     )
 
 
+def _operation(name: str):
+    """The file-level operation of the operation called ``name`` (e.g. 'shadow-classes'), or
+    None when this installation lacks it."""
+    import geoboresight
+
+    try:
+        return getattr(geoboresight, name.replace("-", "_") + "_file")
+    except (AttributeError, ImportError):
+        return None
+
+
 def sections_available() -> dict[str, bool]:
     """Which operations the report uses are present in this installation."""
-    from .algorithms import registry
-
     names = ["ratio", "stats", "shadow-classes", "shadow-cluster", "shadow-fraction-fit"]
     names += ["relative-dem", "view-3d", "boresight-indicator", "rx", "svdd", "roc"]
-    return {n: n in registry() for n in names}
+    return {n: _operation(n) is not None for n in names}
 
 
 __all__ = ["Runner", "Section", "Step", "build_report", "raster_figure", "sections_available"]
