@@ -104,8 +104,8 @@ class DualSensor:
         if band_mode == "edges":
             vb, sb = self.vnir.last, self.swir.first
         elif band_mode == "wavelength":
+            sb = self.swir.band_for(swir_nm, tolerance_nm)  # the numerator first, as in 0.1
             vb = self.vnir.band_for(vnir_nm, tolerance_nm)
-            sb = self.swir.band_for(swir_nm, tolerance_nm)
         else:
             raise InputError(f"unknown band mode {band_mode!r}: use 'wavelength' or 'edges'")
         return RatioBands(vb, self.vnir.wavelength_of(vb), sb, self.swir.wavelength_of(sb))

@@ -79,8 +79,9 @@ class Inputs:
         return self._derived[alg][output]
 
     def endmember_names(self) -> list[str]:
-        with open(self.scene["endmembers"], encoding="utf-8") as f:
-            return [n.strip() for n in f.readline().split(",")[1:]]
+        from geoboresight.io.spectra import read_spectral_library
+
+        return read_spectral_library(self.scene["endmembers"])[2]
 
     @staticmethod
     def percentile(path: str, q: float) -> float:
