@@ -141,6 +141,45 @@ def boresight_indicator(
 
     ``tail``: "both" scores |z|, "high" scores z (ratio above the reference), "low" scores −z.
     ``window``: 0 or 1 for the scene-wide reference; an odd size (e.g. 5) for a local median.
+
+    Parameters
+    ----------
+    ratio : array
+        Boresight ratio b(1010 nm)/b(920 nm) (Eq. 3, e.g. from
+        :func:`~geoboresight.ratio.boresight_ratio`); non-finite values are invalid.
+    valid : bool array, optional
+        Pixels to score (same shape as ``ratio``).
+    threshold : float
+        Score above which a pixel is flagged (> 0; default 3, the 3σ rule).
+    tail : {"both", "high", "low"}
+        Which side of the reference is anomalous.
+    window : int
+        0 or 1: the scene's median is the reference; an odd size > 1: the median of a
+        ``window`` × ``window`` neighbourhood, ``ratio`` being replaced by its residual.
+
+    Returns
+    -------
+    IndicatorResult
+        ``score`` (float32 robust z-score |z|, z or −z; NaN where not valid), ``anomalies``
+        (bool, score > threshold), the ``median`` and ``sigma`` (1.4826·MAD, or the standard
+        deviation when the MAD is 0) of the ratio (of its residual with ``window``), the
+        ``threshold`` and the ``count`` of flagged pixels.
+
+    Raises
+    ------
+    ParameterError
+        When ``threshold`` ≤ 0, ``tail`` is unknown or ``window`` is even.
+    InputError
+        When fewer than 3 pixels are valid or the ratio is constant.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.3: the boresight band
+    ratio as an anomaly indicator, Figure 11(D), compared in Figure 12; the 3σ outlier rule of
+    §2 and Table 1).
+    Hampel, F.R. The influence curve and its role in robust estimation. J. Am. Stat. Assoc.
+    1974, 69, 383–393.
     """
     check_options(threshold, tail, window)
     if window and window > 1:

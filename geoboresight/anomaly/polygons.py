@@ -30,6 +30,33 @@ def label_anomalies(
 
     Labels run 1…n in the table's ``id`` order (0: not an anomaly); groups smaller than
     ``min_pixels`` are dropped. Pixels outside ``valid`` (and NaN scores) are never flagged.
+
+    Parameters
+    ----------
+    score : 2-D array (rows, cols)
+        Anomaly score map (RX, SVDD, boresight indicator), higher = more anomalous.
+    valid : bool array (rows, cols), optional
+        Pixels that may be flagged; non-finite scores never are.
+    threshold : float
+        Pixels with a score at or above it are flagged; flagged pixels are grouped 8-connected.
+    min_pixels : int
+        Smallest group kept.
+
+    Returns
+    -------
+    labels : int32 array (rows, cols)
+        The group of each pixel, 1…n; 0 where not an anomaly (or in a dropped group).
+    table : dict of 1-D arrays
+        One entry per group, in label order: ``id`` (the label), ``n_pixels``, ``score_max``,
+        ``score_mean``, and ``row``, ``col`` of the peak pixel (0-based).
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.3, Figure 11: the
+    anomalous targets the detectors flag).
+    Rosenfeld, A.; Pfaltz, J.L. Sequential operations in digital picture processing. J. ACM
+    1966, 13, 471–494.
     """
     from scipy import ndimage
 

@@ -76,7 +76,37 @@ def truth_mask(
 
 
 def roc_curve(scores: np.ndarray, targets: np.ndarray, background: np.ndarray) -> ROC:
-    """ROC of one score map (higher = more anomalous); NaN scores are left out."""
+    """ROC of one score map (higher = more anomalous); NaN scores are left out.
+
+    Parameters
+    ----------
+    scores : array
+        Detector scores (RX, SVDD, boresight indicator, …), higher = more anomalous.
+    targets : bool array
+        Target pixels (same shape), e.g. from :func:`truth_mask`.
+    background : bool array
+        Background pixels (same shape); pixels in neither mask are left out.
+
+    Returns
+    -------
+    ROC
+        ``pfa`` and ``pd`` (probability of false alarm and of detection, one point per distinct
+        score, from (0, 0) to (1, 1)), the decreasing score ``thresholds`` (the first, +inf,
+        flags nothing), the area under the curve ``auc`` (trapezoids) and the numbers of
+        target and background pixels used; :meth:`ROC.pd_at` gives Pd at a fixed Pfa.
+
+    Raises
+    ------
+    InputError
+        When no target or no background pixel has a finite score.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.3, Figure 12: ROC
+    performance of the global RX, SVDD and boresight band detectors).
+    Fawcett, T. An introduction to ROC analysis. Pattern Recognit. Lett. 2006, 27, 861–874.
+    """
     from sklearn import metrics
 
     s = np.asarray(scores, dtype=np.float64)

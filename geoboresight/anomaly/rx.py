@@ -307,6 +307,43 @@ def rx(
     """Global RX of an in-memory cube (k, rows, cols); NaN where not ``valid``.
 
     Equal to ``spectral.rx(cube.transpose(1, 2, 0))`` on valid data.
+
+    Parameters
+    ----------
+    cube : array (k, rows, cols)
+        The image, k bands, of any numeric type (DN, radiance or reflectance).
+    valid : bool array (rows, cols), optional
+        Pixels that make up the background and are scored; all pixels when None.
+    regularize : float
+        Ridge added to the covariance's diagonal, as a fraction of the mean band variance
+        (0: none; it changes the scores).
+    precision : {"float64", "float32"}
+        Arithmetic of the scoring product (float32: about 2× faster, relative error ~1e-5);
+        the mean and covariance are always float64.
+    wavelengths : array, optional
+        Band centres (nm), to name the bands in error messages.
+
+    Returns
+    -------
+    score : float64 array (rows, cols)
+        Squared Mahalanobis distance ``(x − μ)ᵀ Σ⁻¹ (x − μ)`` of each pixel to the scene's mean
+        μ and unbiased covariance Σ (high = anomalous); NaN where not valid.
+
+    Raises
+    ------
+    InputError
+        When there are too few valid pixels, or the covariance is singular (constant bands, or
+        bands that are linear combinations of others).
+    ParameterError
+        When ``regularize`` < 0 or ``precision`` is unknown.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.3: the global RX
+    detector, Figure 11(B), compared in Figure 12).
+    Reed, I.S.; Yu, X. Adaptive multiple-band CFAR detection of an optical pattern with unknown
+    spectral distribution. IEEE Trans. Acoust. Speech Signal Process. 1990, 38, 1760–1770.
     """
     cube = np.asarray(cube)
     stats = background_stats([(cube, valid)], cube.shape[0])
@@ -358,6 +395,49 @@ def local_rx(
     tall (include ``outer - 1`` extra lines each side: the windows of the image's first and
     last lines are shifted inwards, so they reach that far), and ``rows`` = (start, stop) are the
     image lines to score. Returns (stop - start, cols) float64 scores, NaN where not valid.
+
+    Parameters
+    ----------
+    cube : array (k, lines, cols)
+        Image lines ``first_row …`` of the image (the whole image by default), any numeric type.
+    detector : RXDetector
+        Gives the covariance: each pixel's ``x − mean`` is whitened by the detector's
+        ``W = L⁻¹`` (``Σ = L Lᵀ``, usually the scene's global covariance).
+    inner : int
+        Side (odd, pixels) of the guard window left out of the background mean.
+    outer : int
+        Side (odd, > ``inner``, at most the image's height and width) of the background window.
+    valid : bool array (lines, cols), optional
+        Valid pixels of ``cube``: only they enter the background means and are scored.
+    first_row : int
+        Image line of ``cube``'s first line.
+    height : int, optional
+        Lines in the whole image (default: ``cube``'s lines).
+    rows : (int, int), optional
+        ``(start, stop)`` image lines to score (default: all lines of ``cube``).
+    precision : {"float64", "float32"}
+        Arithmetic of the whitening product.
+
+    Returns
+    -------
+    score : float64 array (stop − start, cols)
+        ``‖W (x − m)‖²``, the squared Mahalanobis distance of each pixel to its local
+        background mean ``m``; NaN where not valid or where the background window has no valid
+        pixel.
+
+    Raises
+    ------
+    ParameterError
+        When the windows are not odd with ``inner < outer``, the outer window does not fit in
+        the image, or the strip lacks the margin lines it needs.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.3: the RX detector
+    (RXD), Figure 11(B)).
+    Reed, I.S.; Yu, X. Adaptive multiple-band CFAR detection of an optical pattern with unknown
+    spectral distribution. IEEE Trans. Acoust. Speech Signal Process. 1990, 38, 1760–1770.
     """
     k, nr, nc = cube.shape
     height = nr if height is None else height

@@ -182,6 +182,35 @@ def fit_svdd(
         Gaussian kernel width in data units; default: :func:`median_sigma`.
     nu : float
         Upper bound on the fraction of training pixels outside the sphere (0 < ν ≤ 1).
+    tol : float
+        Stopping tolerance of the quadratic-programme solver (scikit-learn's ``tol``).
+
+    Returns
+    -------
+    SVDDModel
+        Support vectors (m, k), their dual weights ``alpha``, the offset ``intercept`` (−ρ), the
+        kernel's ``gamma`` = 1/(2σ²) and ``sigma``, ``nu`` and the training mean ``center``;
+        :meth:`SVDDModel.score_cube` gives each pixel's score ``‖Φ(y) − a‖² − R²`` (positive
+        outside the sphere: anomalous).
+
+    Raises
+    ------
+    InputError
+        When ``sample`` is not 2-D with at least 10 pixels, or (without ``sigma``) all its
+        pixels are identical.
+    ParameterError
+        When ``nu`` is not in (0, 1] or ``sigma`` is not positive.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.3, Eqs. 7–9: SVDD
+    with a Gaussian RBF kernel; Figure 11(C), compared in Figure 12).
+    Tax, D.M.J.; Duin, R.P.W. Support vector data description. Mach. Learn. 2004, 54, 45–66.
+    Schölkopf, B.; Platt, J.C.; Shawe-Taylor, J.; Smola, A.J.; Williamson, R.C. Estimating the
+    support of a high-dimensional distribution. Neural Comput. 2001, 13, 1443–1471.
+    Banerjee, A.; Burlina, P.; Diehl, C. A support vector method for anomaly detection in
+    hyperspectral imagery. IEEE Trans. Geosci. Remote Sens. 2006, 44, 2282–2291.
     """
     from sklearn.svm import OneClassSVM
 

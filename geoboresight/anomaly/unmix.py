@@ -66,6 +66,42 @@ def unmix(X: np.ndarray, E: np.ndarray, method: str = "fcls", chunk: int = 65536
     """Abundances and residual of pixels ``X`` (k, n) for endmembers ``E`` (N, k).
 
     Returns ``(abundances (N, n), residual_rms (n,))`` in float64.
+
+    Parameters
+    ----------
+    X : array (k, n)
+        Pixel spectra, k bands by n pixels, in the endmembers' units (any numeric type).
+    E : array (N, k)
+        Endmember spectra a_n(λ) on the same k bands: N ≤ k (and at most 14), finite and
+        linearly independent.
+    method : {"fcls", "nnls", "ucls"}
+        Fully constrained (f ≥ 0, Σ f = 1, Eq. 11), non-negative only, or unconstrained least
+        squares.
+    chunk : int
+        Pixels solved at a time (bounds memory).
+
+    Returns
+    -------
+    abundances : float64 array (N, n)
+        Fractional abundance f_n of each endmember in each pixel (Eq. 10).
+    residual_rms : float64 array (n,)
+        RMS over bands of ``x − Σ f_n a_n``: the unmixing error φ of Eq. 10.
+
+    Raises
+    ------
+    ParameterError
+        When ``method`` is unknown.
+    InputError
+        When the endmembers are unusable (see above) or ``X`` and ``E`` differ in bands.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.3, Eqs. 10–11: linear
+    unmixing of the detected anomalies, the basis of the ROC curves of Figure 12).
+    Heinz, D.C.; Chang, C.-I. Fully constrained least squares linear spectral mixture analysis
+    method for material quantification in hyperspectral imagery. IEEE Trans. Geosci. Remote
+    Sens. 2001, 39, 529–545.
     """
     if method not in METHODS:
         raise ParameterError(f"unmixing method must be one of {', '.join(METHODS)}, got {method!r}")
@@ -106,6 +142,39 @@ def unmix_cube(
 
     ``scale`` turns the cube's values into the endmembers' units (e.g. 0.0001 for
     reflectance × 10000).
+
+    Parameters
+    ----------
+    cube : array (k, rows, cols)
+        The image, k bands, any numeric type.
+    valid : bool array (rows, cols), optional
+        Pixels to unmix; all pixels when None.
+    endmembers : array (N, k)
+        Endmember spectra on the cube's k bands (see :func:`unmix`).
+    method : {"fcls", "nnls", "ucls"}
+        Constraints on the abundances (see :func:`unmix`).
+    scale : float
+        Factor applied to the cube's values before unmixing.
+
+    Returns
+    -------
+    float64 array (N + 1, rows, cols)
+        The abundance of each endmember, in the order of ``endmembers``, then the residual RMS
+        φ; NaN where not valid.
+
+    Raises
+    ------
+    ParameterError, InputError
+        As :func:`unmix`.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.3, Eqs. 10–11, Figure
+    12).
+    Heinz, D.C.; Chang, C.-I. Fully constrained least squares linear spectral mixture analysis
+    method for material quantification in hyperspectral imagery. IEEE Trans. Geosci. Remote
+    Sens. 2001, 39, 529–545.
     """
     k, rows, cols = cube.shape
     flat = np.asarray(cube).reshape(k, -1)

@@ -35,6 +35,15 @@ def band_mean(stack: np.ndarray, valid: np.ndarray | None = None) -> tuple[np.nd
         The bands added in their order, then divided by their number (a pixel-wise operation:
         strip by strip gives the same values as the whole image).
     valid : bool array (lines, columns)
+        ``valid`` as given, or all True when None (values are not tested for finiteness: a
+        non-finite band value gives a non-finite mean).
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.2: the image matching
+    of the VNIR and SWIR images on each side of the sensor seam, next to the bands of Eq. 3, for
+    the relative DEM of Figure 9).
     """
     stack = np.asarray(stack)
     if stack.ndim == 2:

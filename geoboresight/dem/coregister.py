@@ -34,6 +34,7 @@ def coregister(
     Parameters
     ----------
     swir : 2-D array (lines, columns)
+        The SWIR band to resample (DN or radiance; non-finite values are invalid).
     along, across : float, or 1-D array with one value per line
         Offset of the SWIR image relative to VNIR (see :class:`~geoboresight.dem.offset.Offset`).
         Per-line values (e.g. an interpolated :class:`~geoboresight.dem.offset.OffsetProfile`)
@@ -50,8 +51,28 @@ def coregister(
 
     Returns
     -------
-    resampled : float32 array on the VNIR grid (NaN where invalid)
-    valid : bool array
+    resampled : float32 array (lines, columns)
+        The SWIR values interpolated at ``(r + along, c + across)``, on the VNIR grid; NaN
+        where invalid.
+    valid : bool array (lines, columns)
+        Pixels whose interpolation used only valid SWIR pixels inside the image (for cubic and
+        higher orders, also one pixel away from any invalid one).
+
+    Raises
+    ------
+    InputError
+        When ``swir`` is not one 2-D band.
+    ParameterError
+        When ``order`` is not 0–5 or the offset has non-finite values.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§2, Figure 1: the
+    boresight shift between the VNIR and SWIR images, "automatically corrected prior to data
+    analysis" (§5)).
+    Unser, M. Splines: a perfect fit for signal and image processing. IEEE Signal Process. Mag.
+    1999, 16(6), 22–38.
     """
     img = np.asarray(swir, dtype=np.float64)
     if img.ndim != 2:

@@ -186,11 +186,37 @@ def disparity_map(
     min_peak, min_sharpness : float
         Reliability thresholds on the NCC peak (0–1) and on its curvature.
     block_rows : int
-        Lines per block: memory is bounded by a block, not by the flight line.
+        Lines per block (at least 8): memory is bounded by a block, not by the flight line.
+    progress : Progress, optional
+        Receives the fraction of blocks matched (and can cancel).
 
     Returns
     -------
     Disparity
+        Per pixel (float32, lines × columns): ``along`` and ``across``, the SWIR position minus
+        the VNIR position of the pixel's window (NaN where no peak was found), ``peak`` (the NCC
+        at the best match) and ``sharpness`` (its curvature); ``reliable`` (bool) where the
+        pixel is valid, the peak reaches ``min_peak`` and the sharpness ``min_sharpness``;
+        ``window`` and ``search`` as used.
+
+    Raises
+    ------
+    InputError
+        When the images are not 2-D on the same grid.
+    ParameterError
+        When ``window`` is not odd and ≥ 3, ``search_along`` < 1, ``search_across`` < 0 or
+        ``refine`` < 0.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.2: the disparity map
+    by image matching of the VNIR and SWIR images, ±3 px along-track and ±1 px across-track;
+    Figures 8 and 9(B)).
+    Lewis, J.P. Fast normalized cross-correlation. In Proceedings of Vision Interface 1995,
+    Quebec City, Canada, 1995; pp. 120–123.
+    Shimizu, M.; Okutomi, M. Sub-pixel estimation error cancellation on area-based matching.
+    Int. J. Comput. Vis. 2005, 63, 207–224.
     """
     progress = as_progress(progress)
     a_full = np.asarray(vnir, dtype=np.float64)

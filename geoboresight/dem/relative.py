@@ -121,6 +121,73 @@ def relative_dem(
 
     Raises :class:`InputError` when there are no reliable matches, and when the relief does not
     stand out of the height noise σ_h (unless ``require_meaningful=False``).
+
+    Parameters
+    ----------
+    vnir, swir : 2-D arrays (lines, columns) on the same grid
+        The matched images, e.g. band means of 900–970 nm and 980–1100 nm
+        (:func:`~geoboresight.dem.bands.band_mean`).
+    valid : bool array, optional
+        Pixels usable in both images (no nodata, no cloud); non-finite pixels are always left
+        out. The DEM covers exactly these pixels.
+    factor : HeightFactor
+        Disparity per metre of height (px/m), along- and across-track
+        (:func:`~geoboresight.dem.height.parallax_factor` or
+        :func:`~geoboresight.dem.height.height_factor`).
+    window : int
+        Matching window (odd, pixels), as in :func:`~geoboresight.dem.disparity.disparity_map`.
+    search_along, search_across : int
+        Integer search range (±px) around the global boresight offset.
+    min_peak, min_sharpness : float
+        Reliability thresholds on the NCC peak (0–1) and on its curvature.
+    refine : int
+        Sub-pixel refinement passes of the matching.
+    point_spacing : int
+        Side (pixels) of the cells that each give one control point, the median of their
+        reliable heights.
+    variogram_model : {"spherical", "exponential", "gaussian", "linear", "power"}
+        Variogram model fitted to the control points (PyKrige).
+    n_closest_points : int
+        Control points in each local kriging neighbourhood.
+    backend : {"C", "loop"}
+        PyKrige's backend for moving-window kriging.
+    zero_percentile : float
+        Percentile (0–100) of the reliable heights set to 0 m: the lowest region.
+    validate : bool
+        Run a hold-out cross-validation of the kriging.
+    require_meaningful : bool
+        Refuse (InputError) a DEM whose relief does not stand out of the height noise σ_h.
+    progress : Progress, optional
+        Receives progress and messages (offset, reliable pixels, precision, variogram).
+
+    Returns
+    -------
+    RelativeDem
+        ``dem`` (float32, m; 0 = lowest reliable region, NaN outside the valid pixels) and its
+        kriging ``variance`` (float32, m²); ``height``, the per-pixel height from the
+        disparity (NaN where not reliable); the ``disparity``, the global ``offset``, the
+        ``factor``, the height ``precision`` (σ_d, σ_h, relief, whether it is meaningful), the
+        fitted ``variogram``, the control ``points`` (column, row, height) and the
+        ``cross_validation`` statistics (None unless ``validate``).
+
+    Raises
+    ------
+    InputError
+        When the images or the mask are not on one grid, there are too few reliable matches or
+        control points, or (with ``require_meaningful``) the relief does not stand out of σ_h.
+    ParameterError
+        When the factor is zero or not finite, an option is out of range, or the variogram fit
+        fails.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.2: relative DEM, the
+    lowest region defined as 0, interpolated by kriging; Figure 9(D)).
+    Guizar-Sicairos, M.; Thurman, S.T.; Fienup, J.R. Efficient subpixel image registration
+    algorithms. Opt. Lett. 2008, 33, 156–158. https://doi.org/10.1364/OL.33.000156
+    Matheron, G. Principles of geostatistics. Econ. Geol. 1963, 58, 1246–1266.
+    Cressie, N.A.C. Statistics for Spatial Data, revised ed.; Wiley: New York, NY, USA, 1993.
     """
     progress = as_progress(progress)
     factor.check()

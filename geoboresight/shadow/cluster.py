@@ -143,7 +143,9 @@ def fit_shadow_cluster(
     valid : bool array, optional
         Pixels to use; non-finite and non-positive values are always left out.
     n_components : int, optional
-        Number of mixture components; by default 2..``max_components`` chosen by BIC.
+        Number of mixture components (≥ 2); by default 2..``max_components`` chosen by BIC.
+    max_components : int
+        Largest number of components tried when ``n_components`` is not given (at least 2).
     merge_distance : float
         Components within this Bhattacharyya distance of the shadow cluster (and above the
         scene's median ratio) are merged into it. The default 0 merges nothing: one component,
@@ -151,6 +153,36 @@ def fit_shadow_cluster(
         areas"); about 1 also takes in overlapping partial-shadow components.
     seed : int
         Random seed of the mixture's initialisation (results are reproducible).
+
+    Returns
+    -------
+    ShadowCluster
+        The fitted mixture in standardised (log ratio, log 941 nm) space (``means``,
+        ``covariances``, ``weights``), the indexes of the components that make up the shadow
+        cluster (``shadow``), the standardisation (``center``, ``scale``), the number of
+        components and of sample pixels, the cluster's ``isolation`` (Bhattacharyya distance to
+        the nearest other component) and ``shadow_share`` (fraction of the sample assigned to
+        it). :meth:`ShadowCluster.probability` gives each pixel's posterior probability of
+        shadow.
+
+    Raises
+    ------
+    InputError
+        When fewer than 50 pixels have a valid, positive ratio and 941 nm value.
+    ParameterError
+        When ``n_components`` is below 2.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1, Figure 4: the
+    isolated shadow cluster of the ratio against 941 nm; a scene-adaptive alternative to the
+    fixed thresholds of Table 2).
+    Schwarz, G. Estimating the dimension of a model. Ann. Stat. 1978, 6, 461–464.
+    Hennig, C. Methods for merging Gaussian mixture components. Adv. Data Anal. Classif. 2010,
+    4, 3–34.
+    Bhattacharyya, A. On a measure of divergence between two statistical populations defined
+    by their probability distributions. Bull. Calcutta Math. Soc. 1943, 35, 99–109.
     """
     from sklearn.mixture import GaussianMixture
 

@@ -79,6 +79,47 @@ def fit_dark_pixel(
     others). Candidates are pixels below the ``dark_percentile`` percentile in both NIR and
     visible mean; the matched filter ``v = C⁻¹(d − m) / ((d − m)ᵀ C⁻¹ (d − m))`` gives
     Φ = vᵀ(x − m), 0 at the scene mean m and 1 at the candidates' mean d.
+
+    Parameters
+    ----------
+    bands : array (n_bands, n_pixels) or (n_bands, rows, cols)
+        The matched-filter bands of a sample of pixels (by default blue, green, red and NIR:
+        ``DEFAULT_BANDS_NM``), in any consistent unit (DN, radiance, reflectance).
+    valid : bool array, optional
+        Pixels to use (the shape of one band); pixels with a non-finite value in any band are
+        always left out.
+    nir_index : int
+        Position of the NIR band in ``bands`` (negative counts from the end).
+    vis_indices : tuple of int, optional
+        Positions of the visible bands, averaged for the darkness test; default: all but NIR.
+    dark_percentile : float
+        Core-shadow candidates are at or below this percentile (0–100, exclusive) of the scene
+        in NIR and in the visible mean (in NIR alone when fewer than 3 pixels are dark in both).
+    threshold : float
+        Shadow-function value Φ at or above which a pixel is shadow.
+
+    Returns
+    -------
+    DarkPixelModel
+        The darkness thresholds in NIR and visible, the scene mean, the matched-filter vector,
+        the candidates' mean, their number and ``threshold``;
+        :meth:`DarkPixelModel.shadow_function` gives Φ and :meth:`DarkPixelModel.mask` the
+        uint8 shadow mask.
+
+    Raises
+    ------
+    ParameterError
+        When ``dark_percentile`` is not between 0 and 100.
+    InputError
+        When there are fewer valid pixels than 10 per band (10 × n_bands).
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1: the ATCOR-4
+    shadow detector the boresight ratio is compared with, Figures 5(A) and 6).
+    Richter, R.; Müller, A. De-shadowing of satellite/airborne imagery. Int. J. Remote Sens.
+    2005, 26, 3137–3148.
     """
     if not (0 < dark_percentile < 100):
         raise ParameterError(

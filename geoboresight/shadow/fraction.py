@@ -74,7 +74,37 @@ def fit_fraction_model(
     """Least-squares ``ratio = a · fraction + b`` over the pixels in ``valid`` (Figure 5(B)).
 
     ``valid`` selects the pixels to fit: the detected shadow areas with a valid ratio and
-    ground truth; non-finite values are always left out. Raises InputError when fewer than 3 pixels remain or the fraction does not vary.
+    ground truth; non-finite values are always left out. Raises InputError when fewer than 3
+    pixels remain or the fraction does not vary.
+
+    Parameters
+    ----------
+    ratio : array
+        Boresight ratio (Eq. 3), the dependent variable.
+    fraction : array
+        Ground-truth shadow fraction (0–1, e.g. from
+        :func:`~geoboresight.shadow.illumination.shadow_fraction`), same shape as ``ratio``.
+    valid : bool array, optional
+        Pixels to fit (same shape): the detected shadow areas.
+
+    Returns
+    -------
+    FractionModel
+        ``slope`` a and ``intercept`` b of ``ratio = a · fraction + b`` (ordinary least
+        squares), ``r2`` (squared Pearson correlation), ``n`` (pixels fitted) and ``stderr``
+        (standard error of the slope); :meth:`FractionModel.fraction` inverts it.
+
+    Raises
+    ------
+    InputError
+        When ``ratio`` and ``fraction`` differ in shape, fewer than 3 pixels remain, or the
+        fraction is constant.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1, Figure 5(B):
+    y = −0.74x + 1.31, R² = 0.913; the ratio-to-fraction correspondence of Table 2).
     """
     from scipy.stats import linregress
 

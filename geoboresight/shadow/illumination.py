@@ -120,6 +120,45 @@ def hillshade(
     (self shadow). ``gdaldem hillshade`` reports ``1 + 254·max(cos i, 0)`` as a byte.
     Invalid cells (``valid`` False or not finite) are filled with the mean valid height for the
     gradient of their neighbours.
+
+    Parameters
+    ----------
+    dsm : 2-D array (rows, cols)
+        Surface model heights (terrain plus buildings), in the ground units of the grid
+        (metres); non-finite heights are invalid.
+    valid : bool array, optional
+        Cells with a usable height (same shape as ``dsm``); by default the finite ones.
+    sun_zenith : float
+        Sun zenith angle in degrees from the vertical, 0–90 (90° minus the sun's elevation).
+    sun_azimuth : float
+        Sun azimuth in degrees clockwise from north towards the sun (as ``gdaldem -az``).
+    transform : affine.Affine or 2 × 2 array, optional
+        The grid's affine transform (rotation allowed), or the matrix taking (Δcol, Δrow) to
+        (Δeast, Δnorth). Without one (or with the identity), ``cell_size`` is used and row 0 is
+        the northern edge.
+    cell_size : float, optional
+        Cell side in ground units when there is no ``transform``.
+    z_factor : float
+        Vertical exaggeration of the heights (as ``gdaldem -z``).
+
+    Returns
+    -------
+    cos_i : float32 array (rows, cols)
+        Cosine of the solar incidence angle, −1..1: 1 where the slope faces the sun, ≤ 0 in self
+        shadow; NaN where not valid.
+
+    Raises
+    ------
+    ParameterError
+        When the sun position is out of range, or the cell size is unknown (no transform and no
+        ``cell_size``) or not positive.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1: the "hillshade
+    map and shadow model" behind the ground-truth shadow map of Figures 4–5 and Table 2).
+    Horn, B.K.P. Hill shading and the reflectance map. Proc. IEEE 1981, 69, 14–47.
     """
     z, a = check_sun(sun_zenith, sun_azimuth)
     m = grid_matrix(transform, cell_size)
@@ -204,6 +243,54 @@ def cast_shadow(
     next sample sunward is above the sun line), so this is cast *and* self shadow. Rays leaving
     the grid are unblocked (as in ``r.sunmask``); invalid cells never cast shadow and are False.
     ``relief`` (max − min height of the larger raster this is a strip of) bounds the march.
+
+    Parameters
+    ----------
+    dsm : 2-D array (rows, cols)
+        Surface model heights (terrain plus buildings), in the ground units of the grid
+        (metres); non-finite heights are invalid.
+    valid : bool array, optional
+        Cells with a usable height (same shape as ``dsm``); by default the finite ones.
+    sun_zenith : float
+        Sun zenith angle in degrees from the vertical, 0–90; at 0 nothing is shadowed.
+    sun_azimuth : float
+        Sun azimuth in degrees clockwise from north towards the sun (as ``r.sunmask azimuth=``).
+    transform : affine.Affine or 2 × 2 array, optional
+        The grid's affine transform (rotation allowed), or the matrix taking (Δcol, Δrow) to
+        (Δeast, Δnorth). Without one (or with the identity), ``cell_size`` is used and row 0 is
+        the northern edge.
+    cell_size : float, optional
+        Cell side in ground units when there is no ``transform``.
+    step : float
+        Length of one march step in cells (> 0); 1 with ``"nearest"`` is ``r.sunmask``.
+    relief : float, optional
+        Highest minus lowest valid height, which bounds the number of steps; by default that of
+        ``dsm``. Give the whole raster's relief when ``dsm`` is a strip of it.
+    interpolation : {"nearest", "bilinear"}
+        How the surface is sampled along the ray: flat-topped blocks (buildings) or smooth
+        terrain.
+
+    Returns
+    -------
+    shadow : bool array (rows, cols)
+        True where the cell's line of sight to the sun is blocked (cast and steep self shadow);
+        False elsewhere and on invalid cells.
+
+    Raises
+    ------
+    ParameterError
+        When the sun position is out of range, the cell size is unknown or not positive,
+        ``step`` is not positive or ``interpolation`` is unknown.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1: the "shadow model"
+    from the surface model and the illumination geometry, the ground truth of Figures 4–5 and
+    Table 2).
+    GRASS Development Team. r.sunmask: calculates cast shadow areas from sun position and
+    elevation raster map. GRASS GIS Reference Manual.
+    https://grass.osgeo.org/grass-stable/manuals/r.sunmask.html
     """
     m = grid_matrix(transform, cell_size)
     check_sun(sun_zenith, sun_azimuth)
@@ -266,6 +353,50 @@ def shadow_fraction(
     ``"nearest"``: flat-topped blocks; bilinearly interpolated for ``"bilinear"``), the shadow
     is marched on that finer grid (:func:`cast_shadow`), and the fraction of shaded sub-cells is
     the cell's shadow fraction. Invalid cells are NaN.
+
+    Parameters
+    ----------
+    dsm : 2-D array (rows, cols)
+        Surface model heights (terrain plus buildings), in the ground units of the grid
+        (metres); non-finite heights are invalid.
+    valid : bool array, optional
+        Cells with a usable height (same shape as ``dsm``); by default the finite ones.
+    sun_zenith : float
+        Sun zenith angle in degrees from the vertical, 0–90.
+    sun_azimuth : float
+        Sun azimuth in degrees clockwise from north towards the sun.
+    transform : affine.Affine or 2 × 2 array, optional
+        The grid's affine transform, or the matrix taking (Δcol, Δrow) to (Δeast, Δnorth);
+        without one, ``cell_size`` is used and row 0 is the northern edge.
+    cell_size : float, optional
+        Cell side in ground units when there is no ``transform``.
+    supersample : int
+        Sub-cells per cell side (≥ 1); 1 gives a 0/1 shadow map.
+    relief : float, optional
+        Highest minus lowest valid height, which bounds the march (see :func:`cast_shadow`).
+    interpolation : {"nearest", "bilinear"}
+        Sub-cells are copies of their cell (flat-topped blocks) or bilinearly interpolated
+        (smooth terrain); the march samples the surface the same way.
+
+    Returns
+    -------
+    fraction : float32 array (rows, cols)
+        Fraction of each cell in shadow, 0–1 (multiples of 1/``supersample``²); NaN where not
+        valid.
+
+    Raises
+    ------
+    ParameterError
+        When ``supersample`` is below 1, or as :func:`cast_shadow`.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1: the ground-truth
+    shadow fraction of Figure 5(B) and Table 2).
+    GRASS Development Team. r.sunmask: calculates cast shadow areas from sun position and
+    elevation raster map. GRASS GIS Reference Manual.
+    https://grass.osgeo.org/grass-stable/manuals/r.sunmask.html
     """
     n = int(supersample)
     if n < 1:
