@@ -9,6 +9,7 @@ the output named ``output`` is also ``-o``). The same commands are mounted under
 from __future__ import annotations
 
 import json
+import os
 import sys
 
 import click
@@ -124,7 +125,7 @@ class _Bar:
 def make_command(alg: Algorithm) -> click.Command:
     """A click command for ``alg``: options from its parameters, the run through ``execute``."""
 
-    def callback(overwrite: bool, quiet: bool, as_json: bool, **raw):
+    def callback(overwrite: bool, quiet: bool, as_json: bool, debug: bool = False, **raw):
         values = {}
         for p in alg.params:
             v = raw.get(p.name)
@@ -144,15 +145,9 @@ def make_command(alg: Algorithm) -> click.Command:
         progress = Progress(bar, log=log)
         try:
             result = execute(alg, values, progress=progress, overwrite=overwrite)
-        except KeyboardInterrupt:
+        except BaseException as exc:
             bar.close()
-            raise click.ClickException("cancelled; no output was left behind") from None
-        except Cancelled:
-            bar.close()
-            raise click.ClickException("cancelled; no output was left behind") from None
-        except GeoboresightError as exc:
-            bar.close()
-            raise click.ClickException(str(exc)) from None
+            raise failure(exc, debug) from None
         bar.close()
         if as_json:
             click.echo(json.dumps(result, indent=2, default=str))
@@ -174,6 +169,7 @@ def make_command(alg: Algorithm) -> click.Command:
         ),
         click.Option(["-q", "--quiet"], is_flag=True, help="No progress bar or log messages."),
         click.Option(["--json", "as_json"], is_flag=True, help="Print the results as JSON."),
+        click.Option(["--debug"], is_flag=True, help="Show the full traceback of an error."),
     ]
     return click.Command(
         name=alg.name,
@@ -182,6 +178,42 @@ def make_command(alg: Algorithm) -> click.Command:
         help=f"{alg.display_name}.\n\n{alg.help}",
         short_help=alg.short_help,
         context_settings={"max_content_width": 100},
+    )
+
+
+class InternalError(click.ClickException):
+    """An error that is not the user's: a bug to report (exit status 70, EX_SOFTWARE)."""
+
+    exit_code = 70
+
+
+def debugging(flag: bool = False) -> bool:
+    """True when the user asked for tracebacks: ``--debug`` on the command or before it, or
+    GEOBORESIGHT_DEBUG=1."""
+    ctx = click.get_current_context(silent=True)
+    root = ctx.find_root().params.get("debug") if ctx is not None else False
+    return bool(flag or root or os.environ.get("GEOBORESIGHT_DEBUG", "") not in ("", "0"))
+
+
+def failure(exc: BaseException, debug: bool = False) -> BaseException:
+    """The one line the user sees for ``exc`` (never a traceback unless debugging): the
+    message of a :class:`GeoboresightError`, "cancelled" for Ctrl-C, and for anything else
+    (a bug) its type and message with a pointer to ``--debug``. Raises ``exc`` itself when
+    debugging, so that its traceback is printed."""
+    if debugging(debug) and not isinstance(exc, click.exceptions.Exit | click.ClickException):
+        raise exc
+    if isinstance(exc, KeyboardInterrupt | Cancelled):
+        return click.ClickException("cancelled; no output was left behind")
+    if isinstance(exc, click.ClickException | click.exceptions.Exit | click.Abort):
+        return exc
+    if isinstance(exc, GeoboresightError):
+        return click.ClickException(" ".join(str(exc).split()))
+    if not isinstance(exc, Exception):
+        return exc  # SystemExit and the like pass through
+    text = " ".join(str(exc).split()) or "no message"
+    return InternalError(
+        f"unexpected {type(exc).__name__}: {text}. This is a bug in geoboresight: run the "
+        "command again with --debug for the traceback and report it"
     )
 
 
@@ -242,9 +274,9 @@ def _batch(operation, jobs, scheduler, workers, overwrite):
             overwrite=overwrite,
             progress=Progress(bar, log=lambda m: click.echo(m, err=True)),
         )
-    except GeoboresightError as exc:
+    except BaseException as exc:
         bar.close()
-        raise click.ClickException(str(exc)) from None
+        raise failure(exc) from None
     bar.close()
     failed = [r for r in results if not r.ok]
     for r in results:
@@ -261,7 +293,8 @@ def _batch(operation, jobs, scheduler, workers, overwrite):
     context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
 )
 @click.version_option(__version__, prog_name="geoboresight")
-def main():
+@click.option("--debug", is_flag=True, help="Show the full traceback of an error.")
+def main(debug: bool = False):
     """geoboresight: the boresight effect of dual VNIR+SWIR pushbroom sensors as information.
 
     Brook & Ben-Dor (2011): the boresight band ratio b(1010 nm)/b(920 nm) and its statistics,

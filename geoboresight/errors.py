@@ -22,5 +22,9 @@ class OutputError(GeoboresightError, OSError):
     """An output that would overwrite an input, or an existing file without ``overwrite``."""
 
 
+class ResourceError(GeoboresightError, OSError):
+    """The machine ran out of something the run needs (memory); the message says what to lower."""
+
+
 class Cancelled(GeoboresightError):
     """The user cancelled the run (QGIS cancel button, Ctrl-C); partial outputs were removed."""

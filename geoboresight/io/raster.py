@@ -17,10 +17,10 @@ from rasterio.errors import NotGeoreferencedWarning, RasterioIOError
 from rasterio.transform import Affine
 
 from .. import __version__
-from ..errors import InputError
+from ..errors import InputError, OutputError
 from .grid import FLOAT_NODATA, Grid
 from .wavelengths import format_wavelengths
-from .write import atomic_output
+from .write import atomic_output, output_error, scrub
 
 #: GDAL block cache (MB) while reading: enough for a few strips of a full-width cube.
 GDAL_CACHE_MB = 64
@@ -59,10 +59,53 @@ def open_raster(path: str | os.PathLike, label: str = "raster"):
         except RasterioIOError as exc:
             raise InputError(f"{label} {path} cannot be read as a raster ({exc})") from None
         try:
+            check_raw_size(src, label)
+        except BaseException:
+            src.close()
+            raise
+        try:
             with quiet_georef():
                 yield src
         finally:
             src.close()
+
+
+def check_raw_size(src, label: str = "raster") -> None:
+    """Raise :class:`InputError` when an uncompressed ENVI file is shorter or longer than its
+    header says (GDAL would read the missing lines as zeros, and a longer file means the
+    header's size or type is wrong: both give silently wrong numbers)."""
+    if src.driver != "ENVI" or not src.files:
+        return
+    from .cube import ENVI_DTYPES, envi_header
+
+    data = src.files[0]
+    keys = envi_header(data)
+    if keys is None or keys.get("file compression", "0").strip() not in ("", "0"):
+        return
+    hdr = next((f for f in src.files[1:] if f.lower().endswith(".hdr")), "its header")
+    try:
+        offset = int(keys.get("header offset", "0"))
+        itemsize = np.dtype(ENVI_DTYPES[int(keys["data type"])]).itemsize
+    except (KeyError, ValueError):
+        return  # GDAL opened it, so it knows the layout; nothing more to compare
+    expected = offset + src.count * src.height * src.width * itemsize
+    actual = os.path.getsize(data)
+    if actual == expected:
+        return
+    layout = (
+        f"{src.count} bands × {src.height} lines × {src.width} samples × {itemsize} bytes"
+        + (f" + {offset} header bytes" if offset else "")
+        + f" = {expected} bytes"
+    )
+    if actual < expected:
+        raise InputError(
+            f"{label} {data} is {actual} bytes but {hdr} describes {layout}: the file is "
+            "truncated (copy it again) or the header's lines/samples/bands/data type are wrong"
+        )
+    raise InputError(
+        f"{label} {data} is {actual} bytes, longer than the {layout} that {hdr} describes: "
+        "check 'lines', 'samples', 'bands', 'data type' and 'header offset' in the header"
+    )
 
 
 def _envi_data_for_header(hdr: str) -> str | None:
@@ -180,6 +223,7 @@ def write_envi(
                 dst.set_band_description(i, f"{wl:.2f} nm")
             if description:
                 dst.update_tags(description=description)
+        verify_written(tmp, path, profile)
     return path
 
 
@@ -217,11 +261,61 @@ def create_raster(
                 dst.set_band_description(i, name)
             for i, bt in enumerate(band_tags or (), start=1):
                 dst.update_tags(i, **{k: str(v) for k, v in bt.items()})
+        verify_written(tmp, path, profile)
         if category_names:
             # After the TIFF is closed (GDAL would rewrite its PAM file on close), beside the
             # temporary file so that it is renamed along with it.
             with open(tmp + ".aux.xml", "w", encoding="utf-8") as f:
                 f.write(_pam_categories(category_names))
+
+
+def verify_written(tmp: str, path: str, profile: dict) -> None:
+    """Raise :class:`OutputError` unless the closed file ``tmp`` is complete.
+
+    GDAL reports some write errors at close only on stderr (libtiff's ``_tiffWriteProc: No
+    space left on device``) and the close returns normally: the file is then unreadable or
+    its blocks point past its end. So before the rename the file is reopened, its size and
+    type compared with ``profile``, and every GeoTIFF block's offset + size checked against
+    the file's length (a metadata read, no pixels are decoded); raw ENVI data must have the
+    header's length.
+    """
+    problem = None
+    try:
+        with quiet_georef(), rasterio.open(tmp) as chk:
+            shape = (chk.count, chk.height, chk.width)
+            if shape != (profile["count"], profile["height"], profile["width"]):
+                problem = f"it holds {shape} instead of the bands × lines × columns written"
+            elif chk.driver == "GTiff":
+                problem = _tiff_blocks_problem(chk, os.path.getsize(tmp))
+            elif chk.driver == "ENVI":
+                need = chk.count * chk.height * chk.width * np.dtype(chk.dtypes[0]).itemsize
+                if os.path.getsize(chk.files[0]) < need:
+                    problem = "its data file is shorter than its header says"
+    except (rasterio.errors.RasterioError, OSError) as exc:
+        problem = f"it cannot be read back ({exc})"
+    if problem is None:
+        return
+    err = output_error(OSError(problem), path, tmp, mine=True)
+    if err is not None and "full" in str(err):
+        raise err
+    raise OutputError(
+        f"output {path} could not be written completely ({scrub(problem, tmp, path)}): GDAL "
+        "reported a write error; check the disk's free space and permissions. Any previous "
+        "file of that name is unchanged"
+    )
+
+
+def _tiff_blocks_problem(src, size: int) -> str | None:
+    """Why the GeoTIFF ``src`` of ``size`` bytes is incomplete, or None."""
+    for b in range(1, src.count + 1):
+        bh, bw = src.block_shapes[b - 1]
+        for y in range(-(-src.height // bh)):
+            for x in range(-(-src.width // bw)):
+                off = src.get_tag_item(f"BLOCK_OFFSET_{x}_{y}", "TIFF", bidx=b)
+                n = src.get_tag_item(f"BLOCK_SIZE_{x}_{y}", "TIFF", bidx=b)
+                if off is None or n is None or int(off) + int(n) > size or int(off) == 0:
+                    return f"block {x},{y} of band {b} is missing"
+    return None
 
 
 def _pam_categories(names: dict[int, str]) -> str:

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import OutputError
 from .raster import write_envi, write_raster
-from .write import atomic_output
+from .write import atomic_output, check_folder_replaceable
 
 #: Colours of the material classes in truth_material.tif (QGIS shows the colour table).
 MATERIAL_COLOURS = {
@@ -54,6 +54,14 @@ SCENE_FILES = (
     "truth.json",
     "endmembers.csv",
 )
+#: Every name a scene folder may hold: an existing folder with anything else is never replaced.
+SCENE_FOLDER_FILES = (*SCENE_FILES, "merged.img", "merged.hdr")
+
+
+def check_scene_folder(folder) -> None:
+    """Raise :class:`OutputError` if ``folder`` exists and holds files that no scene writes
+    (the user's own files): a scene replaces only a folder of scene files."""
+    check_folder_replaceable(os.fspath(folder), SCENE_FOLDER_FILES)
 
 
 def write_scene(scene, folder, merged: bool = False, overwrite: bool = False) -> str:
@@ -77,7 +85,10 @@ def write_scene(scene, folder, merged: bool = False, overwrite: bool = False) ->
         )
     # The ENVI headers hold wavelengths, FWHM and band names: no redundant .aux.xml sidecars
     # (which GDAL applications would rewrite when they open the scene).
-    with atomic_output(folder, overwrite=overwrite) as tmp, rasterio.Env(GDAL_PAM_ENABLED="NO"):
+    with (
+        atomic_output(folder, overwrite=overwrite, folder_files=SCENE_FOLDER_FILES) as tmp,
+        rasterio.Env(GDAL_PAM_ENABLED="NO"),
+    ):
         os.makedirs(tmp)
         write_cubes(scene, tmp, merged=merged)
         write_truth_rasters(scene, tmp)

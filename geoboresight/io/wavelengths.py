@@ -7,11 +7,15 @@ Sources, in order (the first that gives one value per band wins):
 3. GDAL's ``IMAGERY`` domain ``CENTRAL_WAVELENGTH_UM`` (GDAL >= 3.10);
 4. band descriptions holding a number with a unit ("920 nm", "Band 12 (0.92 Micrometers)", "920.5").
 
-Units are nanometres or micrometres; values below 100 without a unit are taken as micrometres.
+Units are nanometres or micrometres. Without a unit they are inferred only when unambiguous
+(every centre between 0.3 and 2.6: micrometres; between 300 and 2600: nanometres); otherwise
+the file is refused with its name and the header key to add. Every token of a list is parsed
+strictly: a garbled entry ("5l0", "n/a") is named, never read as a different number.
 """
 
 from __future__ import annotations
 
+import math
 import re
 
 import numpy as np
@@ -22,73 +26,137 @@ _NUMBER = r"[-+]?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?"
 _UM_WORDS = ("micrometer", "micrometre", "micron", "um", "µm")
 
 
-def unit_scale(units: str | None, values: np.ndarray | None = None) -> float:
-    """Factor turning values in ``units`` into nanometres."""
+#: Band centres (nm) of the sensors this package reads: VNIR+SWIR, with margin.
+_NM_RANGE = (300.0, 2600.0)
+
+
+def unit_scale(units: str | None, values: np.ndarray | None = None, where: str = "") -> float:
+    """Factor turning values in ``units`` into nanometres (``where`` names the file in errors).
+
+    Without a unit the values decide, when they can only be one: all within 0.3–2.6
+    (micrometres) or all within 300–2600 (nanometres).
+    """
     u = (units or "").strip().lower()
+    at = f"{where}: " if where else ""
     if u.startswith(("nanomet", "nm")):
         return 1.0
     if u.startswith(_UM_WORDS):
         return 1000.0
-    if u in ("", "unknown", "index") and values is not None and len(values):
-        # No unit: a VNIR/SWIR sensor in µm has all centres below ~3; in nm above 300.
-        return 1000.0 if np.nanmax(values) < 100 else 1.0
     if u.startswith(("millimet", "mm")):
         return 1.0e6
-    raise InputError(f"unknown wavelength units {units!r}: use nanometers or micrometers")
+    if u in ("", "unknown") and values is not None and len(values):
+        lo, hi = float(np.nanmin(values)), float(np.nanmax(values))
+        if _NM_RANGE[0] / 1000 <= lo and hi <= _NM_RANGE[1] / 1000:
+            return 1000.0
+        if _NM_RANGE[0] <= lo and hi <= _NM_RANGE[1]:
+            return 1.0
+        raise InputError(
+            f"{at}wavelengths {lo:g}–{hi:g} have no unit and could be nanometres or "
+            "micrometres (or band numbers): add 'wavelength units = Nanometers' (or "
+            "Micrometers) to the header, or give the band centres in nm"
+        )
+    raise InputError(
+        f"{at}unknown wavelength units {units!r}: use Nanometers or Micrometers "
+        "('wavelength units' in the ENVI header, 'wavelength_units' band tag)"
+    )
 
 
-def parse_list(text: str) -> np.ndarray:
-    """Parse "{400.1, 402.3}" / "400,402" / "400 402" into a float array."""
-    return np.array([float(v) for v in re.findall(_NUMBER, text)], dtype="float64")
+def parse_list(text: str, where: str = "wavelength list") -> np.ndarray:
+    """Parse "{400.1, 402.3}" / "400,402" / "400 402" into a float array, strictly.
+
+    Raises :class:`InputError` naming ``where`` and the offending token (e.g. ``5l0``,
+    ``n/a``) or a non-finite value: a garbled list is never read as other numbers.
+    """
+    body = text.strip()
+    if body.startswith("{") and body.endswith("}"):
+        body = body[1:-1]
+    tokens = [t for t in re.split(r"[,\s;]+", body) if t]
+    values = []
+    for i, token in enumerate(tokens, start=1):
+        try:
+            value = float(token)
+        except ValueError:
+            raise InputError(
+                f"{where}: entry {i} {token!r} is not a number: fix the list (numbers "
+                "separated by commas)"
+            ) from None
+        if not math.isfinite(value):
+            raise InputError(f"{where}: entry {i} is {token!r}: every entry must be finite")
+        values.append(value)
+    return np.array(values, dtype="float64")
 
 
 def parse_user_wavelengths(text: str, count: int, path: str, units: str = "nm") -> np.ndarray:
     """Wavelengths typed by the user for a file without metadata, checked against its bands."""
-    values = parse_list(text)
+    values = parse_list(text, f"wavelengths given for {path}")
     if len(values) != count:
         raise InputError(
             f"{path} has {count} bands but {len(values)} wavelengths were given: give one "
             "wavelength (nm) per band, comma-separated"
         )
-    return values * unit_scale(units, values)
+    return values * unit_scale(units, values, path)
 
 
 def read_wavelengths(src) -> tuple[np.ndarray | None, np.ndarray | None]:
     """(centres_nm, fwhm_nm) of an open rasterio dataset; None where the file has none."""
     n = src.count
+    name = getattr(src, "name", "the raster")
     envi = src.tags(ns="ENVI") if "ENVI" in (src.tag_namespaces() or ()) else {}
     if "wavelength" in envi:
-        wl = parse_list(envi["wavelength"])
-        if len(wl) == n:
-            scale = unit_scale(envi.get("wavelength_units"), wl)
-            fw = parse_list(envi.get("fwhm", ""))
-            return wl * scale, (fw * scale if len(fw) == n else None)
+        wl = parse_list(envi["wavelength"], f"{name}: ENVI header 'wavelength'")
+        if len(wl) != n:
+            raise InputError(
+                f"{name}: its header lists {len(wl)} wavelengths for {n} bands: fix the "
+                "'wavelength' list (one centre per band)"
+            )
+        scale = unit_scale(envi.get("wavelength_units"), wl, name)
+        fw = parse_list(envi.get("fwhm", ""), f"{name}: ENVI header 'fwhm'")
+        return wl * scale, (fw * scale if len(fw) == n else None)
     band_tags = [src.tags(b) for b in range(1, n + 1)]
     if all("wavelength" in t for t in band_tags):
-        try:
-            wl = np.array([float(t["wavelength"]) for t in band_tags])
-            units = band_tags[0].get("wavelength_units") or src.tags().get("wavelength_units")
-            scale = unit_scale(units, wl)
-            fw = None
-            if all("fwhm" in t for t in band_tags):
-                fw = np.array([float(t["fwhm"]) for t in band_tags]) * scale
-            return wl * scale, fw
-        except ValueError:
-            pass
+        wl = np.concatenate(
+            [
+                parse_list(t["wavelength"], f"{name}: band {b} tag 'wavelength'")
+                for b, t in enumerate(band_tags, start=1)
+            ]
+        )
+        if len(wl) != n:
+            raise InputError(f"{name}: each band's 'wavelength' tag must hold one number")
+        units = band_tags[0].get("wavelength_units") or src.tags().get("wavelength_units")
+        scale = unit_scale(units, wl, name)
+        fw = None
+        if all("fwhm" in t for t in band_tags):
+            fw = np.concatenate(
+                [
+                    parse_list(t["fwhm"], f"{name}: band {b} tag 'fwhm'")
+                    for b, t in enumerate(band_tags, start=1)
+                ]
+            )
+            fw = fw * scale if len(fw) == n else None
+        return wl * scale, fw
     imagery = []
     for b in range(1, n + 1):
         t = src.tags(b, ns="IMAGERY") if hasattr(src, "tags") else {}
         imagery.append(t.get("CENTRAL_WAVELENGTH_UM"))
     if all(v is not None for v in imagery):
-        wl = np.array([float(v) for v in imagery]) * 1000.0
+        wl = parse_list(",".join(imagery), f"{name}: IMAGERY CENTRAL_WAVELENGTH_UM") * 1000.0
         fw = [src.tags(b, ns="IMAGERY").get("FWHM_UM") for b in range(1, n + 1)]
-        fw = np.array([float(v) for v in fw]) * 1000.0 if all(v is not None for v in fw) else None
+        if all(v is not None for v in fw):
+            fw = parse_list(",".join(fw), f"{name}: IMAGERY FWHM_UM") * 1000.0
+        else:
+            fw = None
         return wl, fw
     desc = [d or "" for d in src.descriptions]
     parsed = [_from_description(d) for d in desc]
     if all(p is not None for p in parsed):
         wl = np.array([p[0] for p in parsed])
-        scale = unit_scale(parsed[0][1], wl)
+        units = {_unit_kind(p[1]) for p in parsed}
+        if len(units) > 1:
+            raise InputError(
+                f"{name}: its band descriptions mix wavelength units ({', '.join(desc[:3])}, "
+                "...): give the band centres in nm"
+            )
+        scale = unit_scale(parsed[0][1], wl, f"{name} (band descriptions)")
         return wl * scale, None
     return None, None
 
@@ -110,6 +178,11 @@ def wavelengths_of(
             f"({option} '400,402.5,...')"
         )
     return wl, fwhm
+
+
+def _unit_kind(unit: str | None) -> str:
+    u = (unit or "").lower()
+    return "nm" if u.startswith(("nm", "nano")) else ("um" if u else "")
 
 
 def _from_description(text: str):

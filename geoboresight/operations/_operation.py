@@ -8,19 +8,25 @@ output="ratio.tif")``); the specs declare the same function as their ``run``. De
 - an output may not be an input, nor one of an input's sidecar files (ENVI header, .aux.xml);
 - an existing output is replaced only with ``overwrite=True``;
 - an output the run created is removed when the run fails or is cancelled (the writers in
-  :mod:`geoboresight.io` are atomic, so a replaced output is either the old or the new file).
+  :mod:`geoboresight.io` are atomic, so a replaced output is either the old or the new file);
+- every numeric argument is finite (NaN passes range checks silently);
+- an OS or GDAL error (unreadable input, full disk, read-only folder, memory) reaches the
+  caller as a one-line :class:`~geoboresight.errors.GeoboresightError` naming the file.
 """
 
 from __future__ import annotations
 
+import errno
 import functools
 import inspect
+import math
+import numbers
 import os
 import shutil
 from collections.abc import Callable
 
-from ..errors import OutputError
-from ..io.write import check_output_path
+from ..errors import GeoboresightError, InputError, OutputError, ParameterError, ResourceError
+from ..io.write import check_output_path, output_error
 from ..progress import as_progress
 
 
@@ -44,15 +50,19 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
             bound.apply_defaults()
             values = bound.arguments
             values["progress"] = as_progress(values.get("progress"))
+            check_finite(values)
             outs = check_paths(values, inputs, outputs, overwrite)
             existed = {o for o in outs if os.path.lexists(o)}
             try:
                 return func(*bound.args, **bound.kwargs)
-            except BaseException:
+            except BaseException as exc:
                 for o in outs:
                     if o not in existed:
                         _remove(o)
-                raise
+                if isinstance(exc, GeoboresightError) or not isinstance(exc, OSError | MemoryError):
+                    raise
+                ins = [p for name in inputs for p in _paths(values.get(name))]
+                raise translate_error(exc, ins, outs) from exc
 
         params = list(sig.parameters.values())
         params.append(inspect.Parameter("overwrite", inspect.Parameter.KEYWORD_ONLY, default=False))
@@ -87,6 +97,47 @@ def check_paths(values: dict, inputs, outputs, overwrite: bool) -> list[str]:
             check_output_path(path, ins, overwrite=overwrite, label=f"output '{name}'")
             outs.append(path)
     return outs
+
+
+def check_finite(values: dict) -> None:
+    """Raise :class:`ParameterError` naming the first numeric argument that is NaN or
+    infinite (``nan < minimum`` is False: NaN would pass every range check)."""
+    for name, value in values.items():
+        if (
+            isinstance(value, numbers.Real)
+            and not isinstance(value, bool | numbers.Integral)
+            and not math.isfinite(float(value))
+        ):
+            raise ParameterError(f"parameter '{name}': expected a finite number, got {value!r}")
+
+
+def translate_error(exc: BaseException, inputs: list[str], outputs: list[str]) -> GeoboresightError:
+    """The one-line error for an OS/GDAL/memory error that escaped an operation: it names the
+    input or output at fault when the error does, and says what to do."""
+    if isinstance(exc, MemoryError):
+        return ResourceError(
+            "not enough memory for this run: lower block_rows (or sample_size), or close other "
+            "programs"
+        )
+    text = " ".join(str(exc).split())
+    name = getattr(exc, "filename", None)
+    for out in outputs:
+        if name == out or out in text:
+            return output_error(exc, out, mine=True) or OutputError(
+                f"output {out} could not be written ({text})"
+            )
+    for inp in inputs:
+        if name == inp or inp in text or os.path.basename(inp) in text:
+            return InputError(
+                f"input {inp} could not be read ({text}): the file may be truncated, damaged "
+                "or not readable for you; check it (e.g. with gdalinfo -checksum)"
+            )
+    code = getattr(exc, "errno", None)
+    if code in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG) and outputs:
+        return output_error(exc, outputs[0], mine=True)
+    if code in (errno.EACCES, errno.EPERM, errno.EROFS):
+        return InputError(f"permission denied: {name or text}; check the file's permissions")
+    return InputError(f"a file could not be read or written: {text}")
 
 
 def _remove(path: str) -> None:

@@ -7,6 +7,7 @@ import shutil
 
 from .. import io
 from ..io.dual import SEAM_NM, SWIR_NM, TOLERANCE_NM, VNIR_NM
+from ..io.write import temp_name
 from ._operation import operation
 
 
@@ -114,13 +115,25 @@ def report_file(
         "ifov_mrad": ifov_mrad,
         "svdd": svdd,
     }
+    # The primary input must open (and carry wavelengths): a report of notes saying that
+    # nothing could run would be a success in name only. Optional inputs given must open too
+    # and lie on its grid.
+    dual = io.open_dual(vnir, swir, seam_nm, vnir_wavelengths, swir_wavelengths)
+    for label, path in (
+        ("shadow_truth", shadow_truth),
+        ("target_truth", target_truth),
+        ("cloud_mask", cloud_mask),
+    ):
+        if path:
+            with io.open_raster(path, label) as src:
+                dual.grid.require_same(io.Grid.of(src), f"VNIR {vnir}", f"{label} {path}")
     if products:
         os.makedirs(products, exist_ok=True)
         work = products
     else:
-        # beside the output (same file system), named after it: the same run gives the same page
-        work = os.path.abspath(output) + ".work"
-        shutil.rmtree(work, ignore_errors=True)
+        # A new folder beside the output (same file system), named by io.write's temporary
+        # pattern: never an existing folder of the user's, and swept if the run is killed.
+        work = temp_name(os.path.abspath(output) + ".work")
         os.makedirs(work)
     try:
         io.write_text(output, build_report(values, work, progress))

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import math
+
 from ..errors import ParameterError
-from ..io.scene import write_scene
+from ..io.scene import check_scene_folder, write_scene
 from ..simulate.atmosphere import AOT550, WATER_VAPOUR_CM
 from ..simulate.scene import GEOMETRY, LINES, PRESET, SUPERSAMPLE, simulate_scene
 from ._operation import operation
@@ -24,7 +26,9 @@ def parse_angles(text, name: str = "boresight angles") -> tuple[float, float, fl
             angles = tuple(float(v) for v in text)
     except (TypeError, ValueError):
         angles = ()
-    if len(angles) != 3 or any(abs(a) > MAX_BORESIGHT_DEG for a in angles):
+    if len(angles) != 3 or not all(
+        math.isfinite(a) and abs(a) <= MAX_BORESIGHT_DEG for a in angles
+    ):
         raise ParameterError(
             f"parameter '{name}': give roll,pitch,yaw in degrees (each within "
             f"±{MAX_BORESIGHT_DEG:g}), e.g. 0,0.3,0; got {text!r}"
@@ -111,6 +115,9 @@ def simulate_file(
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (section 2: the
     AISA-Dual and its boresight offset; section 3.3: the plastic-bag targets).
     """
+    # Before the (long) simulation: an existing folder holding the user's own files is never
+    # replaced, even with overwrite.
+    check_scene_folder(output)
     scene = simulate_scene(
         preset,
         lines=lines,
