@@ -48,6 +48,14 @@ KERNELS = {
     "unmix_cube": "geoboresight.anomaly.unmix",
     "roc_curve": "geoboresight.anomaly.roc",
     "label_anomalies": "geoboresight.anomaly.polygons",
+    "fit_transform": "geoboresight.georef.transforms",
+    "clean_igm": "geoboresight.georef.geoloc",
+    "corner_geoloc": "geoboresight.georef.geoloc",
+    "glt_indices": "geoboresight.georef.geoloc",
+    "match_tie_points": "geoboresight.georef.tiepoints",
+    "place_reference": "geoboresight.georef.tiepoints",
+    "simulate_ortho": "geoboresight.simulate.ortho",
+    "attitude_jitter": "geoboresight.simulate.ortho",
 }
 
 #: File-level operations: one per operation of the command line and the QGIS toolbox.
@@ -74,6 +82,11 @@ OPERATIONS = {
     "anomaly_polygons_file": "geoboresight.operations.anomaly",
     "simulate_file": "geoboresight.operations.simulate",
     "report_file": "geoboresight.operations.report",
+    "geolocate_file": "geoboresight.operations.georef",
+    "georeference_file": "geoboresight.operations.georef",
+    "auto_georeference_file": "geoboresight.operations.georef",
+    "reproject_to_file": "geoboresight.operations.georef",
+    "simulate_ortho_file": "geoboresight.operations.georef",
 }
 
 #: The I/O entry points a script needs beside the operations.

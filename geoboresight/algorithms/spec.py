@@ -31,6 +31,7 @@ GROUPS = (
     "Relative DEM",
     "Anomaly",
     "Simulation",
+    "Georeferencing",
     "Report",
 )
 

@@ -1,0 +1,352 @@
+"""Specs: put raw-geometry products on a map (IGM/GLT, GCPs, automatic tie points), onto a
+reference raster's grid, and simulate a jittered line with its orthophoto."""
+
+from __future__ import annotations
+
+from ..georef.tiepoints import BLOCK_LINES, DETECTORS, MAX_SHIFT_PX, MIN_INLIERS, MODELS
+from ..georef.transforms import METHODS
+from ..io.georef import RESAMPLINGS
+from ..operations.georef import (
+    MAX_RMSE_PX,
+    auto_georeference_file,
+    geolocate_file,
+    georeference_file,
+    reproject_to_file,
+    simulate_ortho_file,
+)
+from ..simulate.ortho import HEADING_DEG, JITTER_DEG, JITTER_LINES, ORTHO_CELL
+from ..simulate.presets import SCENES
+from ._common import seed
+from .spec import (
+    Algorithm,
+    Band,
+    Enum,
+    FileIn,
+    FileOut,
+    FolderOut,
+    Number,
+    RasterIn,
+    RasterOut,
+    Text,
+)
+
+GROUP = "Georeferencing"
+
+INPUT = RasterIn(
+    name="input",
+    description="Raw-geometry product (ratio, classes, DEM, scores, a cube: any raster)",
+)
+CRS = Text(
+    name="crs",
+    description="Output CRS (EPSG code, PROJ string or WKT; default: that of the coordinates)",
+    optional=True,
+)
+RESOLUTION = Number(
+    name="resolution",
+    description="Output cell size in the output CRS's units (0: the product's median pixel spacing)",
+    default=0.0,
+    minimum=0.0,
+    unit="",
+)
+RESAMPLING = Enum(
+    name="resampling",
+    description="Resampling: auto (nearest for class rasters, bilinear for continuous data), nearest, bilinear or cubic",
+    choices=RESAMPLINGS,
+    default="auto",
+)
+GCP_CRS = Text(
+    name="gcp_crs",
+    description="CRS of the GCPs' map coordinates, when the GCP file names none (or to override it)",
+    optional=True,
+)
+REPORT = FileOut(
+    name="report",
+    description="JSON report: the model, RMSE and each point's residual",
+    extension="json",
+    optional=True,
+)
+
+GEOLOCATE = Algorithm(
+    name="geolocate",
+    display_name="Geolocate a raw product (IGM, GLT)",
+    group=GROUP,
+    short_help="Put a raw-geometry product on a map grid with the per-pixel coordinates of an IGM, a GLT or GDAL geolocation arrays.",
+    help=(
+        "Puts any raw-geometry product (band ratio, shadow classes, relative DEM, anomaly "
+        "scores, a cube) on a north-up map grid, using the per-pixel coordinates a processing "
+        "chain already made:\n"
+        "- an IGM (input geometry map: NERC-ARF APL, CaliGeoPRO, gref4hsi), an ENVI or GeoTIFF "
+        "file with the easting (band 1) and northing (band 2) of every raw pixel's centre;\n"
+        "- a GLT (geometry lookup table: AVIRIS, EMIT), the one-based sample and line of the raw "
+        "pixel seen in each map cell;\n"
+        "- GDAL geolocation arrays (a dataset with a GEOLOCATION metadata domain), given as "
+        "the IGM or carried by the product itself.\n\n"
+        "The warp is GDAL's geolocation-array warper (no hand-made resampler): nearest "
+        "neighbour for class rasters, bilinear for continuous data, unless chosen. Pixels of "
+        "the IGM without coordinates (NaN, nodata) or out of order along the line or the "
+        "track are masked (reported) and left as nodata. The output has no gaps inside the "
+        "footprint and nodata outside it. An IGM of another size than the product is refused."
+    ),
+    params=(
+        INPUT,
+        RasterIn(
+            name="igm",
+            description="IGM (easting, northing per raw pixel) or a dataset with GDAL geolocation arrays",
+            optional=True,
+        ),
+        RasterIn(
+            name="glt", description="GLT: one-based sample and line on a map grid", optional=True
+        ),
+        Text(
+            name="igm_crs",
+            description="CRS of the IGM or GLT when its header carries none (e.g. EPSG:32636)",
+            optional=True,
+        ),
+        CRS,
+        RESOLUTION,
+        RESAMPLING,
+        RasterOut(name="output", description="The product on a map grid (GeoTIFF)"),
+    ),
+    run=geolocate_file,
+)
+
+GEOREFERENCE = Algorithm(
+    name="georeference",
+    display_name="Georeference from GCPs",
+    group=GROUP,
+    short_help="Georeference a raw product from ground control points: polynomial (order 1–3) or thin-plate spline, with residuals.",
+    help=(
+        "For lines without navigation data (the paper's AISA-Dual had no GPS/INS): fits an "
+        "image-to-map transform to ground control points and warps the product onto a "
+        "north-up grid.\n\n"
+        "GCPs: a CSV with columns pixel,line,x,y (pixel coordinates as GDAL's: 0,0 is the "
+        "top-left corner of the image; a line '# CRS: EPSG:...' gives the CRS) or a QGIS "
+        "Georeferencer .points file. Transform: a polynomial of order 1, 2 or 3 (at least 3, 6 "
+        "or 10 GCPs, least squares, as gdalwarp -order) or a thin-plate spline (through every "
+        "GCP, as gdalwarp -tps; its residuals are cross-validated: each GCP predicted without "
+        "it). The JSON report gives each GCP's residual in map units and pixels, and the RMSE. "
+        "Too few, collinear or outside GCPs are refused."
+    ),
+    params=(
+        INPUT,
+        FileIn(
+            name="gcps",
+            description="GCP file: CSV (pixel,line,x,y) or QGIS Georeferencer .points",
+            extensions=("csv", "points", "txt"),
+        ),
+        GCP_CRS,
+        Enum(
+            name="method",
+            description="Transform: polynomial (of the order below) or thin-plate spline",
+            choices=METHODS,
+            default="polynomial",
+        ),
+        Number(
+            name="order",
+            description="Polynomial order (1: affine, needs 3 GCPs; 2: 6 GCPs; 3: 10 GCPs)",
+            default=1,
+            minimum=1,
+            maximum=3,
+            integer=True,
+        ),
+        CRS,
+        RESOLUTION,
+        RESAMPLING,
+        RasterOut(name="output", description="The product on a map grid (GeoTIFF)"),
+        REPORT,
+    ),
+    run=georeference_file,
+)
+
+AUTO = Algorithm(
+    name="auto-georeference",
+    display_name="Georeference on an orthophoto (automatic tie points)",
+    group=GROUP,
+    short_help="Georeference a raw line on a reference orthophoto by automatic tie points (SIFT/ORB + RANSAC) and a model of the line's wobble.",
+    help=(
+        "Georeferences a raw-geometry product on a reference orthophoto without navigation "
+        "data and without picking GCPs by hand. A rough placement (a few GCPs, or the map "
+        "coordinates of the four image corners) puts the orthophoto into the product's raw "
+        "geometry; features (scikit-image SIFT or ORB) are matched between one product band "
+        "and one orthophoto band (similar wavelengths, e.g. NIR), RANSAC per block of lines "
+        "keeps the consistent matches, and a piecewise model follows the pushbroom line's "
+        "attitude wobble (an affine model per block of lines, blended from block to block, or "
+        "a thin-plate spline on the inliers).\n\n"
+        "The report gives the matches, the inliers and each tie point's cross-validated "
+        "residual (pixels). The run is refused, writing nothing, when fewer than the minimum "
+        "inliers are found or their RMSE exceeds the maximum."
+    ),
+    params=(
+        INPUT,
+        RasterIn(name="reference", description="Reference orthophoto (with its CRS)"),
+        FileIn(
+            name="gcps",
+            description="Rough placement from a few GCPs (CSV or QGIS .points), or give the corners",
+            extensions=("csv", "points", "txt"),
+            optional=True,
+        ),
+        Text(
+            name="corners",
+            description="Rough placement from the corners: x,y of the top-left, top-right, bottom-right, bottom-left image corners (8 numbers)",
+            optional=True,
+        ),
+        GCP_CRS,
+        Band(
+            name="band",
+            description="Product band to match (e.g. a NIR band)",
+            default=1,
+            raster="input",
+        ),
+        Band(
+            name="reference_band",
+            description="Orthophoto band to match (a similar wavelength)",
+            default=1,
+            raster="reference",
+        ),
+        Enum(
+            name="detector",
+            description="Feature detector (scikit-image)",
+            choices=DETECTORS,
+            default="sift",
+        ),
+        Enum(
+            name="model",
+            description="Wobble model: affine per block of lines (blended) or thin-plate spline on the inliers",
+            choices=MODELS,
+            default="blocks",
+        ),
+        Number(
+            name="block_lines",
+            description="Lines per block (RANSAC and the block model)",
+            default=BLOCK_LINES,
+            minimum=8,
+            maximum=10000,
+            integer=True,
+            advanced=True,
+        ),
+        Number(
+            name="max_shift_px",
+            description="Largest error of the rough placement (product pixels)",
+            default=MAX_SHIFT_PX,
+            minimum=1.0,
+            maximum=500.0,
+            unit="px",
+            advanced=True,
+        ),
+        Number(
+            name="min_inliers",
+            description="Fewest tie points accepted",
+            default=MIN_INLIERS,
+            minimum=6,
+            maximum=100000,
+            integer=True,
+            advanced=True,
+        ),
+        Number(
+            name="max_rmse_px",
+            description="Largest cross-validated RMSE of the tie points accepted (product pixels)",
+            default=MAX_RMSE_PX,
+            minimum=0.01,
+            maximum=100.0,
+            unit="px",
+        ),
+        CRS,
+        RESOLUTION,
+        RESAMPLING,
+        seed(),
+        RasterOut(name="output", description="The product on a map grid (GeoTIFF)"),
+        REPORT,
+    ),
+    run=auto_georeference_file,
+)
+
+REPROJECT_TO = Algorithm(
+    name="reproject-to",
+    display_name="Reproject onto a reference grid",
+    group=GROUP,
+    short_help="Put a map product onto the exact grid (CRS, transform, size) of a reference raster; vectors to its CRS.",
+    help=(
+        "Puts a georeferenced product onto the exact pixel grid of a reference raster (an "
+        "orthophoto or a scanned topographic map): same CRS, geotransform and size, so that "
+        "the two overlay cell for cell (GDAL's warper; the CRS handled by PROJ). Nearest "
+        "neighbour for class rasters, bilinear for continuous data, unless chosen. A vector "
+        "layer (GeoPackage or GeoJSON, e.g. shadow or anomaly polygons) is reprojected to the "
+        "reference's CRS with pyproj. A raw-geometry product is refused: geolocate or "
+        "georeference it first."
+    ),
+    params=(
+        RasterIn(
+            name="input", description="Georeferenced raster, or a .gpkg/.geojson vector layer"
+        ),
+        RasterIn(
+            name="reference",
+            description="Raster whose grid (or CRS, for a vector) the output takes",
+        ),
+        RESAMPLING,
+        RasterOut(name="output", description="The product on the reference's grid"),
+    ),
+    run=reproject_to_file,
+)
+
+SIMULATE_ORTHO = Algorithm(
+    name="simulate-ortho",
+    display_name="Simulate a jittered line with its orthophoto",
+    group="Simulation",
+    short_help="Simulate a raw line with roll/pitch/yaw jitter, its true IGM and an orthophoto of the scene.",
+    help=(
+        "Simulates, over one of the simulator's scenes, a raw pushbroom line (one NIR band, "
+        "286 pixels, 1.5 m) whose aircraft rolls, pitches and yaws along the track (smooth "
+        "random series), its true IGM (the map coordinates of every raw pixel: the ray's hit "
+        "on the surface model), and a north-up orthophoto (red, green, blue, NIR) of the same "
+        "scene in UTM. It validates geolocate and auto-georeference: their result can be "
+        "compared with the true IGM. See docs/georef.md."
+    ),
+    params=(
+        Enum(name="preset", description="Scene type", choices=SCENES, default="urban"),
+        Number(
+            name="lines",
+            description="Lines of the raw band",
+            default=128,
+            minimum=8,
+            maximum=20000,
+            integer=True,
+        ),
+        Number(
+            name="jitter_deg",
+            description="Standard deviation of roll, pitch and yaw along the track (degrees)",
+            default=JITTER_DEG,
+            minimum=0.0,
+            maximum=2.0,
+            unit="°",
+        ),
+        Number(
+            name="jitter_lines",
+            description="Correlation length of the jitter (lines)",
+            default=JITTER_LINES,
+            minimum=1.0,
+            maximum=10000.0,
+            advanced=True,
+        ),
+        Number(
+            name="heading_deg",
+            description="Flight heading, clockwise from north (degrees)",
+            default=HEADING_DEG,
+            minimum=0.0,
+            maximum=360.0,
+            unit="°",
+        ),
+        Number(
+            name="ortho_cell",
+            description="Orthophoto cell size (m)",
+            default=ORTHO_CELL,
+            minimum=0.2,
+            maximum=20.0,
+            unit="m",
+        ),
+        seed("Random seed: the same seed gives the same scene", advanced=False),
+        FolderOut(name="output", description="Folder to create"),
+    ),
+    run=simulate_ortho_file,
+)
+
+ALGORITHMS = (GEOLOCATE, GEOREFERENCE, AUTO, REPROJECT_TO, SIMULATE_ORTHO)

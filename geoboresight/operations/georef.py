@@ -1,0 +1,633 @@
+"""File-level georeferencing: put raw-geometry products on a map grid (from an IGM, a GLT or
+GDAL geolocation arrays; from GCPs; from automatic tie points to an orthophoto), put a product
+onto a reference raster's grid, and simulate a jittered line with its orthophoto and IGM.
+
+Every raster warp goes through GDAL (rasterio's ``reproject``: the geolocation-array warper
+for raw products, the affine warper for map products): the models here only produce the map
+coordinates of every raw pixel.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ..errors import InputError, ParameterError
+from ..georef.geoloc import clean_igm, corner_geoloc, glt_indices
+from ..georef.tiepoints import (
+    BLOCK_LINES,
+    MAX_SHIFT_PX,
+    MIN_INLIERS,
+    corrected,
+    match_tie_points,
+)
+from ..georef.transforms import fit_transform, outside_image
+from ..io import georef as gio
+from ..io.raster import open_raster
+from ..io.write import write_json
+from ..simulate.ortho import HEADING_DEG, JITTER_DEG, JITTER_LINES, ORTHO_CELL
+from ._operation import operation
+
+REFERENCES = """
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (section 2: raw AISA-Dual
+    lines "geo-rectified by conventional methods"; Figure 10: overlay on a topographic map and
+    the national orthophoto)."""
+
+#: Largest RMSE of the automatic tie points accepted by default (product pixels).
+MAX_RMSE_PX = 1.0
+
+
+def _docstring(func):
+    func.__doc__ = (func.__doc__ or "").rstrip() + "\n" + REFERENCES + "\n"
+    return func
+
+
+def _product_size(path: str) -> tuple[int, int]:
+    with open_raster(path, "input") as src:
+        return src.width, src.height
+
+
+def _model_geoloc(model, width: int, height: int, src_crs, dst_crs):
+    """Pixel-centre coordinates and the corner-convention geolocation array of a model
+    ``(pixel, line) -> (x, y)``, in ``dst_crs``."""
+    jj, ii = np.meshgrid(np.arange(width, dtype="float64"), np.arange(height, dtype="float64"))
+    cx, cy = gio.transform_xy(*model(jj + 0.5, ii + 0.5), src_crs, dst_crs)
+    gx, gy = gio.transform_xy(*model(jj, ii), src_crs, dst_crs)
+    return cx, cy, np.stack([gx, gy])
+
+
+def _warp_model(input, output, model, src_crs, crs, resolution, resampling, tags, progress):
+    width, height = _product_size(input)
+    dst_crs = gio.parse_crs(crs) if crs else src_crs
+    cx, cy, geoloc = _model_geoloc(model, width, height, src_crs, dst_crs)
+    ok = np.isfinite(cx) & np.isfinite(cy)
+    grid = gio.map_grid(cx, cy, ok, dst_crs, resolution)
+    done = gio.warp_geoloc(
+        input,
+        output,
+        geoloc,
+        grid,
+        source_valid=None,
+        resampling=resampling,
+        tags=tags,
+        progress=progress,
+    )
+    return grid, done
+
+
+def _grid_result(grid, done: dict) -> dict:
+    return {
+        "crs": grid.crs.to_string(),
+        "resolution": float(grid.transform.a),
+        "width": grid.width,
+        "height": grid.height,
+        **done,
+    }
+
+
+@_docstring
+@operation(inputs=("input", "igm", "glt"), outputs=("output",))
+def geolocate_file(
+    input,
+    igm=None,
+    glt=None,
+    *,
+    output,
+    igm_crs=None,
+    crs=None,
+    resolution=0.0,
+    resampling="auto",
+    progress=None,
+) -> dict:
+    """Put a raw-geometry product on a map grid with the per-pixel coordinates a processing
+    chain made.
+
+    Parameters
+    ----------
+    input : path
+        Any raw-geometry raster (ratio, classes, DEM, scores, a cube).
+    igm : path, optional
+        An IGM (ENVI or GeoTIFF; band 1 easting, band 2 northing of every raw pixel's centre,
+        as APL, CaliGeoPRO or gref4hsi write it) or a dataset with GDAL geolocation arrays.
+        Neither ``igm`` nor ``glt``: the product's own GDAL geolocation arrays.
+    glt : path, optional
+        A geometry lookup table (AVIRIS, EMIT): one-based sample and line on a map grid.
+    output : path
+        GeoTIFF on a north-up grid in ``crs``; nodata outside the footprint.
+    igm_crs : str, optional
+        CRS of the IGM or GLT when its header carries none (or to override it).
+    crs : str, optional
+        Output CRS (the IGM's by default); the coordinates are transformed with pyproj.
+    resolution : float
+        Output cell size in the output CRS's units; 0 takes the median pixel spacing.
+    resampling : {"auto", "nearest", "bilinear", "cubic"}
+        ``auto``: nearest for class rasters (colour table, categories), bilinear otherwise.
+    progress : Progress, optional
+
+    Returns
+    -------
+    dict
+        ``output``, the grid (CRS, resolution, size), the resampling and the pixels masked in
+        the IGM (NaN, non-monotonic).
+    """
+    if igm and glt:
+        raise ParameterError("give either --igm or --glt, not both")
+    width, height = _product_size(input)
+    if glt:
+        table = gio.read_glt(glt, crs=igm_crs)
+        rows, cols, ok, outside = glt_indices(
+            table.sample, table.line, table.valid, width=width, height=height
+        )
+        if outside:
+            raise InputError(
+                f"GLT {glt}: {outside} cell(s) point outside input {input} ({width} × {height}, "
+                "columns × lines): the GLT belongs to another product"
+            )
+        if crs or resolution:
+            raise ParameterError(
+                "--crs and --resolution do not apply to a GLT (its map grid is fixed): use "
+                "reproject-to afterwards"
+            )
+        done = gio.lookup_glt(
+            input,
+            output,
+            table,
+            rows,
+            cols,
+            ok,
+            tags={"GEOREFERENCE": f"GLT {glt}"},
+            progress=progress,
+        )
+        progress.info(f"GLT lookup: {done['valid_pixels']} map cells filled")
+        return {"output": output, **_grid_result(table.grid, {**done, "resampling": "nearest"})}
+    coords = gio.read_coordinates(igm or input, crs=igm_crs, label="IGM" if igm else "input")
+    if coords.x.shape != (height, width):
+        raise InputError(
+            f"IGM {coords.path} is {coords.x.shape[1]} × {coords.x.shape[0]} (columns × lines) but "
+            f"input {input} is {width} × {height}: the IGM must belong to this product"
+        )
+    dst_crs = gio.parse_crs(crs) if crs else coords.crs
+    x, y = gio.transform_xy(coords.x, coords.y, coords.crs, dst_crs)
+    try:
+        clean = clean_igm(x, y)
+    except InputError as exc:
+        raise InputError(f"IGM {coords.path}: {exc}") from None
+    if clean.nan or clean.non_monotonic:
+        progress.info(
+            f"IGM {coords.path}: {clean.nan} pixel(s) without coordinates (NaN or nodata) and "
+            f"{clean.non_monotonic} non-monotonic pixel(s) masked (left as nodata)"
+        )
+    grid = gio.map_grid(clean.x, clean.y, clean.valid, dst_crs, resolution)
+    done = gio.warp_geoloc(
+        input,
+        output,
+        corner_geoloc(clean.x, clean.y),
+        grid,
+        source_valid=clean.valid,
+        resampling=resampling,
+        tags={"GEOREFERENCE": coords.source},
+        progress=progress,
+    )
+    return {
+        "output": output,
+        **_grid_result(grid, done),
+        "masked_nan": clean.nan,
+        "masked_non_monotonic": clean.non_monotonic,
+    }
+
+
+def _gcps_for(gcps: str, gcp_crs, width: int, height: int):
+    table = gio.read_gcps(gcps, crs=gcp_crs)
+    if table.crs is None:
+        raise InputError(
+            f"GCP file {gcps} names no CRS: add a '# CRS: EPSG:...' line or give --gcp-crs"
+        )
+    out = outside_image(table.pixel_line, width, height) & table.enabled
+    if out.any():
+        raise InputError(
+            f"GCP file {gcps}: GCP(s) {', '.join(str(i + 1) for i in np.flatnonzero(out))} lie "
+            f"outside the input ({width} × {height} pixels × lines): check their pixel and line"
+        )
+    return table
+
+
+@_docstring
+@operation(inputs=("input", "gcps"), outputs=("output", "report"))
+def georeference_file(
+    input,
+    gcps,
+    *,
+    output,
+    report=None,
+    gcp_crs=None,
+    method="polynomial",
+    order=1,
+    crs=None,
+    resolution=0.0,
+    resampling="auto",
+    progress=None,
+) -> dict:
+    """Georeference a raw-geometry product from ground control points (no navigation data).
+
+    Parameters
+    ----------
+    input : path
+        Any raw-geometry raster.
+    gcps : path
+        GCPs: a CSV with columns ``pixel,line,x,y`` (pixel coordinates as GDAL's: the
+        top-left corner of the image is 0,0; a ``# CRS: EPSG:...`` line gives the CRS) or a
+        QGIS Georeferencer ``.points`` file.
+    output : path
+        GeoTIFF on a north-up grid.
+    report : path, optional
+        JSON report: the model, RMSE and each GCP's residual (map units and pixels).
+    gcp_crs : str, optional
+        CRS of the GCPs' map coordinates when the file names none (or to override it).
+    method : {"polynomial", "tps"}
+        Polynomial of ``order`` (least squares) or thin-plate spline (exact at the GCPs;
+        cross-validated residuals).
+    order : {1, 2, 3}
+        Polynomial order: needs 3, 6 or 10 GCPs.
+    crs : str, optional
+        Output CRS (the GCPs' by default).
+    resolution : float
+        Output cell size; 0 takes the median pixel spacing of the model.
+    resampling : {"auto", "nearest", "bilinear", "cubic"}
+        ``auto``: nearest for class rasters, bilinear otherwise.
+    progress : Progress, optional
+
+    Returns
+    -------
+    dict
+        ``output``, ``report``, the RMSE (map units and pixels) and the grid.
+    """
+    width, height = _product_size(input)
+    table = _gcps_for(gcps, gcp_crs, width, height)
+    fit = fit_transform(
+        table.pixel_line,
+        table.xy,
+        table.enabled,
+        method=method,
+        order=int(order),
+        label=f"GCP file {gcps}",
+    )
+    what = f"{method}" + (f" order {fit.order}" if fit.order else "")
+    progress.info(
+        f"{what} on {int(table.enabled.sum())} GCPs: RMSE {fit.rmse:.3f} ({fit.rmse_px:.2f} px)"
+    )
+    tags = {"GEOREFERENCE": f"GCPs {gcps}: {what}, RMSE {fit.rmse:.4g} ({fit.rmse_px:.3f} px)"}
+    grid, done = _warp_model(
+        input, output, fit, table.crs, crs, resolution, resampling, tags, progress
+    )
+    if report:
+        write_json(
+            report,
+            {
+                "input": os.fspath(input),
+                "gcps": os.fspath(gcps),
+                "crs": table.crs.to_string(),
+                **fit.report(),
+            },
+        )
+    return {
+        "output": output,
+        "report": report,
+        "rmse": fit.rmse,
+        "rmse_px": fit.rmse_px,
+        **_grid_result(grid, done),
+    }
+
+
+def _placement(input, gcps, corners, gcp_crs, ref_crs, width, height):
+    """The rough placement, in the reference's CRS: an affine fit to the corners or to the
+    GCPs (second order from six GCPs)."""
+    if bool(gcps) == bool(corners):
+        raise ParameterError("give the rough placement as either --gcps or --corners (one of them)")
+    if gcps:
+        table = _gcps_for(gcps, gcp_crs or ref_crs.to_wkt(), width, height)
+        pl, xy, ok, src_crs, label = (
+            table.pixel_line,
+            table.xy,
+            table.enabled,
+            table.crs,
+            f"GCP file {gcps}",
+        )
+    else:
+        pl, xy = gio.corner_gcps(corners, width, height)
+        ok, label = None, "parameter 'corners'"
+        src_crs = gio.parse_crs(gcp_crs, "parameter 'gcp_crs'") if gcp_crs else ref_crs
+    x, y = gio.transform_xy(xy[:, 0], xy[:, 1], src_crs, ref_crs)
+    n = len(pl) if ok is None else int(np.sum(ok))
+    return fit_transform(pl, np.column_stack([x, y]), ok, order=2 if n >= 6 else 1, label=label)
+
+
+def _reference_window(reference, reference_band, placement, width, height, margin_px):
+    """The reference band around the rough footprint (a large orthophoto is read in part)."""
+    from rasterio.windows import Window, from_bounds
+
+    with open_raster(reference, "reference") as ref:
+        if ref.crs is None or ref.transform.is_identity:
+            raise InputError(
+                f"reference {reference} has no CRS or geotransform: give an orthophoto with its "
+                "CRS (e.g. a GeoTIFF)"
+            )
+        if not 1 <= reference_band <= ref.count:
+            raise ParameterError(
+                f"parameter 'reference_band': band {reference_band} does not exist in "
+                f"{reference}, which has {ref.count} band(s)"
+            )
+        t = np.linspace(0, 1, 33)
+        edge_p = np.concatenate([t * width, np.full(33, width), t * width, np.zeros(33)])
+        edge_l = np.concatenate([np.zeros(33), t * height, np.full(33, height), t * height])
+        ex, ey = placement(edge_p, edge_l)
+        cx, cy = placement(
+            np.array([width / 2, width / 2 + 1, width / 2]),
+            np.array([height / 2, height / 2, height / 2 + 1]),
+        )
+        pixel = 0.5 * (
+            np.hypot(cx[1] - cx[0], cy[1] - cy[0]) + np.hypot(cx[2] - cx[0], cy[2] - cy[0])
+        )
+        # Room for the placement's error, plus a few reference cells for the interpolation.
+        pad = 2 * margin_px * pixel + 4 * max(abs(ref.transform.a), abs(ref.transform.e))
+        win = from_bounds(
+            ex.min() - pad, ey.min() - pad, ex.max() + pad, ey.max() + pad, ref.transform
+        )
+        win = win.round_offsets().round_lengths().intersection(Window(0, 0, ref.width, ref.height))
+        data = ref.read(reference_band, window=win, masked=True)
+        return (
+            np.ma.getdata(data).astype("float64"),
+            ~np.ma.getmaskarray(data),
+            tuple(ref.window_transform(win))[:6],
+            ref.crs,
+        )
+
+
+@_docstring
+@operation(inputs=("input", "reference", "gcps"), outputs=("output", "report"))
+def auto_georeference_file(
+    input,
+    reference,
+    gcps=None,
+    *,
+    output,
+    report=None,
+    corners=None,
+    gcp_crs=None,
+    band=1,
+    reference_band=1,
+    detector="sift",
+    model="blocks",
+    block_lines=BLOCK_LINES,
+    max_shift_px=MAX_SHIFT_PX,
+    min_inliers=MIN_INLIERS,
+    max_rmse_px=MAX_RMSE_PX,
+    crs=None,
+    resolution=0.0,
+    resampling="auto",
+    seed=0,
+    progress=None,
+) -> dict:
+    """Georeference a raw-geometry product on a reference orthophoto by automatic tie points.
+
+    A rough placement (a few GCPs or the four corners' coordinates) puts the orthophoto into
+    the product's raw geometry; SIFT or ORB features (scikit-image) are matched between one
+    product band and one orthophoto band, RANSAC per block of lines keeps the consistent
+    ones, and a piecewise model (affine per block of lines, blended, or a thin-plate spline)
+    follows the line's attitude wobble (:mod:`geoboresight.georef.tiepoints`). The run is
+    refused, writing nothing, when fewer than ``min_inliers`` tie points survive or their
+    cross-validated RMSE exceeds ``max_rmse_px``.
+
+    Parameters
+    ----------
+    input : path
+        Raw-geometry raster (a VNIR cube or any product with texture).
+    reference : path
+        Orthophoto with a CRS and geotransform.
+    gcps : path, optional
+        Rough placement from GCPs (CSV or QGIS ``.points``); or give ``corners``.
+    output : path
+        GeoTIFF of every band of ``input`` on a north-up grid.
+    report : path, optional
+        JSON report: matches, inliers, each tie point's cross-validated residual, RMSE.
+    corners : str, optional
+        Rough placement from the corners: ``x,y`` of the top-left, top-right, bottom-right
+        and bottom-left image corners (8 numbers, in ``gcp_crs`` or the reference's CRS).
+    gcp_crs : str, optional
+        CRS of the GCPs or corners (default: the GCP file's, else the reference's).
+    band, reference_band : int
+        The product band and orthophoto band to match (similar wavelengths, e.g. NIR).
+    detector : {"sift", "orb"}
+        scikit-image's feature detector.
+    model : {"blocks", "tps"}
+        Piecewise model of the wobble.
+    block_lines : int
+        Lines per block.
+    max_shift_px : float
+        Largest error of the rough placement (product pixels).
+    min_inliers : int
+        Fewest tie points accepted.
+    max_rmse_px : float
+        Largest cross-validated RMSE accepted (product pixels).
+    crs, resolution, resampling
+        As :func:`georeference_file`.
+    seed : int
+        RANSAC's random seed.
+    progress : Progress, optional
+
+    Returns
+    -------
+    dict
+        ``output``, ``report``, matches, inliers, RMSE (pixels) and the grid.
+    """
+    with open_raster(input, "input") as src:
+        if not 1 <= band <= src.count:
+            raise ParameterError(
+                f"parameter 'band': band {band} does not exist in {input}, which has {src.count} band(s)"
+            )
+        data = src.read(band, masked=True)
+        width, height = src.width, src.height
+    with open_raster(reference, "reference") as ref:
+        ref_crs = ref.crs
+    if ref_crs is None:
+        raise InputError(
+            f"reference {reference} has no CRS: give an orthophoto with its CRS (e.g. a GeoTIFF)"
+        )
+    placement = _placement(input, gcps, corners, gcp_crs, ref_crs, width, height)
+    ref_data, ref_ok, ref_tr, _ = _reference_window(
+        reference, reference_band, placement, width, height, max_shift_px
+    )
+    progress.update(0.1, "tie points")
+    tie = match_tie_points(
+        np.ma.getdata(data).astype("float64"),
+        ref_data,
+        ~np.ma.getmaskarray(data),
+        ref_transform=ref_tr,
+        placement=placement,
+        ref_valid=ref_ok,
+        detector=detector,
+        model=model,
+        block_lines=int(block_lines),
+        max_shift_px=float(max_shift_px),
+        seed=int(seed),
+    )
+    progress.info(
+        f"{tie.matches} matches, {tie.inliers} inliers, cross-validated RMSE {tie.rmse_px:.2f} px"
+    )
+    if tie.inliers < min_inliers:
+        raise InputError(
+            f"automatic tie points: only {tie.inliers} inlier(s) of {tie.matches} matches between "
+            f"band {band} of {input} and band {reference_band} of {reference} (at least "
+            f"{min_inliers} needed): give a closer rough placement, another band pair, or GCPs"
+        )
+    if tie.rmse_px > max_rmse_px:
+        raise InputError(
+            f"automatic tie points: cross-validated RMSE {tie.rmse_px:.2f} px on {tie.inliers} "
+            f"inliers exceeds --max-rmse-px {max_rmse_px:g}: the model does not follow this "
+            "line well enough (try --model tps, smaller --block-lines, or GCPs)"
+        )
+    tags = {
+        "GEOREFERENCE": f"automatic tie points to {reference}: {tie.inliers} inliers, "
+        f"{model} model, cross-validated RMSE {tie.rmse_px:.3f} px"
+    }
+    final = corrected(placement, tie.displacement)
+    grid, done = _warp_model(
+        input, output, final, ref_crs, crs, resolution, resampling, tags, progress
+    )
+    if report:
+        write_json(
+            report,
+            {
+                "input": os.fspath(input),
+                "reference": os.fspath(reference),
+                "crs": ref_crs.to_string(),
+                "band": band,
+                "reference_band": reference_band,
+                "placement": placement.report(),
+                **tie.report(),
+            },
+        )
+    return {
+        "output": output,
+        "report": report,
+        "matches": tie.matches,
+        "inliers": tie.inliers,
+        "rmse_px": tie.rmse_px,
+        **_grid_result(grid, done),
+    }
+
+
+@_docstring
+@operation(inputs=("input", "reference"), outputs=("output",))
+def reproject_to_file(input, reference, *, output, resampling="auto", progress=None) -> dict:
+    """Put a map product onto the exact grid (CRS, transform, size) of a reference raster
+    (an orthophoto or a scanned topographic map); a vector layer (GeoPackage or GeoJSON) is
+    reprojected to the reference's CRS with pyproj.
+
+    Parameters
+    ----------
+    input : path
+        A georeferenced raster (e.g. the output of geolocate or georeference), or a
+        GeoPackage/GeoJSON vector layer.
+    reference : path
+        The raster whose grid the output takes; it must have a CRS.
+    output : path
+        GeoTIFF on the reference's grid (or a .gpkg/.geojson for a vector input).
+    resampling : {"auto", "nearest", "bilinear", "cubic"}
+        ``auto``: nearest for class rasters, bilinear otherwise.
+    progress : Progress, optional
+
+    Returns
+    -------
+    dict
+        ``output``, the CRS and size of the grid (features for a vector).
+    """
+    if os.path.splitext(os.fspath(input))[1].lower() in (".gpkg", ".geojson", ".json"):
+        return _reproject_vector(input, reference, output)
+    done = gio.reproject_onto(input, reference, output, resampling=resampling, progress=progress)
+    return {"output": output, **done}
+
+
+def _reproject_vector(input, reference, output) -> dict:
+    from ..io.vector import write_vector
+
+    geoms, fields, src_crs, layer = gio.read_vector(input)
+    if src_crs is None:
+        raise InputError(
+            f"vector {input} is in raw sensor geometry (no CRS): georeference the raster it came "
+            "from and trace it again"
+        )
+    with open_raster(reference, "reference") as ref:
+        dst_crs = ref.crs
+    if dst_crs is None:
+        raise InputError(f"reference {reference} has no CRS: give a raster with its CRS")
+    moved = gio.reproject_geoms(geoms, src_crs, dst_crs)
+    write_vector(
+        output, moved, {k: np.asarray(v) for k, v in fields.items()}, crs=dst_crs, layer=layer
+    )
+    return {"output": output, "crs": dst_crs.to_string(), "features": len(moved)}
+
+
+@_docstring
+@operation(outputs=("output",))
+def simulate_ortho_file(
+    *,
+    output,
+    preset="urban",
+    lines=128,
+    jitter_deg=JITTER_DEG,
+    jitter_lines=JITTER_LINES,
+    heading_deg=HEADING_DEG,
+    ortho_cell=ORTHO_CELL,
+    seed=0,
+    progress=None,
+) -> dict:
+    """Simulate a raw line with roll/pitch/yaw jitter, its true IGM and an orthophoto.
+
+    Parameters
+    ----------
+    output : path
+        Folder to create: ``raw.img/.hdr`` (one NIR band, raw geometry), ``igm.img/.hdr``
+        (easting, northing, height of each pixel, with its CRS), ``orthophoto.tif`` (red,
+        green, blue, NIR on a north-up grid), ``corners.txt`` (the true corner coordinates,
+        for a rough placement), ``attitude.csv`` and ``truth.json``.
+    preset : {"urban", "dunes", "glade", "mixed"}
+        The scene.
+    lines : int
+        Lines of the raw band.
+    jitter_deg : float
+        Standard deviation of roll, pitch and yaw (deg).
+    jitter_lines : float
+        Correlation length of the jitter (lines).
+    heading_deg : float
+        Flight heading, clockwise from north.
+    ortho_cell : float
+        Orthophoto cell size (m).
+    seed : int
+        Same seed, same scene.
+    progress : Progress, optional
+
+    Returns
+    -------
+    dict
+        ``output`` and the files written.
+    """
+    from ..io.orthoscene import write_ortho_scene
+    from ..simulate.ortho import simulate_ortho
+
+    progress.update(0.0, "simulate")
+    scene = simulate_ortho(
+        preset,
+        int(lines),
+        jitter_deg=float(jitter_deg),
+        jitter_lines=float(jitter_lines),
+        heading_deg=float(heading_deg),
+        ortho_cell=float(ortho_cell),
+        seed=int(seed),
+    )
+    progress.update(0.9, "write")
+    files = write_ortho_scene(scene, output)
+    return {"output": output, "files": files}
