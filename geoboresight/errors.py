@@ -28,3 +28,125 @@ class ResourceError(GeoboresightError, OSError):
 
 class Cancelled(GeoboresightError):
     """The user cancelled the run (QGIS cancel button, Ctrl-C); partial outputs were removed."""
+
+
+# --- The catalogue of messages (docs/troubleshooting.md is checked against it) ----------------
+
+#: Markers around the generated part of docs/troubleshooting.md.
+CATALOGUE_BEGIN = "<!-- BEGIN GENERATED: python -m geoboresight.errors --update -->"
+CATALOGUE_END = "<!-- END GENERATED -->"
+
+
+def error_classes() -> list[type]:
+    """:class:`GeoboresightError` and every subclass, in definition order."""
+    found, todo = [], [GeoboresightError]
+    while todo:
+        cls = todo.pop(0)
+        found.append(cls)
+        todo.extend(cls.__subclasses__())
+    return found
+
+
+def message_catalogue(root: str | None = None) -> list[tuple[str, str, str, str]]:
+    """Every message a user can meet: ``(module, function, error class, template)`` for each
+    construction of a :class:`GeoboresightError` subclass (and each ``self._fail(...)`` of a
+    spec parameter) in the package's source, found by parsing it. ``{...}`` in a template is
+    the expression the message shows there (a path, a value)."""
+    import ast
+    import os
+
+    root = root or os.path.dirname(os.path.abspath(__file__))
+    names = {c.__name__ for c in error_classes()}
+    entries = []
+    for folder, dirs, files in os.walk(root):
+        dirs[:] = sorted(d for d in dirs if d != "__pycache__")
+        for name in sorted(files):
+            if not name.endswith(".py"):
+                continue
+            path = os.path.join(folder, name)
+            module = os.path.relpath(path, os.path.dirname(root)).replace(os.sep, "/")
+            with open(path, encoding="utf-8") as f:
+                tree = ast.parse(f.read())
+            for func, call in _calls(tree):
+                callee = (
+                    call.func.attr
+                    if isinstance(call.func, ast.Attribute)
+                    else (call.func.id if isinstance(call.func, ast.Name) else "")
+                )
+                if callee in names and call.args:
+                    entries.append((module, func, callee, _template(call.args[0])))
+                elif callee == "_fail" and call.args:
+                    template = "parameter '{name}': " + _template(call.args[0])
+                    entries.append((module, func, "ParameterError", template))
+    return entries
+
+
+def _calls(tree):
+    """(enclosing function name, call node) for every call in ``tree``."""
+    import ast
+
+    def walk(node, func):
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef):
+                yield from walk(child, child.name)
+            else:
+                if isinstance(child, ast.Call):
+                    yield func, child
+                yield from walk(child, func)
+
+    yield from walk(tree, "<module>")
+
+
+def _template(node) -> str:
+    """The text of a message expression, with ``{...}`` for the parts computed at run time."""
+    import ast
+
+    if isinstance(node, ast.Constant) and isinstance(node.value, str):
+        return node.value
+    if isinstance(node, ast.JoinedStr):
+        return "".join(
+            v.value if isinstance(v, ast.Constant) else "{" + ast.unparse(v.value) + "}"
+            for v in node.values
+        )
+    if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Add):
+        return _template(node.left) + _template(node.right)
+    return "{" + ast.unparse(node) + "}"
+
+
+def catalogue_markdown() -> str:
+    """The generated part of docs/troubleshooting.md: every message, by module."""
+    lines = [CATALOGUE_BEGIN, ""]
+    module = None
+    for mod, func, cls, template in message_catalogue():
+        if mod != module:
+            module = mod
+            lines += ["", f"### `{mod}`", ""]
+        text = " ".join(template.split())
+        fence = "``" if "`" in text else "`"
+        pad = " " if "`" in text else ""
+        lines.append(f"- **{cls}** ({func}): {fence}{pad}{text}{pad}{fence}")
+    lines += ["", CATALOGUE_END]
+    return "\n".join(lines[:2] + lines[3:]) + "\n"
+
+
+def _update(path: str) -> bool:
+    """Rewrite the generated part of ``path``; True when it changed."""
+    with open(path, encoding="utf-8") as f:
+        text = f.read()
+    head, _, rest = text.partition(CATALOGUE_BEGIN)
+    _, _, tail = rest.partition(CATALOGUE_END)
+    new = head + catalogue_markdown().rstrip("\n") + tail
+    if new != text:
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(new)
+    return new != text
+
+
+if __name__ == "__main__":  # pragma: no cover
+    import sys
+
+    if sys.argv[1:2] == ["--update"]:
+        target = sys.argv[2] if len(sys.argv) > 2 else "docs/troubleshooting.md"
+        print(f"{target}: {'updated' if _update(target) else 'up to date'}")
+    else:
+        sys.stdout.write(catalogue_markdown())

@@ -23,6 +23,7 @@ import re
 import secrets
 import shutil
 import socket
+import sqlite3
 import stat
 import time
 from collections.abc import Collection, Iterable, Iterator
@@ -231,7 +232,14 @@ def output_error(
             "writable for you; choose another folder"
         )
     if mine:
-        reason = os.strerror(code) if code else scrub(text, tmp, path)
+        if code:
+            reason = os.strerror(code)
+        elif text.startswith("Write failed"):
+            reason = (
+                "GDAL could not write it: the disk may be full, over quota or past a size limit"
+            )
+        else:
+            reason = scrub(text, tmp or path, path)
         return OutputError(
             f"output {path} could not be written ({reason}); any previous file of that name "
             "is unchanged"
@@ -329,10 +337,17 @@ def atomic_output(
         except OSError as exc:
             if isinstance(exc, OutputError):
                 raise
-            err = output_error(exc, path, tmp)
+            # rasterio's "Write failed" is raised by the dataset being written: ours.
+            err = output_error(exc, path, tmp, mine=str(exc).startswith("Write failed"))
             if err is None:
                 raise
-            raise err from None
+            raise err from exc
+        except sqlite3.Error as exc:
+            # GeoPackage outputs: SQLite's own errors ("database or disk is full").
+            raise (
+                output_error(OSError(str(exc)), path, tmp, mine=True)
+                or OutputError(f"output {path} could not be written ({scrub(str(exc), tmp, path)})")
+            ) from exc
     finally:
         for leftover in (tmp, *(s for s, _ in sidecars)):
             with contextlib.suppress(OSError):

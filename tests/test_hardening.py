@@ -1,0 +1,457 @@
+"""Hardening: the pieces behind "no silent data loss, no silently wrong result, no traceback".
+
+Atomic writes and their litter, folder outputs, wavelength parsing, the one error path of the
+command line, the troubleshooting page kept in step with the code, and the checks the
+refactor already made (finite numbers, CRS checks in open_cube, unmix's FWHM column).
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import rasterio
+from hostile import cli, error_line, make_inputs, snapshot
+from synth import VNIR_WL, cube, write_envi, write_gtiff
+
+import geoboresight as gb
+from geoboresight import errors, io
+from geoboresight.algorithms.spec import Number
+from geoboresight.errors import InputError, OutputError, ParameterError
+from geoboresight.io import wavelengths as wlmod
+from geoboresight.io import write as wmod
+from geoboresight.operations._operation import translate_error
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+# --- atomic writes, temporary names and the sweep -------------------------------------------
+
+
+def _dead_pid() -> int:
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    proc.wait()
+    return proc.pid
+
+
+def test_temporary_names_follow_the_swept_pattern(tmp_path):
+    tmp = wmod.temp_name(str(tmp_path / "ratio.tif"))
+    name = os.path.basename(tmp)
+    assert name.startswith(".ratio.") and name.endswith(".tmp.tif")
+    assert wmod._TEMP.match(name)
+    assert f".{os.getpid()}-" in name
+    assert os.path.dirname(tmp) == str(tmp_path)  # beside the output: same file system
+
+
+def test_sweep_removes_only_our_litter_whose_writer_is_gone(tmp_path):
+    host = wmod._HOST
+    dead = _dead_pid()
+    names = {
+        "dead": f".ratio.{dead}-{host}-ab12cd34.tmp.tif",
+        "dead_side": f".ratio.{dead}-{host}-ab12cd34.tmp.tif.aux.xml",
+        "alive": f".ratio.{os.getppid()}-{host}-ab12cd35.tmp.tif",
+        "mine": f".ratio.{os.getpid()}-{host}-ab12cd36.tmp.tif",
+        "other_host": f".ratio.{dead}-{'0000' if host != '0000' else '0001'}-ab12cd37.tmp.tif",
+        "old_style_young": ".ratio.x8k2j3_q.tmp.tif",
+        "old_style_old": ".stats.p0o9i8u7.tmp.json",
+        "user_hidden": ".ratio.tif.notes",
+        "user_tmp": "ratio.tmp.tif",
+    }
+    for n in names.values():
+        (tmp_path / n).write_text("x")
+    (tmp_path / f".scene.{dead}-{host}-ab12cd38.tmp").mkdir()
+    (tmp_path / f".scene.{dead}-{host}-ab12cd38.tmp" / "vnir.img").write_text("x")
+    day_old = time.time() - wmod.STALE_AGE_S - 60
+    os.utime(tmp_path / names["old_style_old"], (day_old, day_old))
+    removed = {os.path.basename(p) for p in wmod.sweep_stale(str(tmp_path))}
+    assert removed == {
+        names["dead"],
+        names["dead_side"],
+        names["old_style_old"],
+        f".scene.{dead}-{host}-ab12cd38.tmp",
+    }
+    left = set(os.listdir(tmp_path))
+    for key in ("alive", "mine", "other_host", "old_style_young", "user_hidden", "user_tmp"):
+        assert names[key] in left
+    # A day later even a writer that may be alive elsewhere is given up on.
+    later = time.time() + wmod.STALE_AGE_S + 60
+    removed = {os.path.basename(p) for p in wmod.sweep_stale(str(tmp_path), now=later)}
+    assert names["other_host"] in removed and names["old_style_young"] in removed
+    assert names["user_hidden"] in os.listdir(tmp_path)
+
+
+def test_interrupted_folder_swap_is_undone_by_the_sweep(tmp_path):
+    """Killed between moving the old folder aside and renaming the new one in: the sweep puts
+    the old folder back rather than deleting the only copy."""
+    dead = _dead_pid()
+    backup = tmp_path / f".scene.{dead}-{wmod._HOST}-ab12cd34.tmp.old"
+    backup.mkdir()
+    (backup / "vnir.img").write_text("previous scene")
+    wmod.sweep_stale(str(tmp_path))
+    assert (tmp_path / "scene" / "vnir.img").read_text() == "previous scene"
+    assert not backup.exists()
+
+
+def test_atomic_output_failure_keeps_the_previous_file_and_leaves_nothing(tmp_path):
+    target = tmp_path / "out.json"
+    target.write_text("previous")
+    with pytest.raises(RuntimeError), wmod.atomic_output(target) as tmp:
+        Path(tmp).write_text("half")
+        raise RuntimeError("boom")
+    assert target.read_text() == "previous"
+    assert os.listdir(tmp_path) == ["out.json"]
+
+
+def test_atomic_output_translates_os_errors_to_the_users_path(tmp_path):
+    target = tmp_path / "out.json"
+
+    def full(*a, **k):
+        raise OSError(errno.ENOSPC, "No space left on device", a[0] if a else None)
+
+    with pytest.raises(OutputError) as info, wmod.atomic_output(target) as tmp:
+        full(tmp)
+    message = str(info.value)
+    assert str(target) in message and "full" in message and ".tmp" not in message
+    assert os.listdir(tmp_path) == []
+
+
+def test_atomic_output_refuses_an_empty_result(tmp_path):
+    with pytest.raises(OutputError, match="was not written"), wmod.atomic_output(tmp_path / "a"):
+        pass
+
+
+def test_folder_output_is_swapped_never_emptied(tmp_path):
+    allowed = ("vnir.img", "vnir.hdr")
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    (folder / "vnir.img").write_text("old")
+    with wmod.atomic_output(folder, folder_files=allowed) as tmp:
+        os.makedirs(tmp)
+        Path(tmp, "vnir.img").write_text("new")
+    assert (folder / "vnir.img").read_text() == "new"
+    assert sorted(os.listdir(tmp_path)) == ["scene"]
+    # A failure while writing the new folder keeps the old one whole.
+    with pytest.raises(RuntimeError), wmod.atomic_output(folder, folder_files=allowed) as tmp:
+        os.makedirs(tmp)
+        raise RuntimeError("boom")
+    assert (folder / "vnir.img").read_text() == "new"
+    assert sorted(os.listdir(tmp_path)) == ["scene"]
+    # A folder with the user's own files is refused before anything is written.
+    (folder / "notes.txt").write_text("mine")
+    with pytest.raises(OutputError, match="notes.txt"):
+        with wmod.atomic_output(folder, folder_files=allowed):
+            pytest.fail("must not be reached")
+    assert (folder / "notes.txt").read_text() == "mine"
+
+
+def test_simulate_refuses_a_file_or_a_foreign_folder_before_simulating(tmp_path):
+    (tmp_path / "plain").write_text("a file")
+    with pytest.raises(OutputError, match="not a folder"):
+        gb.simulate_file(output=str(tmp_path / "plain"), lines=16, overwrite=True)
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "thesis.docx").write_text("irreplaceable")
+    with pytest.raises(OutputError, match="thesis.docx"):
+        gb.simulate_file(output=str(tmp_path / "mine"), lines=16, overwrite=True)
+    assert (tmp_path / "mine" / "thesis.docx").read_text() == "irreplaceable"
+    assert (tmp_path / "plain").read_text() == "a file"
+
+
+# --- inputs protected by identity ---------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "data, header, output",
+    [
+        ("scene.bsq", "scene.bsq.hdr", "scene.bsq.hdr"),  # GDAL's other header convention
+        ("scene.bsq", "scene.hdr", "scene.hdr"),
+        ("scene.img", "scene.hdr", "scene.img"),
+    ],
+)
+def test_output_may_not_be_a_file_gdal_reads_with_an_input(tmp_path, data, header, output):
+    write_envi(tmp_path / "w.img", cube(3, 5, 4), [500, 600, 700])
+    os.replace(tmp_path / "w.img", tmp_path / data)
+    os.replace(tmp_path / "w.hdr", tmp_path / header)
+    with rasterio.open(tmp_path / data) as src:  # GDAL finds the header under that name
+        assert src.count == 3
+    with pytest.raises(OutputError):
+        io.check_output_path(tmp_path / output, [str(tmp_path / data)], overwrite=True)
+
+
+def test_gdal_family_covers_gdals_own_file_list(tmp_path):
+    """Every file GDAL lists for an input (data, header, .aux.xml, world file) is protected."""
+    path = write_gtiff(tmp_path / "dsm.tif", np.ones((1, 4, 5), "float32"), wavelengths=[500.0])
+    (tmp_path / "dsm.tfw").write_text("1\n0\n0\n-1\n0\n0\n")
+    with rasterio.open(path) as src:
+        files = src.files
+    assert len(files) >= 2
+    family = wmod.gdal_family(path)
+    assert {os.path.abspath(f) for f in files} <= family
+    envi = write_envi(tmp_path / "c.img", cube(2, 3, 3), [500, 600])
+    with rasterio.open(envi) as src:
+        assert {os.path.abspath(f) for f in src.files} <= wmod.gdal_family(envi)
+
+
+def test_an_unrelated_output_beside_an_input_is_allowed(tmp_path):
+    """Identity, not a name prefix: vnir.tif beside the input vnir.img is a new file."""
+    v = write_envi(tmp_path / "vnir.img", cube(2, 3, 3), [500, 600])
+    io.check_output_path(tmp_path / "vnir.tif", [v])
+    io.check_output_path(tmp_path / "vnir_ratio.img", [v])
+
+
+# --- validation at open -------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "text, bad",
+    [("{400, 5l0, 600}", "5l0"), ("400,n/a,600", "n/a"), ("400 abc", "abc"), ("1,inf", "inf")],
+)
+def test_wavelength_lists_are_parsed_strictly(text, bad):
+    with pytest.raises(InputError, match=repr(bad).replace("/", ".")) as info:
+        wlmod.parse_list(text, "scene.hdr: ENVI header 'wavelength'")
+    assert "scene.hdr" in str(info.value)
+
+
+def test_wavelength_lists_in_every_accepted_syntax():
+    for text in (
+        "{400.1, 402.3}",
+        "400.1,402.3",
+        "400.1 402.3",
+        " { 400.1 ,\n 402.3 } ",
+        "4.001e2;402.3",
+    ):
+        np.testing.assert_allclose(wlmod.parse_list(text), [400.1, 402.3])
+
+
+@pytest.mark.parametrize(
+    "units, values, scale",
+    [
+        ("Nanometers", [400, 2500], 1.0),
+        ("Micrometers", [0.4, 2.5], 1000.0),
+        ("microns", [0.4, 2.5], 1000.0),
+        ("", [0.4, 2.5], 1000.0),  # unambiguous: only micrometres fit
+        (None, [400, 2500], 1.0),  # unambiguous: only nanometres fit
+    ],
+)
+def test_units_are_inferred_only_when_unambiguous(units, values, scale):
+    assert wlmod.unit_scale(units, np.array(values, float), "f.img") == scale
+
+
+@pytest.mark.parametrize(
+    "units, values", [(None, [1, 12]), ("", [10, 250]), ("Index", [1, 12]), ("parsecs", [400, 900])]
+)
+def test_ambiguous_or_unknown_units_name_the_file(units, values):
+    with pytest.raises(InputError, match="f.img"):
+        wlmod.unit_scale(units, np.array(values, float), "f.img")
+
+
+def test_micrometre_files_still_read_in_nanometres(tmp_path):
+    path = write_envi(tmp_path / "um.img", cube(len(VNIR_WL), 5, 4), VNIR_WL, units="Micrometers")
+    with io.open_raster(path) as src:
+        wl, _ = io.read_wavelengths(src)
+    np.testing.assert_allclose(wl, VNIR_WL, rtol=1e-6)
+
+
+def test_truncated_raw_file_is_refused_at_open_not_read_as_zeros(tmp_path):
+    path = write_envi(tmp_path / "v.img", cube(3, 10, 8), [500, 600, 700])
+    data = Path(path).read_bytes()
+    Path(path).write_bytes(data[:-16])
+    with rasterio.open(path) as src:  # GDAL alone opens it and reads zeros at the end
+        assert (src.read(3)[-1, -8:] == 0).all()
+    with pytest.raises(InputError, match="truncated"), io.open_raster(path):
+        pass
+
+
+def test_open_cube_and_open_dual_refuse_different_crs(tmp_path):
+    """Done in the refactor (Grid.require_same): checked for open_cube (rx, svdd, unmix)."""
+    d = make_inputs(tmp_path)
+    with pytest.raises(InputError, match="EPSG:32637"):
+        io.open_cube([str(d / "vg.img"), str(d / "sg37.img")])
+    with pytest.raises(InputError, match="EPSG:32637"):
+        io.open_dual(str(d / "vg.img"), str(d / "sg37.img"))
+
+
+def test_number_parameters_refuse_nan_and_inf():
+    p = Number(name="x", description="x", default=1.0, minimum=0.0, maximum=10.0)
+    for bad in ("nan", float("nan"), "inf", float("-inf")):
+        with pytest.raises(ParameterError, match="'x'.*finite"):
+            p.coerce(bad)
+
+
+def test_operations_refuse_nan_from_python_too(tmp_path):
+    """Scripts bypass the spec's checks: the operation layer refuses NaN itself."""
+    d = make_inputs(tmp_path / "in")
+    with pytest.raises(ParameterError, match="'tolerance_nm'.*finite"):
+        gb.ratio_file(
+            str(d / "v.img"),
+            str(d / "s.img"),
+            output=str(tmp_path / "r.tif"),
+            tolerance_nm=float("nan"),
+        )
+    assert not (tmp_path / "r.tif").exists()
+
+
+def test_unmix_does_not_take_the_fwhm_column_as_a_material(tmp_path):
+    d = make_inputs(tmp_path / "in")
+    out = tmp_path / "ab.tif"
+    result = cli(
+        [
+            "unmix",
+            "--vnir",
+            str(d / "v.img"),
+            "--swir",
+            str(d / "s.img"),
+            "--endmembers",
+            str(d / "em.csv"),
+            "-o",
+            str(out),
+        ]
+    )
+    assert result.exit_code == 0, result.output
+    with rasterio.open(out) as src:
+        names = [n for n in src.descriptions if n]
+    assert not any("fwhm" in n.lower() for n in names), names
+    assert any("grass" in n for n in names) and any("soil" in n for n in names)
+
+
+# --- the one error path -------------------------------------------------------------------
+
+
+def test_os_errors_escaping_an_operation_name_the_file():
+    exc = OSError(errno.EIO, "Input/output error", "/data/v.img")
+    err = translate_error(exc, ["/data/v.img"], ["/out/r.tif"])
+    assert isinstance(err, InputError) and "/data/v.img" in str(err)
+    err = translate_error(OSError(errno.ENOSPC, "No space left", "/out/r.tif"), [], ["/out/r.tif"])
+    assert isinstance(err, OutputError) and "full" in str(err)
+    err = translate_error(MemoryError(), [], [])
+    assert isinstance(err, errors.ResourceError) and "block_rows" in str(err)
+
+
+def test_unexpected_errors_are_one_line_with_exit_70_and_debug_shows_the_traceback(
+    tmp_path, monkeypatch
+):
+    import geoboresight.cli as cli_module
+
+    def broken(*args, **kwargs):
+        raise ZeroDivisionError("float division by zero")
+
+    monkeypatch.setattr(cli_module, "execute", broken)
+    d = make_inputs(tmp_path)
+    args = [
+        "ratio",
+        "--vnir",
+        str(d / "v.img"),
+        "--swir",
+        str(d / "s.img"),
+        "-o",
+        str(tmp_path / "r.tif"),
+    ]
+    result = cli(args)
+    assert result.exit_code == 70
+    line = error_line(result)
+    assert "ZeroDivisionError" in line and "--debug" in line
+    result = cli([*args, "--debug"])
+    assert isinstance(result.exception, ZeroDivisionError)  # raised: click prints the traceback
+    from click.testing import CliRunner
+
+    result = CliRunner().invoke(cli_module.main, ["--debug", *args])
+    assert isinstance(result.exception, ZeroDivisionError)
+
+
+def test_user_errors_print_one_line_and_debug_shows_the_traceback(tmp_path):
+    args = ["ratio", "--vnir", str(tmp_path / "none.img"), "-o", str(tmp_path / "r.tif")]
+    line = error_line(cli(args))
+    assert "none.img" in line
+    result = cli([*args, "--debug"])
+    assert isinstance(result.exception, InputError)
+
+
+def test_a_real_process_prints_no_traceback(tmp_path):
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "geoboresight.cli",
+            "ratio",
+            "--vnir",
+            str(tmp_path / "x.img"),
+            "-o",
+            str(tmp_path / "r.tif"),
+            "--tolerance-nm",
+            "nan",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 1
+    assert done.stderr.strip().splitlines() == [
+        "Error: parameter 'tolerance_nm': expected a finite number, got nan"
+    ]
+
+
+# --- report ---------------------------------------------------------------------------------
+
+
+def test_report_never_touches_a_folder_named_like_its_work_folder(tmp_path, monkeypatch):
+    import geoboresight.report as report
+
+    d = make_inputs(tmp_path / "in")
+    out = tmp_path / "r.html"
+    user = tmp_path / "r.html.work"
+    user.mkdir()
+    (user / "notes.txt").write_text("mine")
+    seen = {}
+
+    def fake_build(values, work, progress):
+        seen["work"] = work
+        Path(work, "ratio.tif").write_text("product")
+        return "<html></html>"
+
+    monkeypatch.setattr(report, "build_report", fake_build)
+    gb.report_file(str(d / "v.img"), str(d / "s.img"), output=str(out))
+    assert (user / "notes.txt").read_text() == "mine"
+    assert seen["work"] != str(user) and wmod._TEMP.match(os.path.basename(seen["work"]))
+    assert sorted(os.listdir(tmp_path)) == ["in", "r.html", "r.html.work"]
+
+
+def test_report_fails_when_its_primary_input_is_unreadable(tmp_path):
+    d = make_inputs(tmp_path / "in")
+    before = snapshot(tmp_path)
+    result = cli(["report", "--vnir", str(d / "em.csv"), "-o", str(tmp_path / "r.html")])
+    assert result.exit_code == 1
+    assert "em.csv" in error_line(result)
+    assert snapshot(tmp_path) == before
+
+
+# --- docs/troubleshooting.md ----------------------------------------------------------------
+
+
+def test_troubleshooting_lists_every_message_of_the_code():
+    text = (ROOT / "docs" / "troubleshooting.md").read_text(encoding="utf-8")
+    begin = text.index(errors.CATALOGUE_BEGIN)
+    end = text.index(errors.CATALOGUE_END) + len(errors.CATALOGUE_END)
+    assert text[begin:end] + "\n" == errors.catalogue_markdown(), (
+        "docs/troubleshooting.md is out of date: run "
+        "python -m geoboresight.errors --update docs/troubleshooting.md"
+    )
+
+
+def test_troubleshooting_explains_every_error_class():
+    text = (ROOT / "docs" / "troubleshooting.md").read_text(encoding="utf-8")
+    for cls in errors.error_classes():
+        assert f"\n### {cls.__name__}\n" in text, cls.__name__
+    used = {cls for _, _, cls, _ in errors.message_catalogue()}
+    assert used <= {c.__name__ for c in errors.error_classes()}
+
+
+def test_every_message_is_one_line():
+    catalogue = errors.message_catalogue()
+    assert len(catalogue) > 150
+    for module, func, _cls, template in catalogue:
+        assert "\n" not in template, (module, func, template)
