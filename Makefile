@@ -10,8 +10,11 @@ OUT ?= out
 # geoboresight_qgis (a folder named geoboresight would shadow the library on QGIS's sys.path).
 PLUGIN_ZIP ?= dist/geoboresight-plugin.zip
 PYTEST_ARGS ?=
+# The version lives in one place, geoboresight/__init__.py: pyproject.toml reads it
+# (dynamic version) and plugin-zip stamps it into the plugin's metadata.txt.
+VERSION := $(shell sed -n 's/^__version__ = "\(.*\)"/\1/p' geoboresight/__init__.py)
 
-.PHONY: demo test test-main test-qgis lint plugin-zip bench clean
+.PHONY: demo test test-main test-qgis lint plugin-zip dist bench clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -50,14 +53,26 @@ test-qgis: $(QVENV)/.installed
 lint: $(VENV)/.installed
 	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check .
 
-plugin-zip:
+# The plugin zip: the plugin folder, LICENSE, metadata.txt with the library's version, and the
+# operation list (operations.json, from the engine's `engine describe`) so that the tools appear
+# before the user has set up an engine.
+plugin-zip: $(VENV)/.installed
 	@set -e; tmp=$$(mktemp -d); \
 	cp -R plugin $$tmp/geoboresight_qgis; \
-	find $$tmp -name __pycache__ -prune -exec rm -rf {} +; \
+	find $$tmp -name __pycache__ -prune -exec rm -rf {} +; find $$tmp -name '*.pyc' -delete; \
+	cp LICENSE $$tmp/geoboresight_qgis/LICENSE; \
+	sed -i 's/^version=.*/version=$(VERSION)/' $$tmp/geoboresight_qgis/metadata.txt; \
+	$(VENV)/bin/geoboresight engine describe > $$tmp/geoboresight_qgis/operations.json; \
 	mkdir -p "$$(dirname $(PLUGIN_ZIP))"; rm -f $(PLUGIN_ZIP); \
 	zip="$$(cd "$$(dirname $(PLUGIN_ZIP))" && pwd)/$$(basename $(PLUGIN_ZIP))"; \
 	(cd $$tmp && $(PY) -m zipfile -c "$$zip" geoboresight_qgis); \
 	rm -rf $$tmp; echo "wrote $(PLUGIN_ZIP) (QGIS: Plugins > Manage and Install Plugins > Install from ZIP)"
+
+# The library's wheel and sdist (what the plugin's setup tool installs), version from
+# geoboresight/__init__.py.
+dist: $(VENV)/.installed
+	$(VENV)/bin/python -m build --outdir dist .
+	@ls dist/geoboresight-$(VERSION)-*.whl dist/geoboresight-$(VERSION).tar.gz
 
 bench: $(VENV)/.installed
 	for b in benchmarks/*.py; do $(VENV)/bin/python $$b || exit 1; done

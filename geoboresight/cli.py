@@ -221,13 +221,17 @@ class SpecGroup(click.Group):
     """A click group whose subcommands are the registry's specs plus ``list``."""
 
     def list_commands(self, ctx):
-        return ["list", "batch", *registry()]
+        return ["list", "batch", "engine", *registry()]
 
     def get_command(self, ctx, name):
         if name == "list":
             return _list
         if name == "batch":
             return _batch
+        if name == "engine":  # machine mode for front-ends (the QGIS plugin): geoboresight.engine
+            from .engine import engine_command
+
+            return engine_command()
         algs = registry()
         return make_command(algs[name]) if name in algs else None
 

@@ -1,22 +1,25 @@
-"""One generic QGIS Processing algorithm that wraps any geoboresight spec.
+"""One generic Processing algorithm for any operation the engine describes.
 
-Nothing here knows about a particular operation: parameters, groups and help come from the
-:class:`geoboresight.algorithms.spec.Algorithm` it wraps, and the work is done by
-:func:`geoboresight.algorithms.execute`, which validates (bands against their raster included,
-since QGIS does not check them), refuses to overwrite inputs and removes a failed run's outputs.
+Nothing here knows a particular operation: parameters, groups, help and declared results come
+from the engine's operation list (``geoboresight engine describe``, a plain dict per operation),
+and the work is done by the engine in its own process (:mod:`.engine_client`). The engine
+validates everything again (bands against their raster included, since QGIS does not check
+them), refuses to overwrite inputs and removes a failed or cancelled run's outputs.
 """
 
 from __future__ import annotations
 
 import html
+import json
 import os
-import re
 import sys
 
 from qgis.core import (
-    QgsProcessing,
     QgsProcessingAlgorithm,
     QgsProcessingException,
+    QgsProcessingOutputBoolean,
+    QgsProcessingOutputNumber,
+    QgsProcessingOutputString,
     QgsProcessingParameterBand,
     QgsProcessingParameterBoolean,
     QgsProcessingParameterDefinition,
@@ -30,26 +33,32 @@ from qgis.core import (
     QgsProcessingParameterRasterLayer,
     QgsProcessingParameterString,
     QgsProcessingParameterVectorDestination,
+    QgsProcessingUtils,
     QgsProviderRegistry,
 )
+from qgis.PyQt.QtGui import QIcon
 
-from geoboresight.algorithms import execute
-from geoboresight.errors import Cancelled, GeoboresightError
-from geoboresight.progress import Progress
-
+from . import compat, engine_client
 from .styles import style_output
 
+PLUGIN_DIR = os.path.dirname(os.path.abspath(__file__))
+OUTPUT_KINDS = ("raster_out", "vector_out", "file_out", "folder_out")
+#: ENVI data files GDAL opens for a header ``x.hdr`` (the engine applies the same rule,
+#: geoboresight.io.raster.open_raster); only used so that QGIS's own check accepts a header.
+_ENVI_DATA = ("", ".img", ".dat", ".raw", ".bsq", ".bil", ".bip")
 
-def group_id(group: str) -> str:
-    """A stable lowercase id for a toolbox group ("Relative DEM" -> "relative_dem")."""
-    return re.sub(r"[^a-z0-9]+", "_", group.lower()).strip("_")
+
+def group_icon(group_id: str) -> QIcon:
+    path = os.path.join(PLUGIN_DIR, "icons", f"{group_id}.svg")
+    return QIcon(path if os.path.exists(path) else os.path.join(PLUGIN_DIR, "icon.svg"))
 
 
-def _described(p) -> str:
-    unit = getattr(p, "unit", "")
-    if unit and f"({unit}" not in p.description and f"{unit})" not in p.description:
-        return f"{p.description} ({unit})"
-    return p.description
+def _described(p: dict) -> str:
+    unit = p.get("unit") or ""
+    desc = p["description"]
+    if unit and f"({unit}" not in desc and f"{unit})" not in desc:
+        return f"{desc} ({unit})"
+    return desc
 
 
 def _file_filter(extensions) -> str:
@@ -60,94 +69,109 @@ def _file_filter(extensions) -> str:
     return f"{'/'.join(e.upper() for e in exts)} files ({patterns});;All files (*.*)"
 
 
-def to_qgis_parameter(p) -> QgsProcessingParameterDefinition:
-    """The QGIS parameter for one spec parameter (by its ``kind``)."""
+def _range_text(p: dict) -> str:
+    lo, hi, unit = p.get("minimum"), p.get("maximum"), p.get("unit") or ""
+    if lo is None and hi is None:
+        return ""
+    text = f"{'' if lo is None else f'{lo:g}'}–{'' if hi is None else f'{hi:g}'}"
+    return f"{text} {unit}".strip()
+
+
+def to_qgis_parameter(p: dict) -> QgsProcessingParameterDefinition:
+    """The QGIS parameter for one described parameter (by its ``kind``)."""
     desc = _described(p)
-    kind = p.kind
-    optional = not p.required
+    kind, name, default = p["kind"], p["name"], p.get("default")
+    optional = not p["required"]
     if kind == "raster":
-        q = QgsProcessingParameterRasterLayer(p.name, desc, p.default, optional)
+        q = QgsProcessingParameterRasterLayer(name, desc, default, optional)
     elif kind == "multiraster":
-        q = QgsProcessingParameterMultipleLayers(
-            p.name, desc, QgsProcessing.TypeRaster, p.default, optional
-        )
+        q = QgsProcessingParameterMultipleLayers(name, desc, compat.TYPE_RASTER, default, optional)
     elif kind == "file":
         q = QgsProcessingParameterFile(
-            p.name,
+            name,
             desc,
-            QgsProcessingParameterFile.File,
+            compat.FILE_BEHAVIOR_FILE,
             "",
-            p.default,
+            default,
             optional,
-            _file_filter(getattr(p, "extensions", ())),
+            _file_filter(p.get("extensions", ())),
         )
     elif kind == "band":
-        q = QgsProcessingParameterBand(p.name, desc, p.default, p.raster, optional)
+        q = QgsProcessingParameterBand(name, desc, default, p["raster"], optional)
     elif kind in ("number", "wavelength"):
-        integer = getattr(p, "integer", False)
+        lo, hi = p.get("minimum"), p.get("maximum")
         q = QgsProcessingParameterNumber(
-            p.name,
+            name,
             desc,
-            QgsProcessingParameterNumber.Integer
-            if integer
-            else QgsProcessingParameterNumber.Double,
-            p.default,
+            compat.NUMBER_INTEGER if p.get("integer") else compat.NUMBER_DOUBLE,
+            default,
             optional,
-            -sys.float_info.max if p.minimum is None else p.minimum,
-            sys.float_info.max if p.maximum is None else p.maximum,
+            -sys.float_info.max if lo is None else lo,
+            sys.float_info.max if hi is None else hi,
         )
     elif kind == "enum":
-        default = p.choices.index(p.default) if p.default in p.choices else None
-        q = QgsProcessingParameterEnum(p.name, desc, list(p.choices), False, default, optional)
+        choices = list(p["choices"])
+        index = choices.index(default) if default in choices else None
+        q = QgsProcessingParameterEnum(name, desc, choices, False, index, optional)
     elif kind == "bool":
-        q = QgsProcessingParameterBoolean(p.name, desc, bool(p.default), optional)
+        q = QgsProcessingParameterBoolean(name, desc, bool(default), optional)
     elif kind == "string":
-        q = QgsProcessingParameterString(p.name, desc, p.default, False, optional)
+        q = QgsProcessingParameterString(name, desc, default, False, optional)
     elif kind == "raster_out":
-        q = QgsProcessingParameterRasterDestination(p.name, desc, p.default, optional, not optional)
+        q = QgsProcessingParameterRasterDestination(name, desc, default, optional, not optional)
     elif kind == "vector_out":
         q = QgsProcessingParameterVectorDestination(
-            p.name, desc, QgsProcessing.TypeVectorAnyGeometry, p.default, optional, not optional
+            name, desc, compat.TYPE_VECTOR_ANY, default, optional, not optional
         )
     elif kind == "file_out":
         q = QgsProcessingParameterFileDestination(
-            p.name, desc, _file_filter([p.extension]), p.default, optional, not optional
+            name, desc, _file_filter([p.get("extension")]), default, optional, not optional
         )
     elif kind == "folder_out":
-        q = QgsProcessingParameterFolderDestination(p.name, desc, p.default, optional, not optional)
-    else:  # a new kind in spec.py that this face does not know yet: fail loudly, not silently
-        raise TypeError(f"geoboresight plugin: no QGIS parameter for kind {kind!r} ({p.name})")
-    if p.advanced:
-        q.setFlags(q.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+        q = QgsProcessingParameterFolderDestination(name, desc, default, optional, not optional)
+    else:  # an engine newer than this plugin: fail loudly, not silently
+        raise TypeError(f"geoboresight plugin: no QGIS parameter for kind {kind!r} ({name})")
+    if p.get("advanced"):
+        q.setFlags(q.flags() | compat.FLAG_ADVANCED)
     return q
 
 
-def help_html(spec) -> str:
-    """The spec's help as simple HTML (paragraphs, then each parameter with range and default)."""
-    paras = [s.strip() for s in spec.help.split("\n\n") if s.strip()]
-    body = "".join(f"<p>{html.escape(s)}</p>" for s in paras)
+def _esc(text: str) -> str:
+    return html.escape(str(text), quote=False)  # element text: quotes need no escaping
+
+
+def help_html(spec: dict, engine_note: str = "") -> str:
+    """The operation's help as simple HTML (paragraphs, then each parameter with its range
+    and default, then the results)."""
+    paras = [s.strip() for s in spec["help"].split("\n\n") if s.strip()]
+    body = "".join(f"<p>{_esc(s)}</p>" for s in paras)
     items = []
-    for p in spec.params:
+    for p in spec["params"]:
         extra = []
-        if getattr(p, "choices", None):
-            extra.append("one of: " + ", ".join(p.choices))
-        lo, hi = getattr(p, "minimum", None), getattr(p, "maximum", None)
-        if lo is not None or hi is not None:
-            unit = getattr(p, "unit", "")
-            extra.append(
-                f"range {'' if lo is None else f'{lo:g}'}–{'' if hi is None else f'{hi:g}'} {unit}".strip()
-            )
-        if p.default is not None and not p.is_output:
-            extra.append(f"default {p.default}")
-        if not p.required and p.default is None:
+        if p.get("choices"):
+            extra.append("one of: " + ", ".join(p["choices"]))
+        if _range_text(p):
+            extra.append(f"range {_range_text(p)}")
+        if p.get("default") is not None and not p["is_output"]:
+            extra.append(f"default {p['default']}")
+        if not p["required"] and p.get("default") is None:
             extra.append("optional")
-        tail = f" <i>({html.escape('; '.join(extra))})</i>" if extra else ""
-        items.append(f"<li><b>{html.escape(p.name)}</b>: {html.escape(p.description)}{tail}</li>")
-    return f"<p><b>{html.escape(spec.short_help)}</b></p>{body}<h3>Parameters</h3><ul>{''.join(items)}</ul>"
+        tail = f" <i>({_esc('; '.join(extra))})</i>" if extra else ""
+        items.append(f"<li><b>{_esc(p['name'])}</b>: {_esc(p['description'])}{tail}</li>")
+    results = "".join(
+        f"<li><b>{_esc(r['name'])}</b>: {_esc(r['description'])}</li>"
+        for r in spec.get("results", ())
+    )
+    note = f"<p><i>{_esc(engine_note)}</i></p>" if engine_note else ""
+    return (
+        f"<p><b>{_esc(spec['short_help'])}</b></p>{note}{body}"
+        f"<h3>Parameters</h3><ul>{''.join(items)}</ul>"
+        + (f"<h3>Results</h3><ul>{results}</ul>" if results else "")
+    )
 
 
 def layer_path(layer, name: str) -> str:
-    """The file behind a QGIS raster layer (the library reads files, not layers)."""
+    """The file behind a QGIS raster layer (the engine reads files, not layers)."""
     if layer is None:
         raise QgsProcessingException(f"parameter '{name}': the raster layer could not be loaded")
     source = layer.source()
@@ -171,47 +195,120 @@ def _is_set(parameters, name) -> bool:
     return not (isinstance(value, str) and value == "")
 
 
-class SpecAlgorithm(QgsProcessingAlgorithm):
-    """A QGIS algorithm generated from one geoboresight spec."""
+def _is_header(value) -> bool:
+    return isinstance(value, str) and value.lower().endswith(".hdr")
 
-    def __init__(self, spec):
+
+def _envi_data(header: str) -> str | None:
+    stem = header[:-4]
+    for ext in _ENVI_DATA:
+        if os.path.isfile(stem + ext):
+            return stem + ext
+    return None
+
+
+def _stem(path: str) -> str:
+    return os.path.splitext(os.path.basename(str(path)))[0]
+
+
+class EngineAlgorithm(QgsProcessingAlgorithm):
+    """A QGIS algorithm generated from one operation of the engine's list."""
+
+    def __init__(self, spec: dict, engine_note: str = ""):
         super().__init__()
         self.spec = spec
+        self.engine_note = engine_note
+        self._params = {p["name"]: p for p in spec["params"]}
 
     def createInstance(self):  # noqa: N802 (QGIS API names)
-        return SpecAlgorithm(self.spec)
+        return EngineAlgorithm(self.spec, self.engine_note)
 
     def name(self):
-        return self.spec.name
+        return self.spec["name"]
 
     def displayName(self):  # noqa: N802
-        return self.spec.display_name
+        return self.spec["display_name"]
 
     def group(self):
-        return self.spec.group
+        return self.spec["group"]
 
     def groupId(self):  # noqa: N802
-        return group_id(self.spec.group)
+        return self.spec["group_id"]
+
+    def icon(self):
+        return group_icon(self.spec["group_id"])
 
     def shortDescription(self):  # noqa: N802
-        return self.spec.short_help
+        return self.spec["short_help"]
 
     def shortHelpString(self):  # noqa: N802
-        return help_html(self.spec)
+        return help_html(self.spec, self.engine_note)
 
     def tags(self):
-        return ["hyperspectral", "boresight", "dual sensor", "aisa", self.spec.group.lower()]
+        return ["hyperspectral", "boresight", "dual sensor", "aisa", self.spec["group"].lower()]
 
     def initAlgorithm(self, config=None):  # noqa: N802
-        for p in self.spec.params:
+        for p in self.spec["params"]:
             self.addParameter(to_qgis_parameter(p))
+        # Scalar results as outputs, so the Graphical Modeler can chain them. A result named
+        # like a parameter (e.g. unmix's 'endmembers') is returned and logged, not declared.
+        for r in self.declared_results():
+            cls = {
+                "number": QgsProcessingOutputNumber,
+                "boolean": QgsProcessingOutputBoolean,
+            }.get(r["type"], QgsProcessingOutputString)
+            self.addOutput(cls(r["name"], r["description"]))
 
+    def declared_results(self) -> list[dict]:
+        return [r for r in self.spec.get("results", ()) if r["name"] not in self._params]
+
+    # ---------------------------------------------------------------- checks before the run
+    def checkParameterValues(self, parameters, context):  # noqa: N802
+        """Ranges with the range in the message, and ENVI headers (``.hdr``) accepted where
+        QGIS alone would refuse them (it does not open a header as a raster)."""
+        checked = dict(parameters)
+        for name, p in self._params.items():
+            value = parameters.get(name)
+            if p["kind"] in ("number", "wavelength") and _is_set(parameters, name):
+                message = self._range_error(p, value)
+                if message:
+                    return False, message
+            if p["kind"] == "raster" and _is_header(value):
+                if not os.path.exists(value):
+                    return False, f"parameter '{name}': {value} does not exist: check the path"
+                data = _envi_data(value)
+                if data is None:
+                    return False, (
+                        f"parameter '{name}': {value} is an ENVI header but no data file sits "
+                        "beside it (expected the same name without .hdr, or .img/.dat/.raw/"
+                        ".bsq/.bil/.bip)"
+                    )
+                checked[name] = data
+        return super().checkParameterValues(checked, context)
+
+    @staticmethod
+    def _range_error(p: dict, value) -> str | None:
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            return None  # QGIS's own check names a value that is not a number
+        lo, hi, unit = p.get("minimum"), p.get("maximum"), p.get("unit") or ""
+        u = f" {unit}" if unit else ""
+        if (lo is not None and number < lo) or (hi is not None and number > hi):
+            return (
+                f"parameter '{p['name']}': {number:g}{u} is outside the allowed range "
+                f"{_range_text(p)} ({p['description']})"
+            )
+        return None
+
+    # ---------------------------------------------------------------- the run
     def collect(self, parameters, context) -> dict:
-        """Raw values for :func:`execute`: file paths for layers; unset optionals left out."""
+        """Values for the engine: file paths for layers, choices by name, outputs as paths;
+        unset optionals left out (the engine fills its defaults)."""
         values = {}
-        for p in self.spec.params:
-            name, kind = p.name, p.kind
-            if kind in ("raster_out", "vector_out", "file_out", "folder_out"):
+        for p in self.spec["params"]:
+            name, kind = p["name"], p["kind"]
+            if kind in OUTPUT_KINDS:
                 if kind in ("raster_out", "vector_out"):
                     path = self.parameterAsOutputLayer(parameters, name, context)
                 else:
@@ -228,64 +325,88 @@ class SpecAlgorithm(QgsProcessingAlgorithm):
                 values[name] = path
                 continue
             if not _is_set(parameters, name):
-                continue  # execute() fills the spec's default, or names the missing parameter
+                continue
+            raw = parameters.get(name)
             if kind == "raster":
-                values[name] = layer_path(
-                    self.parameterAsRasterLayer(parameters, name, context), name
-                )
+                if _is_header(raw):
+                    values[name] = raw  # the engine opens the data file beside the header
+                else:
+                    layer = self.parameterAsRasterLayer(parameters, name, context)
+                    values[name] = layer_path(layer, name)
             elif kind == "multiraster":
-                layers = self.parameterAsLayerList(parameters, name, context)
-                values[name] = [layer_path(layer, name) for layer in layers]
+                items = raw if isinstance(raw, list | tuple) else None
+                if items and all(_is_header(v) for v in items):
+                    values[name] = list(items)
+                else:
+                    layers = self.parameterAsLayerList(parameters, name, context)
+                    values[name] = [layer_path(layer, name) for layer in layers]
             elif kind == "file":
                 values[name] = self.parameterAsFile(parameters, name, context)
             elif kind == "band":
                 values[name] = self.parameterAsInt(parameters, name, context)
             elif kind in ("number", "wavelength"):
-                if getattr(p, "integer", False):
+                if p.get("integer"):
                     values[name] = self.parameterAsInt(parameters, name, context)
                 else:
                     values[name] = self.parameterAsDouble(parameters, name, context)
             elif kind == "enum":
-                values[name] = p.choices[self.parameterAsEnum(parameters, name, context)]
+                values[name] = p["choices"][self.parameterAsEnum(parameters, name, context)]
             elif kind == "bool":
                 values[name] = self.parameterAsBool(parameters, name, context)
             elif kind == "string":
                 values[name] = self.parameterAsString(parameters, name, context)
             else:
-                values[name] = parameters[name]
+                values[name] = raw
         return values
 
     def processAlgorithm(self, parameters, context, feedback):  # noqa: N802
         values = self.collect(parameters, context)
-
-        def report(fraction, message=None):
-            feedback.setProgress(100.0 * fraction)
-            if message:
-                feedback.setProgressText(message)
-
-        progress = Progress(
-            callback=report, is_cancelled=feedback.isCanceled, log=feedback.pushInfo
+        engine = engine_client.locate(required=True)
+        outputs = [
+            values[p["name"]]
+            for p in self.spec["params"]
+            if p["is_output"] and values.get(p["name"])
+        ]
+        result = engine_client.run(
+            engine, self.name(), values, feedback, overwrite=True, outputs=outputs
         )
-        try:
-            result = execute(self.spec, values, progress=progress, overwrite=True)
-        except Cancelled:
-            # execute() removed the partial outputs; QGIS reports the cancellation itself.
-            raise QgsProcessingException("cancelled by the user: no output was written") from None
-        except GeoboresightError as exc:
-            raise QgsProcessingException(str(exc)) from None
+        declared = {r["name"]: r for r in self.declared_results()}
+        outputs_by_name = {p["name"]: p for p in self.spec["params"] if p["is_output"]}
         outputs = {}
         for key, value in result.items():
-            if value is None or isinstance(value, bool | int | float | str):
-                outputs[key] = value
-            elif isinstance(value, list | tuple) and all(
-                isinstance(v, int | float | str) for v in value
-            ):
-                outputs[key] = list(value)
-            else:
-                outputs[key] = str(value)
-            if key not in {p.name for p in self.spec.outputs}:
-                feedback.pushInfo(f"{key}: {outputs[key]}")
-        for p in self.spec.outputs:
-            if p.kind == "raster_out" and outputs.get(p.name):
-                style_output(outputs[p.name], context, feedback)
+            if key in declared and declared[key]["type"] == "string" and not isinstance(value, str):
+                value = json.dumps(value)  # lists and tables as JSON text a model can parse
+            outputs[key] = value
+            if key not in outputs_by_name:
+                feedback.pushInfo(f"{key}: {value}")
+        source = self._input_stem(values)
+        for name, p in outputs_by_name.items():
+            path = outputs.get(name)
+            if not path:
+                continue
+            if p["kind"] == "raster_out":
+                style_output(path, context, feedback)
+            self._name_layer(path, p, source, context)
         return outputs
+
+    def _input_stem(self, values: dict) -> str:
+        for p in self.spec["params"]:
+            if p["kind"] in ("raster", "multiraster", "file") and values.get(p["name"]):
+                value = values[p["name"]]
+                return _stem(value[0] if isinstance(value, list) else value)
+        return ""
+
+    def _name_layer(self, path: str, p: dict, source: str, context) -> None:
+        """Layer names from the output and the input ("Boresight band ratio (vnir)"), not the
+        output's description. A file the user named keeps QGIS's own rule (the file name,
+        by default); a temporary output always gets this name."""
+        if context is None or not context.willLoadLayerOnCompletion(path):
+            return
+        label = self.displayName()
+        if p["name"] != "output":
+            label = f"{label} – {p['name'].replace('_', ' ')}"
+        details = context.layerToLoadOnCompletionDetails(path)
+        details.name = f"{label} ({source})" if source else label
+        temp = QgsProcessingUtils.tempFolder()
+        if os.path.abspath(path).startswith(os.path.abspath(temp)):
+            details.forceName = True

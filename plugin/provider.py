@@ -1,26 +1,37 @@
-"""The geoboresight Processing provider: one QGIS algorithm per library spec."""
+"""The geoboresight Processing provider: a thin client of the geoboresight engine.
+
+Its algorithms are generated from the engine's operation list (``geoboresight engine
+describe``, cached), or from the copy shipped with the plugin (``operations.json``) when no
+engine is set up yet: the tools are there at once, and running one says how to set up the
+engine. Each run starts the engine in its own process (:mod:`.engine_client`).
+"""
 
 from __future__ import annotations
 
 import os
 
-from qgis.core import QgsProcessingProvider
+from qgis.core import QgsMessageLog, QgsProcessingProvider
 from qgis.PyQt.QtGui import QIcon
 
-import geoboresight
-from geoboresight.algorithms import registry
-
-from .algorithm import SpecAlgorithm
+from . import compat, engine_client
+from .algorithm import EngineAlgorithm
+from .setup_engine import SetupEngineAlgorithm
 
 _ICON = os.path.join(os.path.dirname(__file__), "icon.svg")
 
 
-class GeoboresightProvider(QgsProcessingProvider):
-    """Algorithms generated from ``geoboresight.algorithms.registry()`` (or given ``specs``)."""
+def _log(message: str, level=compat.INFO) -> None:
+    QgsMessageLog.logMessage(message, "geoboresight", level)
 
-    def __init__(self, specs=None):
+
+class GeoboresightProvider(QgsProcessingProvider):
+    """Algorithms from the engine's operation list; the engine path is a Processing option."""
+
+    def __init__(self):
         super().__init__()
-        self._specs = specs
+        self.description = None
+        self.engine = None
+        self.problem = ""
 
     def id(self):
         return "geoboresight"
@@ -29,19 +40,64 @@ class GeoboresightProvider(QgsProcessingProvider):
         return "geoboresight"
 
     def longName(self):  # noqa: N802 (QGIS API names)
-        return f"geoboresight {geoboresight.__version__} (boresight effect, Brook & Ben-Dor 2011)"
+        version = (self.description or {}).get("version") or engine_client.plugin_version()
+        return f"geoboresight {version} (boresight effect, Brook & Ben-Dor 2011)"
 
     def icon(self):
         return QIcon(_ICON)
 
-    def specs(self):
-        return list(self._specs) if self._specs is not None else list(registry().values())
+    def load(self):
+        """Register the Processing option for the engine's path (as OTB and SAGA set their
+        folders), then the algorithms."""
+        try:
+            from processing.core.ProcessingConfig import ProcessingConfig, Setting
+
+            ProcessingConfig.settingIcons[self.name()] = self.icon()
+            ProcessingConfig.addSetting(
+                Setting(
+                    self.name(),
+                    engine_client.SETTING,
+                    "geoboresight engine (its 'geoboresight' command; empty: the one the "
+                    "setup tool made)",
+                    "",
+                    valuetype=Setting.FILE,
+                )
+            )
+            ProcessingConfig.readSettings()
+        except ImportError:  # Processing's Python side is not loaded: environment variable only
+            pass
+        self.refreshAlgorithms()
+        return True
+
+    def unload(self):
+        try:
+            from processing.core.ProcessingConfig import ProcessingConfig
+
+            ProcessingConfig.removeSetting(engine_client.SETTING)
+        except (ImportError, KeyError):
+            pass
+
+    def operation_list(self) -> dict:
+        """The engine's list when an engine is set up and answers; the bundled copy otherwise
+        (with the reason kept in ``self.problem`` and shown in each tool's help)."""
+        self.problem = ""
+        try:
+            self.engine = engine_client.locate()
+            if self.engine is not None:
+                return engine_client.describe(self.engine)
+            self.problem = "The geoboresight engine is not set up yet: " + engine_client.SETUP_HINT
+        except engine_client.EngineError as exc:
+            self.problem = str(exc)
+            _log(self.problem, compat.WARNING)
+        return engine_client.bundled()
 
     def loadAlgorithms(self):  # noqa: N802
-        for spec in self.specs():
-            self.addAlgorithm(SpecAlgorithm(spec))
+        self.description = self.operation_list()
+        for spec in self.description["algorithms"]:
+            self.addAlgorithm(EngineAlgorithm(spec, self.problem))
+        self.addAlgorithm(SetupEngineAlgorithm())
 
-    # The library writes GeoTIFF rasters and GeoPackage/GeoJSON vectors itself.
+    # The engine writes GeoTIFF rasters and GeoPackage/GeoJSON vectors itself.
     def supportedOutputRasterLayerExtensions(self):  # noqa: N802
         return ["tif"]
 

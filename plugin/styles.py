@@ -1,7 +1,8 @@
 """Styles for raster outputs, so they open readable in QGIS.
 
-- A raster with an embedded colour table (shadow classes) is left alone: QGIS opens it with a
-  paletted renderer from that table.
+- A class raster (an embedded colour table and category names, e.g. the shadow classes) gets
+  a paletted renderer listing only its named classes, with their names: QGIS alone would list
+  all 256 entries of the table (5–255 in black).
 - A single-band continuous raster (ratio, scores, heights) gets a pseudocolour ramp stretched
   over its 2–98 % cumulative range. The style is saved as a ``.qml`` sidecar beside the output
   (QGIS reads it whenever the file is opened later) and applied by a layer post-processor when
@@ -13,15 +14,16 @@ from __future__ import annotations
 import os
 
 from qgis.core import (
-    QgsColorRampShader,
     QgsGradientColorRamp,
     QgsGradientStop,
+    QgsPalettedRasterRenderer,
     QgsProcessingLayerPostProcessorInterface,
-    QgsRaster,
     QgsRasterLayer,
     QgsSingleBandPseudoColorRenderer,
 )
 from qgis.PyQt.QtGui import QColor
+
+from . import compat
 
 # Viridis (perceptually uniform, colour-blind safe), as gradient stops.
 _VIRIDIS = ("#440154", "#3b528b", "#21918c", "#5ec962", "#fde725")
@@ -50,26 +52,51 @@ def pseudocolor_renderer(layer: QgsRasterLayer, band: int = 1):
     renderer = QgsSingleBandPseudoColorRenderer(provider, band)
     renderer.setClassificationMin(lo)
     renderer.setClassificationMax(hi)
-    renderer.createShader(
-        viridis(), QgsColorRampShader.Interpolated, QgsColorRampShader.Continuous, 5
-    )
+    renderer.createShader(viridis(), compat.SHADER_INTERPOLATED, compat.SHADER_CONTINUOUS, 5)
     return renderer
 
 
+def is_paletted(layer: QgsRasterLayer) -> bool:
+    return layer.dataProvider().colorInterpretation(1) == compat.PALETTE_INDEX
+
+
 def needs_ramp(layer: QgsRasterLayer) -> bool:
-    return (
-        layer.isValid()
-        and layer.bandCount() == 1
-        and layer.dataProvider().colorInterpretation(1) != QgsRaster.PaletteIndex
-    )
+    return layer.isValid() and layer.bandCount() == 1 and not is_paletted(layer)
+
+
+def category_names(path: str) -> list[str]:
+    """The raster's category names (band 1), read with QGIS's own GDAL bindings."""
+    from osgeo import gdal
+
+    ds = gdal.Open(path)
+    if ds is None:
+        return []
+    return list(ds.GetRasterBand(1).GetCategoryNames() or [])
+
+
+def class_renderer(layer: QgsRasterLayer, names: list[str]):
+    """A paletted renderer with only the named classes of the colour table, labelled."""
+    classes = QgsPalettedRasterRenderer.colorTableToClassData(layer.dataProvider().colorTable(1))
+    kept = []
+    for c in classes:
+        if 0 <= c.value < len(names) and names[c.value].strip():
+            c.label = names[c.value]
+            kept.append(c)
+    return QgsPalettedRasterRenderer(layer.dataProvider(), 1, kept) if kept else None
 
 
 def write_style(path: str) -> str | None:
     """Write the ``.qml`` sidecar for the raster at ``path``; its path, or None if not needed."""
     layer = QgsRasterLayer(path, os.path.basename(path), "gdal")
-    if not needs_ramp(layer):
+    if not layer.isValid() or layer.bandCount() != 1:
         return None
-    layer.setRenderer(pseudocolor_renderer(layer))
+    if is_paletted(layer):
+        renderer = class_renderer(layer, category_names(path))
+        if renderer is None:
+            return None  # a colour table without names: QGIS's own paletted renderer
+        layer.setRenderer(renderer)
+    else:
+        layer.setRenderer(pseudocolor_renderer(layer))
     qml = qml_path(path)
     _, ok = layer.saveNamedStyle(qml)
     return qml if ok and os.path.exists(qml) else None

@@ -1,6 +1,8 @@
 """Real QGIS, in process: one QgsApplication per session, Processing initialised, and the
 plugin's provider registered through the plugin class itself (``classFactory`` ->
-``initProcessing``), exactly as QGIS does it. No mocks.
+``initProcessing``), exactly as QGIS does it. No mocks. The provider runs every operation in
+the engine (GEOBORESIGHT_ENGINE = the project's .venv/bin/geoboresight, numpy 2); this pytest
+process imports the library only to make inputs and compare outputs.
 
 Skipped (not failed) when QGIS is not importable, unless GEOBORESIGHT_REQUIRE_QGIS=1 (CI): then
 tests/conftest.py turns the skips into failures.
@@ -13,7 +15,7 @@ import sys
 import tempfile
 
 import pytest
-from qgis_harness import QGIS_PLUGINS, import_plugin
+from qgis_harness import QGIS_PLUGINS, import_plugin, require_engine
 
 
 @pytest.fixture(scope="session")
@@ -26,6 +28,8 @@ def qgis_app():
     runtime = tempfile.mkdtemp(prefix="gb-xdg-")
     os.environ.setdefault("XDG_RUNTIME_DIR", runtime)
     profile = tempfile.mkdtemp(prefix="gb-qgis-profile-")  # no dependence on ~/.local state
+    # The provider runs the engine in its own process; the tests use the project's .venv.
+    os.environ["GEOBORESIGHT_ENGINE"] = require_engine()
     if QGIS_PLUGINS not in sys.path:
         sys.path.append(QGIS_PLUGINS)
     app = QgsApplication.instance()

@@ -1,5 +1,7 @@
 """What a QGIS user sees: parameter values mapped faithfully, bands checked, errors as messages,
-progress and cancel through QgsProcessingFeedback, no output left by a failed run."""
+progress and cancel through QgsProcessingFeedback (the engine's JSON lines), no output left by
+a failed or cancelled run, and a clear message when the engine is missing, killed or of another
+version."""
 
 from __future__ import annotations
 
@@ -74,17 +76,41 @@ def test_band_beyond_the_raster_is_a_clear_error(provider, inputs, tmp_path):
     assert not out.exists()
 
 
-def test_range_is_checked_by_qgis(provider, inputs, tmp_path):
+def test_range_error_gives_the_range(provider, inputs, tmp_path):
     from qgis.core import QgsProcessingException
 
     out = tmp_path / "r.tif"
     fb = _feedback()
     params = {"vnir": inputs.scene["vnir"], "swir": inputs.scene["swir"], "output": str(out)}
     params["swir_nm"] = 5000.0  # above the Wavelength maximum
+    spec = registry()["ratio"].param("swir_nm")
     with pytest.raises(QgsProcessingException) as err:
         _run("ratio", params, fb)
-    assert "swir_nm" in str(err.value) or "Wavelength" in str(err.value), str(err.value)
+    text = str(err.value)
+    assert "swir_nm" in text and "5000 nm" in text, text
+    assert f"{spec.minimum:g}–{spec.maximum:g} nm" in text, text
     assert not out.exists()
+
+
+def test_envi_header_is_accepted(provider, inputs, tmp_path):
+    """The label promises '.hdr/.img': a header path runs like its data file."""
+    scene = inputs.scene
+    hdr = os.path.splitext(scene["vnir"])[0] + ".hdr"
+    assert os.path.exists(hdr)
+    by_header, by_data = str(tmp_path / "h.tif"), str(tmp_path / "d.tif")
+    _run("ratio", {"vnir": hdr, "swir": scene["swir"], "output": by_header})
+    _run("ratio", {"vnir": scene["vnir"], "swir": scene["swir"], "output": by_data})
+    np.testing.assert_array_equal(_read(by_header), _read(by_data))
+
+
+def test_missing_envi_data_is_named(provider, tmp_path):
+    from qgis.core import QgsProcessingException
+
+    hdr = tmp_path / "lonely.hdr"
+    hdr.write_text("ENVI\n")
+    with pytest.raises(QgsProcessingException) as err:
+        _run("ratio", {"vnir": str(hdr), "output": str(tmp_path / "r.tif")})
+    assert "no data file sits beside it" in str(err.value) and str(hdr) in str(err.value)
 
 
 def test_library_error_message_reaches_the_user(provider, inputs, tmp_path):
@@ -106,7 +132,10 @@ def test_library_error_message_reaches_the_user(provider, inputs, tmp_path):
     assert not out.exists()
 
 
-def test_progress_and_cancel_within_one_block(provider, inputs, tmp_path):
+def test_progress_and_cancel_at_the_first_block(provider, inputs, tmp_path):
+    """Cancelled at its first progress line, the engine is terminated: no further progress is
+    shown, the engine's own message says so, and neither the output nor a temporary file is
+    left."""
     from qgis.core import QgsProcessingException
 
     out = tmp_path / "r.tif"
@@ -129,9 +158,9 @@ def test_progress_and_cancel_within_one_block(provider, inputs, tmp_path):
     n_blocks = -(-_read(inputs.ratio).shape[0] // 4)
     assert n_blocks >= 4
     positive = [b for b in blocks if b > 0]
-    assert len(positive) == 1, blocks  # the block after the cancel never reported
+    assert len(positive) == 1, blocks  # nothing reported after the cancel
     assert positive[0] == pytest.approx(100.0 / n_blocks)
-    assert "cancelled" in str(err.value)
+    assert "cancelled by the user: no output was written" in str(err.value)
     assert not out.exists()
     assert not [n for n in os.listdir(tmp_path) if n.startswith(".r.")]  # no temp file left
 

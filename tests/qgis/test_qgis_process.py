@@ -1,69 +1,61 @@
 """``qgis_process`` from the command line, as a user or a batch script runs it: the plugin
-installed from the zip ``make plugin-zip`` builds, in a throw-away QGIS profile."""
+installed from the zip ``make plugin-zip`` builds, in a throw-away QGIS profile, with QGIS's
+own Python (no PYTHONPATH): every run goes through the engine."""
 
 from __future__ import annotations
 
 import json
 import os
 import shutil
-import site
 import subprocess
 import zipfile
 
 import numpy as np
 import pytest
 import rasterio
-from qgis_harness import PLUGIN_DIR, REPO
+from qgis_harness import QGIS_PROCESS, REPO, library_run, require_engine
 
-import geoboresight
 from geoboresight.algorithms import registry
 from geoboresight.io import quiet_georef
 
 pytestmark = pytest.mark.qgis
 
-QGIS_PROCESS = "/usr/bin/qgis_process.bin"  # /usr/bin/qgis_process is a broken wrapper on Debian
 PLUGIN = "geoboresight_qgis"
 
 
 @pytest.fixture(scope="module")
 def qgis_env(tmp_path_factory):
+    """A fresh profile (a temporary HOME), the plugin from the zip, QGIS's own Python with no
+    PYTHONPATH: the library is reached only through the engine."""
     if not os.path.exists(QGIS_PROCESS):
         pytest.skip(f"{QGIS_PROCESS} not found (Debian package qgis)")
     root = tmp_path_factory.mktemp("qgis_process")
     plugins = root / "plugins"
     plugins.mkdir()
     zip_path = root / "geoboresight-plugin.zip"
-    if shutil.which("make"):
-        subprocess.run(
-            ["make", "-s", "-C", str(REPO), "plugin-zip", f"PLUGIN_ZIP={zip_path}"],
-            check=True,
-            capture_output=True,
-            timeout=60,
-        )
-        with zipfile.ZipFile(zip_path) as z:
-            assert all(n.startswith(f"{PLUGIN}/") for n in z.namelist())
-            assert f"{PLUGIN}/metadata.txt" in z.namelist()
-            z.extractall(plugins)
-    else:  # no make: install the folder the zip would contain
-        shutil.copytree(PLUGIN_DIR, plugins / PLUGIN, ignore=shutil.ignore_patterns("__pycache__"))
-
-    # qgis_process ignores venvs: the library comes through PYTHONPATH. An editable install
-    # lives in the source tree (its .pth hook is not read from PYTHONPATH), so add that too.
-    paths = [p for p in site.getsitepackages() if "site-packages" in p]
-    lib_root = os.path.dirname(os.path.dirname(os.path.abspath(geoboresight.__file__)))
-    if not any(lib_root.startswith(p) for p in paths):
-        paths.append(lib_root)
-    env = dict(
-        os.environ,
+    subprocess.run(
+        ["make", "-s", "-C", str(REPO), "plugin-zip", f"PLUGIN_ZIP={zip_path}"],
+        check=True,
+        capture_output=True,
+        timeout=600,
+    )
+    with zipfile.ZipFile(zip_path) as z:
+        assert all(n.startswith(f"{PLUGIN}/") for n in z.namelist())
+        assert f"{PLUGIN}/metadata.txt" in z.namelist()
+        z.extractall(plugins)
+    home = root / "home"
+    home.mkdir()
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+    env.update(
+        HOME=str(home),  # a fresh ~/.local/share/QGIS/QGIS3/profiles/default
         QT_QPA_PLATFORM="offscreen",
         XDG_RUNTIME_DIR=str(root),
-        QGIS_CUSTOM_CONFIG_PATH=str(root / "profile"),  # not the user's ~/.local profile
         QGIS_PLUGINPATH=str(plugins),
-        PYTHONPATH=os.pathsep.join(paths),
+        GEOBORESIGHT_ENGINE=require_engine(),
     )
     enable = _qgis_process(env, "plugins", "enable", PLUGIN)
     assert enable.returncode in (0, 1), enable.stderr  # 1: already enabled
-    ini = root / "profile" / "profiles" / "default" / "QGIS" / "QGIS3.ini"
+    ini = home / ".local/share/QGIS/QGIS3/profiles/default/QGIS/QGIS3.ini"
     assert f"{PLUGIN}=true" in ini.read_text()
     return env
 
@@ -90,7 +82,7 @@ def test_qgis_process_lists_every_spec(qgis_env):
     assert listed.returncode == 0, listed.stderr
     providers = json.loads(listed.stdout)["providers"]
     algs = providers["geoboresight"]["algorithms"]
-    assert set(algs) == {f"geoboresight:{n}" for n in registry()}
+    assert set(algs) == {f"geoboresight:{n}" for n in registry()} | {"geoboresight:setup-engine"}
 
 
 def test_qgis_process_runs_the_ratio(qgis_env, inputs, tmp_path):
@@ -111,7 +103,7 @@ def test_qgis_process_runs_the_ratio(qgis_env, inputs, tmp_path):
     report = json.loads(run.stdout)
     assert report["results"]["output"] == str(out)
     ref = tmp_path / "ref.tif"
-    lib = registry()["ratio"](vnir=vnir, swir=swir, output=str(ref))
+    lib = library_run("ratio", {"vnir": vnir, "swir": swir, "output": str(ref)})
     assert report["results"]["swir_band"] == lib["swir_band"]
     assert report["results"]["valid_pixels"] == lib["valid_pixels"]
     with quiet_georef(), rasterio.open(out) as a, rasterio.open(ref) as b:
@@ -137,10 +129,8 @@ def test_qgis_process_reports_a_bad_band(qgis_env, inputs, tmp_path):
     assert not out.exists()
 
 
-# Inside qgis_process, Debian's GDAL is loaded before the wheels' own GDALs (as in the desktop
-# application): a colour table written through rasterio and vector layers are the places where
-# two GDALs in one process could disagree. Vectors are written without OGR (io.vector) since
-# the pyogrio wheel's GDAL next to Debian's aborted qgis_process ("double free or corruption").
+# Outputs where two GDALs in one process used to be the risk (a colour table, vector layers):
+# now written by the engine alone, compared with the library's.
 MIXED_GDAL = (
     "shadow-classes",
     "anomaly-polygons",
@@ -164,6 +154,6 @@ def test_qgis_process_matches_the_library(name, qgis_env, inputs, tmp_path):
     run = _qgis_process(qgis_env, "--json", "run", f"geoboresight:{name}", "--", *args)
     assert run.returncode == 0, run.stderr[-3000:]
     l_values = values_for(spec, inputs, str(l_dir))
-    registry()[name](**l_values)
+    library_run(name, l_values)
     for p in spec.outputs:
         assert_same_file(q_values[p.name], l_values[p.name], str(q_dir), str(l_dir))

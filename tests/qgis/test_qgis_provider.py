@@ -1,4 +1,6 @@
-"""The provider as QGIS sees it: every spec listed, parameters of QGIS's own types, help."""
+"""The provider as QGIS sees it: every spec listed (from the engine's operation list), parameters
+of QGIS's own types, help, declared results, an icon per group, the setup tool, and the enums
+of both QGIS generations through plugin/compat.py."""
 
 from __future__ import annotations
 
@@ -18,7 +20,8 @@ def test_provider_lists_every_spec(provider):
     reg = QgsApplication.processingRegistry()
     assert reg.providerById("geoboresight") is provider
     listed = {a.name() for a in provider.algorithms()}
-    assert listed == set(registry())
+    assert listed == set(registry()) | {"setup-engine"}
+    assert provider.engine is not None and provider.problem == ""  # the engine's own list
     for name, spec in registry().items():
         alg = reg.algorithmById(f"geoboresight:{name}")
         assert alg is not None, name
@@ -88,6 +91,9 @@ def test_groups_follow_the_papers_applications(provider):
     from geoboresight.algorithms import GROUPS
 
     for alg in provider.algorithms():
+        if alg.name() == "setup-engine":
+            assert alg.group() == "Engine"
+            continue
         assert alg.group() in GROUPS
         assert alg.groupId() and alg.groupId().islower() and " " not in alg.groupId()
 
@@ -110,3 +116,87 @@ def test_metadata_declares_a_processing_provider():
     import geoboresight
 
     assert general["version"] == geoboresight.__version__
+    # QGIS 4 readiness (plugins.qgis.org reads it from qgisMaximumVersion)
+    assert int(general["qgisMaximumVersion"].split(".")[0]) >= 4
+
+
+def test_an_icon_per_group(provider):
+    from qgis_harness import PLUGIN_DIR
+
+    from geoboresight.algorithms import GROUPS
+    from geoboresight.engine import group_id
+
+    icons = {}
+    for alg in provider.algorithms():
+        path = PLUGIN_DIR / "icons" / f"{alg.groupId()}.svg"
+        assert path.exists(), path
+        assert not alg.icon().isNull()
+        icons.setdefault(alg.groupId(), path.read_text())
+    assert len(set(icons.values())) == len(icons)  # each group its own icon
+    assert set(icons) >= {group_id(g) for g in GROUPS} | {"engine"}
+
+
+def test_scalar_results_are_declared_outputs(provider):
+    """Numbers and strings a model can chain (e.g. the ratio's band numbers)."""
+    from qgis.core import QgsApplication
+
+    alg = QgsApplication.processingRegistry().algorithmById("geoboresight:ratio")
+    types = {o.name(): o.type() for o in alg.outputDefinitions()}
+    assert types["output"] == "outputRaster"
+    for name in ("swir_band", "vnir_band", "valid_pixels", "swir_wavelength_nm"):
+        assert types[name] == "outputNumber", name
+    dem = QgsApplication.processingRegistry().algorithmById("geoboresight:relative-dem")
+    types = {o.name(): o.type() for o in dem.outputDefinitions()}
+    assert types["message"] == "outputString" and types["meaningful"] == "outputBoolean"
+    for name in ("variance", "disparity"):  # every file the operation writes is declared
+        assert types[name] == "outputRaster", name
+    assert types["report"] == "outputFile"
+
+
+def test_help_lists_ranges_and_results(provider):
+    from qgis.core import QgsApplication
+
+    text = QgsApplication.processingRegistry().algorithmById("geoboresight:ratio").shortHelpString()
+    spec = registry()["ratio"].param("swir_nm")
+    assert f"range {spec.minimum:g}–{spec.maximum:g} nm" in text
+    assert "<h3>Results</h3>" in text and "valid_pixels" in text
+
+
+def test_compat_picks_scoped_enums_when_present():
+    """QGIS >= 3.36 / 4: Qgis.<Enum>.<Member>; 3.22: the old unscoped names. Both branches,
+    with stand-ins (only 3.22 is installable here)."""
+    from types import SimpleNamespace
+
+    import geoboresight_qgis.compat as compat
+
+    new = SimpleNamespace(ProcessingSourceType=SimpleNamespace(Raster="scoped-raster"))
+    old = SimpleNamespace(TypeRaster="old-raster")
+    assert compat.pick(new, "ProcessingSourceType.Raster", old, "TypeRaster") == "scoped-raster"
+    assert compat.pick(SimpleNamespace(), "ProcessingSourceType.Raster", old, "TypeRaster") == (
+        "old-raster"
+    )
+    with pytest.raises(AttributeError, match="neither"):
+        compat.pick(SimpleNamespace(), "X.Y", SimpleNamespace(), "Z")
+    # on this QGIS (3.22) the values are the old names'
+    from qgis.core import QgsProcessing, QgsProcessingParameterDefinition
+
+    assert compat.TYPE_RASTER == QgsProcessing.TypeRaster
+    assert compat.FLAG_ADVANCED == QgsProcessingParameterDefinition.FlagAdvanced
+
+
+def test_no_old_enum_names_outside_compat():
+    """QGIS 4 drops the unscoped names: only compat.py may spell them."""
+    import re
+
+    from qgis_harness import PLUGIN_DIR
+
+    old = re.compile(
+        r"QgsProcessing\.Type\w+|QgsProcessingParameterDefinition\.Flag\w+|"
+        r"QgsProcessingParameterNumber\.(Integer|Double)|QgsRaster\.PaletteIndex|"
+        r"QgsColorRampShader\.(Interpolated|Continuous)|Qgis\.(Info|Warning|Critical|Success)\b"
+    )
+    for path in PLUGIN_DIR.rglob("*.py"):
+        if path.name == "compat.py":
+            continue
+        found = old.findall(path.read_text())
+        assert not found, (path.name, found)

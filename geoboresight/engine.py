@@ -1,0 +1,379 @@
+"""The engine's machine mode: ``geoboresight engine ...`` for front-ends that run the library in
+its own process (the QGIS plugin, as QGIS runs GRASS, SAGA or Orfeo ToolBox).
+
+Why a separate process: QGIS's Python already has the system's GDAL, GEOS and PROJ loaded;
+the rasterio, shapely and pyproj wheels bring their own copies, and two versions of one C
+library in one process is a gamble (docs/qgis.md). The engine is the ``geoboresight`` command
+of any Python >= 3.11 environment (numpy 2 welcome); the front-end only talks to it:
+
+``geoboresight engine version``
+    one JSON object: ``{"engine": "geoboresight", "version": ..., "protocol": 1, "python": ...}``
+    (imports nothing heavy).
+``geoboresight engine describe``
+    one JSON document: every operation with its group, help, parameters (kinds, defaults,
+    ranges, choices, units, the raster a band belongs to, file extensions) and its declared
+    results (files and scalar values), so a front-end generates its tools from it.
+``geoboresight engine run NAME --params-json FILE`` (``-`` for stdin)
+    JSON lines on stdout, one object each:
+    ``{"engine": {"version", "protocol", "pid"}}`` first (before any heavy import, so the caller
+    can check the version at once), then ``{"progress": 0.25, "message": ...}``,
+    ``{"info": "..."}``, and finally ``{"result": {...}}`` (exit 0) or ``{"error": "one line"}``
+    (exit 1 for a problem the user can fix, 2 for an internal error whose traceback goes to
+    stderr, 3 when cancelled). SIGTERM (what QGIS's cancel sends) stops the run like Ctrl-C:
+    the operation removes its outputs, so a cancelled run leaves nothing behind.
+
+Nothing else is ever written to stdout during a run (the library's own prints go to stderr),
+so every stdout line is one JSON object.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import signal
+import sys
+import traceback
+from typing import Any
+
+from . import __version__
+
+#: Version of the JSON-lines protocol; a front-end refuses an engine with another one.
+PROTOCOL = 1
+
+#: Scalar results of each operation (besides its output files): name, type ("number",
+#: "string" or "boolean") and what it is. Front-ends declare them as outputs (QGIS: output
+#: numbers and strings a model can chain). Results not listed here (e.g. ROC's per-score
+#: ``auc_<name>``, named after the inputs) are still returned and logged, but not declared.
+RESULTS: dict[str, tuple[tuple[str, str, str], ...]] = {
+    "ratio": (
+        ("swir_band", "number", "SWIR band used (numerator, 1-based)"),
+        ("swir_wavelength_nm", "number", "Centre of the SWIR band used (nm)"),
+        ("vnir_band", "number", "VNIR band used (denominator, 1-based)"),
+        ("vnir_wavelength_nm", "number", "Centre of the VNIR band used (nm)"),
+        ("valid_pixels", "number", "Pixels with a valid ratio"),
+    ),
+    "stats": (
+        ("n", "number", "Valid pixels (N)"),
+        ("mean", "number", "Mean"),
+        ("std", "number", "Standard deviation"),
+        ("skewness", "number", "Skewness"),
+        ("se_skewness", "number", "Standard error of the skewness"),
+    ),
+    "dark-pixel-shadow": (
+        ("shadow_pixels", "number", "Shadow pixels"),
+        ("candidates", "number", "Candidate dark pixels"),
+    ),
+    "shadow-classes": (
+        ("valid_pixels", "number", "Valid pixels"),
+        ("class_1_pixels", "number", "Pixels in class 1"),
+        ("class_2_pixels", "number", "Pixels in class 2"),
+        ("class_3_pixels", "number", "Pixels in class 3"),
+        ("class_4_pixels", "number", "Pixels in class 4"),
+        ("no_shadow_pixels", "number", "Pixels without shadow"),
+    ),
+    "shadow-cluster": (
+        ("components", "number", "Mixture components"),
+        ("isolation", "number", "Isolation of the shadow cluster"),
+        ("shadow_pixels", "number", "Shadow pixels"),
+        ("nir_band", "number", "NIR band used (1-based)"),
+    ),
+    "shadow-fraction-apply": (
+        ("slope", "number", "Slope of the fraction model"),
+        ("intercept", "number", "Intercept of the fraction model"),
+        ("valid_pixels", "number", "Valid pixels"),
+    ),
+    "shadow-fraction-fit": (
+        ("slope", "number", "Slope of the fraction model"),
+        ("intercept", "number", "Intercept of the fraction model"),
+        ("r2", "number", "Coefficient of determination R²"),
+        ("n", "number", "Pixels used in the fit"),
+    ),
+    "shadow-polygons": (
+        ("polygons", "number", "Polygons written"),
+        ("geometry", "string", "Geometry of the polygons (map or raw sensor geometry)"),
+    ),
+    "sun-shadow": (
+        ("shadow_pixels", "number", "Shadow pixels"),
+        ("valid_pixels", "number", "Valid pixels"),
+        ("relief_m", "number", "Relief of the surface (m)"),
+    ),
+    "boresight-offset": (
+        ("along_px", "number", "Offset along track (pixels)"),
+        ("across_px", "number", "Offset across track (pixels)"),
+        ("match_error", "number", "Residual of the match"),
+        ("vnir_band", "number", "VNIR band used (1-based)"),
+        ("vnir_wavelength_nm", "number", "Centre of the VNIR band used (nm)"),
+        ("swir_band", "number", "SWIR band used (1-based)"),
+        ("swir_wavelength_nm", "number", "Centre of the SWIR band used (nm)"),
+        ("convention", "string", "Sign convention of the offset"),
+    ),
+    "coregister": (
+        ("bands", "number", "Bands resampled"),
+        ("along_px", "number", "Offset along track applied (pixels)"),
+        ("across_px", "number", "Offset across track applied (pixels)"),
+    ),
+    "disparity": (
+        ("reliable_pixels", "number", "Pixels with a reliable disparity"),
+        ("offset_along_px", "number", "Mean offset along track (pixels)"),
+        ("offset_across_px", "number", "Mean offset across track (pixels)"),
+    ),
+    "relative-dem": (
+        ("sigma_d_px", "number", "Disparity noise (pixels)"),
+        ("sigma_h_m", "number", "Height noise (m)"),
+        ("relief_above_noise_m", "number", "Relief above the noise (m)"),
+        ("relief_to_noise", "number", "Relief-to-noise ratio"),
+        ("meaningful", "boolean", "Whether the relief stands above the noise"),
+        ("message", "string", "What the product can be used for"),
+        ("height_factor_px_per_m", "number", "Height factor (pixels of disparity per metre)"),
+        ("offset_along_px", "number", "Mean offset along track (pixels)"),
+        ("offset_across_px", "number", "Mean offset across track (pixels)"),
+        ("reliable_pixels", "number", "Pixels with a reliable disparity"),
+        ("control_points", "number", "Control points kriged"),
+        ("variogram", "string", "Fitted variogram (JSON)"),
+        ("cross_validation", "string", "Cross-validation of the kriging (JSON)"),
+        ("dem_range_m", "string", "Range of the relative DEM (m, JSON)"),
+        ("vnir_band", "number", "VNIR band used (1-based)"),
+        ("vnir_wavelength_nm", "number", "Centre of the VNIR band used (nm)"),
+        ("swir_band", "number", "SWIR band used (1-based)"),
+        ("swir_wavelength_nm", "number", "Centre of the SWIR band used (nm)"),
+        ("vnir_bands_averaged", "string", "VNIR bands averaged (JSON)"),
+        ("swir_bands_averaged", "string", "SWIR bands averaged (JSON)"),
+    ),
+    "anomaly-polygons": (("features", "number", "Features written"),),
+    "boresight-indicator": (
+        ("count", "number", "Anomalous pixels"),
+        ("median", "number", "Median of the ratio"),
+        ("robust_sigma", "number", "Robust standard deviation of the ratio"),
+    ),
+    "rx": (
+        ("bands", "number", "Bands used"),
+        ("background_pixels", "number", "Background pixels"),
+    ),
+    "svdd": (
+        ("sigma", "number", "Kernel width used"),
+        ("support_vectors", "number", "Support vectors"),
+    ),
+    "unmix": (("endmembers", "string", "Endmembers used (JSON)"),),
+    "simulate": (
+        ("offset_along_px", "number", "Simulated offset along track (pixels)"),
+        ("offset_across_px", "number", "Simulated offset across track (pixels)"),
+        ("disparity_px_per_m", "number", "Simulated disparity (pixels per metre)"),
+        ("height_precision_m_per_px", "number", "Height precision (m per pixel of disparity)"),
+    ),
+}
+
+
+def version_info() -> dict:
+    """What ``engine version`` prints (no heavy import)."""
+    return {
+        "engine": "geoboresight",
+        "version": __version__,
+        "protocol": PROTOCOL,
+        "python": ".".join(map(str, sys.version_info[:3])),
+        "executable": sys.executable,
+    }
+
+
+def _plain(value: Any) -> Any:
+    """A JSON-safe copy of a result value (NumPy scalars as Python numbers, paths as text)."""
+    if value is None or isinstance(value, bool | int | str):
+        return value
+    if isinstance(value, float):
+        return value  # NaN stays NaN (JSON's NaN literal, which Python's json reads back)
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    item = getattr(value, "item", None)  # NumPy scalar
+    if callable(item):
+        with contextlib.suppress(TypeError, ValueError):
+            return _plain(item())
+    return os.fspath(value) if isinstance(value, os.PathLike) else str(value)
+
+
+def describe_param(p) -> dict:
+    """One parameter as data: every field a front-end needs to build its own widget."""
+    out = {
+        "name": p.name,
+        "kind": p.kind,
+        "description": p.description,
+        "default": _plain(p.default),
+        "required": p.required,
+        "optional": not p.required,
+        "advanced": p.advanced,
+        "is_output": p.is_output,
+        "aliases": list(p.aliases),
+    }
+    for attr in ("minimum", "maximum", "integer", "unit", "raster", "extension"):
+        if hasattr(p, attr):
+            out[attr] = _plain(getattr(p, attr))
+    for attr in ("choices", "extensions"):
+        if hasattr(p, attr):
+            out[attr] = list(getattr(p, attr))
+    return out
+
+
+def group_id(group: str) -> str:
+    """A stable lowercase id for a group ("Relative DEM" -> "relative_dem")."""
+    import re
+
+    return re.sub(r"[^a-z0-9]+", "_", group.lower()).strip("_")
+
+
+def describe() -> dict:
+    """Every operation as data (what ``engine describe`` prints)."""
+    from .algorithms import GROUPS, registry
+
+    algorithms = []
+    for alg in registry().values():
+        algorithms.append(
+            {
+                "name": alg.name,
+                "display_name": alg.display_name,
+                "group": alg.group,
+                "group_id": group_id(alg.group),
+                "short_help": alg.short_help,
+                "help": alg.help,
+                "params": [describe_param(p) for p in alg.params],
+                "results": [
+                    {"name": n, "type": t, "description": d}
+                    for n, t, d in RESULTS.get(alg.name, ())
+                ],
+            }
+        )
+    info = {k: v for k, v in version_info().items() if k not in ("python", "executable")}
+    return {
+        **info,
+        "groups": [{"id": group_id(g), "name": g} for g in GROUPS],
+        "algorithms": algorithms,
+    }
+
+
+class _Cancel(BaseException):
+    """Raised by the SIGTERM handler; turned into the library's Cancelled."""
+
+
+def _on_sigterm(signum, frame):
+    # Once only: a second SIGTERM while the operation cleans up must not cut the cleanup short.
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    raise _Cancel()
+
+
+class _Lines:
+    """Writes one JSON object per line to the real stdout (kept apart from sys.stdout, which
+    points at stderr during a run)."""
+
+    def __init__(self, stream):
+        self.stream = stream
+
+    def __call__(self, obj: dict) -> None:
+        self.stream.write(json.dumps(obj, default=str) + "\n")
+        self.stream.flush()
+
+
+def read_params(source: str) -> dict:
+    """The parameters: a JSON object in the file ``source`` (``-``: stdin)."""
+    from .errors import ParameterError
+
+    try:
+        if source == "-":
+            values = json.load(sys.stdin)
+        else:
+            with open(source, encoding="utf-8") as f:
+                values = json.load(f)
+    except OSError as exc:
+        raise ParameterError(f"cannot read the parameters file {source}: {exc.strerror}") from None
+    except json.JSONDecodeError as exc:
+        raise ParameterError(f"the parameters in {source} are not valid JSON: {exc}") from None
+    if not isinstance(values, dict):
+        raise ParameterError(f"the parameters in {source} must be a JSON object")
+    return values
+
+
+def run(name: str, params_source: str, overwrite: bool = False, stdout=None) -> int:
+    """Run operation ``name`` with the parameters in ``params_source``, speaking JSON lines;
+    the exit code (0 done, 1 user error, 2 internal error, 3 cancelled)."""
+    emit = _Lines(stdout or sys.stdout)
+    emit({"engine": {"version": __version__, "protocol": PROTOCOL, "pid": os.getpid()}})
+    previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    real_stdout, sys.stdout = sys.stdout, sys.stderr  # stray prints must not break the protocol
+    try:
+        from .algorithms import execute, get
+        from .errors import Cancelled, GeoboresightError
+        from .progress import Progress
+
+        try:
+            values = read_params(params_source)
+            spec = get(name)
+
+            def report(fraction, message=None):
+                line = {"progress": float(fraction)}
+                if message:
+                    line["message"] = message
+                emit(line)
+
+            progress = Progress(callback=report, log=lambda m: emit({"info": str(m)}))
+            try:
+                result = execute(spec, values, progress=progress, overwrite=overwrite)
+            except _Cancel:
+                raise Cancelled("cancelled by the user") from None
+        except Cancelled:
+            emit({"error": "cancelled by the user: no output was written"})
+            return 3
+        except GeoboresightError as exc:
+            emit({"error": " ".join(str(exc).split())})
+            return 1
+        emit({"result": _plain(result)})
+        return 0
+    except _Cancel:  # SIGTERM before the operation started: nothing was written
+        emit({"error": "cancelled by the user: no output was written"})
+        return 3
+    except Exception as exc:  # a bug, not bad input: one line for the user, the trace on stderr
+        traceback.print_exc()
+        emit(
+            {
+                "error": f"internal error in '{name}' ({type(exc).__name__}: "
+                f"{' '.join(str(exc).split())}); please report it with the engine's log"
+            }
+        )
+        return 2
+    finally:
+        sys.stdout = real_stdout
+        signal.signal(signal.SIGTERM, previous)
+
+
+def engine_command():
+    """The ``engine`` click group mounted by :mod:`geoboresight.cli`."""
+    import click
+
+    @click.group(name="engine", short_help="Machine mode for front-ends (JSON).")
+    def engine():
+        """Machine mode: describe the operations and run them speaking JSON lines (used by the
+        QGIS plugin, which runs this command in its own process)."""
+
+    @engine.command(name="version")
+    def _version():
+        """Print the engine's version and protocol as JSON."""
+        click.echo(json.dumps(version_info()))
+
+    @engine.command(name="describe")
+    @click.option("--indent", type=int, default=None, help="Pretty-print with this indent.")
+    def _describe(indent):
+        """Print every operation (groups, parameters, defaults, ranges, help, results) as JSON."""
+        click.echo(json.dumps(describe(), indent=indent, allow_nan=False))
+
+    @engine.command(name="run")
+    @click.argument("name")
+    @click.option(
+        "--params-json",
+        "params",
+        required=True,
+        help="A JSON file with the parameters (an object), or - for stdin.",
+    )
+    @click.option("--overwrite", is_flag=True, help="Replace outputs that already exist.")
+    def _run(name, params, overwrite):
+        """Run operation NAME; JSON lines on stdout (progress, info, result or error)."""
+        sys.exit(run(name, params, overwrite=overwrite))
+
+    return engine
