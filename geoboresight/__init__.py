@@ -34,6 +34,10 @@ KERNELS = {
     "fit_shadow_cluster": "geoboresight.shadow.cluster",
     "fit_dark_pixel": "geoboresight.shadow.darkpixel",
     "fit_fraction_model": "geoboresight.shadow.fraction",
+    "dark_level": "geoboresight.shadow.map",
+    "calibrate_shadow_map": "geoboresight.shadow.map",
+    "shadow_fraction_estimate": "geoboresight.shadow.map",
+    "choose_surface": "geoboresight.shadow.surface",
     "estimate_offset": "geoboresight.dem.offset",
     "offset_profile": "geoboresight.dem.offset",
     "coregister": "geoboresight.dem.coregister",
@@ -62,6 +66,7 @@ KERNELS = {
 OPERATIONS = {
     "ratio_file": "geoboresight.operations.ratio",
     "stats_file": "geoboresight.operations.stats",
+    "shadow_map_file": "geoboresight.operations.shadow_map",
     "shadow_classes_file": "geoboresight.operations.shadow",
     "shadow_cluster_file": "geoboresight.operations.shadow",
     "shadow_fraction_fit_file": "geoboresight.operations.shadow",

@@ -77,8 +77,10 @@ def write_ratio(path, ratio, nodata=-9999.0, crs=UTM, transform=TRANSFORM):
 def test_table2_is_the_papers_table():
     t = default_table()
     got = [(c.id, c.min, c.max, c.fraction_min, c.fraction_max) for c in t.classes]
+    # The paper's class 1 is 3.4–4; the deepest shadow has the highest ratio, so above 4 is
+    # class 1 too (open-ended), not "no shadow".
     assert got == [
-        (1, 3.4, 4.0, 0.8, 1.0),
+        (1, 3.4, float("inf"), 0.8, 1.0),
         (2, 2.5, 3.4, 0.5, 0.8),
         (3, 2.1, 2.5, 0.2, 0.5),
         (4, 1.9, 2.1, 0.1, 0.2),
@@ -93,9 +95,9 @@ def test_classify_boundaries_and_nodata():
     valid[-1] = False
     c = default_table().classify(r, valid)
     assert c.dtype == np.uint8
-    assert c.tolist() == [1, 1, 1, 0, 2, 2, 3, 3, 4, 4, 0, NODATA_CLASS, NODATA_CLASS]
+    assert c.tolist() == [1, 1, 1, 1, 2, 2, 3, 3, 4, 4, 0, NODATA_CLASS, NODATA_CLASS]
     m = default_table().mask(c, 0.5)
-    assert m.tolist() == [1, 1, 1, 0, 1, 1, 0, 0, 0, 0, 0, 255, 255]
+    assert m.tolist() == [1, 1, 1, 1, 1, 1, 0, 0, 0, 0, 0, 255, 255]
 
 
 def test_class_table_csv_roundtrip_and_json(tmp_path):

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 from ..operations.shadow_truth import BANDS_NM, dark_pixel_shadow_file, sun_shadow_file
 from ..shadow.darkpixel import DARK_PERCENTILE, SAMPLE_SIZE, THRESHOLD
-from ..shadow.illumination import SUPERSAMPLE, SURFACE, SURFACES, Z_FACTOR
+from ..shadow.illumination import SUPERSAMPLE, SURFACES, Z_FACTOR
+from ..shadow.surface import AUTO
 from ._common import BLOCK_ROWS, TOLERANCE, sample_size, seed
 from .spec import Algorithm, Band, Enum, Number, RasterIn, RasterOut, Text
 
@@ -25,7 +26,9 @@ SUN_SHADOW = Algorithm(
         "(the method of GRASS r.sunmask, which this tool reproduces). Cells are split into "
         "n × n sub-cells and the fraction of shaded sub-cells is the shadow fraction (0–1). "
         "'blocks' treats cells as flat-topped (buildings); 'smooth' interpolates the surface "
-        "(natural terrain). The optional hillshade is the cosine of the solar incidence angle "
+        "(natural terrain); 'auto' (default) chooses blocks when the surface model has walls "
+        "(height steps of 2 m or more steeper than 70° between neighbouring cells, in at least "
+        "0.2 % of the pairs) and smooth otherwise. The optional hillshade is the cosine of the solar incidence angle "
         "from Horn's gradient, as gdaldem hillshade (GDAL's byte value is 1 + 254·max(cos i, 0)).\n\n"
         "The zenith is 0° (sun overhead) to 90° (horizon); the azimuth is clockwise from north "
         "towards the sun. A surface model without a geotransform needs a cell size; its row 0 is "
@@ -69,8 +72,8 @@ SUN_SHADOW = Algorithm(
         Enum(
             name="surface",
             description="How the surface between cell centres is modelled",
-            choices=tuple(SURFACES),
-            default=SURFACE,
+            choices=(AUTO, *SURFACES),
+            default=AUTO,
         ),
         Number(
             name="z_factor",

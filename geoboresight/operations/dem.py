@@ -277,7 +277,9 @@ def relative_dem_file(
     Returns
     -------
     dict
-        ``output``, σ_d, σ_h, the relief above the noise, whether the DEM is meaningful, the
+        ``output``, σ_d, σ_h, the relief (standard deviation of the heights above the
+        noise) and relief/σ_h, the χ² test of "relief ≤ noise" (statistic, degrees of freedom,
+        p-value), whether the DEM is meaningful (p < 0.05), the
         factor, offset, variogram, cross-validation, the DEM's range and the bands matched.
 
     References
@@ -331,9 +333,10 @@ def relative_dem_file(
         **info,
         "sigma_d_px": f"{p.sigma_d_px:.4f}",
         "sigma_h_m": f"{p.sigma_h_m:.4f}",
-        "relief_above_noise_m": f"{p.relief_m:.3f}",
+        "relief_std_m": f"{p.relief_m:.3f}",
         "relief_to_noise": f"{p.snr:.3f}",
-        "meaningful": "yes" if p.meaningful else "NO: sigma_h exceeds the relief",
+        "relief_test": p.test(),
+        "meaningful": "yes" if p.meaningful else "NO: the relief does not stand out of sigma_h",
         "height_factor_px_per_m": f"{factor.magnitude:.6f}",
         "parallax_axis": parallax_axis,
         "offset_along_px": f"{r.offset.along:.4f}",
@@ -377,8 +380,11 @@ def relative_dem_file(
         "output": output,
         "sigma_d_px": round(p.sigma_d_px, 4),
         "sigma_h_m": round(p.sigma_h_m, 3),
-        "relief_above_noise_m": round(p.relief_m, 2),
+        "relief_std_m": round(p.relief_m, 3),
         "relief_to_noise": round(p.snr, 3),
+        "relief_chi2": round(p.statistic, 3),
+        "relief_dof": p.dof,
+        "relief_p_value": p.p_value,
         "meaningful": bool(p.meaningful),
         "message": p.message(),
         "height_factor_px_per_m": factor.magnitude,

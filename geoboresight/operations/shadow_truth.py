@@ -22,6 +22,7 @@ from ..shadow.darkpixel import (
     THRESHOLD,
     fit_dark_pixel,
 )
+from ..shadow.surface import AUTO, choose_surface, surface_walls
 from ._operation import operation
 from .shadow import mask_raster, no_valid_error
 
@@ -44,7 +45,7 @@ def sun_shadow_file(
     band=1,
     cell_size=None,
     supersample=ill.SUPERSAMPLE,
-    surface=ill.SURFACE,
+    surface=AUTO,
     z_factor=ill.Z_FACTOR,
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
@@ -78,8 +79,10 @@ def sun_shadow_file(
         Cell size in metres for a surface model without a geotransform (row 0 is north).
     supersample : int
         Sub-cells per cell side.
-    surface : {"blocks", "smooth"}
-        Flat-topped cells (buildings) or an interpolated surface (terrain).
+    surface : {"auto", "blocks", "smooth"}
+        Flat-topped cells (buildings) or an interpolated surface (terrain); ``auto`` chooses
+        blocks when the DSM has walls (:func:`~geoboresight.shadow.surface.choose_surface`),
+        else smooth.
     z_factor : float
         Vertical exaggeration of the hillshade.
     block_rows : int
@@ -98,11 +101,10 @@ def sun_shadow_file(
     shadow map from a surface model, hillshade and shadow model).
     """
     zen, az = ill.check_sun(sun_zenith, sun_azimuth)
-    if surface not in ill.SURFACES:
+    if surface != AUTO and surface not in ill.SURFACES:
         raise ParameterError(
-            f"parameter 'surface': {surface!r} is not one of {', '.join(ill.SURFACES)}"
+            f"parameter 'surface': {surface!r} is not one of {AUTO}, {', '.join(ill.SURFACES)}"
         )
-    interpolation = ill.SURFACES[surface]
     with io.open_raster(dsm, "surface model") as src:
         grid = io.Grid.of(src)
         if cell_size and grid.georeferenced:
@@ -112,18 +114,36 @@ def sun_shadow_file(
         matrix = ill.grid_matrix(grid.transform, cell_size)
         read = io.band_reader(src, band)
         strips = {"height": grid.height, "width": grid.width, "block_rows": block_rows}
-        # Pass 1: the relief bounds how far a shadow can reach.
-        lo, hi, n_valid = io.reduce_windows(
+
+        # Pass 1: the relief bounds how far a shadow can reach; walls say blocks or terrain.
+        # One line of halo below, so that the pairs of lines across strip edges are counted
+        # (once: each strip counts the pairs whose upper line is its own).
+        def relief_and_walls(z, valid, block):
+            own = block.inner
+            lo, hi, n = ill.height_range(z[own], valid[own])
+            pairs = slice(own.start, own.stop + 1)
+            return lo, hi, n, *surface_walls(z[pairs], valid[pairs], matrix=matrix)
+
+        lo, hi, n_valid, walls, pairs = io.reduce_windows(
             read,
-            ill.height_range,
-            lambda a, b: (min(a[0], b[0]), max(a[1], b[1]), a[2] + b[2]),
-            (np.inf, -np.inf, 0),
+            relief_and_walls,
+            lambda a, b: (min(a[0], b[0]), max(a[1], b[1]), a[2] + b[2], a[3] + b[3], a[4] + b[4]),
+            (np.inf, -np.inf, 0, 0, 0),
+            halo=(0, 1),
+            pass_block=True,
             progress=progress.sub(0, 0.1),
             message="relief",
             **strips,
         )
         if n_valid == 0:
             raise no_valid_error(dsm, "surface model")
+        if surface == AUTO:
+            surface = choose_surface(walls, pairs)
+            progress.info(
+                f"surface: {surface} ({walls} of {pairs} neighbouring-cell pairs are walls, "
+                f"steps ≥ 2 m steeper than 70°)"
+            )
+        interpolation = ill.SURFACES[surface]
         relief = hi - lo
         above, below = ill.halo_rows(relief, zen, az, matrix, grid.shape)
         halo = (above + 1, below + 1)  # Horn's 3 × 3 window needs one more line
@@ -195,6 +215,7 @@ def sun_shadow_file(
         "shadow_pixels": n_shadow,
         "valid_pixels": n_valid,
         "relief_m": round(relief, 3),
+        "surface": surface,
     }
     if mask:
         out["mask"] = mask

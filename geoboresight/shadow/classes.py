@@ -9,10 +9,18 @@ fractions::
     3      2.1–2.5    20–50 %          cyan
     4      1.9–2.1    10–20 %          yellow
 
+The paper's table stops at 4, but the ratio only grows with shadow (the deepest shadow has the
+highest ratio), so :data:`TABLE2` makes class 1 open-ended (3.4–∞): a ratio above 4 is deep
+shadow, not "no shadow".
+
 Class 0 is "no shadow" (a ratio outside every interval); :data:`NODATA_CLASS` (255) marks
 pixels with no valid ratio. An interval is ``min ≤ ratio < max``; the interval with the highest
-``max`` also includes its ``max`` (so a ratio of exactly 4 is class 1). Write ``inf`` as a
-``max`` to make the top class open-ended.
+``max`` also includes its ``max``. Write ``inf`` as a ``max`` to make the top class open-ended.
+
+Table 2's thresholds are absolute DN ratios of the AISA-Dual: :func:`table_warnings` says when
+they are meaningless for a scene (the ratio's bands are not 1,010/920 nm, or the scene's sunlit
+ratio falls inside a shadow class), and :func:`scale_table` scales them to a scene's sunlit
+ratio (the shadow map of :mod:`geoboresight.shadow.map`).
 
 A class table is a CSV (or JSON list of objects) with the columns::
 
@@ -130,9 +138,9 @@ def format_ratio(x: float) -> str:
     return "inf" if math.isinf(x) else f"{x:g}"
 
 
-#: Table 2 of the paper, with the colours of Figures 6–7.
+#: Table 2 of the paper, with the colours of Figures 6–7; class 1 open-ended (3.4–∞).
 TABLE2 = (
-    ShadowClass(1, 3.4, 4.0, 0.8, 1.0, "80-100 % shadow", (128, 0, 0)),
+    ShadowClass(1, 3.4, math.inf, 0.8, 1.0, "80-100 % shadow", (128, 0, 0)),
     ShadowClass(2, 2.5, 3.4, 0.5, 0.8, "50-80 % shadow", (255, 0, 255)),
     ShadowClass(3, 2.1, 2.5, 0.2, 0.5, "20-50 % shadow", (0, 255, 255)),
     ShadowClass(4, 1.9, 2.1, 0.1, 0.2, "10-20 % shadow", (255, 255, 0)),
@@ -140,8 +148,92 @@ TABLE2 = (
 
 
 def default_table() -> ClassTable:
-    """Table 2 of Brook & Ben-Dor (2011)."""
+    """Table 2 of Brook & Ben-Dor (2011), class 1 open-ended."""
     return validate_classes(TABLE2)
+
+
+#: The band centres (nm) of the ratio Table 2 was found on (Eq. 3).
+TABLE2_VNIR_NM, TABLE2_SWIR_NM = 920.0, 1010.0
+#: Largest distance (nm) of the ratio's bands from Table 2's before its thresholds are in doubt.
+TABLE2_TOLERANCE_NM = 10.0
+
+
+def scale_table(table: ClassTable, factor: float) -> ClassTable:
+    """The class table with every ratio bound multiplied by ``factor`` (> 0; ∞ stays ∞).
+
+    The shadow map uses it to read Table 2's intervals relative to a scene's sunlit ratio
+    instead of as absolute numbers (``factor`` = scene sunlit ratio / the paper's).
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484
+    (§3.1, Table 2).
+    """
+    if not (math.isfinite(factor) and factor > 0):
+        raise ParameterError(f"class table scale {factor!r} must be a positive number")
+    return validate_classes(
+        tuple(
+            ShadowClass(
+                c.id,
+                c.min * factor,
+                c.max * factor,
+                c.fraction_min,
+                c.fraction_max,
+                c.name,
+                c.colour,
+            )
+            for c in table.classes
+        ),
+        "scaled class table",
+    )
+
+
+def table_warnings(
+    table: ClassTable,
+    sunlit_ratio: float | None = None,
+    *,
+    vnir_nm: float | None = None,
+    swir_nm: float | None = None,
+) -> list[str]:
+    """Reasons why a table's fixed ratio thresholds are meaningless for a scene (may be empty).
+
+    Parameters
+    ----------
+    table : ClassTable
+    sunlit_ratio : float, optional
+        The scene's sunlit ratio (the mode of its ratio histogram): when it falls inside a
+        shadow class, sunlit ground would be labelled shadow.
+    vnir_nm, swir_nm : float, optional
+        Centres of the ratio's bands: Table 2 was found on b(1,010 nm) / b(920 nm).
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484
+    (Eq. 3, Table 2).
+    """
+    out = []
+    if vnir_nm is not None and swir_nm is not None:
+        if (
+            abs(vnir_nm - TABLE2_VNIR_NM) > TABLE2_TOLERANCE_NM
+            or abs(swir_nm - TABLE2_SWIR_NM) > TABLE2_TOLERANCE_NM
+        ):
+            out.append(
+                f"the ratio uses {swir_nm:g}/{vnir_nm:g} nm, but Table 2's thresholds were found "
+                f"on {TABLE2_SWIR_NM:g}/{TABLE2_VNIR_NM:g} nm: they do not apply; use "
+                "'shadow-map' or your own class table"
+            )
+    if sunlit_ratio is not None and math.isfinite(sunlit_ratio):
+        hit = [c for c in table.classes if c.min <= sunlit_ratio < c.max]
+        if hit:
+            c = hit[0]
+            out.append(
+                f"the scene's most common ratio {sunlit_ratio:.3g} (its sunlit ground) falls in "
+                f"class {c.id} ({format_ratio(c.min)}–{format_ratio(c.max)}, {c.name}): the "
+                "fixed thresholds are meaningless for this scene (raw DN carry each "
+                "instrument's dark offset); use 'shadow-map', which calibrates the classes to "
+                "the scene, or your own class table"
+            )
+    return out
 
 
 def validate_classes(classes, source: str = "class table") -> ClassTable:

@@ -1,0 +1,352 @@
+"""File-level shadow map (paper §3.1, made physical): VNIR + SWIR in, a shadow mask and the
+four shadow-fraction classes out, calibrated to the scene (:mod:`geoboresight.shadow.map`).
+
+Two passes over the flight line: a random sample calibrates the map (dark levels, sunlit
+modes, sunlit ratio, the scaled class table) and a central block of lines gives the boresight
+offset; then the map is written strip by strip.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+
+import numpy as np
+
+from .. import io
+from ..errors import InputError, ParameterError
+from ..io.bands import band_range
+from ..io.dual import SEAM_NM, SWIR_NM, TOLERANCE_NM, VNIR_NM
+from ..io.shadow import class_table_csv
+from ..io.wavelengths import parse_list
+from ..shadow import classes as cls
+from ..shadow import map as smap
+from ._operation import operation
+from .shadow import class_table, mask_raster, no_valid_error
+
+#: Pixels drawn at random to calibrate the map.
+SAMPLE_SIZE = 200_000
+#: Bands per instrument read for the dark level besides the signal bands (evenly spaced).
+DARK_BANDS = 16
+#: Lines of the central block the boresight offset is measured on.
+OFFSET_ROWS = 512
+
+
+def _dark_from_header(src, bands: list[int], path: str, label: str):
+    """The 'dark level' of an ENVI header: one value, or one per band of the file."""
+    text = src.tags(ns="ENVI").get("dark_level")
+    if not text:
+        return None
+    values = parse_list(text, f"{path}: ENVI header 'dark level'")
+    if values.size == 1:
+        return smap.DarkLevel(float(values[0]), f"header of {path}")
+    if values.size != src.count:
+        raise InputError(
+            f"{path}: its header's 'dark level' lists {values.size} values for {src.count} "
+            "bands; give one value, or one per band"
+        )
+    per_band = values[[b - 1 for b in bands]]
+    return smap.DarkLevel(float(per_band.mean()), f"header of {path}", per_band, 0)
+
+
+def _spread(bands: tuple[int, ...], n: int) -> list[int]:
+    idx = np.unique(np.linspace(0, len(bands) - 1, min(n, len(bands))).round().astype(int))
+    return [bands[i] for i in idx]
+
+
+def _dark_levels(label, given, header, sample, valid, progress):
+    if given is not None:
+        if not (isinstance(given, int | float) and math.isfinite(given)):
+            raise ParameterError(f"parameter '{label.lower()}_dark': {given!r} is not a number")
+        level = smap.DarkLevel(float(given), "given")
+    elif header is not None:
+        level = header
+    else:
+        level = smap.dark_level(sample, valid)
+    progress.info(level.describe(label))
+    return level
+
+
+def _offset(dual, v_src, s_src, rb, given_along, given_across, progress):
+    if given_along is not None or given_across is not None:
+        return float(given_along or 0.0), float(given_across or 0.0), "given"
+    from ..dem.offset import estimate_offset
+
+    r0 = max(0, dual.height // 2 - OFFSET_ROWS // 2)
+    r1 = min(dual.height, r0 + OFFSET_ROWS)
+    vv, vok = io.band_reader(v_src, rb.vnir_band)(r0, r1)
+    ss, sok = io.band_reader(s_src, rb.swir_band)(r0, r1)
+    try:
+        off = estimate_offset(vv, ss, vok & sok)
+    except InputError as e:
+        progress.info(f"boresight offset not measurable ({e}); the SWIR is used unshifted")
+        return 0.0, 0.0, "not measurable: 0"
+    return off.along, off.across, f"measured on lines {r0}–{r1}"
+
+
+@operation(inputs=("vnir", "swir", "classes"), outputs=("output", "mask"))
+def shadow_map_file(
+    vnir,
+    swir=None,
+    classes=None,
+    *,
+    output,
+    mask=None,
+    seam_nm=SEAM_NM,
+    vnir_wavelengths=None,
+    swir_wavelengths=None,
+    vnir_nm=VNIR_NM,
+    swir_nm=SWIR_NM,
+    tolerance_nm=TOLERANCE_NM,
+    vnir_dark=None,
+    swir_dark=None,
+    offset_along=None,
+    offset_across=None,
+    core_darkness=smap.CORE_DARKNESS,
+    edge_pixels=smap.EDGE_PIXELS,
+    sample_size=SAMPLE_SIZE,
+    seed=0,
+    block_rows=io.DEFAULT_BLOCK_ROWS,
+    progress=None,
+) -> dict:
+    """Shadow mask and scene-calibrated shadow-fraction classes of a VNIR + SWIR flight line.
+
+    Parameters
+    ----------
+    vnir : path
+        VNIR file (ENVI or GeoTIFF, raw DN or radiance), or a merged VNIR+SWIR cube when
+        ``swir`` is None.
+    swir : path, optional
+        SWIR file on the same pixel grid.
+    classes : path, optional
+        Class table (CSV or JSON) whose ratio intervals are scaled to the scene; None = Table 2.
+    output : path
+        Byte class raster (0 no shadow, 1–4 the classes, 255 nodata) with a colour table.
+    mask : path, optional
+        Binary shadow mask (1 shadow, 0 not, 255 nodata).
+    seam_nm : float
+        Merged cube only: bands below it are VNIR, the rest SWIR.
+    vnir_wavelengths, swir_wavelengths : str, optional
+        Band centres in nm, comma-separated, for files without wavelength metadata.
+    vnir_nm, swir_nm : float
+        The bands of the boresight ratio (Eq. 3) the classes are read from.
+    tolerance_nm : float
+        Largest distance between a requested wavelength and a band centre.
+    vnir_dark, swir_dark : float, optional
+        Dark level (DN of zero signal) of each instrument; None = the header's 'dark level',
+        else estimated from the data (dark object). Give 0 for radiance.
+    offset_along, offset_across : float, optional
+        Boresight offset of the SWIR relative to the VNIR (px); None = measured.
+    core_darkness : float
+        Core shadow: mean natural log of the NIR and SWIR signals over their sunlit modes at
+        or below this (default ln 0.2).
+    edge_pixels : int
+        Partial shadow is looked for this many pixels around the core (0 = core only).
+    sample_size : int
+        Pixels drawn at random to calibrate.
+    seed : int
+        Random seed of the sample.
+    block_rows : int
+        Lines read at a time.
+    progress : Progress, optional
+
+    Returns
+    -------
+    dict
+        ``output`` (and ``mask``), the calibration (dark levels and their source, sunlit
+        signals, sunlit ratio, class scale, offset), the class boundaries used, pixels per
+        class, shadow pixels and ``warnings``.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1, Table 2).
+    Chavez, P.S. Remote Sens. Environ. 1988, 24, 459–479 (dark-object subtraction).
+    """
+    if int(edge_pixels) != edge_pixels or edge_pixels < 0:
+        raise ParameterError(f"parameter 'edge_pixels': {edge_pixels!r} must be a whole number ≥ 0")
+    edge_pixels = int(edge_pixels)
+    base_table = class_table(classes)
+    dual = io.open_dual(vnir, swir, seam_nm, vnir_wavelengths, swir_wavelengths)
+    rb = dual.ratio_bands(vnir_nm, swir_nm, "wavelength", tolerance_nm)
+    blue_b = band_range(dual.vnir, *smap.BLUE_NM, tolerance_nm=tolerance_nm)
+    nir_b = band_range(dual.vnir, *smap.NIR_NM, tolerance_nm=tolerance_nm)
+    swir_b = band_range(dual.swir, *smap.SWIR_NM, tolerance_nm=tolerance_nm)
+    v_dark_b = sorted(set(_spread(dual.vnir.bands, DARK_BANDS) + blue_b + nir_b + [rb.vnir_band]))
+    s_dark_b = sorted(set(_spread(dual.swir.bands, DARK_BANDS) + swir_b + [rb.swir_band]))
+    progress.info(
+        f"signals: blue bands {blue_b[0]}–{blue_b[-1]}, NIR bands {nir_b[0]}–{nir_b[-1]} of "
+        f"{dual.vnir.path}, SWIR bands "
+        f"{swir_b[0]}–{swir_b[-1]} of {dual.swir.path}; ratio {rb.swir_nm:.1f}/{rb.vnir_nm:.1f} nm"
+    )
+    warnings: list[str] = []
+    strips = {"height": dual.height, "width": dual.width, "block_rows": block_rows}
+    with contextlib.ExitStack() as stack:
+        v_src = stack.enter_context(io.open_raster(dual.vnir.path, "VNIR"))
+        s_src = (
+            v_src if dual.merged else stack.enter_context(io.open_raster(dual.swir.path, "SWIR"))
+        )
+        # Pass 1: a random sample of the line for the dark levels and the sunlit modes.
+        sources = [(v_src, b) for b in v_dark_b] + [(s_src, b) for b in s_dark_b]
+        sample, ok = io.sample_windows(
+            io.bands_reader(sources),
+            size=sample_size,
+            seed=seed,
+            progress=progress.sub(0, 0.3),
+            **strips,
+        )
+        if not ok.any():
+            raise no_valid_error(vnir, "VNIR/SWIR image")
+        nv = len(v_dark_b)
+        vs, ss = sample[:nv], sample[nv:]
+        v_dark = _dark_levels(
+            "VNIR",
+            vnir_dark,
+            _dark_from_header(v_src, v_dark_b, dual.vnir.path, "VNIR"),
+            vs,
+            ok,
+            progress,
+        )
+        s_dark = _dark_levels(
+            "SWIR",
+            swir_dark,
+            _dark_from_header(s_src, s_dark_b, dual.swir.path, "SWIR"),
+            ss,
+            ok,
+            progress,
+        )
+
+        def levels(dark: smap.DarkLevel, all_bands: list[int], wanted: list[int]):
+            """The level to subtract from the ``wanted`` bands: per band from a header."""
+            if dark.band_levels is not None and dark.source.startswith("header"):
+                return np.asarray(dark.band_levels)[[all_bands.index(b) for b in wanted]]
+            return dark.level
+
+        blue_lv = levels(v_dark, v_dark_b, blue_b)
+        nir_lv = levels(v_dark, v_dark_b, nir_b)
+        swir_lv = levels(s_dark, s_dark_b, swir_b)
+        blue_s = smap.signal(vs[[v_dark_b.index(b) for b in blue_b]], blue_lv)
+        nir_s = smap.signal(vs[[v_dark_b.index(b) for b in nir_b]], nir_lv)
+        swir_s = smap.signal(ss[[s_dark_b.index(b) for b in swir_b]], swir_lv)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ratio_s = ss[s_dark_b.index(rb.swir_band)] / vs[v_dark_b.index(rb.vnir_band)]
+        along, across, how = _offset(dual, v_src, s_src, rb, offset_along, offset_across, progress)
+        progress.info(f"boresight offset {along:+.2f} px along, {across:+.2f} px across ({how})")
+        cal = smap.calibrate_shadow_map(
+            blue_s,
+            nir_s,
+            swir_s,
+            ratio_s,
+            ok,
+            vnir_dark=v_dark,
+            swir_dark=s_dark,
+            table=base_table,
+            offset=(along, across),
+            core=core_darkness,
+        )
+        progress.info(
+            f"sunlit ratio {cal.ratio_mode:.3f} → class bounds × "
+            f"{cal.ratio_mode / smap.PAPER_SUNLIT_RATIO:.3f}: {cal.table.describe()}"
+        )
+        warnings += cls.table_warnings(base_table, vnir_nm=rb.vnir_nm, swir_nm=rb.swir_nm)
+        # Pass 2: the map, strip by strip; the halo covers the SWIR shift and the edge search.
+        halo = math.ceil(abs(along)) + 3 + edge_pixels + smap.EDGE_WINDOW // 2
+        read = io.bands_reader(
+            [(v_src, b) for b in blue_b]
+            + [(v_src, b) for b in nir_b]
+            + [(s_src, b) for b in swir_b]
+            + [(v_src, rb.vnir_band), (s_src, rb.swir_band)]
+        )
+        n_blue, n_nir, n_swir = len(blue_b), len(nir_b), len(swir_b)
+        fill = math.exp(cal.swir_mode)
+
+        def kernel(values, valid):
+            from ..dem.coregister import coregister
+
+            i = n_blue + n_nir
+            blue = smap.signal(values[:n_blue], blue_lv)
+            nir = smap.signal(values[n_blue:i], nir_lv)
+            sw = smap.signal(values[i : i + n_swir], swir_lv)
+            sw, sw_ok = coregister(sw, along, across, valid, order=1, fill=fill)
+            good = valid & sw_ok
+            d = smap.darkness(nir, sw, cal, good)
+            f = smap.shadow_fraction_estimate(
+                d,
+                good,
+                core=cal.core,
+                edge_pixels=edge_pixels,
+                water=smap.too_blue(blue, nir, cal.blue_limit),
+            )
+            m = smap.shadow_mask(f)
+            c = smap.shadow_classes(f, cal.table)
+            return c, m, np.bincount(c.ravel(), minlength=256)
+
+        tags = {
+            "product": "boresight shadow map: mask and scene-calibrated Table 2 classes "
+            "(Brook & Ben-Dor 2011, §3.1)",
+            "vnir": dual.vnir.path,
+            "swir": dual.swir.path,
+            **{k: str(v) for k, v in cal.as_dict().items()},
+            "classes": cal.table.describe(),
+            "class_table_csv": class_table_csv(cal.table).replace("\n", " | "),
+            "method": "dark-object subtraction; SWIR darkness against its sunlit mode (core ≤ "
+            f"{core_darkness:.3f}, natural log) on the SWIR resampled by the boresight offset; "
+            "not water (blue/NIR); shadow fraction of the pixels within "
+            f"{edge_pixels} px by unmixing between the local sunlit and core-shadow signals; "
+            "classes by Table 2's fraction intervals",
+        }
+        counts = np.zeros(256, np.int64)
+        n_shadow = 0
+        dst = stack.enter_context(
+            io.create_class_raster(
+                output,
+                dual.grid,
+                tags=tags,
+                band_name="shadow class (scene-calibrated Table 2)",
+                colormap=cal.table.colormap(),
+                category_names=cal.table.names(),
+                band_tags={f"CLASS_{k}": v for k, v in cal.table.names().items()},
+            )
+        )
+        mdst = None
+        if mask:
+            mdst = stack.enter_context(mask_raster(mask, dual.grid, tags, "shadow mask"))
+        for win, (c, m, n) in io.map_windows(
+            read,
+            kernel,
+            halo=(halo, halo),
+            progress=progress.sub(0.3, 1.0),
+            message="shadow map",
+            **strips,
+        ):
+            dst.write(c, 1, window=win)
+            if mdst is not None:
+                mdst.write(m, 1, window=win)
+            counts += n
+            n_shadow += int((m == cls.MASK_SHADOW).sum())
+        n_valid = int(counts[: cls.NODATA_CLASS].sum())
+        if n_valid == 0:
+            raise no_valid_error(vnir, "VNIR/SWIR image")
+    share = n_shadow / n_valid
+    if share > 0.6:
+        warnings.append(
+            f"{100 * share:.0f} % of the valid pixels are shadow: the sunlit mode may not be "
+            "sunlit ground (a mostly shaded or dark scene); check the calibration"
+        )
+    for w in warnings:
+        progress.info(f"warning: {w}")
+    result = {
+        "output": output,
+        "valid_pixels": n_valid,
+        "shadow_pixels": n_shadow,
+        "shadow_share": round(share, 4),
+        **cal.as_dict(),
+        "classes": cal.table.describe(),
+        "warnings": warnings,
+    }
+    if mask:
+        result["mask"] = mask
+    for c in cal.table.classes:
+        result[f"class_{c.id}_pixels"] = int(counts[c.id])
+    result["no_shadow_pixels"] = int(counts[cls.NO_SHADOW])
+    return result

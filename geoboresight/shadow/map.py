@@ -1,0 +1,430 @@
+"""A shadow map that separates shadow from dark materials (paper §3.1, made physical).
+
+On raw DN the boresight ratio ``b(1010 nm) / b(920 nm)`` of every dim pixel, shadowed or just
+dark, tends to the ratio of the two instruments' dark offsets: no threshold on it separates a
+sunlit asphalt road from a shaded lawn. A dual-sensor cube carries what does:
+
+1. **Each instrument's dark level** (:func:`dark_level`): the DN of zero signal, taken from the
+   user or the header, or estimated from the data by dark-object subtraction (Chavez 1988):
+   the darkest pixels of the instrument (by their mean over its bands), averaged band by band;
+   the band in which that dark object is dimmest gives the level. Everything below is computed
+   on *signal*, DN minus the level.
+2. **The signature of diffuse skylight**: a shadowed pixel is lit by the sky alone. The sky is
+   blue (Rayleigh scattering): it gives a shadow a fifth to a third of the sunlit blue signal,
+   but only a twentieth to a tenth in the near infrared and a few per cent in the SWIR. Material
+   brightness spans a factor of about ten. So a pixel whose near-infrared *and* SWIR signals are
+   both at most a fifth of the scene's sunlit mode (:data:`CORE_DARKNESS`) is core shadow, while
+   a sunlit dark roof or road (reflectance 5–10 %, flat) stays above it in the SWIR.
+3. **The boresight effect itself**: the SWIR sees the ground shifted by the boresight offset
+   (:func:`geoboresight.dem.offset.estimate_offset`); the SWIR signal is resampled onto the
+   VNIR grid before it is compared, so that shadow edges line up.
+4. **Spatial context**: a pixel next to core shadow (within :data:`EDGE_PIXELS`) is shadow when
+   its signal is below the midpoint of its neighbourhood's sunlit and shadowed means (more than
+   half of it shaded), which recovers the 50–80 % shadow along edges.
+
+The scene calibrates itself: the sunlit mode of each signal is the median above Otsu's (1979)
+threshold of its log-histogram, and the shadow-fraction classes of Table 2 are scaled by the
+sunlit mode of the boresight ratio (:func:`~geoboresight.shadow.classes.scale_table`).
+
+References
+----------
+Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1, Table 2, Figure 4).
+Chavez, P.S. An improved dark-object subtraction technique for atmospheric scattering
+correction of multispectral data. Remote Sens. Environ. 1988, 24, 459–479.
+Otsu, N. A threshold selection method from gray-level histograms. IEEE Trans. Syst. Man Cybern.
+1979, 9, 62–66.
+Richter, R.; Müller, A. De-shadowing of satellite/airborne imagery. Int. J. Remote Sens. 2005,
+26, 3137–3148 (skylight in shadow, the spectral ratio of shadowed to sunlit pixels).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from ..errors import InputError, ParameterError
+from .classes import MASK_NODATA, MASK_NOT_SHADOW, MASK_SHADOW, NO_SHADOW, NODATA_CLASS, ClassTable
+
+#: Darkest share of the pixels taken as the dark object of an instrument.
+DARK_FRACTION = 5e-4
+#: Fewest pixels averaged into the dark object.
+MIN_DARK_PIXELS = 20
+#: Wavelength ranges (nm) of the blue, near-infrared and SWIR signals.
+BLUE_NM = (430.0, 500.0)
+NIR_NM = (780.0, 900.0)
+SWIR_NM = (1550.0, 1750.0)
+#: Core shadow: the SWIR signal at most a sixth of its sunlit mode (ln 1/6). Skylight gives a
+#: shadow 3–15 % (with light from sunlit surroundings) of the sunlit SWIR signal, while sunlit
+#: dark roofs and asphalt (SWIR reflectance 6–12 %) keep a fifth to a half of the scene's mode.
+CORE_DARKNESS = math.log(1 / 6)
+#: Weight of the NIR in the darkness; the SWIR, where skylight is weakest (a few per cent of
+#: the sun's light), has the rest. 0: the SWIR alone (the NIR serves the water test).
+NIR_WEIGHT = 0.0
+#: Water test: a core pixel whose blue/NIR signal ratio is more than this many times the median
+#: of the scene's core shadow is not shadow (skylight raises blue/NIR 2–4× over sunlight; clear
+#: water's blue/NIR is 10× or more that of grey ground).
+WATER_FACTOR = 3.0
+#: Partial shadow is looked for this many pixels around the core.
+EDGE_PIXELS = 2
+#: Side (pixels) of the neighbourhood whose sunlit and shadowed means decide an edge pixel.
+EDGE_WINDOW = 5
+#: The sunlit ratio of the paper's scenes: Figure 5(B)'s line at shadow fraction 0 (1.31).
+PAPER_SUNLIT_RATIO = 1.31
+#: Smallest signal (DN above the dark level) used in logarithms.
+MIN_SIGNAL = 0.5
+
+
+@dataclass(frozen=True)
+class DarkLevel:
+    """The DN of zero signal of one instrument and how it was found."""
+
+    level: float
+    source: str  # "estimated (dark object)", "given", "header"
+    band_levels: np.ndarray | None = None  # the dark object's mean DN per band (estimated)
+    n_pixels: int = 0
+
+    def describe(self, name: str) -> str:
+        if self.band_levels is None:
+            return f"{name} dark level {self.level:.1f} DN ({self.source})"
+        return (
+            f"{name} dark level {self.level:.1f} DN ({self.source}: the {self.n_pixels} darkest "
+            f"pixels, dimmest band; their band means span {np.min(self.band_levels):.1f}–"
+            f"{np.max(self.band_levels):.1f} DN)"
+        )
+
+
+def dark_level(
+    bands: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    fraction: float = DARK_FRACTION,
+    min_pixels: int = MIN_DARK_PIXELS,
+) -> DarkLevel:
+    """Estimate an instrument's dark level from its data (dark-object subtraction).
+
+    Parameters
+    ----------
+    bands : array (n_bands, n_pixels)
+        DN of a sample of pixels in several bands of one instrument (the more bands, and the
+        darker the dimmest of them, the closer the estimate).
+    valid : bool array (n_pixels,), optional
+        Pixels to use; pixels with a non-finite value are always left out.
+    fraction : float
+        Share (0–0.5) of the pixels, the darkest by their mean over ``bands``, that form the
+        dark object.
+    min_pixels : int
+        Fewest pixels in the dark object (noise averages out over them).
+
+    Returns
+    -------
+    DarkLevel
+        ``level``: the lowest of the dark object's band means; ``band_levels``: all of them.
+        The level is an upper bound of the true offset by the dark object's own signal in its
+        dimmest band (deep shadow or water, a few DN): it also removes the path radiance there.
+
+    Raises
+    ------
+    InputError
+        When fewer than ``min_pixels`` pixels are valid.
+
+    References
+    ----------
+    Chavez, P.S. An improved dark-object subtraction technique for atmospheric scattering
+    correction of multispectral data. Remote Sens. Environ. 1988, 24, 459–479.
+    Brook, A.; Ben-Dor, E. Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484
+    (§3.1: the ratio of raw DN whose offsets this removes).
+    """
+    x = np.asarray(bands, np.float64)
+    if x.ndim != 2:
+        raise InputError(f"dark level: bands must be (n_bands, n_pixels), got shape {x.shape}")
+    if not (0 < fraction <= 0.5):
+        raise ParameterError(f"parameter 'dark_fraction': {fraction} is not in (0, 0.5]")
+    ok = np.isfinite(x).all(axis=0)
+    if valid is not None:
+        ok &= np.asarray(valid, bool).ravel()
+    x = x[:, ok]
+    if x.shape[1] < min_pixels:
+        raise InputError(
+            f"only {x.shape[1]} valid pixels to estimate the dark level (need {min_pixels}): "
+            "check the nodata value, or give the dark level"
+        )
+    n = max(int(min_pixels), int(round(fraction * x.shape[1])))
+    darkest = np.argsort(x.mean(axis=0), kind="stable")[:n]
+    levels = x[:, darkest].mean(axis=1)
+    return DarkLevel(float(levels.min()), "estimated (dark object)", levels, n)
+
+
+def signal(values: np.ndarray, level) -> np.ndarray:
+    """Mean over the bands (axis 0) of DN minus the dark level, at least :data:`MIN_SIGNAL`.
+
+    ``values`` is (n_bands, ...); ``level`` one number or one per band.
+    """
+    v = np.asarray(values, np.float64)
+    lv = np.asarray(level, np.float64)
+    if lv.ndim:
+        lv = lv.reshape((-1,) + (1,) * (v.ndim - 1))
+    return np.maximum((v - lv).mean(axis=0), MIN_SIGNAL)
+
+
+def sunlit_mode(values: np.ndarray, valid: np.ndarray | None = None) -> tuple[float, float]:
+    """(log sunlit mode, Otsu threshold) of a positive signal or ratio.
+
+    The histogram of a scene with shadow is bimodal in log signal; Otsu's threshold splits it
+    and the median above it is the sunlit mode (a scene without shadow gives the upper half's
+    median: still sunlit).
+    """
+    from skimage.filters import threshold_otsu
+
+    x = np.asarray(values, np.float64)
+    ok = np.isfinite(x) & (x > 0)
+    if valid is not None:
+        ok &= np.asarray(valid, bool)
+    logs = np.log(x[ok])
+    if logs.size < 10:
+        raise InputError(f"only {logs.size} valid pixels to find the sunlit mode (need 10)")
+    t = float(threshold_otsu(logs)) if np.ptp(logs) > 0 else float(logs[0])
+    upper = logs[logs >= t]
+    return float(np.median(upper)), t
+
+
+@dataclass(frozen=True)
+class SceneCalibration:
+    """Everything :func:`shadow_fraction_estimate` needs, found on a sample of the scene."""
+
+    vnir_dark: DarkLevel
+    swir_dark: DarkLevel
+    nir_mode: float  # log of the sunlit NIR signal
+    swir_mode: float  # log of the sunlit SWIR signal
+    ratio_mode: float  # sunlit mode of the boresight ratio (DN, as Eq. 3)
+    table: ClassTable  # Table 2 scaled to the scene
+    blue_limit: float = math.inf  # log(blue / NIR) above which a pixel is too blue (water)
+    offset_along: float = 0.0  # SWIR position minus VNIR position (px)
+    offset_across: float = 0.0
+    core: float = CORE_DARKNESS
+    n_sample: int = 0
+
+    def as_dict(self) -> dict:
+        return {
+            "vnir_dark_dn": round(self.vnir_dark.level, 3),
+            "vnir_dark_source": self.vnir_dark.source,
+            "swir_dark_dn": round(self.swir_dark.level, 3),
+            "swir_dark_source": self.swir_dark.source,
+            "sunlit_nir_signal_dn": round(math.exp(self.nir_mode), 3),
+            "sunlit_swir_signal_dn": round(math.exp(self.swir_mode), 3),
+            "sunlit_ratio": round(self.ratio_mode, 4),
+            "class_scale": round(self.ratio_mode / PAPER_SUNLIT_RATIO, 4),
+            "core_darkness": round(self.core, 4),
+            "water_blue_nir_limit": round(math.exp(self.blue_limit), 4)
+            if math.isfinite(self.blue_limit)
+            else None,
+            "offset_along_px": round(self.offset_along, 3),
+            "offset_across_px": round(self.offset_across, 3),
+            "sample_pixels": self.n_sample,
+        }
+
+
+def calibrate_shadow_map(
+    blue: np.ndarray,
+    nir: np.ndarray,
+    swir: np.ndarray,
+    ratio: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    vnir_dark: DarkLevel,
+    swir_dark: DarkLevel,
+    table: ClassTable,
+    offset: tuple[float, float] = (0.0, 0.0),
+    core: float = CORE_DARKNESS,
+) -> SceneCalibration:
+    """Calibrate the shadow map on a sample of pixels.
+
+    Parameters
+    ----------
+    blue, nir, swir : arrays
+        Signals (DN above the dark level, :func:`signal`) of the blue, NIR and SWIR ranges.
+    ratio : array
+        The boresight ratio (DN, Eq. 3) of the same pixels.
+    valid : bool array, optional
+    vnir_dark, swir_dark : DarkLevel
+    table : ClassTable
+        The class table to scale (Table 2 by default in the operation).
+    offset : (float, float)
+        Boresight offset, SWIR minus VNIR position (px), along- and across-track.
+    core : float
+        Core-shadow darkness (natural log of the signal over its sunlit mode), < 0.
+
+    Returns
+    -------
+    SceneCalibration
+        The sunlit modes of the NIR and SWIR signals (logs) and of the ratio, the class table
+        scaled by ``ratio_mode / PAPER_SUNLIT_RATIO`` (the ratio bounds Table 2 would have on
+        this scene), the water test's limit (:data:`WATER_FACTOR` × the median blue/NIR of the
+        sample's core shadow) and the inputs.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484
+    (§3.1, Table 2; Figure 5(B)'s line at fraction 0 as the paper's sunlit ratio).
+    Otsu, N. IEEE Trans. Syst. Man Cybern. 1979, 9, 62–66.
+    """
+    from .classes import scale_table
+
+    if not core < 0:
+        raise ParameterError(
+            f"parameter 'core_darkness': {core} must be below 0 (a log ratio to the sunlit mode)"
+        )
+    nir = np.asarray(nir, np.float64)
+    swir = np.asarray(swir, np.float64)
+    ok = np.isfinite(nir) & np.isfinite(swir)
+    if valid is not None:
+        ok &= np.asarray(valid, bool)
+    nir_mode, _ = sunlit_mode(nir, ok)
+    swir_mode, _ = sunlit_mode(swir, ok)
+    w = NIR_WEIGHT
+    d = w * (np.log(nir) - nir_mode) + (1 - w) * (np.log(swir) - swir_mode)
+    # The sunlit ratio: pixels within a factor e^0.5 of the sunlit modes.
+    r = np.asarray(ratio, np.float64)
+    lit = ok & np.isfinite(r) & (r > 0) & (np.abs(d) < 0.5)
+    if lit.sum() < 10:
+        lit = ok & np.isfinite(r) & (r > 0) & (d > core)
+    if lit.sum() < 10:
+        raise InputError("fewer than 10 sunlit pixels with a valid ratio: cannot calibrate")
+    ratio_mode = float(np.median(r[lit]))
+    b = np.asarray(blue, np.float64)
+    core_px = ok & (d <= core) & np.isfinite(b)
+    limit = math.inf
+    if core_px.sum() >= 10:
+        limit = float(np.median(np.log(np.maximum(b[core_px], MIN_SIGNAL) / nir[core_px])))
+        limit += math.log(WATER_FACTOR)
+    return SceneCalibration(
+        vnir_dark=vnir_dark,
+        swir_dark=swir_dark,
+        nir_mode=nir_mode,
+        swir_mode=swir_mode,
+        ratio_mode=ratio_mode,
+        table=scale_table(table, ratio_mode / PAPER_SUNLIT_RATIO),
+        blue_limit=limit,
+        offset_along=float(offset[0]),
+        offset_across=float(offset[1]),
+        core=float(core),
+        n_sample=int(ok.sum()),
+    )
+
+
+def darkness(
+    nir: np.ndarray, swir: np.ndarray, calibration: SceneCalibration, valid=None
+) -> np.ndarray:
+    """Weighted mean (:data:`NIR_WEIGHT`) of the natural logs of the NIR and SWIR signals over
+    their sunlit modes (0 = sunlit mode, ln 0.2 = a fifth of it); NaN where invalid. ``swir``
+    must already be on the VNIR grid."""
+    nir = np.asarray(nir, np.float64)
+    swir = np.asarray(swir, np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = NIR_WEIGHT
+        d = w * (np.log(np.maximum(nir, MIN_SIGNAL)) - calibration.nir_mode) + (1 - w) * (
+            np.log(np.maximum(swir, MIN_SIGNAL)) - calibration.swir_mode
+        )
+    ok = np.isfinite(d)
+    if valid is not None:
+        ok &= np.asarray(valid, bool)
+    return np.where(ok, d, np.nan)
+
+
+def _local_mean(x: np.ndarray, weight: np.ndarray, size: int) -> np.ndarray:
+    num = ndimage.uniform_filter(np.where(weight, x, 0.0), size, mode="nearest")
+    den = ndimage.uniform_filter(weight.astype(np.float64), size, mode="nearest")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(den > 1e-9, num / den, np.nan)
+
+
+def shadow_fraction_estimate(
+    dark: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    core: float = CORE_DARKNESS,
+    edge_pixels: int = EDGE_PIXELS,
+    window: int = EDGE_WINDOW,
+    water: np.ndarray | None = None,
+) -> np.ndarray:
+    """Estimated shadow fraction (float32, 0–1; NaN where invalid) from :func:`darkness`.
+
+    Core shadow is ``dark <= core`` (but not ``water``, pixels too blue for skylight).
+    Around it (within ``edge_pixels``), a pixel's signal ``s = exp(dark)`` is unmixed between
+    the mean signal of the core pixels in its ``window × window`` neighbourhood and that of the
+    sunlit pixels beyond the edge zone in a ``window + 2`` neighbourhood: ``(lit − s) /
+    (lit − shade)``, the shaded share of a mixed pixel (signal is linear in it). Core pixels
+    get at least 0.5 (they are shadow by definition); pixels further from the core, 0. Strips
+    need a halo of ``edge_pixels + window // 2 + 1`` lines.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484
+    (§3.1, Table 2: shadow fraction classes; the mask is fraction ≥ 50 %).
+    """
+    d = np.asarray(dark, np.float64)
+    ok = np.isfinite(d)
+    if valid is not None:
+        ok &= np.asarray(valid, bool)
+    if edge_pixels < 0 or window < 1:
+        raise ParameterError("parameters 'edge_pixels' ≥ 0 and 'edge_window' ≥ 1 are required")
+    with np.errstate(invalid="ignore"):
+        core_px = ok & (d <= core)
+    if water is not None:
+        core_px &= ~np.asarray(water, bool)
+    f = np.zeros(d.shape, np.float64)
+    if core_px.any():
+        s = np.exp(np.where(ok, d, 0.0))
+        zone = (
+            ndimage.binary_dilation(core_px, iterations=int(edge_pixels))
+            if edge_pixels
+            else core_px
+        )
+        lit = _local_mean(s, ok & ~zone, window + 2)
+        fallback = _local_mean(s, ok & ~core_px, window)
+        lit = np.where(np.isfinite(lit), lit, fallback)
+        shade = _local_mean(s, core_px, window)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            est = np.clip((lit - s) / (lit - shade), 0.0, 1.0)
+        est = np.where(np.isfinite(est) & (lit > shade), est, 0.0)
+        near = zone & ok & ~core_px
+        f[near] = est[near]
+        f[core_px] = np.where(np.isfinite(lit[core_px]), np.maximum(est[core_px], 0.5), 1.0)
+    out = f.astype(np.float32)
+    out[~ok] = np.nan
+    return out
+
+
+def shadow_mask(fraction: np.ndarray, threshold: float = 0.5) -> np.ndarray:
+    """uint8 shadow mask (1 shadow, 0 not, 255 nodata): estimated fraction ≥ ``threshold``."""
+    f = np.asarray(fraction)
+    ok = np.isfinite(f)
+    with np.errstate(invalid="ignore"):
+        out = np.where(f >= threshold, MASK_SHADOW, MASK_NOT_SHADOW).astype(np.uint8)
+    out[~ok] = MASK_NODATA
+    return out
+
+
+def too_blue(blue: np.ndarray, nir: np.ndarray, limit: float) -> np.ndarray:
+    """Pixels whose log(blue / NIR) signal exceeds ``limit``: bluer than skylight makes a
+    shadow (clear water, whose NIR and SWIR are near zero while its blue is sunlit)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.log(np.maximum(blue, MIN_SIGNAL) / np.maximum(nir, MIN_SIGNAL)) > limit
+
+
+def shadow_classes(fraction: np.ndarray, table: ClassTable) -> np.ndarray:
+    """uint8 class of each pixel by the table's shadow-fraction intervals (Table 2's 10–20,
+    20–50, 50–80, 80–100 %): 0 below them all, 255 where the fraction is NaN."""
+    f = np.asarray(fraction, np.float64)
+    ok = np.isfinite(f)
+    out = np.full(f.shape, NO_SHADOW, np.uint8)
+    top = max(c.fraction_max for c in table.classes)
+    with np.errstate(invalid="ignore"):
+        for c in sorted(table.classes, key=lambda c: c.fraction_min):
+            inside = (f >= c.fraction_min) & ((f < c.fraction_max) | (c.fraction_max == top))
+            out[inside & ok] = c.id
+    out[~ok] = NODATA_CLASS
+    return out

