@@ -66,6 +66,12 @@ REPORT = FileOut(
     optional=True,
 )
 
+IGM_OUTPUT = RasterOut(
+    name="igm_output",
+    description="The fitted IGM (x, y of every raw pixel), to geolocate the line's other products",
+    optional=True,
+)
+
 GEOLOCATE = Algorithm(
     name="geolocate",
     display_name="Geolocate a raw product (IGM, GLT)",
@@ -154,6 +160,7 @@ GEOREFERENCE = Algorithm(
         RESAMPLING,
         RasterOut(name="output", description="The product on a map grid (GeoTIFF)"),
         REPORT,
+        IGM_OUTPUT,
     ),
     run=georeference_file,
 )
@@ -256,6 +263,7 @@ AUTO = Algorithm(
         seed(),
         RasterOut(name="output", description="The product on a map grid (GeoTIFF)"),
         REPORT,
+        IGM_OUTPUT,
     ),
     run=auto_georeference_file,
 )

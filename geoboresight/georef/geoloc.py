@@ -145,14 +145,16 @@ def _fill(a: np.ndarray, ok: np.ndarray) -> np.ndarray:
 
 
 def corner_geoloc(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """A (2, lines, columns) geolocation array in GDAL's default top-left-corner convention
-    from pixel-centre coordinates.
+    """The (2, lines + 1, columns + 1) pixel-corner coordinates, in GDAL's default
+    top-left-corner convention, from pixel-centre coordinates.
 
     rasterio's ``src_geoloc_array`` hands the array to GDAL without a
     ``GEOREFERENCING_CONVENTION``, and GDAL then reads value ``[i, j]`` as the position of the
     point ``(pixel j, line i)``, the top-left corner of pixel ``[i, j]`` (measured: a
-    half-pixel shift otherwise). The corner is the mean of the four surrounding centres; the
-    first line and column are extrapolated linearly.
+    half-pixel shift otherwise). A corner is the mean of the four surrounding centres; the
+    outer corners are extrapolated linearly. The extra line and column are the bottom and
+    right edges of the last pixels: warp a source padded with one line and one column of
+    nodata, so that the last line and column are drawn whole.
 
     Parameters
     ----------
@@ -161,7 +163,7 @@ def corner_geoloc(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
     Returns
     -------
-    (2, lines, columns) float64 array
+    (2, lines + 1, columns + 1) float64 array
 
     References
     ----------
@@ -171,11 +173,17 @@ def corner_geoloc(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """
     out = []
     for a in (np.asarray(x, "float64"), np.asarray(y, "float64")):
-        p = (
-            np.pad(a, ((1, 0), (1, 0)), mode="reflect", reflect_type="odd")
-            if min(a.shape) > 1
-            else a
-        )
+        p = a
+        for axis in (0, 1):
+            if p.shape[axis] > 1:
+                p = np.pad(
+                    p,
+                    [(1, 1) if k == axis else (0, 0) for k in (0, 1)],
+                    mode="reflect",
+                    reflect_type="odd",
+                )
+            else:
+                p = np.concatenate([p, p], axis=axis)
         out.append(0.25 * (p[:-1, :-1] + p[:-1, 1:] + p[1:, :-1] + p[1:, 1:]))
     return np.stack(out)
 

@@ -112,8 +112,6 @@ def read_coordinates(path, *, crs=None, label: str = "IGM") -> Coordinates:
 
 
 def _read_geolocation(src, geo: dict, path: str, user_crs, label: str) -> Coordinates:
-    from scipy import ndimage
-
     arrays = []
     for axis in ("X", "Y"):
         name = geo[f"{axis}_DATASET"]
@@ -136,13 +134,19 @@ def _read_geolocation(src, geo: dict, path: str, user_crs, label: str) -> Coordi
         or not centre
         or x.shape != (src.height, src.width)
     ):
-        # Array value [i, j] sits at pixel (offset + j·step): interpolate it at the pixel centres.
+        # Array value [i, j] sits at pixel (offset + j·step): interpolate it at the pixel
+        # centres, linearly, extrapolating beyond the last array value.
+        from scipy.interpolate import RegularGridInterpolator
+
         half = 0.0 if centre else 0.5
         rows = (np.arange(src.height) + half - l_off) / l_step
         cols = (np.arange(src.width) + half - p_off) / p_step
         rr, cc = np.meshgrid(rows, cols, indexing="ij")
-        x = ndimage.map_coordinates(x, [rr, cc], order=1, mode="nearest", cval=np.nan)
-        y = ndimage.map_coordinates(y, [rr, cc], order=1, mode="nearest", cval=np.nan)
+        axes = (np.arange(x.shape[0], dtype="float64"), np.arange(x.shape[1], dtype="float64"))
+        x, y = (
+            RegularGridInterpolator(axes, a, bounds_error=False, fill_value=None)((rr, cc))
+            for a in (x, y)
+        )
     file_crs = parse_crs(geo["SRS"], f"{label} {path}: geolocation SRS") if geo.get("SRS") else None
     use = user_crs or file_crs
     if use is None:
@@ -397,6 +401,22 @@ def map_grid(x, y, valid, crs, resolution: float | None) -> Grid:
     return Grid(width, height, crs, from_origin(left, top, res, res))
 
 
+def write_igm(path: str, x: np.ndarray, y: np.ndarray, crs, tags: dict) -> str:
+    """An IGM as a float64 GeoTIFF in raw geometry: band 1 x (easting), band 2 y (northing) of
+    every pixel's centre, the CRS in its header and no geotransform."""
+    from .raster import write_raster
+
+    return write_raster(
+        path,
+        np.stack([x, y]).astype("float64"),
+        Grid(x.shape[1], x.shape[0], crs, None),
+        nodata=None,
+        dtype="float64",
+        tags={**tags, "PRODUCT": "IGM: map coordinates of each raw pixel centre"},
+        band_names=["x (easting)", "y (northing)"],
+    )
+
+
 def warp_geoloc(
     product: str,
     output: str,
@@ -411,17 +431,19 @@ def warp_geoloc(
 ) -> dict:
     """Warp every band of ``product`` onto ``grid`` through GDAL's geolocation-array warper.
 
-    ``geoloc`` (2, lines, columns): coordinates in ``grid.crs``, top-left-corner convention
-    (:func:`geoboresight.georef.geoloc.corner_geoloc`); ``source_valid``: raw pixels to draw
-    (others are nodata). Written block of bands by block of bands, atomically.
+    ``geoloc`` (2, lines + 1, columns + 1): pixel-corner coordinates in ``grid.crs``
+    (:func:`geoboresight.georef.geoloc.corner_geoloc`); the source is padded with one line and
+    one column of nodata to match, so that the last line and column are drawn whole.
+    ``source_valid``: raw pixels to draw (others are nodata). Written block of bands by block
+    of bands, atomically.
     """
     from rasterio.enums import Resampling
     from rasterio.warp import reproject
 
     with open_raster(product, label) as src:
-        if (src.height, src.width) != geoloc.shape[1:]:
+        if (src.height + 1, src.width + 1) != geoloc.shape[1:]:
             raise InputError(
-                f"the coordinates ({geoloc.shape[2]} × {geoloc.shape[1]}, columns × lines) and "
+                f"the coordinates ({geoloc.shape[2] - 1} × {geoloc.shape[1] - 1}, columns × lines) and "
                 f"{label} {product} ({src.width} × {src.height}) differ in size: they must "
                 "describe the same raw pixels"
             )
@@ -449,7 +471,8 @@ def warp_geoloc(
                 mask = np.ma.getmaskarray(data)
                 if source_valid is not None:
                     mask = mask | ~source_valid[None]
-                arr = np.where(mask, nodata, np.ma.getdata(data)).astype(dtype)
+                arr = np.full((len(bands), src.height + 1, src.width + 1), nodata, dtype=dtype)
+                arr[:, :-1, :-1] = np.where(mask, nodata, np.ma.getdata(data))
                 out = np.full((len(bands), grid.height, grid.width), nodata, dtype=dtype)
                 reproject(
                     arr,

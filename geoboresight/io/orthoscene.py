@@ -56,7 +56,11 @@ def write_ortho_scene(scene, folder, overwrite: bool = False) -> list[str]:
     if os.path.lexists(folder) and not overwrite:
         raise OutputError(f"output folder {folder} already exists: pass --overwrite to replace it")
     crs = CRS.from_user_input(scene.crs)
-    with atomic_output(folder, overwrite=overwrite) as tmp, rasterio.Env(GDAL_PAM_ENABLED="NO"):
+    # An existing folder is replaced only if it holds nothing but these files (never emptied).
+    with (
+        atomic_output(folder, overwrite=overwrite, folder_files=ORTHO_SCENE_FILES) as tmp,
+        rasterio.Env(GDAL_PAM_ENABLED="NO"),
+    ):
         os.makedirs(tmp)
         write_envi(
             os.path.join(tmp, "raw.img"),

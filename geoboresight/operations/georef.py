@@ -52,15 +52,21 @@ def _product_size(path: str) -> tuple[int, int]:
 
 
 def _model_geoloc(model, width: int, height: int, src_crs, dst_crs):
-    """Pixel-centre coordinates and the corner-convention geolocation array of a model
+    """Pixel-centre coordinates and the (lines + 1, columns + 1) pixel-corner geolocation
+    array (:func:`~geoboresight.georef.geoloc.corner_geoloc`) of a model
     ``(pixel, line) -> (x, y)``, in ``dst_crs``."""
     jj, ii = np.meshgrid(np.arange(width, dtype="float64"), np.arange(height, dtype="float64"))
     cx, cy = gio.transform_xy(*model(jj + 0.5, ii + 0.5), src_crs, dst_crs)
-    gx, gy = gio.transform_xy(*model(jj, ii), src_crs, dst_crs)
+    kk, ll = np.meshgrid(
+        np.arange(width + 1, dtype="float64"), np.arange(height + 1, dtype="float64")
+    )
+    gx, gy = gio.transform_xy(*model(kk, ll), src_crs, dst_crs)
     return cx, cy, np.stack([gx, gy])
 
 
-def _warp_model(input, output, model, src_crs, crs, resolution, resampling, tags, progress):
+def _warp_model(
+    input, output, model, src_crs, crs, resolution, resampling, tags, progress, igm_output
+):
     width, height = _product_size(input)
     dst_crs = gio.parse_crs(crs) if crs else src_crs
     cx, cy, geoloc = _model_geoloc(model, width, height, src_crs, dst_crs)
@@ -76,6 +82,8 @@ def _warp_model(input, output, model, src_crs, crs, resolution, resampling, tags
         tags=tags,
         progress=progress,
     )
+    if igm_output:
+        gio.write_igm(igm_output, cx, cy, dst_crs, tags)
     return grid, done
 
 
@@ -216,13 +224,14 @@ def _gcps_for(gcps: str, gcp_crs, width: int, height: int):
 
 
 @_docstring
-@operation(inputs=("input", "gcps"), outputs=("output", "report"))
+@operation(inputs=("input", "gcps"), outputs=("output", "report", "igm_output"))
 def georeference_file(
     input,
     gcps,
     *,
     output,
     report=None,
+    igm_output=None,
     gcp_crs=None,
     method="polynomial",
     order=1,
@@ -281,7 +290,7 @@ def georeference_file(
     )
     tags = {"GEOREFERENCE": f"GCPs {gcps}: {what}, RMSE {fit.rmse:.4g} ({fit.rmse_px:.3f} px)"}
     grid, done = _warp_model(
-        input, output, fit, table.crs, crs, resolution, resampling, tags, progress
+        input, output, fit, table.crs, crs, resolution, resampling, tags, progress, igm_output
     )
     if report:
         write_json(
@@ -296,6 +305,7 @@ def georeference_file(
     return {
         "output": output,
         "report": report,
+        "igm_output": igm_output,
         "rmse": fit.rmse,
         "rmse_px": fit.rmse_px,
         **_grid_result(grid, done),
@@ -367,7 +377,7 @@ def _reference_window(reference, reference_band, placement, width, height, margi
 
 
 @_docstring
-@operation(inputs=("input", "reference", "gcps"), outputs=("output", "report"))
+@operation(inputs=("input", "reference", "gcps"), outputs=("output", "report", "igm_output"))
 def auto_georeference_file(
     input,
     reference,
@@ -375,6 +385,7 @@ def auto_georeference_file(
     *,
     output,
     report=None,
+    igm_output=None,
     corners=None,
     gcp_crs=None,
     band=1,
@@ -411,8 +422,16 @@ def auto_georeference_file(
         Rough placement from GCPs (CSV or QGIS ``.points``); or give ``corners``.
     output : path
         GeoTIFF of every band of ``input`` on a north-up grid.
+    igm_output : path, optional
+        The fitted model's IGM: a float64 GeoTIFF with the map x and y of every raw pixel's
+        centre (raw geometry, the CRS in its header), for ``geolocate --igm`` on the line's
+        other products.
     report : path, optional
         JSON report: matches, inliers, each tie point's cross-validated residual, RMSE.
+    igm_output : path, optional
+        The fitted model's IGM: a float64 GeoTIFF with the map x and y of every raw pixel's
+        centre (raw geometry, the CRS in its header), for ``geolocate --igm`` on the line's
+        other products.
     corners : str, optional
         Rough placement from the corners: ``x,y`` of the top-left, top-right, bottom-right
         and bottom-left image corners (8 numbers, in ``gcp_crs`` or the reference's CRS).
@@ -495,7 +514,7 @@ def auto_georeference_file(
     }
     final = corrected(placement, tie.displacement)
     grid, done = _warp_model(
-        input, output, final, ref_crs, crs, resolution, resampling, tags, progress
+        input, output, final, ref_crs, crs, resolution, resampling, tags, progress, igm_output
     )
     if report:
         write_json(
@@ -513,6 +532,7 @@ def auto_georeference_file(
     return {
         "output": output,
         "report": report,
+        "igm_output": igm_output,
         "matches": tie.matches,
         "inliers": tie.inliers,
         "rmse_px": tie.rmse_px,
