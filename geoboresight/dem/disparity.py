@@ -63,11 +63,12 @@ def _window(window) -> tuple[int, int]:
     return size
 
 
-def _warp(b, coef, vb, rows, cols, dy, dx):
+def _warp(b, coef, vb, rows, cols, dy, dx, all_valid=False):
     """Moving image sampled at (rows + dy, cols + dx); invalid outside the image.
 
     ``dy``/``dx`` are scalars (integer shifts: exact copies) or arrays (sub-pixel warps: cubic
     spline on ``coef``, the spline coefficients of ``b`` computed once per image).
+    ``all_valid``: ``vb`` is known to be True everywhere.
     """
     height, width = b.shape
     r = rows[:, None] + dy
@@ -79,23 +80,52 @@ def _warp(b, coef, vb, rows, cols, dy, dx):
         return b[ri, ci], vb[ri, ci] & inside
     r, c = np.broadcast_arrays(r, c)
     out = ndimage.map_coordinates(coef, [r, c], order=3, mode="nearest", prefilter=False)
-    ok = ndimage.map_coordinates(vb.astype(np.float32), [r, c], order=1, cval=0.0) > 0.999
+    if all_valid:
+        # The bilinear validity below of an all-valid image, without interpolating it: valid
+        # within 0.001 px of the image (beyond, the blend with the 0 outside drops under 0.999).
+        ok = (r > -1e-3) & (r < height - 1 + 1e-3) & (c > -1e-3) & (c < width - 1 + 1e-3)
+    else:
+        ok = ndimage.map_coordinates(vb.astype(np.float32), [r, c], order=1, cval=0.0) > 0.999
     return out, ok
 
 
-def _ncc(a, va, bs, vbs, size, min_fill):
+class _Stats:
+    """The box-filtered moments of the fixed image ``a`` over the pixels ``w`` where both images
+    are valid. ``w`` changes with the shift only where the moving window leaves the image (edge
+    columns and lines), so the few distinct patterns are computed once each."""
+
+    def __init__(self, a, va, size):
+        self.a, self.va, self.size = a, va, size
+        self._cache: dict = {}
+
+    def moments(self, w):
+        """(count, a·w, mean, variance) of ``a`` over the pixels ``w``, box-filtered."""
+        key = hash(np.packbits(w).tobytes())
+        hit = self._cache.get(key)
+        if hit is not None and np.array_equal(hit[0], w):
+            return hit[1]
+        f = ndimage.uniform_filter
+        aa = np.where(w, self.a, 0.0)
+        n = f(w.astype(np.float64), self.size, mode="constant")
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ma = f(aa, self.size, mode="constant") / n
+            var_a = f(aa * aa, self.size, mode="constant") / n - ma * ma
+        moments = (n, aa, ma, var_a)
+        if len(self._cache) < 8:
+            self._cache[key] = (w, moments)
+        return moments
+
+
+def _ncc(stats, bs, vbs, min_fill):
     """Windowed NCC of ``a`` and ``bs`` over their common valid pixels (box filters)."""
-    w = va & vbs
-    wf = w.astype(np.float64)
-    aa = np.where(w, a, 0.0)
+    w = stats.va & vbs
+    n, aa, ma, var_a = stats.moments(w)
+    size = stats.size
     bb = np.where(w, bs, 0.0)
     f = ndimage.uniform_filter
-    n = f(wf, size, mode="constant")
     with np.errstate(invalid="ignore", divide="ignore"):
-        ma = f(aa, size, mode="constant") / n
         mb = f(bb, size, mode="constant") / n
         cov = f(aa * bb, size, mode="constant") / n - ma * mb
-        var_a = f(aa * aa, size, mode="constant") / n - ma * ma
         var_b = f(bb * bb, size, mode="constant") / n - mb * mb
         ncc = cov / np.sqrt(var_a * var_b)
     # Too few valid pixels, or no texture (variance at round-off level): no match.
@@ -116,9 +146,27 @@ def _match(a, va, b, coef, vb, rows, cols, base_a, base_c, sa, sc, size, min_fil
     """Best shift around (base_a, base_c) within ±sa, ±sc; sub-pixel by parabolas."""
     shifts = [(dy, dx) for dy in range(-sa, sa + 1) for dx in range(-sc, sc + 1)]
     stack = np.empty((len(shifts),) + a.shape, dtype=np.float32)
+    stats = _Stats(a, va, size)
+    all_valid = bool(vb.all())
+    if np.ndim(base_a) == 0 and np.ndim(base_c) == 0:
+        # One shift for the whole image: warp once by it on the lines and columns the search
+        # reaches; every integer shift around it is then a slice (the same samples).
+        ext_r = np.arange(rows[0] - sa, rows[-1] + sa + 1)
+        ext_c = np.arange(cols[0] - sc, cols[-1] + sc + 1)
+        wb, wv = _warp(b, coef, vb, ext_r, ext_c, base_a, base_c, all_valid)
+        nr, nc = len(rows), len(cols)
+
+        def moved(dy, dx):
+            win = (slice(sa + dy, sa + dy + nr), slice(sc + dx, sc + dx + nc))
+            return wb[win], wv[win]
+    else:
+
+        def moved(dy, dx):
+            return _warp(b, coef, vb, rows, cols, base_a + dy, base_c + dx, all_valid)
+
     for k, (dy, dx) in enumerate(shifts):
-        bs, vbs = _warp(b, coef, vb, rows, cols, base_a + dy, base_c + dx)
-        stack[k] = _ncc(a, va, bs, vbs, size, min_fill)
+        bs, vbs = moved(dy, dx)
+        stack[k] = _ncc(stats, bs, vbs, min_fill)
     grid = stack.reshape(2 * sa + 1, 2 * sc + 1, *a.shape)
     any_peak = np.isfinite(stack).any(axis=0)
     best = np.argmax(np.where(np.isfinite(stack), stack, -np.inf), axis=0)
@@ -302,6 +350,64 @@ def disparity_map(
     )
 
 
+def disparity_halo(
+    window: int | tuple[int, int] = WINDOW,
+    *,
+    search_along: int = SEARCH_ALONG,
+    refine: int = REFINE,
+    center_along: float = 0.0,
+) -> int:
+    """Lines a strip must be read with, above and below, for :func:`disparity_map` on the strip
+    to give its own lines as on the whole image: the matching windows (twice over when the
+    disparity is smoothed between passes), the lines the search reaches in the SWIR image, the
+    cubic spline's support and the decay of its prefilter (0.268ⁿ: 12 lines, < 10⁻⁶)."""
+    size = _window(window)
+    fixed = (size[0] // 2 + 1) * (int(refine) + 1) + 1
+    reach = math.ceil(abs(float(center_along))) + int(search_along) + int(refine) + 1
+    return fixed + reach + 2 + 12
+
+
+def second_differences(
+    disparity: np.ndarray,
+    reliable: np.ndarray,
+    spacing: int,
+    *,
+    rows: slice | None = None,
+) -> np.ndarray:
+    """Second differences ``d(x−s) − 2 d(x) + d(x+s)`` of reliable disparities one ``spacing``
+    apart, along the lines and along the columns, whose centre ``x`` lies on the lines ``rows``
+    (all lines by default; a strip read with its halo gives its own lines' differences).
+
+    Returns the finite differences: centres line by line, along the lines first, then along the
+    columns (:func:`disparity_noise` turns them into σ_d).
+    """
+    d = np.where(reliable, disparity, np.nan).astype(np.float64)
+    s = int(spacing)
+    lines = range(d.shape[0])[rows if rows is not None else slice(None)]
+    r0, r1 = lines.start, lines.stop
+    out = []
+    lo, hi = max(r0, s), min(r1, d.shape[0] - s)
+    if hi > lo:
+        out.append((d[lo - s : hi - s] - 2 * d[lo:hi] + d[lo + s : hi + s]).ravel())
+    if d.shape[1] > 2 * s and r1 > r0:
+        own = d[r0:r1]
+        out.append((own[:, : -2 * s] - 2 * own[:, s:-s] + own[:, 2 * s :]).ravel())
+    sec = np.concatenate(out) if out else np.empty(0)
+    return sec[np.isfinite(sec)]
+
+
+def noise_from_differences(seconds: np.ndarray, min_pairs: int = 50) -> float:
+    """σ_d from second differences of independent disparities (see :func:`disparity_noise`)."""
+    sec = np.asarray(seconds, np.float64)
+    if sec.size < min_pairs:
+        return float("nan")
+    # Drop only gross blunders (> 10 robust σ), which the cell medians remove anyway.
+    mad = 1.4826 * np.median(np.abs(sec - np.median(sec)))
+    if mad > 0:
+        sec = sec[np.abs(sec - np.median(sec)) <= 10 * mad]
+    return float(np.sqrt(np.mean(sec**2) / 6.0))
+
+
 def disparity_noise(
     disparity: np.ndarray, reliable: np.ndarray, spacing: int, min_pairs: int = 50
 ) -> float:
@@ -315,22 +421,4 @@ def disparity_noise(
     within ``2 · spacing`` (building edges) inflates the estimate: it errs on the safe side.
     Both directions are pooled. Returns NaN when fewer than ``min_pairs`` triples are available.
     """
-    d = np.where(reliable, disparity, np.nan).astype(np.float64)
-    s = int(spacing)
-    seconds = []
-    for axis in (0, 1):
-        if d.shape[axis] <= 2 * s:
-            continue
-        lo = np.take(d, np.arange(0, d.shape[axis] - 2 * s), axis=axis)
-        mid = np.take(d, np.arange(s, d.shape[axis] - s), axis=axis)
-        hi = np.take(d, np.arange(2 * s, d.shape[axis]), axis=axis)
-        sec = (lo - 2 * mid + hi).ravel()
-        seconds.append(sec[np.isfinite(sec)])
-    sec = np.concatenate(seconds) if seconds else np.empty(0)
-    if sec.size < min_pairs:
-        return float("nan")
-    # Drop only gross blunders (> 10 robust σ), which the cell medians remove anyway.
-    mad = 1.4826 * np.median(np.abs(sec - np.median(sec)))
-    if mad > 0:
-        sec = sec[np.abs(sec - np.median(sec)) <= 10 * mad]
-    return float(np.sqrt(np.mean(sec**2) / 6.0))
+    return noise_from_differences(second_differences(disparity, reliable, spacing), min_pairs)

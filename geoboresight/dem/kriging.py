@@ -1,22 +1,35 @@
-"""Ordinary kriging of scattered heights onto the image grid, in bounded memory (paper §3.2).
+"""Ordinary kriging of scattered heights onto the image grid, fast and in bounded memory (§3.2).
 
 The paper interpolates the relative DEM by kriging. PyKrige's ordinary kriging builds the full
 ``N × N`` kriging matrix (and, in its default vectorised mode, an ``N × grid`` distance matrix),
-so a flight line with tens of thousands of control points does not fit in memory. Here:
+so a flight line with hundreds of thousands of control points does not fit in memory; its
+moving-window mode solves one system per pixel, minutes for a flight line. Here:
 
-- the variogram model is fitted once by PyKrige on a random subset of the points
+- the variogram model is fitted once per line by PyKrige on a random subset of the points
   (``max_fit_points``: the experimental variogram needs all pairwise distances);
-- the grid is kriged block by block with a local neighbourhood of the ``n_closest_points``
-  nearest control points (PyKrige's moving-window kriging, C backend). Each block builds a
-  PyKrige :class:`~pykrige.ok.OrdinaryKriging` with the fitted variogram on exactly the control
-  points that are among the nearest neighbours of some target of the block, so the result is
-  identical to PyKrige's global moving-window kriging while memory is bounded by a block.
+- the targets are kriged by *blocks*: every block of targets (about ``BLOCK_PX`` × ``BLOCK_PX``
+  pixels of the grid, or a group of nearby scattered targets) shares one neighbourhood, the
+  control points nearest its centre within its circumscribed circle widened by the radius that
+  holds ``n_closest_points`` (so every target keeps its own nearest points). One
+  ordinary-kriging system is solved per block for all of its targets at once (one LU
+  factorisation, one matrix product), and the systems of many blocks are solved in one batched
+  LAPACK call;
+- where the variogram's range is long compared with a pixel, the grid is kriged on nodes every
+  ``step`` pixels (:func:`grid_step`: at least ``RANGE_PER_STEP`` nodes per range) and the
+  pixels in between are interpolated bilinearly: a kriged surface does not vary at scales far
+  below its range.
+
+The kriging system is PyKrige's (``OrdinaryKriging(..., exact_values=False)``: semivariances
+with a zero diagonal, the nugget smooths noisy heights; kriging variance ``−xᵀb``), with the
+fitted ``[psill, range, nugget]`` (PyKrige reads a *list* of parameters as ``[sill, range,
+nugget]``: passing it its own fitted list back lowers the partial sill by the nugget, which the
+previous version did). The tests compare it with PyKrige on the same points.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -27,8 +40,18 @@ from ..progress import Progress, as_progress
 MODELS = ("spherical", "exponential", "gaussian", "linear", "power")
 #: The variogram model fitted by default.
 VARIOGRAM = "spherical"
-#: Control points in each local kriging neighbourhood.
+#: Control points in each local kriging neighbourhood (per target; a block shares twice this).
 N_CLOSEST_POINTS = 32
+#: Side (pixels) of the blocks of grid targets that share one neighbourhood and one system.
+BLOCK_PX = 16
+#: At most this many grid nodes along a block's side (a node every pixel: 16 × 16 targets).
+MAX_BLOCK_NODES = 16
+#: Grid nodes per variogram range at least, when kriging on a coarser grid (:func:`grid_step`).
+RANGE_PER_STEP = 40
+#: Largest node spacing (pixels) of the kriged grid.
+MAX_STEP = 8
+#: Kriging systems solved per batched LAPACK call (bounds memory: ≈ 8 · batch · (2n + 1)² bytes).
+BATCH = 256
 
 
 @dataclass(frozen=True)
@@ -47,6 +70,26 @@ class Variogram:
         else:
             names = ("partial_sill", "range_px", "nugget")
         return ", ".join(f"{n}={v:.4g}" for n, v in zip(names, self.parameters, strict=False))
+
+    def __call__(self, d: np.ndarray) -> np.ndarray:
+        """Semivariance at distances ``d`` (PyKrige's model functions, vectorised)."""
+        p = self.parameters
+        if self.model == "linear":
+            return p[0] * d + p[1]
+        if self.model == "power":
+            return p[0] * d ** p[1] + p[2]
+        psill, rng, nugget = p
+        if self.model == "spherical":
+            r = np.minimum(d / rng, 1.0)
+            return psill * (1.5 * r - 0.5 * r * r * r) + nugget
+        if self.model == "exponential":
+            return psill * (1.0 - np.exp(-d / (rng / 3.0))) + nugget
+        return psill * (1.0 - np.exp(-(d**2) / (rng * 4.0 / 7.0) ** 2)) + nugget  # gaussian
+
+    @property
+    def range_px(self) -> float | None:
+        """The range (pixels) of a bounded model; None for linear and power."""
+        return None if self.model in ("linear", "power") else float(self.parameters[1])
 
 
 def _check_points(x, y, z):
@@ -114,6 +157,211 @@ def fit_variogram(
     return Variogram(model, params, int(x.size))
 
 
+def grid_step(variogram: Variogram, max_step: int = MAX_STEP) -> int:
+    """Node spacing (pixels) of the kriged grid: ``RANGE_PER_STEP`` nodes per variogram range
+    at least, at most ``max_step`` pixels; 1 (every pixel) for unbounded models.
+
+    A kriged surface is a weighted sum of the model centred on the control points: it does not
+    vary at scales far below the range, so bilinear interpolation between nodes a fortieth of
+    the range apart changes it by a small fraction of its relief (measured in the tests and in
+    ``benchmarks/dem_kriging.py``).
+    """
+    r = variogram.range_px
+    if r is None or not math.isfinite(r):
+        return 1
+    return int(max(1, min(int(max_step), r // RANGE_PER_STEP)))
+
+
+@dataclass(eq=False)
+class LocalKriging:
+    """Ordinary kriging of control points ``(x, y, z)`` with a fitted variogram, by blocks.
+
+    Build it once per flight line; :meth:`points` krige scattered targets, :meth:`grid_rows`
+    the lines ``row0:row1`` of the image grid (``x`` = column, ``y`` = line), so a flight line
+    is kriged strip by strip with the same result whatever the strips.
+
+    Parameters
+    ----------
+    x, y, z : 1-D arrays
+        Control points: column, line and value (non-finite points are dropped).
+    variogram : Variogram
+        The fitted model (:func:`fit_variogram`).
+    n_closest_points : int
+        Control points per target neighbourhood; each block of targets shares those of all
+        its targets (:meth:`_k`).
+    step : int, optional
+        Node spacing (pixels) of the grid; default :func:`grid_step` of the variogram.
+
+    References
+    ----------
+    Cressie, N.A.C. Statistics for Spatial Data, revised ed.; Wiley: New York, NY, USA, 1993
+    (§3.2, ordinary kriging; local neighbourhoods).
+    Murphy, B.; Yurchak, R.; Müller, S. GeoStat-Framework/PyKrige, 2022.
+    https://doi.org/10.5281/zenodo.3738604 (the kriging system and variance reproduced here).
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    z: np.ndarray
+    variogram: Variogram
+    n_closest_points: int = N_CLOSEST_POINTS
+    step: int | None = None
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    def __post_init__(self):
+        x, y, z = _check_points(self.x, self.y, self.z)
+        if x.size < 2:
+            raise InputError(f"only {x.size} control points: too few to krige a surface")
+        n = int(self.n_closest_points)
+        if n < 2:
+            raise ParameterError(f"parameter 'n_closest_points': at least 2, got {n}")
+        self.x, self.y, self.z = x, y, z
+        self.n = n
+        self.tree = cKDTree(np.column_stack([x, y]))
+        self.step = grid_step(self.variogram) if self.step is None else max(1, int(self.step))
+        # Control points per pixel (over their bounding box): a block of ``a`` pixels holds
+        # about ``density · a`` of them.
+        extent = max(np.ptp(x) + 1.0, 1.0) * max(np.ptp(y) + 1.0, 1.0)
+        self.density = x.size / extent
+
+    def _k(self, block_side: float) -> int:
+        """Points shared by a block ``block_side`` pixels wide: those within the block's
+        circumscribed circle widened by the radius holding ``n_closest_points`` (at the
+        line's mean density), so that every target of the block keeps its own nearest
+        points."""
+        r_n = math.sqrt(self.n / (math.pi * self.density))
+        r = block_side / math.sqrt(2.0) + r_n
+        return int(min(self.x.size, max(self.n, math.ceil(self.density * math.pi * r * r))))
+
+    # -- the systems ------------------------------------------------------------------------
+    def _solve(self, cx, cy, tx, ty, k):
+        """Estimate and variance at targets ``(tx, ty)`` (blocks × targets), each block of
+        targets kriged from the ``k`` control points nearest its centre ``(cx, cy)``."""
+        est = np.empty(tx.shape)
+        var = np.empty(tx.shape)
+        for s in range(0, len(cx), BATCH):
+            sl = slice(s, s + BATCH)
+            _, idx = self.tree.query(np.column_stack([cx[sl], cy[sl]]), k=k)
+            idx = idx.reshape(-1, k)
+            px, py = self.x[idx], self.y[idx]
+            nb = len(idx)
+            a = np.empty((nb, k + 1, k + 1))
+            a[:, :k, :k] = -self.variogram(_distance(px, py, px, py))
+            a[:, np.arange(k), np.arange(k)] = 0.0  # PyKrige's matrix: zero diagonal
+            a[:, k, :] = 1.0
+            a[:, :, k] = 1.0
+            a[:, k, k] = 0.0
+            b = np.empty((nb, k + 1, tx.shape[1]))
+            b[:, :k] = -self.variogram(_distance(px, py, tx[sl], ty[sl]))
+            b[:, k] = 1.0
+            try:
+                sol = np.linalg.solve(a, b)
+            except np.linalg.LinAlgError:  # coincident points: least squares per block
+                sol = np.stack(
+                    [np.linalg.lstsq(ai, bi, rcond=None)[0] for ai, bi in zip(a, b, strict=True)]
+                )
+            est[sl] = np.einsum("bk,bkm->bm", self.z[idx], sol[:, :k])
+            var[sl] = -np.einsum("bkm,bkm->bm", sol, b)
+        return est, np.maximum(var, 0.0)
+
+    # -- scattered targets ------------------------------------------------------------------
+    def points(self, xt: np.ndarray, yt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Estimate and kriging variance at scattered targets; targets in one ``BLOCK_PX``
+        cell share a neighbourhood."""
+        xt = np.asarray(xt, np.float64).ravel()
+        yt = np.asarray(yt, np.float64).ravel()
+        if xt.size == 0:
+            return np.empty(0), np.empty(0)
+        cell = np.floor(yt / BLOCK_PX) * 1e9 + np.floor(xt / BLOCK_PX)
+        order = np.argsort(cell, kind="stable")
+        cells, start, count = np.unique(cell[order], return_index=True, return_counts=True)
+        m = int(count.max())
+        # Targets of each cell in one row, padded with the cell's first target.
+        slot = np.arange(m)[None, :]
+        pick = order[start[:, None] + np.minimum(slot, count[:, None] - 1)]
+        tx, ty = xt[pick], yt[pick]
+        # The neighbourhood covers the widest group (scattered targets: mostly one per cell).
+        spread = float(max(np.ptp(tx, axis=1).max(), np.ptp(ty, axis=1).max()))
+        e, v = self._solve(tx.mean(axis=1), ty.mean(axis=1), tx, ty, self._k(spread + 1.0))
+        est = np.empty(xt.size)
+        var = np.empty(xt.size)
+        keep = slot < count[:, None]
+        est[pick[keep]] = e[keep]
+        var[pick[keep]] = v[keep]
+        return est, var
+
+    # -- the grid ---------------------------------------------------------------------------
+    def _block_nodes(self) -> int:
+        """Grid nodes per side of a block: blocks about ``BLOCK_PX`` pixels wide, at most
+        ``MAX_BLOCK_NODES`` nodes a side (one system's right-hand sides cost k² each)."""
+        return int(min(MAX_BLOCK_NODES, max(1, round(BLOCK_PX / self.step))))
+
+    def _node_rows(self, block_row: int, width: int):
+        """Estimate and variance on the node rows of one global row of blocks (cached: the
+        strip below needs the last node row again)."""
+        if block_row in self._cache:
+            return self._cache[block_row]
+        g = self.step
+        bn = self._block_nodes()
+        nj = -(-(width - 1) // g) + 1 if g > 1 else width
+        rows = (block_row * bn + np.arange(bn)) * g  # node lines of this row of blocks
+        cols = np.arange(nj) * g
+        nbj = -(-nj // bn)
+        jj = np.minimum(np.arange(nbj)[:, None] * bn + np.arange(bn)[None, :], nj - 1)
+        tx = np.broadcast_to(cols[jj][:, None, :], (nbj, bn, bn)).reshape(nbj, -1)
+        ty = np.broadcast_to(rows[None, :, None], (nbj, bn, bn)).reshape(nbj, -1).astype(float)
+        k = self._k(max(bn - 1, 0) * g + 1.0)
+        e, v = self._solve(tx.mean(axis=1), ty.mean(axis=1), tx.astype(float), ty, k)
+        # back to (node rows, node cols); padded columns repeat the last node (same values)
+        e = e.reshape(nbj, bn, bn).transpose(1, 0, 2).reshape(bn, nbj * bn)[:, :nj]
+        v = v.reshape(nbj, bn, bn).transpose(1, 0, 2).reshape(bn, nbj * bn)[:, :nj]
+        if len(self._cache) >= 4:
+            self._cache.pop(next(iter(self._cache)))
+        self._cache[block_row] = (e, v)
+        return e, v
+
+    def grid_rows(
+        self, row0: int, row1: int, width: int, mask: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Estimate and variance (float64, lines ``row0:row1`` × ``width``) on the image grid;
+        NaN where ``mask`` (the strip's lines) is False. Nodes every :attr:`step` pixels are
+        kriged, the pixels between them interpolated bilinearly."""
+        g = self.step
+        bn = self._block_nodes()
+        i0 = row0 // g
+        i1 = (row1 - 1) // g + (1 if g > 1 else 0)  # the node row below the last line
+        parts = [self._node_rows(b, width) for b in range(i0 // bn, i1 // bn + 1)]
+        first = (i0 // bn) * bn
+        e = np.concatenate([p[0] for p in parts])[i0 - first : i1 - first + 1]
+        v = np.concatenate([p[1] for p in parts])[i0 - first : i1 - first + 1]
+        if g > 1:
+            r = np.arange(row0, row1)
+            c = np.arange(width)
+            e, v = (_bilinear(a, r - i0 * g, c, g) for a in (e, v))
+        if mask is not None:
+            e = np.where(mask, e, np.nan)
+            v = np.where(mask, v, np.nan)
+        return e, v
+
+
+def _distance(ax, ay, bx, by) -> np.ndarray:
+    """Distances between the points of ``a`` and of ``b``, block by block (blocks × a × b)."""
+    dx = ax[:, :, None] - bx[:, None, :]
+    dy = ay[:, :, None] - by[:, None, :]
+    return np.sqrt(dx * dx + dy * dy)
+
+
+def _bilinear(nodes: np.ndarray, r: np.ndarray, c: np.ndarray, g: int) -> np.ndarray:
+    """Values at lines ``r`` and columns ``c`` (pixels from the first node) of a grid of
+    ``nodes`` every ``g`` pixels: linear along the lines, then along the columns."""
+    i = np.minimum(r // g, nodes.shape[0] - 1)
+    f = ((r - i * g) / g)[:, None]
+    rows = nodes[i] * (1.0 - f) + nodes[np.minimum(i + 1, nodes.shape[0] - 1)] * f
+    j = np.minimum(c // g, nodes.shape[1] - 1)
+    f = (c - j * g) / g
+    return rows[:, j] * (1.0 - f) + rows[:, np.minimum(j + 1, nodes.shape[1] - 1)] * f
+
+
 def krige_points(
     x: np.ndarray,
     y: np.ndarray,
@@ -122,59 +370,10 @@ def krige_points(
     yt: np.ndarray,
     variogram: Variogram,
     n_closest_points: int = N_CLOSEST_POINTS,
-    backend: str = "C",
-    chunk: int = 8192,
-    max_local_points: int = 2500,
-    progress: Progress | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Ordinary kriging estimate and variance at targets ``(xt, yt)``, chunk by chunk.
-
-    Targets are processed in chunks of ``chunk`` points in the given order (give them spatially
-    sorted, e.g. row by row, so that a chunk needs few control points). A chunk whose targets
-    need more than ``max_local_points`` control points is split: PyKrige builds the dense
-    kriging matrix of the points it is given, so this bounds memory (≈ 8 · 3 · m² bytes).
-    """
-    from pykrige.ok import OrdinaryKriging
-
-    progress = as_progress(progress)
-    if backend not in ("C", "loop"):
-        raise ParameterError(f"parameter 'backend': 'C' or 'loop', got {backend!r}")
-    x, y, z = _check_points(x, y, z)
-    k = int(n_closest_points)
-    if k < 2:
-        raise ParameterError(f"parameter 'n_closest_points': at least 2, got {n_closest_points}")
-    k = min(k, x.size)
-    xt = np.asarray(xt, np.float64).ravel()
-    yt = np.asarray(yt, np.float64).ravel()
-    tree = cKDTree(np.column_stack([x, y]))
-    est = np.empty(xt.size)
-    var = np.empty(xt.size)
-    n_chunks = max(1, math.ceil(xt.size / chunk))
-    params = {
-        "variogram_model": variogram.model,
-        "variogram_parameters": list(variogram.parameters),
-        "enable_statistics": False,
-        "exact_values": False,  # noisy heights: smooth at the control points (nugget)
-    }
-
-    def solve(sl: slice) -> None:
-        _, idx = tree.query(np.column_stack([xt[sl], yt[sl]]), k=k)
-        local = np.unique(idx)
-        if local.size > max_local_points and sl.stop - sl.start > 1:
-            # Targets spread too far apart (e.g. cross-validation): split the chunk.
-            mid = (sl.start + sl.stop) // 2
-            solve(slice(sl.start, mid))
-            solve(slice(mid, sl.stop))
-            return
-        ok = OrdinaryKriging(x[local], y[local], z[local], **params)
-        e, v = ok.execute("points", xt[sl], yt[sl], n_closest_points=k, backend=backend)
-        est[sl] = np.asarray(e)
-        var[sl] = np.asarray(v)
-
-    for i in range(n_chunks):
-        solve(slice(i * chunk, min((i + 1) * chunk, xt.size)))
-        progress.update((i + 1) / n_chunks, "kriging")
-    return est, np.maximum(var, 0.0)
+    """Ordinary kriging estimate and variance at scattered targets ``(xt, yt)``
+    (:meth:`LocalKriging.points`)."""
+    return LocalKriging(x, y, z, variogram, n_closest_points).points(xt, yt)
 
 
 def krige_grid(
@@ -185,35 +384,26 @@ def krige_grid(
     variogram: Variogram,
     mask: np.ndarray | None = None,
     n_closest_points: int = N_CLOSEST_POINTS,
-    backend: str = "C",
-    block_rows: int = 32,
+    step: int | None = None,
+    block_rows: int = 256,
     progress: Progress | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Krige onto every pixel ``(row, col)`` of a ``shape`` grid (x = column, y = row).
 
-    Pixels where ``mask`` is False (clouds, nodata) are skipped and returned as NaN.
-    Returns float32 (estimate, kriging variance).
+    Pixels where ``mask`` is False (clouds, nodata) are returned as NaN. ``step``: node
+    spacing (default :func:`grid_step`). Returns float32 (estimate, kriging variance).
     """
+    progress = as_progress(progress)
     height, width = shape
-    if mask is None:
-        mask = np.ones(shape, bool)
-    rows, cols = np.nonzero(mask)  # row-major: spatially sorted along the flight line
-    est, var = krige_points(
-        x,
-        y,
-        z,
-        cols.astype(float),
-        rows.astype(float),
-        variogram,
-        n_closest_points=n_closest_points,
-        backend=backend,
-        chunk=max(1, int(block_rows)) * width,
-        progress=progress,
-    )
-    dem = np.full(shape, np.nan, np.float32)
-    kv = np.full(shape, np.nan, np.float32)
-    dem[rows, cols] = est
-    kv[rows, cols] = var
+    kr = LocalKriging(x, y, z, variogram, n_closest_points, step)
+    dem = np.empty(shape, np.float32)
+    kv = np.empty(shape, np.float32)
+    n = max(1, math.ceil(height / block_rows))
+    for i, r0 in enumerate(range(0, height, block_rows)):
+        r1 = min(height, r0 + block_rows)
+        e, v = kr.grid_rows(r0, r1, width, None if mask is None else mask[r0:r1])
+        dem[r0:r1], kv[r0:r1] = e, v
+        progress.update((i + 1) / n, "kriging")
     return dem, kv
 
 
@@ -223,7 +413,6 @@ def cross_validate(
     z: np.ndarray,
     variogram: Variogram,
     n_closest_points: int = N_CLOSEST_POINTS,
-    backend: str = "C",
     fraction: float = 0.1,
     max_points: int = 2000,
     seed: int = 0,
@@ -240,19 +429,10 @@ def cross_validate(
         raise InputError(f"only {x.size} control points: too few for cross-validation")
     test = np.zeros(x.size, bool)
     test[rng.choice(x.size, n_test, replace=False)] = True
-    order = np.lexsort((x[test], y[test]))
-    xt, yt, zt = x[test][order], y[test][order], z[test][order]
     est, var = krige_points(
-        x[~test],
-        y[~test],
-        z[~test],
-        xt,
-        yt,
-        variogram,
-        n_closest_points=n_closest_points,
-        backend=backend,
+        x[~test], y[~test], z[~test], x[test], y[test], variogram, n_closest_points
     )
-    err = est - zt
+    err = est - z[test]
     with np.errstate(divide="ignore", invalid="ignore"):
         msse = float(np.nanmean(err**2 / var))
     return {

@@ -65,6 +65,113 @@ def _prepare(image: np.ndarray, weight: np.ndarray) -> np.ndarray:
     return x * win
 
 
+@dataclass(frozen=True)
+class CrossPower:
+    """The cross-power spectrum of a VNIR/SWIR pair of blocks (one or more, summed) and the
+    spectral power of each image: what the offset of :func:`offset_of` is found from.
+
+    Blocks of one size add up (``a + b``): the sum is the cross-correlation of the whole
+    flight line, block by block, so the global offset is measured in memory bounded by a
+    block.
+    """
+
+    product: np.ndarray  # F_vnir · conj(F_swir), complex (lines, columns) of a block
+    power_vnir: float  # Σ |F_vnir|²
+    power_swir: float  # Σ |F_swir|²
+    blocks: int = 1
+
+    def __add__(self, other: CrossPower) -> CrossPower:
+        return CrossPower(
+            self.product + other.product,
+            self.power_vnir + other.power_vnir,
+            self.power_swir + other.power_swir,
+            self.blocks + other.blocks,
+        )
+
+
+def _checked(vnir, swir, valid, upsample):
+    a = np.asarray(vnir)
+    b = np.asarray(swir)
+    if a.ndim != 2 or a.shape != b.shape:
+        raise InputError(
+            f"VNIR band {a.shape} and SWIR band {b.shape} must be 2-D and on the same pixel grid"
+        )
+    ok = np.isfinite(a) & np.isfinite(b)
+    if valid is not None:
+        ok &= valid
+    if ok.sum() < 64 or min(a.shape) < 8:
+        raise InputError(
+            f"only {int(ok.sum())} valid pixels in a {a.shape[0]} × {a.shape[1]} block: too few "
+            "to measure the boresight offset (use larger blocks or check the nodata/cloud mask)"
+        )
+    if upsample < 1:
+        raise ParameterError(f"parameter 'upsample': must be >= 1, got {upsample}")
+    return a, b, ok
+
+
+def _spectra(a, b, w_v, w_s) -> CrossPower:
+    from scipy.fft import fft2
+
+    fa = fft2(_prepare(a, w_v))
+    fb = fft2(_prepare(b, w_s))
+    return CrossPower(
+        fa * fb.conj(), float(np.sum(np.abs(fa) ** 2)), float(np.sum(np.abs(fb) ** 2))
+    )
+
+
+def _shift(power: CrossPower, upsample: int) -> tuple[np.ndarray, float]:
+    """skimage's shift (registering SWIR onto VNIR) and normalised RMS error of a spectrum."""
+    from skimage.registration import phase_cross_correlation
+
+    p = power.product
+    # The cross-power spectrum as the "reference" in Fourier space, against a flat "moving"
+    # spectrum: skimage's product is then exactly ``p`` (upsampled-DFT refinement included).
+    shift, err, _ = phase_cross_correlation(
+        p, np.ones(p.shape), upsample_factor=int(upsample), space="fourier", normalization=None
+    )
+    # skimage normalised the peak by Σ|p|² · (number of samples) (each / size without
+    # upsampling): recover |peak|² and normalise by the two images' powers instead.
+    scale = p.size if int(upsample) > 1 else 1.0 / p.size
+    peak2 = (1.0 - float(err) ** 2) * float(np.sum(np.abs(p) ** 2)) * scale
+    amps = power.power_vnir * power.power_swir * (1.0 if int(upsample) > 1 else p.size**-2)
+    return shift, math.sqrt(abs(1.0 - peak2 / amps)) if amps > 0 else float("nan")
+
+
+def cross_power(
+    vnir: np.ndarray,
+    swir: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    upsample: int = UPSAMPLE,
+) -> CrossPower:
+    """The cross-power spectrum of one block, masked pixels handled as in
+    :func:`estimate_offset` (which is :func:`offset_of` of it); sum blocks of one size to
+    measure a flight line's offset block by block."""
+    a, b, ok = _checked(vnir, swir, valid, upsample)
+    weight = ndimage.gaussian_filter(ok.astype(np.float64), 2.0) * ok
+    power = _spectra(a, b, weight, weight)
+    if not ok.all():
+        # A mask at the same pixels of both images removes different ground from each, which
+        # biases the shift towards 0. Second pass: keep in each image the ground both see,
+        # i.e. move the SWIR weight by the first estimate.
+        shift, _ = _shift(power, upsample)
+        moved = ndimage.shift(ok.astype(np.float64), shift, order=1, cval=0.0)
+        w_v = weight * moved
+        w_s = ndimage.shift(w_v, -shift, order=1, cval=0.0) * ok
+        if w_v.sum() > 0 and w_s.sum() > 0:
+            power = _spectra(a, b, w_v, w_s)
+    return power
+
+
+def offset_of(power: CrossPower, *, upsample: int = UPSAMPLE) -> Offset:
+    """The offset whose cross-correlation peak a (summed) cross-power spectrum holds: its
+    whole-pixel maximum refined by the upsampled DFT (Guizar-Sicairos et al. 2008)."""
+    shift, error = _shift(power, upsample)
+    # skimage returns the shift that registers ``moving`` onto ``reference``: the opposite of
+    # where the SWIR sees a VNIR feature.
+    return Offset(along=float(-shift[0]), across=float(-shift[1]), error=float(error))
+
+
 def estimate_offset(
     vnir: np.ndarray,
     swir: np.ndarray,
@@ -108,46 +215,7 @@ def estimate_offset(
     Guizar-Sicairos, M.; Thurman, S.T.; Fienup, J.R. Efficient subpixel image registration
     algorithms. Opt. Lett. 2008, 33, 156–158. https://doi.org/10.1364/OL.33.000156
     """
-    from skimage.registration import phase_cross_correlation
-
-    a = np.asarray(vnir)
-    b = np.asarray(swir)
-    if a.ndim != 2 or a.shape != b.shape:
-        raise InputError(
-            f"VNIR band {a.shape} and SWIR band {b.shape} must be 2-D and on the same pixel grid"
-        )
-    ok = np.isfinite(a) & np.isfinite(b)
-    if valid is not None:
-        ok &= valid
-    if ok.sum() < 64 or min(a.shape) < 8:
-        raise InputError(
-            f"only {int(ok.sum())} valid pixels in a {a.shape[0]} × {a.shape[1]} block: too few "
-            "to measure the boresight offset (use larger blocks or check the nodata/cloud mask)"
-        )
-    if upsample < 1:
-        raise ParameterError(f"parameter 'upsample': must be >= 1, got {upsample}")
-    weight = ndimage.gaussian_filter(ok.astype(np.float64), 2.0) * ok
-    w_v = w_s = weight
-    shift, error, _ = phase_cross_correlation(
-        _prepare(a, w_v), _prepare(b, w_s), upsample_factor=int(upsample), normalization=None
-    )
-    if not ok.all():
-        # A mask at the same pixels of both images removes different ground from each, which
-        # biases the shift towards 0. Second pass: keep in each image the ground both see,
-        # i.e. move the SWIR weight by the first estimate.
-        moved = ndimage.shift(ok.astype(np.float64), shift, order=1, cval=0.0)
-        w_v = weight * moved
-        w_s = ndimage.shift(w_v, -shift, order=1, cval=0.0) * ok
-        if w_v.sum() > 0 and w_s.sum() > 0:
-            shift, error, _ = phase_cross_correlation(
-                _prepare(a, w_v),
-                _prepare(b, w_s),
-                upsample_factor=int(upsample),
-                normalization=None,
-            )
-    # skimage returns the shift that registers ``moving`` onto ``reference``: the opposite of
-    # where the SWIR sees a VNIR feature.
-    return Offset(along=float(-shift[0]), across=float(-shift[1]), error=float(error))
+    return offset_of(cross_power(vnir, swir, valid, upsample=upsample), upsample=upsample)
 
 
 def block_offset(
@@ -163,15 +231,65 @@ def block_offset(
     The offset is NaN when less than ``min_valid_fraction`` of the block is valid (clouds,
     nodata).
     """
+    off, fraction, _ = block_power(
+        vnir, swir, valid, upsample=upsample, min_valid_fraction=min_valid_fraction
+    )
+    return off.along, off.across, off.error, fraction
+
+
+def block_power(
+    vnir: np.ndarray,
+    swir: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    upsample: int = UPSAMPLE,
+    min_valid_fraction: float = MIN_VALID_FRACTION,
+) -> tuple[Offset, float, CrossPower | None]:
+    """One block of a flight line: its offset (NaN when less than ``min_valid_fraction`` is
+    valid), its valid fraction, and its cross-power spectrum for the global offset (None when
+    the block has under 64 valid pixels)."""
     a = np.asarray(vnir)
     ok = np.isfinite(a) & np.isfinite(swir)
     if valid is not None:
         ok = ok & valid
     fraction = float(ok.mean())
+    nan = Offset(float("nan"), float("nan"), float("nan"))
+    if ok.sum() < 64 or min(a.shape) < 8:
+        return nan, fraction, None
+    power = cross_power(a, swir, ok, upsample=upsample)
     if fraction < min_valid_fraction:
-        return float("nan"), float("nan"), float("nan"), fraction
-    off = estimate_offset(a, swir, ok, upsample=upsample)
-    return off.along, off.across, off.error, fraction
+        return nan, fraction, power
+    return offset_of(power, upsample=upsample), fraction, power
+
+
+def merged_offset(
+    vnir: np.ndarray,
+    swir: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    block_rows: int = PROFILE_ROWS,
+    upsample: int = UPSAMPLE,
+) -> Offset:
+    """The global offset of a flight line from its blocks of lines: the cross-power spectra of
+    the blocks of :func:`offset_profile` (each with at least 64 valid pixels) summed, then
+    :func:`offset_of` — the cross-correlation of the whole line, measured block by block.
+
+    A line of at most ``block_rows`` lines is one block: :func:`estimate_offset` of it.
+    """
+    a = np.asarray(vnir)
+    rows = profile_block_rows(block_rows, a.shape[0])
+    total = None
+    for start in profile_starts(a.shape[0], rows):
+        block = slice(start, start + rows)
+        _, _, power = block_power(
+            a[block], swir[block], None if valid is None else valid[block], upsample=upsample
+        )
+        if power is not None:
+            total = power if total is None else total + power
+    if total is None:
+        _checked(a, swir, valid, upsample)  # raises the reason
+        raise InputError("no block of lines has 64 valid pixels: the offset cannot be measured")
+    return offset_of(total, upsample=upsample)
 
 
 def profile_block_rows(block_rows: int, height: int) -> int:

@@ -1,15 +1,24 @@
-"""The relative DEM chain of §3.2, arrays in, DEM out.
+"""The relative DEM chain of §3.2, arrays in, DEM out — whole or strip by strip.
 
-1. boresight offset (global, sub-pixel): where to centre the search;
+1. boresight offset (global, sub-pixel), merged over blocks of lines: where to centre the search;
 2. dense disparity around it, with reliability (peak, sharpness), clouds and nodata masked;
 3. disparity → height with the height-to-disparity factor; the lowest reliable region is 0;
 4. σ_d from the data, σ_h = σ_d / k; refuse when the relief does not stand out of σ_h;
-5. control points (block medians of reliable heights) → ordinary kriging (PyKrige, local
-   neighbourhood, blockwise) → DEM + kriging variance on every valid pixel.
+5. control points (cell medians of reliable heights) → ordinary kriging (local, by blocks,
+   the variogram fitted once) → DEM + kriging variance on every valid pixel.
+
+Steps 2–4 run per strip of lines (:func:`match_strip`) and are merged by
+:func:`line_statistics`, so a flight line streams in memory bounded by a strip: what a strip
+keeps is its control points (one per cell), its counts and a regular sample of its heights and
+second differences for the line's robust statistics (the datum, σ_d and the relief). The
+sample holds every value while the line has at most ``SAMPLE_SIZE`` pixels, so those
+statistics are exact up to there, and a regular lattice of ``SAMPLE_SIZE`` values beyond.
+:func:`relative_dem` runs the same steps on whole arrays.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,30 +33,36 @@ from .disparity import (
     SEARCH_ALONG,
     WINDOW,
     Disparity,
+    _window,
+    disparity_halo,
     disparity_map,
-    disparity_noise,
+    noise_from_differences,
+    second_differences,
 )
 from .height import (
     HeightFactor,
     HeightPrecision,
     disparity_to_height,
     height_precision,
-    zero_lowest,
 )
 from .kriging import (
     N_CLOSEST_POINTS,
     VARIOGRAM,
+    LocalKriging,
     Variogram,
     cross_validate,
     fit_variogram,
-    krige_grid,
 )
-from .offset import Offset, estimate_offset
+from .offset import Offset, merged_offset
 
 #: Fewest reliable pixels worth a DEM.
 MIN_RELIABLE = 100
 #: One control point per cell of this many pixels (the median of its reliable heights).
 POINT_SPACING = 5
+#: Lines per strip of a streamed flight line (rounded to whole control-point cells).
+STRIP_ROWS = 512
+#: Values kept for the line's robust statistics (heights; as many second differences).
+SAMPLE_SIZE = 2**21
 
 
 @dataclass(frozen=True)
@@ -94,6 +109,256 @@ def control_points(
     return x.astype(float), y.astype(float), med
 
 
+def strip_rows(point_spacing: int = POINT_SPACING, rows: int = STRIP_ROWS) -> int:
+    """Lines per strip: about ``rows``, whole control-point cells (so cells never straddle
+    two strips)."""
+    s = int(point_spacing)
+    return s * max(1, round(rows / s))
+
+
+def match_halo(
+    window: int | tuple[int, int] = WINDOW,
+    *,
+    search_along: int = SEARCH_ALONG,
+    refine: int = REFINE,
+    center_along: float = 0.0,
+) -> int:
+    """Lines read above and below a strip for :func:`match_strip`: the matching's own
+    (:func:`~geoboresight.dem.disparity.disparity_halo`) plus one window for the second
+    differences of σ_d."""
+    size = _window(window)
+    return size[0] + disparity_halo(
+        size, search_along=search_along, refine=refine, center_along=center_along
+    )
+
+
+def _lattice(index: np.ndarray, stride: int) -> np.ndarray:
+    """The regular sample: every ``stride``-th value of the line (by its index)."""
+    return index % stride == 0 if stride > 1 else np.ones(index.shape, bool)
+
+
+@dataclass(frozen=True)
+class StripMatches:
+    """What one strip of lines contributes to the relative DEM of its flight line."""
+
+    disparity: Disparity  # the strip's own lines
+    valid: np.ndarray  # the strip's valid pixels (the DEM covers them)
+    points: tuple[np.ndarray, np.ndarray, np.ndarray]  # column, line, raw height (m)
+    heights: np.ndarray  # lattice sample of the reliable raw heights (m)
+    seconds: np.ndarray  # lattice sample of second differences of the parallax disparity
+    reliable: int
+    valid_count: int
+
+
+def match_strip(
+    vnir: np.ndarray,
+    swir: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    factor: HeightFactor,
+    center: tuple[float, float],
+    rows: slice | None = None,
+    first_line: int = 0,
+    line_shape: tuple[int, int] | None = None,
+    window: int = WINDOW,
+    search_along: int = SEARCH_ALONG,
+    search_across: int = SEARCH_ACROSS,
+    min_peak: float = MIN_PEAK,
+    min_sharpness: float = MIN_SHARPNESS,
+    refine: int = REFINE,
+    point_spacing: int = POINT_SPACING,
+    sample_size: int = SAMPLE_SIZE,
+    progress: Progress | None = None,
+) -> StripMatches:
+    """Match one strip of a flight line and reduce it to what the line's DEM needs (§3.2).
+
+    Parameters
+    ----------
+    vnir, swir : 2-D arrays
+        The strip's matching images with their halo (:func:`match_halo` lines above and below),
+        or a whole image.
+    valid : bool array, optional
+        Pixels usable in both images (no nodata, no cloud).
+    factor : HeightFactor
+        Disparity per metre of height (px/m).
+    center : (along, across)
+        The flight line's global offset: where the search is centred.
+    rows : slice, optional
+        The strip's own lines within the arrays (all of them by default).
+    first_line : int
+        The line of the flight line that the arrays' first line is.
+    line_shape : (lines, columns), optional
+        The flight line's size (default: the arrays'); sets the sample's stride.
+    window, search_along, search_across, min_peak, min_sharpness, refine
+        The matching (:func:`~geoboresight.dem.disparity.disparity_map`).
+    point_spacing : int
+        Side of the control-point cells; a strip starts on a cell boundary
+        (:func:`strip_rows`).
+    sample_size : int
+        Values kept over the whole line for its robust statistics.
+    progress : Progress, optional
+
+    Returns
+    -------
+    StripMatches
+        The strip's disparity and valid pixels, its control points (raw heights, before the
+        datum), lattice samples of its reliable heights and of the second differences of its
+        parallax disparity, and its counts of reliable and valid pixels.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.2: image matching,
+    disparity to relative height, Figures 8 and 9).
+    """
+    vnir = np.asarray(vnir, np.float64)
+    swir = np.asarray(swir, np.float64)
+    if vnir.shape != swir.shape:
+        raise InputError(
+            f"VNIR band {vnir.shape} and SWIR band {swir.shape} are not on the same pixel grid"
+        )
+    ok = np.isfinite(vnir) & np.isfinite(swir)
+    if valid is not None:
+        if valid.shape != vnir.shape:
+            raise InputError(
+                f"the mask {valid.shape} is not on the image grid {vnir.shape}: mismatched grids"
+            )
+        ok &= valid
+    height, width = line_shape or vnir.shape
+    own = range(vnir.shape[0])[rows if rows is not None else slice(None)]
+    own = slice(own.start, own.stop)
+    # One internal block: the caller's halo is the block's.
+    disp = disparity_map(
+        vnir,
+        swir,
+        ok,
+        window=window,
+        search_along=search_along,
+        search_across=search_across,
+        center=center,
+        refine=refine,
+        min_peak=min_peak,
+        min_sharpness=min_sharpness,
+        block_rows=vnir.shape[0] if rows is not None else 256,
+        progress=progress,
+    )
+    # The disparity component along the parallax direction carries the height.
+    k = factor.magnitude
+    d_par = (disp.along * factor.along + disp.across * factor.across) / k
+    sec = second_differences(d_par, disp.reliable, disp.window[0], rows=own)
+    # The lattice of second differences: along the lines then along the columns, by centre.
+    s = disp.window[0]
+    line0 = first_line + own.start
+    n_lines = own.stop - own.start
+    index = _second_index(disp.reliable, d_par, own, s, line0, height, width)
+    seconds = sec[_lattice(index, _stride(2 * height * width, sample_size))]
+    reliable = disp.reliable[own]
+    h = disparity_to_height(disp.along[own], disp.across[own], factor)
+    ok_h = reliable & np.isfinite(h)
+    pix = (line0 + np.arange(n_lines))[:, None] * width + np.arange(width)[None, :]
+    heights = h[ok_h & _lattice(pix, _stride(height * width, sample_size))]
+    x, y, z = control_points(h, reliable, point_spacing)
+    own_disp = Disparity(
+        along=disp.along[own],
+        across=disp.across[own],
+        peak=disp.peak[own],
+        sharpness=disp.sharpness[own],
+        reliable=reliable,
+        window=disp.window,
+        search=disp.search,
+    )
+    return StripMatches(
+        own_disp,
+        ok[own],
+        (x, y + line0, z),
+        heights,
+        seconds,
+        int(reliable.sum()),
+        int(ok[own].sum()),
+    )
+
+
+def _stride(n_values: int, sample_size: int) -> int:
+    return max(1, math.ceil(n_values / max(1, int(sample_size))))
+
+
+def _second_index(reliable, d_par, own, s, line0, height, width) -> np.ndarray:
+    """The index on the line of every finite second difference of
+    :func:`~geoboresight.dem.disparity.second_differences` (same order): its centre's pixel
+    index, offset by the line's size for the differences along the columns."""
+    d = np.where(reliable, d_par, np.nan)
+    out = []
+    lo, hi = max(own.start, s), min(own.stop, d.shape[0] - s)
+    if hi > lo:
+        fin = np.isfinite(d[lo - s : hi - s] - 2 * d[lo:hi] + d[lo + s : hi + s])
+        r, c = np.nonzero(fin)
+        out.append((line0 + lo - own.start + r) * width + c)
+    if d.shape[1] > 2 * s and own.stop > own.start:
+        o = d[own]
+        fin = np.isfinite(o[:, : -2 * s] - 2 * o[:, s:-s] + o[:, 2 * s :])
+        r, c = np.nonzero(fin)
+        out.append(height * width + (line0 + r) * width + c + s)
+    return np.concatenate(out) if out else np.empty(0, np.int64)
+
+
+@dataclass(frozen=True)
+class LineStatistics:
+    """The flight line's matching merged from its strips."""
+
+    datum: float  # raw height (m) of the lowest reliable region, set to 0 m
+    precision: HeightPrecision
+    points: tuple[np.ndarray, np.ndarray, np.ndarray]  # column, line, height above the datum
+    reliable: int
+    valid: int
+
+
+def line_statistics(
+    strips,
+    *,
+    factor: HeightFactor,
+    window: int = WINDOW,
+    min_peak: float = MIN_PEAK,
+    zero_percentile: float = 1.0,
+    progress: Progress | None = None,
+) -> LineStatistics:
+    """Merge the strips of a flight line (:func:`match_strip`, in line order): the datum (the
+    ``zero_percentile`` of the reliable heights is 0 m), σ_d and the height precision, and the
+    control points above the datum.
+
+    Raises :class:`InputError` when there are too few reliable matches or control points.
+    """
+    progress = as_progress(progress)
+    strips = list(strips)
+    n_rel = sum(p.reliable for p in strips)
+    n_ok = sum(p.valid_count for p in strips)
+    progress.info(
+        f"disparity: {n_rel} reliable pixels of {n_ok} valid "
+        f"({100.0 * n_rel / max(n_ok, 1):.1f} %), window {window} px"
+    )
+    if n_rel < MIN_RELIABLE:
+        raise InputError(
+            f"no reliable matches between the VNIR and SWIR images ({n_rel} pixels pass the "
+            f"reliability test with a {window} px window, min_peak {min_peak}): use a larger "
+            f"matching window (e.g. {2 * (window // 2) + 1 + 10} px) or lower min_peak, and "
+            "check that both bands see the same scene"
+        )
+    heights = np.concatenate([p.heights for p in strips])
+    if heights.size == 0:
+        raise InputError("no reliable height to set the lowest region to 0")
+    datum = float(np.percentile(heights, zero_percentile))
+    sigma_d = noise_from_differences(np.concatenate([p.seconds for p in strips]))
+    precision = height_precision(
+        heights - datum,
+        np.ones(heights.size, bool),
+        sigma_d,
+        factor,
+        window=window,
+        n_pixels=n_rel,
+    )
+    x, y, z = (np.concatenate([p.points[i] for p in strips]) for i in range(3))
+    return LineStatistics(datum, precision, (x, y, z - datum), n_rel, n_ok)
+
+
 def relative_dem(
     vnir: np.ndarray,
     swir: np.ndarray,
@@ -109,7 +374,6 @@ def relative_dem(
     point_spacing: int = POINT_SPACING,
     variogram_model: str = VARIOGRAM,
     n_closest_points: int = N_CLOSEST_POINTS,
-    backend: str = "C",
     zero_percentile: float = 1.0,
     validate: bool = True,
     require_meaningful: bool = True,
@@ -148,9 +412,8 @@ def relative_dem(
     variogram_model : {"spherical", "exponential", "gaussian", "linear", "power"}
         Variogram model fitted to the control points (PyKrige).
     n_closest_points : int
-        Control points in each local kriging neighbourhood.
-    backend : {"C", "loop"}
-        PyKrige's backend for moving-window kriging.
+        Control points in each local kriging neighbourhood
+        (:class:`~geoboresight.dem.kriging.LocalKriging`).
     zero_percentile : float
         Percentile (0–100) of the reliable heights set to 0 m: the lowest region.
     validate : bool
@@ -204,73 +467,82 @@ def relative_dem(
                 f"the mask {valid.shape} is not on the image grid {vnir.shape}: mismatched grids"
             )
         ok &= valid
-    offset = estimate_offset(vnir, swir, ok)
+    offset = merged_offset(vnir, swir, ok)
     progress.info(
         f"boresight offset: {offset.along:+.3f} px along-track, {offset.across:+.3f} px "
         "across-track (search centre)"
     )
-    disp = disparity_map(
+    strip = match_strip(
         vnir,
         swir,
         ok,
+        factor=factor,
+        center=(offset.along, offset.across),
         window=window,
         search_along=search_along,
         search_across=search_across,
-        center=(offset.along, offset.across),
-        refine=refine,
         min_peak=min_peak,
         min_sharpness=min_sharpness,
+        refine=refine,
+        point_spacing=point_spacing,
         progress=progress.sub(0.0, 0.3),
     )
-    n_rel = int(disp.reliable.sum())
-    progress.info(
-        f"disparity: {n_rel} reliable pixels of {int(ok.sum())} valid "
-        f"({100.0 * n_rel / max(ok.sum(), 1):.1f} %), window {window} px"
+    line = line_statistics(
+        [strip],
+        factor=factor,
+        window=window,
+        min_peak=min_peak,
+        zero_percentile=zero_percentile,
+        progress=progress,
     )
-    if n_rel < MIN_RELIABLE:
-        raise InputError(
-            f"no reliable matches between the VNIR and SWIR images ({n_rel} pixels pass the "
-            f"reliability test with a {window} px window, min_peak {min_peak}): use a larger "
-            f"matching window (e.g. {2 * (window // 2) + 1 + 10} px) or lower min_peak, and "
-            "check that both bands see the same scene"
-        )
-    h = disparity_to_height(disp.along, disp.across, factor)
-    h = np.where(disp.reliable, zero_lowest(h, disp.reliable, zero_percentile), np.nan)
-    # The disparity component along the parallax direction carries the height.
-    k = factor.magnitude
-    d_par = (disp.along * factor.along + disp.across * factor.across) / k
-    sigma_d = disparity_noise(d_par, disp.reliable, spacing=disp.window[0])
-    precision = height_precision(h, disp.reliable, sigma_d, factor)
+    precision = line.precision
     progress.info(precision.message())
     if not precision.meaningful and require_meaningful:
         raise InputError(precision.message())
-    x, y, z = control_points(h, disp.reliable, point_spacing)
+    x, y, z = line.points
+    vg = fit_points(x, y, z, variogram_model, progress)
+    kr = LocalKriging(x, y, z, vg, n_closest_points)
+    dem, var = kr.grid_rows(0, vnir.shape[0], vnir.shape[1], ok)
+    cv = None
+    if validate:
+        cv = validate_kriging(x, y, z, vg, n_closest_points, progress)
+    progress.update(1.0, "relative DEM done")
+    disp = strip.disparity
+    h = disparity_to_height(disp.along, disp.across, factor) - line.datum
+    h = np.where(disp.reliable, h, np.nan)
+    return RelativeDem(
+        dem.astype(np.float32),
+        var.astype(np.float32),
+        h.astype(np.float32),
+        disp,
+        offset,
+        factor,
+        precision,
+        vg,
+        (x, y, z),
+        cv,
+    )
+
+
+def fit_points(x, y, z, model: str, progress: Progress | None = None) -> Variogram:
+    """The variogram of the line's control points (:func:`~geoboresight.dem.kriging.
+    fit_variogram`), refusing fewer than 10 points with the remedy."""
     if x.size < 10:
         raise InputError(
             f"only {x.size} control points: too few reliable matches for a surface; use a "
             "larger matching window or a smaller point spacing"
         )
-    vg = fit_variogram(x, y, z, model=variogram_model)
-    progress.info(f"{x.size} control points; variogram {vg.model}: {vg.describe()}")
-    dem, var = krige_grid(
-        x,
-        y,
-        z,
-        vnir.shape,
-        vg,
-        mask=ok,
-        n_closest_points=n_closest_points,
-        backend=backend,
-        progress=progress.sub(0.3, 0.95),
+    vg = fit_variogram(x, y, z, model=model)
+    as_progress(progress).info(f"{x.size} control points; variogram {vg.model}: {vg.describe()}")
+    return vg
+
+
+def validate_kriging(x, y, z, variogram, n_closest_points, progress=None) -> dict:
+    """Hold-out cross-validation of the kriging (:func:`~geoboresight.dem.kriging.
+    cross_validate`), reported."""
+    cv = cross_validate(x, y, z, variogram, n_closest_points=n_closest_points)
+    as_progress(progress).info(
+        f"kriging cross-validation ({cv['n']} held-out points): RMSE {cv['rmse_m']:.2f} m, "
+        f"mean error {cv['mean_error_m']:+.2f} m"
     )
-    cv = None
-    if validate:
-        cv = cross_validate(x, y, z, vg, n_closest_points=n_closest_points, backend=backend)
-        progress.info(
-            f"kriging cross-validation ({cv['n']} held-out points): RMSE {cv['rmse_m']:.2f} m, "
-            f"mean error {cv['mean_error_m']:+.2f} m"
-        )
-    progress.update(1.0, "relative DEM done")
-    return RelativeDem(
-        dem, var, h.astype(np.float32), disp, offset, factor, precision, vg, (x, y, z), cv
-    )
+    return cv

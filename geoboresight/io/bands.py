@@ -8,6 +8,7 @@ mean of a band range) is the kernel :func:`geoboresight.dem.bands.band_mean`.
 from __future__ import annotations
 
 import contextlib
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -117,6 +118,87 @@ class MatchingPair:
         return info
 
 
+class MatchingReader:
+    """The VNIR and SWIR matching images of a flight line, read strip by strip.
+
+    ``read(row0, row1) -> (vnir, swir, valid)`` (float64, float64, bool) for
+    :func:`~geoboresight.io.windows.map_windows`: each image is one band or the mean of a band
+    range (:func:`~geoboresight.dem.bands.band_mean`), valid where every band read is valid and
+    cloud-free. Use :func:`open_matching_pair` (a context manager: the files stay open).
+    """
+
+    def __init__(self, dual, vbs, sbs, read_v, read_s, read_c):
+        self.dual = dual
+        self.vnir_bands, self.swir_bands = vbs, sbs
+        self.height, self.width = dual.grid.shape
+        self._v, self._s, self._c = read_v, read_s, read_c
+        self._lock = threading.Lock()
+
+    def read(self, row0: int, row1: int):
+        # One open dataset per file: worker threads of map_windows read one at a time.
+        with self._lock:
+            v, ok_v = self._v(row0, row1)
+            s, ok_s = self._s(row0, row1)
+            cloud = self._c(row0, row1) if self._c is not None else None
+        v, _ = band_mean(v, ok_v)
+        s, _ = band_mean(s, ok_s)
+        ok = ok_v & ok_s
+        if cloud is not None:
+            ok &= ~((cloud[0] != 0) & cloud[1])
+        return v.astype(np.float64), s.astype(np.float64), ok
+
+    def info(self) -> dict:
+        """The bands matched, for tags and reports (the bands averaged, if more than one)."""
+        vb, sb = self.vnir_bands[0], self.swir_bands[0]
+        info = {
+            "vnir_band": vb,
+            "vnir_wavelength_nm": round(self.dual.vnir.wavelength_of(vb), 3),
+            "swir_band": sb,
+            "swir_wavelength_nm": round(self.dual.swir.wavelength_of(sb), 3),
+        }
+        if len(self.vnir_bands) > 1 or len(self.swir_bands) > 1:
+            info["vnir_bands_averaged"] = self.vnir_bands
+            info["swir_bands_averaged"] = self.swir_bands
+        return info
+
+
+@contextlib.contextmanager
+def open_matching_pair(
+    dual: DualSensor,
+    *,
+    vnir_nm: float,
+    swir_nm: float,
+    vnir_to_nm: float | None = None,
+    swir_to_nm: float | None = None,
+    tolerance_nm: float = TOLERANCE_NM,
+    cloud_mask: str | None = None,
+):
+    """Open the VNIR and SWIR matching images of a flight line for reading strip by strip
+    (yields a :class:`MatchingReader`).
+
+    Each image is the band nearest ``vnir_nm`` (``swir_nm``), or the mean of the bands centred
+    in [``vnir_nm``, ``vnir_to_nm``] ([``swir_nm``, ``swir_to_nm``]). Valid where every band
+    read is valid and, with a ``cloud_mask`` (non-zero = cloud) on the same grid, cloud-free.
+    """
+    vbs = band_range(dual.vnir, vnir_nm, vnir_to_nm, tolerance_nm, "vnir_to_nm")
+    sbs = band_range(dual.swir, swir_nm, swir_to_nm, tolerance_nm, "swir_to_nm")
+    with (
+        open_raster(dual.vnir.path, "VNIR") as v_src,
+        open_raster(dual.swir.path, "SWIR") as s_src,
+        open_raster(cloud_mask, "cloud mask") if cloud_mask else contextlib.nullcontext() as c_src,
+    ):
+        if c_src is not None:
+            require_on_grid(c_src, dual.grid, f"cloud mask {cloud_mask}")
+        yield MatchingReader(
+            dual,
+            vbs,
+            sbs,
+            bands_reader([(v_src, b) for b in vbs]),
+            bands_reader([(s_src, b) for b in sbs]),
+            band_reader(c_src, 1) if c_src is not None else None,
+        )
+
+
 def read_matching_pair(
     dual: DualSensor,
     *,
@@ -129,44 +211,24 @@ def read_matching_pair(
     block_rows: int = DEFAULT_BLOCK_ROWS,
     progress: Progress | None = None,
 ) -> MatchingPair:
-    """Read the VNIR and SWIR matching images of a flight line, strip by strip.
-
-    Each image is the band nearest ``vnir_nm`` (``swir_nm``), or the mean of the bands centred
-    in [``vnir_nm``, ``vnir_to_nm``] ([``swir_nm``, ``swir_to_nm``]). Valid where every band
-    read is valid and, with a ``cloud_mask`` (non-zero = cloud) on the same grid, cloud-free.
-    """
-    vbs = band_range(dual.vnir, vnir_nm, vnir_to_nm, tolerance_nm, "vnir_to_nm")
-    sbs = band_range(dual.swir, swir_nm, swir_to_nm, tolerance_nm, "swir_to_nm")
+    """Read the whole VNIR and SWIR matching images of a flight line, strip by strip
+    (:func:`open_matching_pair`; for the whole-array kernels)."""
     height, width = dual.grid.shape
     vnir = np.empty((height, width), np.float64)
     swir = np.empty((height, width), np.float64)
     valid = np.empty((height, width), bool)
-    with (
-        open_raster(dual.vnir.path, "VNIR") as v_src,
-        open_raster(dual.swir.path, "SWIR") as s_src,
-        open_raster(cloud_mask, "cloud mask") if cloud_mask else contextlib.nullcontext() as c_src,
-    ):
-        if c_src is not None:
-            require_on_grid(c_src, dual.grid, f"cloud mask {cloud_mask}")
-        read_v = bands_reader([(v_src, b) for b in vbs])
-        read_s = bands_reader([(s_src, b) for b in sbs])
-        read_c = band_reader(c_src, 1) if c_src is not None else None
-
-        def read(row0: int, row1: int):
-            cloud = read_c(row0, row1) if read_c else (None, None)
-            return (*read_v(row0, row1), *read_s(row0, row1), *cloud)
-
-        def means(v, ok_v, s, ok_s, cloud, ok_c):
-            v, _ = band_mean(v, ok_v)
-            s, _ = band_mean(s, ok_s)
-            ok = ok_v & ok_s
-            if cloud is not None:
-                ok &= ~((cloud != 0) & ok_c)
-            return v, s, ok
-
+    with open_matching_pair(
+        dual,
+        vnir_nm=vnir_nm,
+        swir_nm=swir_nm,
+        vnir_to_nm=vnir_to_nm,
+        swir_to_nm=swir_to_nm,
+        tolerance_nm=tolerance_nm,
+        cloud_mask=cloud_mask,
+    ) as pair:
         for win, (v, s, ok) in map_windows(
-            read,
-            means,
+            pair.read,
+            lambda v, s, ok: (v, s, ok),
             height=height,
             width=width,
             block_rows=block_rows,
@@ -175,4 +237,4 @@ def read_matching_pair(
         ):
             rows = slice(win.row_off, win.row_off + win.height)
             vnir[rows], swir[rows], valid[rows] = v, s, ok
-    return MatchingPair(vnir, swir, valid, vbs, sbs, dual)
+    return MatchingPair(vnir, swir, valid, pair.vnir_bands, pair.swir_bands, dual)

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
+from dataclasses import replace
+
 import numpy as np
 
 from .. import io
@@ -13,12 +16,20 @@ from ..dem.disparity import (
     SEARCH_ACROSS,
     SEARCH_ALONG,
     WINDOW,
+    disparity_halo,
     disparity_map,
 )
 from ..dem.height import ground_sample_distance, parallax_factor
-from ..dem.kriging import N_CLOSEST_POINTS, VARIOGRAM
-from ..dem.offset import estimate_offset
-from ..dem.relative import POINT_SPACING, relative_dem
+from ..dem.kriging import N_CLOSEST_POINTS, VARIOGRAM, LocalKriging
+from ..dem.relative import (
+    POINT_SPACING,
+    fit_points,
+    line_statistics,
+    match_halo,
+    match_strip,
+    strip_rows,
+    validate_kriging,
+)
 from ..dem.view3d import (
     AZIMUTH,
     BLUE_NM,
@@ -30,9 +41,13 @@ from ..dem.view3d import (
     stretch_rgb,
 )
 from ..errors import InputError
-from ..io.bands import read_bands, read_matching_pair, require_on_grid
+from ..io.bands import open_matching_pair, read_bands, require_on_grid
 from ..io.dual import SEAM_NM, TOLERANCE_NM
 from ._operation import operation
+from .offset import line_offset
+
+#: Worker threads matching strips of a flight line (the filters and warps release the GIL).
+MATCH_WORKERS = 2
 
 #: The bands of a disparity raster.
 DISPARITY_BANDS = [
@@ -51,6 +66,26 @@ def _disparity_stack(d, valid) -> np.ndarray:
         [np.where(keep, b, io.FLOAT_NODATA) for b in (d.along, d.across, d.peak, d.sharpness)]
         + [np.where(valid, d.reliable.astype("float32"), io.FLOAT_NODATA)]
     ).astype("float32")
+
+
+def _raster_or_none(path, grid, **options):
+    """:func:`~geoboresight.io.create_raster` for an optional output (None: nothing)."""
+    return io.create_raster(path, grid, **options) if path else contextlib.nullcontext()
+
+
+def _own_lines(d, valid, inner: slice):
+    """A strip's own lines of a disparity computed on the strip and its halo."""
+    return (
+        replace(
+            d,
+            along=d.along[inner],
+            across=d.across[inner],
+            peak=d.peak[inner],
+            sharpness=d.sharpness[inner],
+            reliable=d.reliable[inner],
+        ),
+        valid[inner],
+    )
 
 
 @operation(inputs=("vnir", "swir", "cloud_mask"), outputs=("output",))
@@ -123,7 +158,7 @@ def disparity_file(
     within ± 3 pixels along-track and ± 1 across-track).
     """
     dual = io.open_dual(vnir, swir, seam_nm, vnir_wavelengths, swir_wavelengths)
-    pair = read_matching_pair(
+    with open_matching_pair(
         dual,
         vnir_nm=vnir_nm,
         swir_nm=swir_nm,
@@ -131,48 +166,66 @@ def disparity_file(
         swir_to_nm=swir_to_nm,
         tolerance_nm=tolerance_nm,
         cloud_mask=cloud_mask,
-        progress=progress.sub(0.0, 0.05),
-    )
-    off = estimate_offset(pair.vnir, pair.swir, pair.valid)
-    progress.info(f"search centred on the global offset {off.along:+.3f}, {off.across:+.3f} px")
-    d = disparity_map(
-        pair.vnir,
-        pair.swir,
-        pair.valid,
-        window=window,
-        search_along=search_along,
-        search_across=search_across,
-        center=(off.along, off.across),
-        refine=refine,
-        min_peak=min_peak,
-        min_sharpness=min_sharpness,
-        progress=progress.sub(0.05, 0.9),
-    )
-    n_rel = int(d.reliable.sum())
-    progress.info(f"{n_rel} reliable pixels of {int(pair.valid.sum())} valid")
+    ) as pair:
+        off, _ = line_offset(pair, progress=progress.sub(0.0, 0.1))
+        progress.info(f"search centred on the global offset {off.along:+.3f}, {off.across:+.3f} px")
+        tags = {
+            "product": "VNIR/SWIR disparity (SWIR minus VNIR position, px)",
+            **pair.info(),
+            "window_px": window,
+            "search_along_px": search_along,
+            "search_across_px": search_across,
+            "min_peak": min_peak,
+            "min_sharpness": min_sharpness,
+            "offset_along_px": f"{off.along:.4f}",
+            "offset_across_px": f"{off.across:.4f}",
+        }
+        halo = disparity_halo(
+            window, search_along=search_along, refine=refine, center_along=off.along
+        )
+
+        def match(v, s, ok, *, block):
+            ok = ok & np.isfinite(v) & np.isfinite(s)
+            d = disparity_map(
+                v,
+                s,
+                ok,
+                window=window,
+                search_along=search_along,
+                search_across=search_across,
+                center=(off.along, off.across),
+                refine=refine,
+                min_peak=min_peak,
+                min_sharpness=min_sharpness,
+                block_rows=v.shape[0],  # one block: the strip's halo is the block's
+            )
+            return _own_lines(d, ok, block.inner)
+
+        n_rel = n_ok = 0
+        with io.create_raster(
+            output, dual.grid, count=len(DISPARITY_BANDS), tags=tags, band_names=DISPARITY_BANDS
+        ) as dst:
+            for win, (d, ok) in io.map_windows(
+                pair.read,
+                match,
+                height=pair.height,
+                width=pair.width,
+                block_rows=strip_rows(1),
+                halo=(halo, halo),
+                pass_block=True,
+                workers=MATCH_WORKERS,
+                progress=progress.sub(0.1, 0.95),
+                message="matching VNIR and SWIR",
+            ):
+                dst.write(_disparity_stack(d, ok), window=win)
+                n_rel += int(d.reliable.sum())
+                n_ok += int(ok.sum())
+    progress.info(f"{n_rel} reliable pixels of {n_ok} valid")
     if n_rel == 0:
         raise InputError(
             f"no reliable matches with a {window} px window: use a larger window "
             "(--window 21) or lower --min-peak"
         )
-    tags = {
-        "product": "VNIR/SWIR disparity (SWIR minus VNIR position, px)",
-        **pair.info(),
-        "window_px": window,
-        "search_along_px": search_along,
-        "search_across_px": search_across,
-        "min_peak": min_peak,
-        "min_sharpness": min_sharpness,
-        "offset_along_px": f"{off.along:.4f}",
-        "offset_across_px": f"{off.across:.4f}",
-    }
-    io.write_raster(
-        output,
-        _disparity_stack(d, pair.valid),
-        like=dual.grid,
-        tags=tags,
-        band_names=DISPARITY_BANDS,
-    )
     return {
         "output": output,
         "reliable_pixels": n_rel,
@@ -298,7 +351,9 @@ def relative_dem_file(
     )
     gsd = ground_sample_distance(flying_height, ifov_mrad)
     dual = io.open_dual(vnir, swir, seam_nm, vnir_wavelengths, swir_wavelengths)
-    pair = read_matching_pair(
+    progress.info(f"height-to-disparity factor {factor.magnitude:.5f} px/m ({parallax_axis}-track)")
+    rows = strip_rows(point_spacing)
+    with open_matching_pair(
         dual,
         vnir_nm=vnir_nm,
         swir_nm=swir_nm,
@@ -306,76 +361,77 @@ def relative_dem_file(
         swir_to_nm=swir_to_nm,
         tolerance_nm=tolerance_nm,
         cloud_mask=cloud_mask,
-        progress=progress.sub(0.0, 0.05),
-    )
-    info = pair.info()
-    progress.info(f"height-to-disparity factor {factor.magnitude:.5f} px/m ({parallax_axis}-track)")
-    r = relative_dem(
-        pair.vnir,
-        pair.swir,
-        pair.valid,
-        factor=factor,
-        window=window,
-        search_along=search_along,
-        search_across=search_across,
-        min_peak=min_peak,
-        min_sharpness=min_sharpness,
-        refine=refine,
-        point_spacing=point_spacing,
-        variogram_model=variogram,
-        n_closest_points=n_closest_points,
-        require_meaningful=not force,
-        progress=progress.sub(0.05, 0.95),
-    )
-    p = r.precision
-    tags = {
-        "product": "relative DEM (Brook & Ben-Dor 2011, 3.2): 0 m = lowest reliable region",
-        **info,
-        "sigma_d_px": f"{p.sigma_d_px:.4f}",
-        "sigma_h_m": f"{p.sigma_h_m:.4f}",
-        "relief_std_m": f"{p.relief_m:.3f}",
-        "relief_to_noise": f"{p.snr:.3f}",
-        "relief_test": p.test(),
-        "meaningful": "yes" if p.meaningful else "NO: the relief does not stand out of sigma_h",
-        "height_factor_px_per_m": f"{factor.magnitude:.6f}",
-        "parallax_axis": parallax_axis,
-        "offset_along_px": f"{r.offset.along:.4f}",
-        "offset_across_px": f"{r.offset.across:.4f}",
-        "window_px": window,
-        "search_along_px": search_along,
-        "search_across_px": search_across,
-        "min_peak": min_peak,
-        "point_spacing_px": point_spacing,
-        "control_points": r.points[0].size,
-        "variogram": f"{r.variogram.model}: {r.variogram.describe()}",
-        "n_closest_points": n_closest_points,
-        "units": "metres",
-    }
-    if gsd is not None:
-        tags["gsd_m"] = f"{gsd:.4f}"
-    io.write_raster(
-        output,
-        np.where(np.isfinite(r.dem), r.dem, io.FLOAT_NODATA).astype("float32"),
-        like=dual.grid,
-        tags=tags,
-        band_names=["relative height (m)"],
-    )
-    if variance:
-        io.write_raster(
-            variance,
-            np.where(np.isfinite(r.variance), r.variance, io.FLOAT_NODATA).astype("float32"),
-            like=dual.grid,
-            tags={**tags, "product": "kriging variance of the relative DEM (m²)"},
-            band_names=["kriging variance (m²)"],
+    ) as pair:
+        info = pair.info()
+        off, _ = line_offset(pair, progress=progress.sub(0.0, 0.1))
+        progress.info(
+            f"boresight offset: {off.along:+.3f} px along-track, {off.across:+.3f} px "
+            "across-track (search centre)"
         )
-    if disparity:
-        io.write_raster(
+        disparity_tags: dict = {}  # written when the raster closes, once the line is known
+        with _raster_or_none(
             disparity,
-            _disparity_stack(r.disparity, pair.valid),
-            like=dual.grid,
-            tags={**tags, "product": "VNIR/SWIR disparity (px) and reliability"},
+            dual.grid,
+            count=len(DISPARITY_BANDS),
+            tags=disparity_tags,
             band_names=DISPARITY_BANDS,
-        )
+        ) as ddst:
+            line, valid_strips = _match_line(
+                pair,
+                off,
+                factor,
+                dict(
+                    window=window,
+                    search_along=search_along,
+                    search_across=search_across,
+                    min_peak=min_peak,
+                    min_sharpness=min_sharpness,
+                    refine=refine,
+                    point_spacing=point_spacing,
+                ),
+                rows,
+                ddst,
+                progress.sub(0.1, 0.75),
+            )
+            p = line.precision
+            progress.info(p.message())
+            if not p.meaningful and not force:
+                raise InputError(p.message())
+            x, y, z = line.points
+            vg = fit_points(x, y, z, variogram, progress)
+            tags = {
+                "product": "relative DEM (Brook & Ben-Dor 2011, 3.2): 0 m = lowest reliable region",
+                **info,
+                "sigma_d_px": f"{p.sigma_d_px:.4f}",
+                "sigma_h_m": f"{p.sigma_h_m:.4f}",
+                "relief_std_m": f"{p.relief_m:.3f}",
+                "relief_to_noise": f"{p.snr:.3f}",
+                "relief_test": p.test(),
+                "meaningful": "yes"
+                if p.meaningful
+                else "NO: the relief does not stand out of sigma_h",
+                "height_factor_px_per_m": f"{factor.magnitude:.6f}",
+                "parallax_axis": parallax_axis,
+                "offset_along_px": f"{off.along:.4f}",
+                "offset_across_px": f"{off.across:.4f}",
+                "window_px": window,
+                "search_along_px": search_along,
+                "search_across_px": search_across,
+                "min_peak": min_peak,
+                "point_spacing_px": point_spacing,
+                "control_points": x.size,
+                "variogram": f"{vg.model}: {vg.describe()}",
+                "n_closest_points": n_closest_points,
+                "units": "metres",
+            }
+            if gsd is not None:
+                tags["gsd_m"] = f"{gsd:.4f}"
+            disparity_tags.update(tags, product="VNIR/SWIR disparity (px) and reliability")
+    kriging = LocalKriging(x, y, z, vg, n_closest_points)
+    dem_range = _write_kriged(
+        kriging, valid_strips, rows, dual.grid, output, variance, tags, progress.sub(0.75, 0.95)
+    )
+    cv = validate_kriging(x, y, z, vg, n_closest_points, progress)
     result = {
         "output": output,
         "sigma_d_px": round(p.sigma_d_px, 4),
@@ -388,19 +444,116 @@ def relative_dem_file(
         "meaningful": bool(p.meaningful),
         "message": p.message(),
         "height_factor_px_per_m": factor.magnitude,
-        "offset_along_px": round(r.offset.along, 4),
-        "offset_across_px": round(r.offset.across, 4),
-        "reliable_pixels": int(r.disparity.reliable.sum()),
-        "control_points": int(r.points[0].size),
-        "variogram": {"model": r.variogram.model, "parameters": list(r.variogram.parameters)},
-        "cross_validation": r.cross_validation,
-        "dem_range_m": [float(np.nanmin(r.dem)), float(np.nanmax(r.dem))],
+        "offset_along_px": round(off.along, 4),
+        "offset_across_px": round(off.across, 4),
+        "reliable_pixels": int(line.reliable),
+        "control_points": int(x.size),
+        "variogram": {"model": vg.model, "parameters": list(vg.parameters)},
+        "cross_validation": cv,
+        "dem_range_m": dem_range,
         **info,
     }
     if report:
         io.write_json(report, result)
     progress.update(1.0, "relative DEM written")
     return result
+
+
+def _match_line(pair, offset, factor, options: dict, rows: int, dst, progress):
+    """Match a flight line strip by strip (:func:`~geoboresight.dem.relative.match_strip`
+    through :func:`~geoboresight.io.map_windows`, each strip with its halo), writing the
+    disparity to ``dst`` (optional), and merge the strips
+    (:func:`~geoboresight.dem.relative.line_statistics`). Returns the line's statistics and
+    each strip's valid pixels, bit-packed (the DEM covers them)."""
+    height, width = pair.height, pair.width
+    halo = match_halo(
+        options["window"],
+        search_along=options["search_along"],
+        refine=options["refine"],
+        center_along=offset.along,
+    )
+
+    def match(v, s, ok, *, block):
+        return match_strip(
+            v,
+            s,
+            ok,
+            factor=factor,
+            center=(offset.along, offset.across),
+            rows=block.inner,
+            first_line=block.row0,
+            line_shape=(height, width),
+            **options,
+        )
+
+    strips, valid = [], []
+    for win, part in io.map_windows(
+        pair.read,
+        match,
+        height=height,
+        width=width,
+        block_rows=rows,
+        halo=(halo, halo),
+        pass_block=True,
+        workers=MATCH_WORKERS,
+        progress=progress,
+        message="matching VNIR and SWIR",
+    ):
+        if dst is not None:
+            dst.write(_disparity_stack(part.disparity, part.valid), window=win)
+        valid.append(np.packbits(part.valid))
+        strips.append(replace(part, disparity=None, valid=None))  # keep the small parts only
+    line = line_statistics(
+        strips,
+        factor=factor,
+        window=options["window"],
+        min_peak=options["min_peak"],
+        progress=progress,
+    )
+    return line, valid
+
+
+def _write_kriged(kriging, valid_strips, rows, grid, output, variance, tags, progress):
+    """Krige the DEM and its variance strip by strip onto the valid pixels and write them;
+    returns the DEM's [min, max] (m)."""
+    height, width = grid.shape
+
+    def read(row0: int, row1: int):
+        bits = valid_strips[row0 // rows]
+        return np.unpackbits(bits, count=(row1 - row0) * width).reshape(-1, width).astype(bool)
+
+    def krige(ok, *, block):
+        return kriging.grid_rows(*block.rows, width, ok)
+
+    lo, hi = np.inf, -np.inf
+    with (
+        io.create_raster(output, grid, tags=tags, band_names=["relative height (m)"]) as dst,
+        _raster_or_none(
+            variance,
+            grid,
+            tags={**tags, "product": "kriging variance of the relative DEM (m²)"},
+            band_names=["kriging variance (m²)"],
+        ) as vdst,
+    ):
+        for win, (dem, var) in io.map_windows(
+            read,
+            krige,
+            height=height,
+            width=width,
+            block_rows=rows,
+            pass_block=True,
+            progress=progress,
+            message="kriging",
+        ):
+            dem = dem.astype("float32")
+            ok = np.isfinite(dem)
+            if ok.any():
+                lo, hi = min(lo, float(dem[ok].min())), max(hi, float(dem[ok].max()))
+            dst.write(np.where(ok, dem, io.FLOAT_NODATA)[None], window=win)
+            if vdst is not None:
+                var = var.astype("float32")
+                vdst.write(np.where(np.isfinite(var), var, io.FLOAT_NODATA)[None], window=win)
+    return [float(lo), float(hi)] if lo <= hi else [float("nan"), float("nan")]
 
 
 @operation(inputs=("dem", "vnir", "swir"), outputs=("output",))

@@ -9,50 +9,98 @@ from .. import io
 from ..dem.coregister import SPLINE_ORDER, coregister, coregister_halo, profile_to_lines
 from ..dem.offset import (
     PROFILE_ROWS,
-    block_offset,
-    estimate_offset,
+    block_power,
     offset_angles,
+    offset_of,
     profile_block_rows,
     profile_figure,
     profile_of,
 )
-from ..errors import ParameterError
-from ..io.bands import masked_bands_reader, read_matching_pair
+from ..errors import InputError, ParameterError
+from ..io.bands import masked_bands_reader, open_matching_pair
 from ..io.dual import SEAM_NM, SWIR_NM, TOLERANCE_NM, VNIR_NM
+from ..progress import as_progress
 from ._operation import operation
 
 #: The convention of every offset reported.
 CONVENTION = "a feature at VNIR (line r, column c) appears at SWIR (r + along, c + across)"
 
 
-def drift_profile(pair, rows: int, progress=None):
-    """The offset per block of ``rows`` lines of a matching pair, block by block through
-    :func:`~geoboresight.io.map_windows`: the blocks of :func:`~geoboresight.dem.offset.
-    offset_profile` (the last one flush with the end of the line, read from the halo above)."""
-    height, width = pair.vnir.shape
+def line_offset(pair, profile_rows: int = 0, progress=None):
+    """The global offset of a flight line and its drift, block by block through
+    :func:`~geoboresight.io.map_windows` (memory bounded by a block, whatever the line's length).
+
+    Every block of ``PROFILE_ROWS`` lines (the last one flush with the end of the line) gives its
+    cross-power spectrum (:func:`~geoboresight.dem.offset.block_power`); their sum gives the
+    global offset (:func:`~geoboresight.dem.offset.merged_offset` on whole arrays). With
+    ``profile_rows`` > 0 the offset of each block of that many lines is the drift profile
+    (:func:`~geoboresight.dem.offset.offset_profile`; the same pass when it is
+    ``PROFILE_ROWS``). ``pair`` is a :class:`~geoboresight.io.bands.MatchingReader`.
+    Returns ``(Offset, OffsetProfile or None)``.
+    """
+    progress = as_progress(progress)
+    same = profile_rows == PROFILE_ROWS
+    total, blocks = None, []
+    for line, off, fraction, power in _blocks(
+        pair, PROFILE_ROWS, progress.sub(0.0, 1.0 if same or not profile_rows else 0.5)
+    ):
+        if power is not None:
+            total = power if total is None else total + power
+        blocks.append((line, off.along, off.across, off.error, fraction))
+    if total is None:
+        raise InputError(
+            "no block of lines of the matching images has 64 valid pixels: the boresight offset "
+            "cannot be measured (check the nodata values and the cloud mask)"
+        )
+    profile = None
+    if profile_rows and not same:
+        blocks = [
+            (line, off.along, off.across, off.error, fraction)
+            for line, off, fraction, _ in _blocks(pair, profile_rows, progress.sub(0.5, 1.0))
+        ]
+    if profile_rows:
+        profile = profile_of(blocks)
+    return offset_of(total), profile
+
+
+def _blocks(pair, rows: int, progress):
+    """``(centre line, Offset, valid fraction, CrossPower or None)`` per block of ``rows`` lines
+    of :func:`~geoboresight.dem.offset.offset_profile`, the last block flush with the end."""
+    height, width = pair.height, pair.width
     rows = profile_block_rows(rows, height)
 
     def read(row0: int, row1: int):
-        return pair.vnir[row0:row1], pair.swir[row0:row1], pair.valid[row0:row1]
+        # Each block is the ``rows`` lines ending with its strip (the last one reaches into
+        # the block above): read only those.
+        return pair.read(max(0, row1 - rows), row1)
 
     def one(v, s, ok, *, block):
         first = min(block.window.row_off, height - rows)
-        own = slice(first - block.row0, first - block.row0 + rows)
-        return (first + (rows - 1) / 2, *block_offset(v[own], s[own], ok[own]))
+        start = block.rows[1] - v.shape[0]
+        own = slice(first - start, first - start + rows)
+        off, fraction, power = block_power(v[own], s[own], ok[own])
+        return first + (rows - 1) / 2, off, fraction, power
 
+    for _, part in io.map_windows(
+        read,
+        one,
+        height=height,
+        width=width,
+        block_rows=rows,
+        halo=(rows, 0),
+        pass_block=True,
+        progress=progress,
+        message="offset per block of lines",
+    ):
+        yield part
+
+
+def drift_profile(pair, rows: int, progress=None):
+    """The offset per block of ``rows`` lines of a flight line (:func:`line_offset`'s blocks:
+    those of :func:`~geoboresight.dem.offset.offset_profile`)."""
     return profile_of(
-        part
-        for _, part in io.map_windows(
-            read,
-            one,
-            height=height,
-            width=width,
-            block_rows=rows,
-            halo=(rows, 0),
-            pass_block=True,
-            progress=progress,
-            message="offset per block of lines",
-        )
+        (line, off.along, off.across, off.error, fraction)
+        for line, off, fraction, _ in _blocks(pair, rows, as_progress(progress))
     )
 
 
@@ -127,7 +175,7 @@ def boresight_offset_file(
     Eq. 3).
     """
     dual = io.open_dual(vnir, swir, seam_nm, vnir_wavelengths, swir_wavelengths)
-    pair = read_matching_pair(
+    with open_matching_pair(
         dual,
         vnir_nm=vnir_nm,
         swir_nm=swir_nm,
@@ -135,14 +183,13 @@ def boresight_offset_file(
         swir_to_nm=swir_to_nm,
         tolerance_nm=tolerance_nm,
         cloud_mask=cloud_mask,
-        progress=progress.sub(0.0, 0.1),
-    )
-    info = pair.info()
-    progress.info(
-        f"matching VNIR band {info['vnir_band']} ({info['vnir_wavelength_nm']} nm) with SWIR "
-        f"band {info['swir_band']} ({info['swir_wavelength_nm']} nm)"
-    )
-    off = estimate_offset(pair.vnir, pair.swir, pair.valid)
+    ) as pair:
+        info = pair.info()
+        progress.info(
+            f"matching VNIR band {info['vnir_band']} ({info['vnir_wavelength_nm']} nm) with "
+            f"SWIR band {info['swir_band']} ({info['swir_wavelength_nm']} nm)"
+        )
+        off, prof = line_offset(pair, profile_rows, progress.sub(0.0, 0.95))
     result = {
         "along_px": round(off.along, 4),
         "across_px": round(off.across, 4),
@@ -161,9 +208,7 @@ def boresight_offset_file(
             else ""
         )
     )
-    progress.update(0.3, "global offset")
-    if profile_rows:
-        prof = drift_profile(pair, profile_rows, progress.sub(0.3, 0.95))
+    if prof is not None:
         result["profile"] = [
             {
                 "line": float(r),
@@ -280,7 +325,7 @@ def coregister_file(
     order = int(order)
     dual = io.open_dual(vnir, swir, seam_nm, vnir_wavelengths, swir_wavelengths)
     if along is None:
-        pair = read_matching_pair(
+        with open_matching_pair(
             dual,
             vnir_nm=vnir_nm,
             swir_nm=swir_nm,
@@ -288,10 +333,11 @@ def coregister_file(
             swir_to_nm=swir_to_nm,
             tolerance_nm=tolerance_nm,
             cloud_mask=cloud_mask,
-            progress=progress.sub(0.0, 0.1),
-        )
+        ) as pair:
+            off, prof = line_offset(
+                pair, profile_rows if follow_drift else 0, progress.sub(0.0, 0.2)
+            )
         if follow_drift:
-            prof = drift_profile(pair, profile_rows, progress.sub(0.1, 0.2))
             along = profile_to_lines(prof.rows, prof.along, dual.height)
             across = profile_to_lines(prof.rows, prof.across, dual.height)
             progress.info(
@@ -299,7 +345,6 @@ def coregister_file(
                 f"along {np.nanmin(prof.along):+.3f}…{np.nanmax(prof.along):+.3f} px"
             )
         else:
-            off = estimate_offset(pair.vnir, pair.swir, pair.valid)
             along, across = off.along, off.across
     per_line = np.ndim(along) > 0
     if not per_line:
