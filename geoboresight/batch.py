@@ -45,7 +45,10 @@ def read_jobs(path: str) -> list[dict]:
         raise InputError(f"jobs file {path} does not exist")
     if path.lower().endswith(".json"):
         with open(path, encoding="utf-8") as f:
-            jobs = json.load(f)
+            try:
+                jobs = json.load(f)
+            except json.JSONDecodeError as exc:
+                raise InputError(f"jobs file {path} is not valid JSON ({exc})") from None
         if not isinstance(jobs, list) or not all(isinstance(j, dict) for j in jobs):
             raise InputError(f"jobs file {path}: expected a JSON list of objects (one per job)")
         return jobs

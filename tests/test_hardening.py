@@ -455,3 +455,17 @@ def test_every_message_is_one_line():
     assert len(catalogue) > 150
     for module, func, _cls, template in catalogue:
         assert "\n" not in template, (module, func, template)
+
+
+def test_batch_with_a_garbled_jobs_file_is_one_line(tmp_path):
+    jobs = tmp_path / "jobs.json"
+    jobs.write_text("[{not json")
+    from click.testing import CliRunner
+
+    from geoboresight.cli import main
+
+    result = CliRunner().invoke(main, ["batch", "ratio", str(jobs)])
+    assert result.exit_code == 1
+    assert error_line(result) == f"Error: jobs file {jobs} is not valid JSON " + (
+        "(Expecting property name enclosed in double quotes: line 1 column 3 (char 2))"
+    )
