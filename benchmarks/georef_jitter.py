@@ -3,7 +3,7 @@
 For each jitter (standard deviation of roll, pitch and yaw, correlated over 24 lines) and
 seed: simulate a 256-line urban line with its orthophoto (``simulate_ortho``), place it
 roughly from its four corners moved by 4–6 m, run the automatic tie points
-(``match_tie_points``, SIFT, blocks of 32 lines and thin-plate spline), and measure the
+(``match_tie_points``, SIFT, blocks of 16 lines and thin-plate spline), and measure the
 fitted coordinates of every raw pixel against the true IGM, in pixels (1.5 m). A run is
 "refused" as ``auto-georeference`` would refuse it: fewer than 12 inliers or a cross-validated
 RMSE above 1 px. Accuracy, not speed: no peer exists (QGIS's Georeferencer is manual).

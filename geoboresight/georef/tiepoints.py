@@ -33,7 +33,7 @@ DETECTORS = ("sift", "orb")
 MODELS = ("blocks", "tps")
 #: Lines per block of the piecewise model and of RANSAC (the wobble's shortest period to
 #: follow is about two blocks).
-BLOCK_LINES = 32
+BLOCK_LINES = 16
 #: Largest displacement (product pixels) between the product and the placed reference.
 MAX_SHIFT_PX = 30.0
 #: RANSAC inlier threshold (product pixels).
