@@ -493,6 +493,16 @@ def _specific_cases() -> list[Case]:
     )
     c.append(
         Case(
+            "simulate-ortho-overwrite-user-folder",
+            "simulate-ortho",
+            {"output": "mine"},
+            ("mine", "notes.txt", "never emptied"),
+            setup=user_folder,
+            extra=["--overwrite"],
+        )
+    )
+    c.append(
+        Case(
             "report-products-holds-input",
             "report",
             {"products": "."},

@@ -162,6 +162,15 @@ def test_simulate_refuses_a_file_or_a_foreign_folder_before_simulating(tmp_path)
     assert (tmp_path / "plain").read_text() == "a file"
 
 
+def test_simulate_ortho_overwrites_its_own_folder(tmp_path):
+    out = tmp_path / "o"
+    gb.simulate_ortho_file(output=str(out), lines=16, ortho_cell=4.0)
+    first = snapshot(out)
+    gb.simulate_ortho_file(output=str(out), lines=16, ortho_cell=4.0, seed=1, overwrite=True)
+    assert set(snapshot(out)) == set(first) and snapshot(out) != first
+    assert sorted(os.listdir(tmp_path)) == ["o"]
+
+
 # --- inputs protected by identity ---------------------------------------------------------
 
 

@@ -635,9 +635,12 @@ def simulate_ortho_file(
     dict
         ``output`` and the files written.
     """
-    from ..io.orthoscene import write_ortho_scene
+    from ..io.orthoscene import ORTHO_SCENE_FILES, write_ortho_scene
+    from ..io.write import check_folder_replaceable
     from ..simulate.ortho import simulate_ortho
 
+    # Before simulating: an existing folder holding the user's own files is never replaced.
+    check_folder_replaceable(output, ORTHO_SCENE_FILES)
     progress.update(0.0, "simulate")
     scene = simulate_ortho(
         preset,
@@ -649,5 +652,6 @@ def simulate_ortho_file(
         seed=int(seed),
     )
     progress.update(0.9, "write")
-    files = write_ortho_scene(scene, output)
+    # The operation has refused an existing folder unless asked to overwrite it.
+    files = write_ortho_scene(scene, output, overwrite=True)
     return {"output": output, "files": files}
