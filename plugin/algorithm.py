@@ -361,15 +361,20 @@ class EngineAlgorithm(QgsProcessingAlgorithm):
 
     def processAlgorithm(self, parameters, context, feedback):  # noqa: N802
         values = self.collect(parameters, context)
-        engine = engine_client.locate(required=True)
         outputs = [
             values[p["name"]]
             for p in self.spec["params"]
             if p["is_output"] and values.get(p["name"])
         ]
-        result = engine_client.run(
-            engine, self.name(), values, feedback, overwrite=True, outputs=outputs
-        )
+        try:
+            engine = engine_client.locate(required=True)
+            result = engine_client.run(
+                engine, self.name(), values, feedback, overwrite=True, outputs=outputs
+            )
+        except engine_client.EngineError as exc:
+            # QGIS shows a plain QgsProcessingException as its message alone (a Python
+            # subclass would reach the user as a traceback)
+            raise QgsProcessingException(str(exc)) from None
         declared = {r["name"]: r for r in self.declared_results()}
         outputs_by_name = {p["name"]: p for p in self.spec["params"] if p["is_output"]}
         outputs = {}

@@ -237,6 +237,13 @@ class SetupEngineAlgorithm(QgsProcessingAlgorithm):
         self.addOutput(QgsProcessingOutputString(self.VERSION, "Engine version"))
 
     def processAlgorithm(self, parameters, context, feedback):  # noqa: N802
+        try:
+            return self.set_up(parameters, context, feedback)
+        except (SetupError, engine_client.EngineError) as exc:
+            # a plain QgsProcessingException: QGIS shows its message alone, no traceback
+            raise QgsProcessingException(str(exc)) from None
+
+    def set_up(self, parameters, context, feedback) -> dict:
         package = self.parameterAsFile(parameters, self.PACKAGE, context)
         folder = self.parameterAsFile(parameters, self.FOLDER, context)
         given = self.parameterAsFile(parameters, self.PYTHON, context)

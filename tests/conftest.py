@@ -46,7 +46,7 @@ def pytest_runtest_makereport(item, call):
     elif (
         report.when == "call"
         and report.passed
-        and {"qgis_app", "qgis_env"} & set(item.fixturenames)
+        and {"qgis_app", "qgis_env", "desktop"} & set(item.fixturenames)
     ):
         item.config._geoboresight_qgis_ran += 1  # a test that really ran QGIS
 
