@@ -257,6 +257,31 @@ def test_matching_pair_by_windows_equals_whole(scene, block_rows):
     assert not whole.valid[5:20, 5:30].any() and whole.valid.sum() == 120 * 96 - 15 * 25
 
 
+@pytest.mark.parametrize("interleave", ["bsq", "bil", "bip"])
+def test_raw_envi_matching_pair_equals_gdal(tmp_path, interleave):
+    """Raw ENVI files are read directly (io.Cube): the same means and validity (nodata in one
+    band of each file) as the band-by-band GDAL reads of the same data in GeoTIFFs."""
+    h = bump(40, 30)
+    v, s, _, _ = pair(40, 30, offset=(0.5, 0.1), dsm=h, k_along=K, noise=3.0)
+    vc, sc = (np.round(c * 10).astype("uint16") for c in _cubes(v + 200, s + 200))
+    vc[11, 3, 4] = 7
+    sc[2, 10, 20] = 7
+    paths = {}
+    for name, cube, wl in (("vnir", vc, VNIR_WL), ("swir", sc, SWIR_WL)):
+        paths[name] = write_envi(
+            tmp_path / f"{name}.img", cube, wl, interleave=interleave, nodata=7
+        )
+        paths[name + "_tif"] = write_gtiff(tmp_path / f"{name}.tif", cube, wl, nodata=7)
+    args = dict(vnir_nm=910.0, vnir_to_nm=970.0, swir_nm=980.0, swir_to_nm=1100.0)
+    raw = read_matching_pair(io.open_dual(paths["vnir"], paths["swir"]), **args, block_rows=16)
+    gdal = read_matching_pair(
+        io.open_dual(paths["vnir_tif"], paths["swir_tif"]), **args, block_rows=16
+    )
+    for name in ("vnir", "swir", "valid"):
+        np.testing.assert_array_equal(getattr(raw, name), getattr(gdal, name), err_msg=name)
+    assert not raw.valid[3, 4] and not raw.valid[10, 20] and raw.valid.sum() == 40 * 30 - 2
+
+
 @pytest.mark.parametrize("drift", [False, True])
 @pytest.mark.parametrize("block_rows", [16, 256])
 def test_coregister_file_by_strips_equals_whole_band(scene, tmp_path, drift, block_rows):

@@ -244,10 +244,12 @@ def block_power(
     *,
     upsample: int = UPSAMPLE,
     min_valid_fraction: float = MIN_VALID_FRACTION,
+    measure: bool = True,
 ) -> tuple[Offset, float, CrossPower | None]:
     """One block of a flight line: its offset (NaN when less than ``min_valid_fraction`` is
-    valid), its valid fraction, and its cross-power spectrum for the global offset (None when
-    the block has under 64 valid pixels)."""
+    valid, or unless ``measure``: its upsampled-DFT refinement is most of the cost), its valid
+    fraction, and its cross-power spectrum for the global offset (None when the block has
+    under 64 valid pixels)."""
     a = np.asarray(vnir)
     ok = np.isfinite(a) & np.isfinite(swir)
     if valid is not None:
@@ -257,7 +259,7 @@ def block_power(
     if ok.sum() < 64 or min(a.shape) < 8:
         return nan, fraction, None
     power = cross_power(a, swir, ok, upsample=upsample)
-    if fraction < min_valid_fraction:
+    if fraction < min_valid_fraction or not measure:
         return nan, fraction, power
     return offset_of(power, upsample=upsample), fraction, power
 

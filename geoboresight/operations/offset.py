@@ -42,7 +42,7 @@ def line_offset(pair, profile_rows: int = 0, progress=None):
     same = profile_rows == PROFILE_ROWS
     total, blocks = None, []
     for line, off, fraction, power in _blocks(
-        pair, PROFILE_ROWS, progress.sub(0.0, 1.0 if same or not profile_rows else 0.5)
+        pair, PROFILE_ROWS, progress.sub(0.0, 1.0 if same or not profile_rows else 0.5), same
     ):
         if power is not None:
             total = power if total is None else total + power
@@ -56,16 +56,17 @@ def line_offset(pair, profile_rows: int = 0, progress=None):
     if profile_rows and not same:
         blocks = [
             (line, off.along, off.across, off.error, fraction)
-            for line, off, fraction, _ in _blocks(pair, profile_rows, progress.sub(0.5, 1.0))
+            for line, off, fraction, _ in _blocks(pair, profile_rows, progress.sub(0.5, 1.0), True)
         ]
     if profile_rows:
         profile = profile_of(blocks)
     return offset_of(total), profile
 
 
-def _blocks(pair, rows: int, progress):
+def _blocks(pair, rows: int, progress, measure: bool):
     """``(centre line, Offset, valid fraction, CrossPower or None)`` per block of ``rows`` lines
-    of :func:`~geoboresight.dem.offset.offset_profile`, the last block flush with the end."""
+    of :func:`~geoboresight.dem.offset.offset_profile`, the last block flush with the end (the
+    offset NaN unless ``measure``)."""
     height, width = pair.height, pair.width
     rows = profile_block_rows(rows, height)
 
@@ -78,7 +79,7 @@ def _blocks(pair, rows: int, progress):
         first = min(block.window.row_off, height - rows)
         start = block.rows[1] - v.shape[0]
         own = slice(first - start, first - start + rows)
-        off, fraction, power = block_power(v[own], s[own], ok[own])
+        off, fraction, power = block_power(v[own], s[own], ok[own], measure=measure)
         return first + (rows - 1) / 2, off, fraction, power
 
     for _, part in io.map_windows(
@@ -100,7 +101,7 @@ def drift_profile(pair, rows: int, progress=None):
     those of :func:`~geoboresight.dem.offset.offset_profile`)."""
     return profile_of(
         (line, off.along, off.across, off.error, fraction)
-        for line, off, fraction, _ in _blocks(pair, rows, as_progress(progress))
+        for line, off, fraction, _ in _blocks(pair, rows, as_progress(progress), True)
     )
 
 

@@ -1,0 +1,330 @@
+"""Benchmark: every product of a whole flight line, wall time and peak memory per operation.
+
+    .venv/bin/python benchmarks/flightline.py [--lines 20000] [--memory-lines 5000,20000,80000]
+        [--memory-ops boresight-offset,relative-dem] [--workdir /tmp] [--no-rx-limit]
+
+1. **The line.** A scene is simulated once (``geoboresight simulate --preset mixed --geometry
+   large-squint``, ``--tile`` lines, default 500) and tiled along-track into a flight line of
+   ``--lines`` lines (ENVI BIL uint16, 286 columns, VNIR 96 + SWIR 102 bands: 20,000 lines =
+   2.27 GB). BIL stores a line after another, so tiling repeats the files' bytes. The files
+   are flushed to disk (``os.sync``) and read once before any timing: a freshly written 2 GB
+   file read while the kernel is still flushing it was measured 60× slower.
+2. **Nine operations and the report**, each as its own process through the command line, one
+   after another as a user (or ``report``) would: ``ratio``, ``stats``, ``shadow-classes``,
+   ``shadow-cluster``, ``boresight-offset``, ``relative-dem``, ``rx``, ``svdd``,
+   ``boresight-indicator``, then ``report --products``. Wall time and peak RSS come from
+   ``os.wait4`` (the child's ``ru_maxrss``; the children are started by ``posix_spawn``/
+   ``vfork``, so they do not inherit this process's peak, which stays small anyway).
+3. **Memory in line length**: the same (or the ``--memory-ops``) operations on lines of
+   ``--memory-lines`` lines; peak at the longest ÷ peak at the shortest.
+4. **RX against its streamed limit**, in the same run: a process that only reads the cube
+   block by block (same strips, threads and bands as ``rx``) and runs the covariance ``syrk``
+   and the whitening GEMMs (the same triangular blocks), twice over the line, beside ``rx``.
+
+Lines are written in ``--workdir`` (checked for free space first) and deleted at the end
+unless ``--keep``. Prints Markdown tables (paste them into benchmarks/RESULTS.md with the
+load average printed at the start and the end).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+EXE = os.path.join(os.path.dirname(sys.executable), "geoboresight")
+COLS, BYTES_PER_PIXEL_LINE = 286, 198 * 2
+GEOMETRY = {"squint_deg": 3.0, "flying_height": 1500.0, "ifov_mrad": 1.0}  # large-squint
+NINE = (
+    "ratio",
+    "stats",
+    "shadow-classes",
+    "shadow-cluster",
+    "boresight-offset",
+    "relative-dem",
+    "rx",
+    "svdd",
+    "boresight-indicator",
+)
+
+
+def load() -> str:
+    """The 1, 5 and 15 minute load averages (the machine is shared)."""
+    return " / ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
+def free_gb(path: str) -> float:
+    st = os.statvfs(path)
+    return st.f_bavail * st.f_frsize / 1e9
+
+
+def run(cmd: list[str], log: str) -> dict:
+    """Run ``cmd``; its wall time (s), peak RSS (GB) from ``os.wait4`` and exit status."""
+    with open(log, "ab") as err:
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=err)
+        _, status, usage = os.wait4(proc.pid, 0)
+        wall = time.perf_counter() - t0
+    proc.returncode = os.waitstatus_to_exitcode(status)  # reaped here, not by Popen
+    return {
+        "seconds": wall,
+        "peak_gb": usage.ru_maxrss / 1024**2,  # KiB on Linux
+        "status": proc.returncode,
+        "command": " ".join(os.path.basename(c) if c == EXE else c for c in cmd),
+    }
+
+
+def simulate(work: str, tile: int, seed: int) -> str:
+    scene = os.path.join(work, f"scene{tile}")
+    if not os.path.exists(os.path.join(scene, "vnir.hdr")):
+        subprocess.run(
+            [EXE, "simulate", "--preset", "mixed", "--lines", str(tile), "--seed", str(seed)]
+            + ["--geometry", "large-squint", "--clouds", "1", "--output", scene],
+            check=True,
+            stdout=subprocess.DEVNULL,
+        )
+    return scene
+
+
+def make_line(scene: str, out: str, lines: int) -> str:
+    """Tile the simulated scene along-track into ``lines`` lines (streamed: little memory)."""
+    os.makedirs(out, exist_ok=True)
+    for name in ("vnir", "swir"):
+        with open(os.path.join(scene, f"{name}.hdr"), encoding="utf-8") as f:
+            hdr = f.read()
+        n0 = int(re.search(r"lines\s*=\s*(\d+)", hdr).group(1))
+        with open(os.path.join(scene, f"{name}.img"), "rb") as f:
+            data = f.read()
+        per_line = len(data) // n0
+        with open(os.path.join(out, f"{name}.img"), "wb") as f:
+            left = lines
+            while left:
+                k = min(left, n0)
+                f.write(data[: k * per_line])
+                left -= k
+        with open(os.path.join(out, f"{name}.hdr"), "w", encoding="utf-8") as f:
+            f.write(re.sub(r"lines\s*=\s*\d+", f"lines   = {lines}", hdr))
+        del data
+    # Let the data reach the disk, then read it once (the page cache then holds it, as for
+    # any file the user has just copied): no operation pays for the kernel's flushing.
+    os.sync()
+    for name in ("vnir", "swir"):
+        with open(os.path.join(out, f"{name}.img"), "rb", buffering=0) as f:
+            buf = bytearray(64 << 20)
+            while f.readinto(buf):
+                pass
+    return out
+
+
+def commands(line: str, out: str) -> dict[str, list[str]]:
+    v, s = os.path.join(line, "vnir.hdr"), os.path.join(line, "swir.hdr")
+    o = lambda name: os.path.join(out, name)  # noqa: E731
+    geo = [f"--{k.replace('_', '-')}={val}" for k, val in GEOMETRY.items()]
+    return {
+        "ratio": ["ratio", "--vnir", v, "--swir", s, "--output", o("ratio.tif")],
+        "stats": ["stats", "--input", o("ratio.tif"), "--output", o("stats.json")],
+        "shadow-classes": [
+            "shadow-classes",
+            "--ratio",
+            o("ratio.tif"),
+            "--output",
+            o("classes.tif"),
+            "--mask",
+            o("mask.tif"),
+        ],
+        "shadow-cluster": [
+            "shadow-cluster",
+            "--ratio",
+            o("ratio.tif"),
+            "--vnir",
+            v,
+            "--output",
+            o("cluster.tif"),
+        ],
+        "boresight-offset": [
+            "boresight-offset",
+            "--vnir",
+            v,
+            "--swir",
+            s,
+            "--output",
+            o("offset.json"),
+            "--plot",
+            o("offset.png"),
+        ],
+        "relative-dem": ["relative-dem", "--vnir", v, "--swir", s, *geo]
+        + ["--output", o("dem.tif"), "--variance", o("dem_var.tif"), "--report", o("dem.json")],
+        "rx": ["rx", "--vnir", v, "--swir", s, "--output", o("rx.tif")],
+        "svdd": ["svdd", "--vnir", v, "--swir", s, "--output", o("svdd.tif")],
+        "boresight-indicator": [
+            "boresight-indicator",
+            "--ratio",
+            o("ratio.tif"),
+            "--output",
+            o("indicator.tif"),
+        ],
+        "report": ["report", "--vnir", v, "--swir", s, *geo]
+        + ["--output", o("report.html"), "--products", o("products")],
+    }
+
+
+RX_LIMIT = """
+import sys, threading, numpy as np
+from geoboresight import io
+from geoboresight.anomaly.rx import _triangular_blocks
+from geoboresight.operations.anomaly import CUBE_BLOCK_ROWS, open_image
+cube, bands, _ = open_image(sys.argv[1], sys.argv[2])
+k = len(bands)
+strips = dict(height=cube.height, width=cube.width, block_rows=CUBE_BLOCK_ROWS,
+              workers=io.windows.default_workers())
+local = threading.local()
+def buffers(n):
+    if getattr(local, "n", 0) < n:
+        local.x, local.z, local.n = np.empty((k, n)), np.empty((k, n)), n
+    return local.x[:, :n], local.z[:, :n]
+def cov(data, valid):  # read + the covariance GEMM (syrk) alone
+    x, _ = buffers(data[0].size)
+    np.copyto(x, data.reshape(k, -1), casting="unsafe")
+    return x @ x.T
+total = np.zeros((k, k))
+for _, c in io.map_windows(cube.reader(bands, None), cov, **strips):
+    total += c
+W = _triangular_blocks(np.tril(np.ones((k, k))), np.float64)
+def white(data, valid):  # read + the whitening GEMMs alone
+    x, z = buffers(data[0].size)
+    np.copyto(x, data.reshape(k, -1), casting="unsafe")
+    for wb, a, b in W:
+        np.matmul(wb, x[:b], out=z[a:b])
+for _ in io.map_windows(cube.reader(bands, None), white, **strips):
+    pass
+"""
+
+
+def table(rows: list[tuple], header: tuple) -> str:
+    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    out += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
+    return "\n".join(out)
+
+
+def run_ops(line: str, ops, out: str, log: str) -> dict:
+    os.makedirs(out, exist_ok=True)
+    cmds = commands(line, out)
+    res = {}
+    for op in ops:
+        res[op] = run([EXE, *cmds[op], "--overwrite"], log)
+        r = res[op]
+        print(
+            f"  {op:20s} {r['seconds']:7.1f} s  {r['peak_gb']:.3f} GB"
+            + (f"  FAILED ({r['status']})" if r["status"] else ""),
+            flush=True,
+        )
+    return res
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--lines", type=int, default=20000)
+    ap.add_argument("--memory-lines", default="5000,20000,80000")
+    ap.add_argument(
+        "--memory-ops",
+        default=",".join(NINE),
+        help="operations of the memory table (comma-separated; default the nine)",
+    )
+    ap.add_argument("--tile", type=int, default=500, help="lines of the simulated scene")
+    ap.add_argument("--seed", type=int, default=4)
+    ap.add_argument("--workdir", default=tempfile.gettempdir())
+    ap.add_argument("--keep", action="store_true")
+    ap.add_argument("--no-report", action="store_true")
+    ap.add_argument("--no-rx-limit", action="store_true")
+    ap.add_argument("--json", help="also write every figure to this JSON file")
+    args = ap.parse_args(argv)
+
+    work = tempfile.mkdtemp(prefix="gb-flightline-", dir=args.workdir)
+    log = os.path.join(work, "stderr.log")
+    figures: dict = {"load_start": load(), "lines": args.lines}
+    print(f"work folder {work}; load average {figures['load_start']}", flush=True)
+    try:
+        scene = simulate(work, args.tile, args.seed)
+        sizes = sorted({args.lines, *(int(x) for x in args.memory_lines.split(",") if x)})
+        need = max(sizes) * COLS * BYTES_PER_PIXEL_LINE / 1e9
+        if free_gb(work) < need + 2:
+            print(f"not enough space in {work} for a {need:.1f} GB line", file=sys.stderr)
+            return 1
+
+        # 1–2: the nine operations and the report on the main line.
+        line = make_line(scene, os.path.join(work, f"line{args.lines}"), args.lines)
+        gb = sum(os.path.getsize(os.path.join(line, f"{n}.img")) for n in ("vnir", "swir")) / 1e9
+        print(f"line of {args.lines} lines: {gb:.2f} GB", flush=True)
+        res = run_ops(line, NINE, os.path.join(work, "out"), log)
+        total = sum(r["seconds"] for r in res.values())
+        peak = max(r["peak_gb"] for r in res.values())
+        rows = [(op, f"{r['seconds']:.1f}", f"{r['peak_gb']:.2f}") for op, r in res.items()]
+        rows.append(("**total**", f"**{total:.1f}**", f"**{peak:.2f}**"))
+        figures["operations"] = res
+        if not args.no_report:
+            rep = run_ops(line, ["report"], os.path.join(work, "out"), log)["report"]
+            rows.append(("`report --products`", f"{rep['seconds']:.1f}", f"{rep['peak_gb']:.2f}"))
+            figures["report"] = rep
+        print(f"\n{args.lines} lines ({gb:.2f} GB), load average now {load()}\n")
+        print(table(rows, ("operation", "wall (s)", "peak RSS (GB)")))
+
+        # 4: RX against the streamed limit, on the same line in the same run.
+        if not args.no_rx_limit:
+            v, s = (os.path.join(line, f"{n}.hdr") for n in ("vnir", "swir"))
+            lim = run([sys.executable, "-c", RX_LIMIT, v, s], log)
+            again = run_ops(line, ["rx"], os.path.join(work, "out"), log)["rx"]
+            rx_s = min(res["rx"]["seconds"], again["seconds"])
+            figures["rx_limit"] = {"limit": lim, "rx": [res["rx"], again]}
+            print(
+                f"\nRX {rx_s:.1f} s (best of two) vs streamed limit (read + syrk, read + "
+                f"whitening GEMMs) {lim['seconds']:.1f} s: {rx_s / lim['seconds']:.2f}×"
+            )
+        if not args.keep:
+            shutil.rmtree(line, ignore_errors=True)
+
+        # 3: memory against the line's length.
+        ops = [o for o in args.memory_ops.split(",") if o]
+        mem: dict = {}
+        for n in sizes:
+            if n == args.lines and set(ops) <= set(res):
+                mem[n] = {o: res[o] for o in ops}
+                continue
+            print(f"\nmemory run: {n} lines", flush=True)
+            ln = make_line(scene, os.path.join(work, f"line{n}"), n)
+            mem[n] = run_ops(ln, ops, os.path.join(work, f"out{n}"), log)
+            shutil.rmtree(ln, ignore_errors=True)
+            shutil.rmtree(os.path.join(work, f"out{n}"), ignore_errors=True)
+        lo, hi = min(sizes), max(sizes)
+        header = ("operation", *(f"{n:,} lines (GB)" for n in sizes), f"{hi:,} / {lo:,}")
+        rows = [
+            (
+                o,
+                *(f"{mem[n][o]['peak_gb']:.3f}" for n in sizes),
+                f"{mem[hi][o]['peak_gb'] / mem[lo][o]['peak_gb']:.2f}×",
+            )
+            for o in ops
+        ]
+        figures["memory"] = {str(n): mem[n] for n in sizes}
+        print(f"\npeak RSS against line length, load average now {load()}\n")
+        print(table(rows, header))
+        figures["load_end"] = load()
+        if args.json:
+            with open(args.json, "w", encoding="utf-8") as f:
+                json.dump(figures, f, indent=1)
+    finally:
+        if not args.keep:
+            shutil.rmtree(work, ignore_errors=True)
+        else:
+            print(f"kept {work}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
