@@ -111,7 +111,7 @@ class _Stats:
             ma = f(aa, self.size, mode="constant") / n
             var_a = f(aa * aa, self.size, mode="constant") / n - ma * ma
         moments = (n, aa, ma, var_a)
-        if len(self._cache) < 8:
+        if len(self._cache) < 2:  # a strip holds few patterns; each is 4 strip-sized arrays
             self._cache[key] = (w, moments)
         return moments
 

@@ -60,7 +60,7 @@ MIN_RELIABLE = 100
 #: One control point per cell of this many pixels (the median of its reliable heights).
 POINT_SPACING = 5
 #: Lines per strip of a streamed flight line (rounded to whole control-point cells).
-STRIP_ROWS = 1024
+STRIP_ROWS = 512
 #: Values kept for the line's robust statistics (heights; as many second differences).
 SAMPLE_SIZE = 2**21
 
