@@ -75,6 +75,15 @@ def steps(scene: Path, out: Path) -> list[tuple[str, dict]]:
             },
         ),
         (
+            "shadow-map",
+            {
+                "vnir": v,
+                "swir": s,
+                "output": o("shadow_map_classes.tif"),
+                "mask": o("shadow_map_mask.tif"),
+            },
+        ),
+        (
             "shadow-classes",
             {"ratio": ratio, "output": o("shadow_classes.tif"), "mask": o("shadow_mask.tif")},
         ),

@@ -129,9 +129,10 @@ def shadow_classes_file(
     def kernel(values, valid):
         c = table.classify(values, valid)
         m = table.mask(c, mask_fraction) if mask else None
-        return c, m, np.bincount(c.ravel(), minlength=256)
+        return c, m, np.bincount(c.ravel(), minlength=256), cls.ratio_histogram(values, valid)
 
     counts = np.zeros(256, dtype=np.int64)
+    hist = np.zeros(len(cls.MODE_BINS) - 1, dtype=np.int64)
     with contextlib.ExitStack() as stack:
         src = stack.enter_context(io.open_raster(ratio, "ratio raster"))
         grid = io.Grid.of(src)
@@ -156,7 +157,7 @@ def shadow_classes_file(
                     f"shadow mask (fraction ≥ {mask_fraction:g})",
                 )
             )
-        for win, (c, m, n) in io.map_windows(
+        for win, (c, m, n, h) in io.map_windows(
             io.band_reader(src, band),
             kernel,
             height=grid.height,
@@ -169,14 +170,29 @@ def shadow_classes_file(
             if mdst is not None:
                 mdst.write(m, 1, window=win)
             counts += n
+            hist += h
         if counts[: cls.NODATA_CLASS].sum() == 0:
             raise no_valid_error(ratio)
+        rtags = src.tags()
+    # Say when the fixed thresholds cannot mean what Table 2 says on this scene.
+    bands_nm = {}
+    with contextlib.suppress(KeyError, ValueError):
+        bands_nm = {
+            "vnir_nm": float(rtags["denominator_wavelength_nm"]),
+            "swir_nm": float(rtags["numerator_wavelength_nm"]),
+        }
+    mode = cls.histogram_mode(hist)
+    warnings = cls.table_warnings(table, mode, **bands_nm) if classes is None else []
+    for w in warnings:
+        progress.info(f"warning: {w}")
     result = {"output": output, "valid_pixels": int(counts[: cls.NODATA_CLASS].sum())}
     if mask:
         result["mask"] = mask
     for c in table.classes:
         result[f"class_{c.id}_pixels"] = int(counts[c.id])
     result["no_shadow_pixels"] = int(counts[cls.NO_SHADOW])
+    result["ratio_mode"] = round(mode, 4)
+    result["warnings"] = warnings
     return result
 
 
@@ -283,6 +299,9 @@ def shadow_cluster_file(
             f"shadow component holds {100 * cluster.shadow_share:.1f} % of them; isolation "
             f"(Bhattacharyya distance) {cluster.isolation:.2f}"
         )
+        warning = cluster.warning()
+        if warning:
+            progress.info(f"warning: {warning}")
         tags = {
             "product": "scene-adaptive boresight shadow mask (Brook & Ben-Dor 2011, §3.1, Fig. 4)",
             "method": "scikit-learn GaussianMixture on (log ratio, log 941 nm), BIC-selected",
@@ -338,6 +357,7 @@ def shadow_cluster_file(
         "isolation": round(cluster.isolation, 4),
         "shadow_pixels": n_shadow,
         "nir_band": nir_band,
+        "warnings": [warning] if warning else [],
     }
     if probability_output:
         out["probability_output"] = probability_output
@@ -516,13 +536,15 @@ def shadow_fraction_apply_file(
 
     def kernel(values, valid):
         f = line.fraction(values, valid, clip=not no_clip)
-        return np.where(np.isfinite(f), f, io.FLOAT_NODATA).astype("float32"), int(valid.sum())
+        out = np.where(np.isfinite(f), f, io.FLOAT_NODATA).astype("float32")
+        return out, int(valid.sum()), line.clipped(values, valid)
 
     n_valid = 0
+    below = above = 0
     with io.open_raster(ratio, "ratio raster") as src:
         grid = io.Grid.of(src)
         with io.create_raster(output, grid, tags=tags, band_names=["shadow fraction"]) as dst:
-            for win, (f, n) in io.map_windows(
+            for win, (f, n, (b, a, _)) in io.map_windows(
                 io.band_reader(src, band),
                 kernel,
                 height=grid.height,
@@ -533,9 +555,21 @@ def shadow_fraction_apply_file(
             ):
                 dst.write(f, 1, window=win)
                 n_valid += n
+                below += b
+                above += a
             if n_valid == 0:
                 raise no_valid_error(ratio)
-    return {"output": output, "slope": slope, "intercept": intercept, "valid_pixels": n_valid}
+    warning = line.range_warning(below, above, n_valid)
+    if warning:
+        progress.info(f"warning: {warning}")
+    return {
+        "output": output,
+        "slope": slope,
+        "intercept": intercept,
+        "valid_pixels": n_valid,
+        "outside_line_pixels": below + above,
+        "warnings": [warning] if warning else [],
+    }
 
 
 # ----------------------------------------------------------------------------- shadow-polygons

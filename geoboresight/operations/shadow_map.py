@@ -245,10 +245,13 @@ def shadow_map_file(
             core=core_darkness,
         )
         progress.info(
-            f"sunlit ratio {cal.ratio_mode:.3f} → class bounds × "
+            f"sunlit ratio {cal.ratio_mode:.3f}: Table 2's ratio bounds on this scene would be × "
             f"{cal.ratio_mode / smap.PAPER_SUNLIT_RATIO:.3f}: {cal.table.describe()}"
         )
-        warnings += cls.table_warnings(base_table, vnir_nm=rb.vnir_nm, swir_nm=rb.swir_nm)
+        fraction_classes = "; ".join(
+            f"{c.id}: {100 * c.fraction_min:g}–{100 * c.fraction_max:g} % shadow ({c.name})"
+            for c in cal.table.classes
+        )
         # Pass 2: the map, strip by strip; the halo covers the SWIR shift and the edge search.
         halo = math.ceil(abs(along)) + 3 + edge_pixels + smap.EDGE_WINDOW // 2
         read = io.bands_reader(
@@ -287,8 +290,9 @@ def shadow_map_file(
             "vnir": dual.vnir.path,
             "swir": dual.swir.path,
             **{k: str(v) for k, v in cal.as_dict().items()},
-            "classes": cal.table.describe(),
-            "class_table_csv": class_table_csv(cal.table).replace("\n", " | "),
+            "classes": fraction_classes,
+            "table2_ratio_bounds_on_scene": cal.table.describe(),
+            "table2_ratio_bounds_csv": class_table_csv(cal.table).replace("\n", " | "),
             "method": "dark-object subtraction; SWIR darkness against its sunlit mode (core ≤ "
             f"{core_darkness:.3f}, natural log) on the SWIR resampled by the boresight offset; "
             "not water (blue/NIR); shadow fraction of the pixels within "
@@ -341,7 +345,8 @@ def shadow_map_file(
         "shadow_pixels": n_shadow,
         "shadow_share": round(share, 4),
         **cal.as_dict(),
-        "classes": cal.table.describe(),
+        "classes": fraction_classes,
+        "table2_ratio_bounds_on_scene": cal.table.describe(),
         "warnings": warnings,
     }
     if mask:

@@ -158,6 +158,30 @@ TABLE2_VNIR_NM, TABLE2_SWIR_NM = 920.0, 1010.0
 TABLE2_TOLERANCE_NM = 10.0
 
 
+#: Log-ratio histogram bins for the scene's most common ratio (ratio 0.05–20, 1 % steps).
+MODE_BINS = np.linspace(math.log(0.05), math.log(20.0), 601)
+
+
+def ratio_histogram(ratio: np.ndarray, valid: np.ndarray | None = None) -> np.ndarray:
+    """Counts of the valid, positive ratios in :data:`MODE_BINS` (log ratio); strips add up."""
+    r = np.asarray(ratio, np.float64)
+    ok = np.isfinite(r) & (r > 0)
+    if valid is not None:
+        ok &= np.asarray(valid, bool)
+    return np.histogram(np.log(r[ok]), bins=MODE_BINS)[0]
+
+
+def histogram_mode(counts: np.ndarray) -> float:
+    """The ratio at the peak of :func:`ratio_histogram`'s counts (smoothed over 5 bins);
+    NaN when empty."""
+    c = np.asarray(counts, np.float64)
+    if c.sum() == 0:
+        return float("nan")
+    smooth = np.convolve(c, np.ones(5) / 5, mode="same")
+    i = int(np.argmax(smooth))
+    return float(math.exp(0.5 * (MODE_BINS[i] + MODE_BINS[i + 1])))
+
+
 def scale_table(table: ClassTable, factor: float) -> ClassTable:
     """The class table with every ratio bound multiplied by ``factor`` (> 0; ∞ stays ∞).
 

@@ -31,6 +31,9 @@ NIR_NM = 941.0
 PROBABILITY = 0.5
 #: Pixels drawn at random from the whole flight line to fit the mixture.
 SAMPLE_SIZE = 50000
+#: Below this isolation (Bhattacharyya distance) the shadow component is not a cluster of its
+#: own: it overlaps the rest of the scene (on independent scenes 0.5–0.9 went with F1 0.31–0.41).
+MIN_ISOLATION = 2.0
 
 
 @dataclass(frozen=True)
@@ -72,6 +75,17 @@ class ShadowCluster:
             p = np.exp(logp)
             out[ok] = (p[:, list(self.shadow)].sum(axis=1) / p.sum(axis=1)).astype(np.float32)
         return out
+
+    def warning(self, min_isolation: float = MIN_ISOLATION) -> str | None:
+        """A warning when the shadow component is not isolated (None when it is)."""
+        if self.isolation >= min_isolation:
+            return None
+        return (
+            f"the shadow cluster's isolation is {self.isolation:.2f} (Bhattacharyya distance; "
+            f"below {min_isolation:g} it is not a cluster of its own): the 'shadow' component "
+            "overlaps the rest of the scene and the mask likely holds sunlit dark materials; "
+            "use 'shadow-map', and check the scatter plot"
+        )
 
     def ellipse(self, n_sigma: float = 2.0, points: int = 100) -> tuple[np.ndarray, np.ndarray]:
         """(ratio, nir) outline of the shadow component at ``n_sigma``, in data units."""

@@ -57,6 +57,31 @@ class FractionModel:
             f = np.clip(f, 0.0, 1.0)
         return np.where(ok, f, np.nan).astype(np.float32)
 
+    def clipped(self, ratio: np.ndarray, valid: np.ndarray | None = None) -> tuple[int, int, int]:
+        """(below 0, above 1, valid): pixels whose fraction from this line falls outside 0–1
+        (counts of strips add up)."""
+        ratio = np.asarray(ratio, np.float64)
+        ok = np.isfinite(ratio) if valid is None else (np.asarray(valid, bool) & np.isfinite(ratio))
+        f = (ratio[ok] - self.intercept) / self.slope
+        return int((f < 0).sum()), int((f > 1).sum()), int(ok.sum())
+
+    def range_warning(self, below: int, above: int, n: int, share: float = 0.9) -> str | None:
+        """A warning when at least ``share`` of the ``n`` valid pixels fall outside the line's
+        0–1 range on one side (:meth:`clipped`): the line does not fit the ratio's range (e.g.
+        the paper's Figure 5B line, ratios 0.57–1.31, on DN ratios of 1.5–4)."""
+        if n == 0:
+            return None
+        lo, hi = sorted((self.intercept, self.slope + self.intercept))
+        for count, end in ((below, 0), (above, 1)):
+            if count / n >= share:
+                return (
+                    f"{100 * count / n:.0f} % of the valid pixels have a ratio outside this "
+                    f"line's range ({lo:.3g}–{hi:.3g} for fractions 0–1) and get fraction {end}: "
+                    "the line does not fit this ratio; fit it on this scene "
+                    "('shadow-fraction-fit') or use 'shadow-map'"
+                )
+        return None
+
     def as_dict(self) -> dict:
         return {
             "slope": self.slope,

@@ -61,13 +61,13 @@ SWIR_NM = (1550.0, 1750.0)
 #: shadow 3–15 % (with light from sunlit surroundings) of the sunlit SWIR signal, while sunlit
 #: dark roofs and asphalt (SWIR reflectance 6–12 %) keep a fifth to a half of the scene's mode.
 CORE_DARKNESS = math.log(1 / 6)
-#: Weight of the NIR in the darkness; the SWIR, where skylight is weakest (a few per cent of
-#: the sun's light), has the rest. 0: the SWIR alone (the NIR serves the water test).
-NIR_WEIGHT = 0.0
-#: Water test: a core pixel whose blue/NIR signal ratio is more than this many times the median
-#: of the scene's core shadow is not shadow (skylight raises blue/NIR 2–4× over sunlight; clear
-#: water's blue/NIR is 10× or more that of grey ground).
-WATER_FACTOR = 3.0
+#: The NIR may be this factor (as a log) less dark than the SWIR in a shadow: the sky carries
+#: about twice as much of the sun's light at 860 nm as at 1,650 nm (Rayleigh + aerosol).
+NIR_ALLOWANCE = math.log(2.0)
+#: Water test: a core pixel whose blue/NIR signal ratio is more than this many times the 90th
+#: percentile of the sunlit pixels' is not shadow. Skylight raises a surface's blue/NIR 2.5–5×
+#: over sunlight (Rayleigh sky); clear water's blue/NIR is ≥ 10× that of sunlit grey ground.
+WATER_FACTOR = 6.0
 #: Partial shadow is looked for this many pixels around the core.
 EDGE_PIXELS = 2
 #: Side (pixels) of the neighbourhood whose sunlit and shadowed means decide an edge pixel.
@@ -262,8 +262,8 @@ def calibrate_shadow_map(
     SceneCalibration
         The sunlit modes of the NIR and SWIR signals (logs) and of the ratio, the class table
         scaled by ``ratio_mode / PAPER_SUNLIT_RATIO`` (the ratio bounds Table 2 would have on
-        this scene), the water test's limit (:data:`WATER_FACTOR` × the median blue/NIR of the
-        sample's core shadow) and the inputs.
+        this scene), the water test's limit (:data:`WATER_FACTOR` × the 90th percentile of the
+        sunlit pixels' blue/NIR) and the inputs.
 
     References
     ----------
@@ -284,8 +284,7 @@ def calibrate_shadow_map(
         ok &= np.asarray(valid, bool)
     nir_mode, _ = sunlit_mode(nir, ok)
     swir_mode, _ = sunlit_mode(swir, ok)
-    w = NIR_WEIGHT
-    d = w * (np.log(nir) - nir_mode) + (1 - w) * (np.log(swir) - swir_mode)
+    d = np.maximum(np.log(nir) - nir_mode - NIR_ALLOWANCE, np.log(swir) - swir_mode)
     # The sunlit ratio: pixels within a factor e^0.5 of the sunlit modes.
     r = np.asarray(ratio, np.float64)
     lit = ok & np.isfinite(r) & (r > 0) & (np.abs(d) < 0.5)
@@ -295,11 +294,11 @@ def calibrate_shadow_map(
         raise InputError("fewer than 10 sunlit pixels with a valid ratio: cannot calibrate")
     ratio_mode = float(np.median(r[lit]))
     b = np.asarray(blue, np.float64)
-    core_px = ok & (d <= core) & np.isfinite(b)
+    sunlit = lit & np.isfinite(b)
     limit = math.inf
-    if core_px.sum() >= 10:
-        limit = float(np.median(np.log(np.maximum(b[core_px], MIN_SIGNAL) / nir[core_px])))
-        limit += math.log(WATER_FACTOR)
+    if sunlit.sum() >= 10:
+        bn = np.log(np.maximum(b[sunlit], MIN_SIGNAL) / nir[sunlit])
+        limit = float(np.percentile(bn, 90)) + math.log(WATER_FACTOR)
     return SceneCalibration(
         vnir_dark=vnir_dark,
         swir_dark=swir_dark,
@@ -318,15 +317,17 @@ def calibrate_shadow_map(
 def darkness(
     nir: np.ndarray, swir: np.ndarray, calibration: SceneCalibration, valid=None
 ) -> np.ndarray:
-    """Weighted mean (:data:`NIR_WEIGHT`) of the natural logs of the NIR and SWIR signals over
-    their sunlit modes (0 = sunlit mode, ln 0.2 = a fifth of it); NaN where invalid. ``swir``
-    must already be on the VNIR grid."""
+    """The lesser darkness of the SWIR and NIR signals: ``max(ln(swir / swir mode), ln(nir /
+    nir mode) − NIR_ALLOWANCE)`` (0 = sunlit mode, ln 1/6 = a sixth of it); NaN where invalid.
+    A shadow is dark in both (skylight is weak beyond 700 nm, weakest in the SWIR); sunlit
+    vegetation is bright in the NIR though dark in the SWIR (leaf water), sunlit asphalt and
+    dark roofs keep more of the SWIR. ``swir`` must already be on the VNIR grid."""
     nir = np.asarray(nir, np.float64)
     swir = np.asarray(swir, np.float64)
     with np.errstate(invalid="ignore", divide="ignore"):
-        w = NIR_WEIGHT
-        d = w * (np.log(np.maximum(nir, MIN_SIGNAL)) - calibration.nir_mode) + (1 - w) * (
-            np.log(np.maximum(swir, MIN_SIGNAL)) - calibration.swir_mode
+        d = np.maximum(
+            np.log(np.maximum(nir, MIN_SIGNAL)) - calibration.nir_mode - NIR_ALLOWANCE,
+            np.log(np.maximum(swir, MIN_SIGNAL)) - calibration.swir_mode,
         )
     ok = np.isfinite(d)
     if valid is not None:
@@ -359,6 +360,25 @@ def shadow_fraction_estimate(
     (lit − shade)``, the shaded share of a mixed pixel (signal is linear in it). Core pixels
     get at least 0.5 (they are shadow by definition); pixels further from the core, 0. Strips
     need a halo of ``edge_pixels + window // 2 + 1`` lines.
+
+    Parameters
+    ----------
+    dark : array
+        :func:`darkness` (natural log of the signal over its sunlit mode).
+    valid : bool array, optional
+    core : float
+        Core-shadow darkness (< 0).
+    edge_pixels : int
+        Width of the zone around the core where partial shadow is unmixed (0 = core only).
+    window : int
+        Side of the neighbourhood of the core-shadow mean (the sunlit mean uses ``window + 2``).
+    water : bool array, optional
+        Pixels that cannot be core shadow (:func:`too_blue`).
+
+    Returns
+    -------
+    float32 array
+        The estimated shadow fraction (0–1), NaN where invalid.
 
     References
     ----------

@@ -73,5 +73,22 @@ def surface_walls(
 
 def choose_surface(walls: int, pairs: int) -> str:
     """``"blocks"`` when walls make up at least :data:`WALL_SHARE` of the neighbouring-cell
-    pairs (a DSM with buildings), else ``"smooth"`` (terrain)."""
+    pairs (a DSM with buildings), else ``"smooth"`` (terrain).
+
+    Parameters
+    ----------
+    walls, pairs : int
+        The counts of :func:`surface_walls`, summed over the DSM's strips.
+
+    Returns
+    -------
+    str
+        ``"blocks"`` or ``"smooth"``, a key of
+        :data:`geoboresight.shadow.illumination.SURFACES`.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484
+    (§3.1: the ground-truth shadow from a surface model of terrain and buildings).
+    """
     return "blocks" if pairs and walls / pairs >= WALL_SHARE else "smooth"
