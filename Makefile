@@ -47,7 +47,7 @@ test: test-main test-qgis
 test-main: $(VENV)/.installed
 	$(VENV)/bin/python -m pytest -m "not qgis" $(PYTEST_ARGS)
 
-test-qgis: $(QVENV)/.installed
+test-qgis: $(QVENV)/.installed $(VENV)/.installed  # the QGIS tests run .venv/bin/geoboresight as the engine
 	QT_QPA_PLATFORM=offscreen $(QVENV)/bin/python -m pytest $(PYTEST_ARGS)
 
 lint: $(VENV)/.installed

@@ -1,27 +1,49 @@
-"""What the QGIS face costs: the boresight ratio of the sample scene run from Python, through
-``processing.run`` in process, and through ``qgis_process.bin`` (a new QGIS per call, as a batch
-script runs it). Run with the QGIS venv (Debian's /usr/bin/python3 + numpy<2), e.g.
+"""What running the operations in an engine process costs (issue 11): the boresight ratio run
+by the library in a warm Python (what the 0.1 plugin did inside QGIS), by the engine as a new
+process (``geoboresight engine run``: process start, imports, JSON lines), through
+``processing.run`` in QGIS (the plugin starts the engine), and by ``qgis_process.bin`` (a new
+QGIS per call). On the sample scene and on a synthetic 20,000-line flight line. Run with the
+QGIS venv (Debian's Python, which sees QGIS), the engine being the project's .venv:
 
     QT_QPA_PLATFORM=offscreen .venv-qgis/bin/python benchmarks/qgis_overhead.py
 
-Prints a side-by-side table; exits quietly when QGIS is not importable (``make bench`` venv).
+Prints a side-by-side table (best of 3, all measured in this one run); exits quietly when QGIS
+is not importable (``make bench`` venv).
 """
 
 from __future__ import annotations
 
-import importlib.util
+import json
 import os
 import shutil
-import site
 import subprocess
 import sys
 import tempfile
 import time
+import zipfile
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 SCENE = REPO / "sample_data" / "scene"
+ENGINE = REPO / ".venv" / "bin" / "geoboresight"
 QGIS_PROCESS = "/usr/bin/qgis_process.bin"
+LONG_LINES, LONG_SAMPLES, LONG_BANDS = 20_000, 128, 8
+
+# The library in a warm interpreter of the engine's environment: the call 0.1 made in QGIS.
+_WARM = """
+import json, sys, time
+from geoboresight.algorithms import registry
+vnir, swir, out = sys.argv[1:4]
+ratio = registry()["ratio"]
+ratio(vnir=vnir, swir=swir, output=out, overwrite=True)  # warm: imports, GDAL caches
+times = []
+for _ in range(3):
+    t0 = time.perf_counter()
+    ratio(vnir=vnir, swir=swir, output=out, overwrite=True)
+    times.append(time.perf_counter() - t0)
+best = min(times)
+print(json.dumps(best))
+"""
 
 
 def best_of(n, fn):
@@ -33,92 +55,158 @@ def best_of(n, fn):
     return min(times)
 
 
+def long_line(folder: Path) -> tuple[str, str]:
+    """A 20,000-line VNIR/SWIR pair (ENVI, uint16), written with the engine's own Python."""
+    code = f"""
+import numpy as np
+from geoboresight.io import write_envi
+rng = np.random.default_rng(0)
+shape = ({LONG_LINES}, {LONG_SAMPLES})
+for name, wl in (("vnir", np.linspace(870.0, 970.0, {LONG_BANDS})),
+                 ("swir", 980.0 + 30.0 * np.arange({LONG_BANDS}))):
+    cube = rng.integers(200, 4000, ({LONG_BANDS}, *shape)).astype("uint16")
+    write_envi(r"{folder}/" + name + ".img", cube, wl)
+"""
+    subprocess.run([str(ENGINE.parent / "python"), "-c", code], check=True)
+    return str(folder / "vnir.img"), str(folder / "swir.img")
+
+
+def engine_env() -> dict:
+    return {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME")}
+
+
+def measure_scene(label, vnir, swir, work: Path, processing_run, qgis_env) -> list:
+    out = str(work / "out.tif")
+    warm = json.loads(
+        subprocess.run(
+            [str(ENGINE.parent / "python"), "-c", _WARM, vnir, swir, out],
+            check=True,
+            capture_output=True,
+            text=True,
+            env=engine_env(),
+        ).stdout
+    )
+    params = work / "params.json"
+    params.write_text(json.dumps({"vnir": vnir, "swir": swir, "output": out}))
+    engine = best_of(
+        3,
+        lambda: subprocess.run(
+            [str(ENGINE), "engine", "run", "ratio", "--params-json", str(params), "--overwrite"],
+            check=True,
+            capture_output=True,
+            env=engine_env(),
+        ),
+    )
+    qgis = best_of(
+        3, lambda: processing_run("geoboresight:ratio", {"vnir": vnir, "swir": swir, "output": out})
+    )
+    rows = [
+        (f"{label}: library, warm Python (0.1's call in QGIS)", warm),
+        (f"{label}: engine process (geoboresight engine run)", engine),
+        (f"{label}: processing.run in QGIS (plugin + engine)", qgis),
+    ]
+    if qgis_env is not None:
+        args = [QGIS_PROCESS, "run", "geoboresight:ratio", "--"]
+        args += [f"vnir={vnir}", f"swir={swir}", f"output={out}"]
+        cli = best_of(
+            2, lambda: subprocess.run(args, env=qgis_env, capture_output=True, check=True)
+        )
+        rows.append((f"{label}: qgis_process.bin (new QGIS per call)", cli))
+    return rows
+
+
 def main() -> int:
     try:
         from qgis.core import QgsApplication
     except ImportError:
         print("qgis_overhead: QGIS not importable in this Python; skipped")
         return 0
+    if not ENGINE.exists():
+        print(f"qgis_overhead: no engine at {ENGINE} (make .venv/.installed); skipped")
+        return 0
     os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
-    from geoboresight.algorithms import registry
-
+    os.environ["GEOBORESIGHT_ENGINE"] = str(ENGINE)
     work = Path(tempfile.mkdtemp(prefix="gb-bench-qgis-"))
     for name in ("vnir.img", "vnir.hdr", "swir.img", "swir.hdr"):
         shutil.copy(SCENE / name, work / name)
-    vnir, swir = str(work / "vnir.img"), str(work / "swir.img")
-    ratio = registry()["ratio"]
 
-    lib = best_of(
-        3, lambda: ratio(vnir=vnir, swir=swir, output=str(work / "lib.tif"), overwrite=True)
+    # the plugin as installed from the zip, in a fresh profile
+    zip_path = work / "plugin.zip"
+    subprocess.run(
+        ["make", "-s", "-C", str(REPO), "plugin-zip", f"PLUGIN_ZIP={zip_path}"],
+        check=True,
+        capture_output=True,
     )
-
+    plugins = work / "plugins"
+    with zipfile.ZipFile(zip_path) as z:
+        z.extractall(plugins)
     sys.path.append("/usr/share/qgis/python/plugins")
-    t0 = time.perf_counter()
-    app = QgsApplication([], False, tempfile.mkdtemp(prefix="gb-bench-profile-"))
+    sys.path.insert(0, str(plugins))
+    app = QgsApplication([], False, str(work / "profile"))
     app.initQgis()
     from processing.core.Processing import Processing
 
     Processing.initialize()
-    spec = importlib.util.spec_from_file_location(
-        "geoboresight_qgis",
-        REPO / "plugin" / "__init__.py",
-        submodule_search_locations=[str(REPO / "plugin")],
-    )
-    plugin = importlib.util.module_from_spec(spec)
-    sys.modules["geoboresight_qgis"] = plugin
-    spec.loader.exec_module(plugin)
-    instance = plugin.classFactory(None)
-    instance.initProcessing()
-    startup = time.perf_counter() - t0
+    import geoboresight_qgis
     import processing
 
-    params = {"vnir": vnir, "swir": swir}
-    in_process = best_of(
-        3, lambda: processing.run("geoboresight:ratio", {**params, "output": str(work / "q.tif")})
-    )
+    t0 = time.perf_counter()
+    plugin = geoboresight_qgis.classFactory(None)
+    plugin.initProcessing()  # engine version + describe (first start: no cache yet)
+    first_load = time.perf_counter() - t0
+    plugin.provider.refreshAlgorithms()  # later starts: engine version + the cached list
+    t0 = time.perf_counter()
+    plugin.provider.refreshAlgorithms()
+    cached_load = time.perf_counter() - t0
 
-    cli = None
+    qgis_env = None
     if os.path.exists(QGIS_PROCESS):
-        plugins = work / "plugins"
-        shutil.copytree(
-            REPO / "plugin",
-            plugins / "geoboresight_qgis",
-            ignore=shutil.ignore_patterns("__pycache__"),
-        )
-        import geoboresight
-
-        paths = [p for p in site.getsitepackages() if "site-packages" in p]
-        paths.append(str(Path(geoboresight.__file__).resolve().parents[1]))
-        env = dict(
-            os.environ,
-            QGIS_CUSTOM_CONFIG_PATH=str(work / "profile"),
+        qgis_env = dict(
+            engine_env(),
+            HOME=str(work / "home"),
             QGIS_PLUGINPATH=str(plugins),
             XDG_RUNTIME_DIR=str(work),
-            PYTHONPATH=os.pathsep.join(paths),
         )
         subprocess.run(
-            [QGIS_PROCESS, "plugins", "enable", "geoboresight_qgis"], env=env, capture_output=True
+            [QGIS_PROCESS, "plugins", "enable", "geoboresight_qgis"],
+            env=qgis_env,
+            capture_output=True,
         )
-        args = [
-            QGIS_PROCESS,
-            "run",
-            "geoboresight:ratio",
-            "--",
-            f"vnir={vnir}",
-            f"swir={swir}",
-            f"output={work / 'p.tif'}",
-        ]
-        cli = best_of(2, lambda: subprocess.run(args, env=env, capture_output=True, check=True))
+
+    version = best_of(
+        3,
+        lambda: subprocess.run(
+            [str(ENGINE), "engine", "version"], check=True, capture_output=True, env=engine_env()
+        ),
+    )
+    rows = measure_scene(
+        "sample scene",
+        str(work / "vnir.img"),
+        str(work / "swir.img"),
+        work,
+        processing.run,
+        qgis_env,
+    )
+    long_dir = work / "long"
+    long_dir.mkdir()
+    vnir, swir = long_line(long_dir)
+    rows += measure_scene("20,000 lines", vnir, swir, work, processing.run, None)
 
     with open(SCENE / "vnir.hdr", encoding="utf-8") as f:
         lines = next(int(ln.split("=")[1]) for ln in f if ln.strip().startswith("lines"))
-    print(f"boresight ratio of sample_data/scene ({lines} lines x 286 pixels), best of 2-3 runs")
-    print(f"{'how':<44}{'seconds':>10}{'x library':>11}")
-    print(f"{'library call (geoboresight ratio)':<44}{lib:>10.3f}{1.0:>11.1f}")
-    print(f"{'processing.run in process':<44}{in_process:>10.3f}{in_process / lib:>11.1f}")
-    print(f"{'  + one-off QGIS start-up in process':<44}{startup:>10.3f}{'':>11}")
-    if cli is not None:
-        print(f"{'qgis_process.bin run (new QGIS per call)':<44}{cli:>10.3f}{cli / lib:>11.1f}")
+    print(
+        f"boresight ratio: sample_data/scene ({lines} lines x 286 px) and a synthetic line of "
+        f"{LONG_LINES} x {LONG_SAMPLES} px ({LONG_BANDS}+{LONG_BANDS} bands); best of 2-3"
+    )
+    print(f"{'how':<60}{'seconds':>9}{'overhead':>10}")
+    base = {}
+    for how, seconds in rows:
+        scene = how.split(":")[0]
+        base.setdefault(scene, seconds)
+        print(f"{how:<60}{seconds:>9.3f}{seconds - base[scene]:>+10.3f}")
+    print(f"{'engine version (at QGIS start, and per setup check)':<60}{version:>9.3f}")
+    print(f"{'provider load, first start (engine version + describe)':<60}{first_load:>9.3f}")
+    print(f"{'provider load, later starts (engine version + cache)':<60}{cached_load:>9.3f}")
     shutil.rmtree(work, ignore_errors=True)
     return 0
 

@@ -1,0 +1,178 @@
+"""The engine's machine mode (``geoboresight engine ...``), as the QGIS plugin speaks it: the
+operation list matches the specs, a run is JSON lines ending in a result or a one-line error,
+SIGTERM cancels and leaves nothing, and the declared results match what operations return."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import rasterio
+
+from geoboresight import __version__
+from geoboresight.algorithms import registry
+from geoboresight.engine import PROTOCOL, RESULTS
+from geoboresight.io import quiet_georef, write_envi
+
+ENGINE = [sys.executable, "-m", "geoboresight.cli", "engine"]
+
+
+def _engine(*args, **kw):
+    return subprocess.run([*ENGINE, *args], capture_output=True, text=True, timeout=300, **kw)
+
+
+def _lines(stdout: str) -> list[dict]:
+    return [json.loads(line) for line in stdout.splitlines() if line.strip()]
+
+
+@pytest.fixture(scope="module")
+def pair(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("engine")
+    rng = np.random.default_rng(5)
+    shape = (64, 24)
+    vnir = rng.integers(200, 4000, (6, *shape)).astype("uint16")
+    swir = rng.integers(200, 4000, (6, *shape)).astype("uint16")
+    return (
+        write_envi(str(folder / "vnir.img"), vnir, np.linspace(870.0, 970.0, 6)),
+        write_envi(str(folder / "swir.img"), swir, 980.0 + 30.0 * np.arange(6)),
+    )
+
+
+def test_version_is_json_and_light():
+    done = _engine("version")
+    assert done.returncode == 0, done.stderr
+    info = json.loads(done.stdout)
+    assert info["version"] == __version__ and info["protocol"] == PROTOCOL
+    assert info["engine"] == "geoboresight"
+
+
+def test_describe_lists_every_spec_with_its_parameters():
+    done = _engine("describe")
+    assert done.returncode == 0, done.stderr
+    doc = json.loads(done.stdout)
+    assert doc["version"] == __version__ and doc["protocol"] == PROTOCOL
+    algs = {a["name"]: a for a in doc["algorithms"]}
+    assert list(algs) == list(registry())  # same order: by group, then name
+    for name, spec in registry().items():
+        a = algs[name]
+        assert (a["display_name"], a["group"], a["help"]) == (
+            spec.display_name,
+            spec.group,
+            spec.help,
+        )
+        assert [p["name"] for p in a["params"]] == [p.name for p in spec.params]
+        for p, q in zip(spec.params, a["params"], strict=True):
+            assert q["kind"] == p.kind and q["required"] == p.required
+            assert q["advanced"] == p.advanced and q["is_output"] == p.is_output
+            for attr in ("minimum", "maximum", "unit", "integer", "raster", "extension"):
+                if hasattr(p, attr):
+                    assert q[attr] == getattr(p, attr), (name, p.name, attr)
+            if hasattr(p, "choices"):
+                assert q["choices"] == list(p.choices)
+        assert {g["id"] for g in doc["groups"]} >= {a["group_id"]}
+        declared = [r["name"] for r in a["results"]]
+        assert declared == [r[0] for r in RESULTS.get(name, ())]
+
+
+def test_declared_results_name_known_operations_and_types():
+    assert set(RESULTS) <= set(registry())
+    for name, results in RESULTS.items():
+        outputs = {p.name for p in registry()[name].outputs}
+        for key, kind, description in results:
+            assert kind in ("number", "string", "boolean") and description
+            assert key not in outputs, (name, key)  # files are declared by their parameter
+
+
+def test_run_speaks_json_lines_and_matches_the_library(pair, tmp_path):
+    vnir, swir = pair
+    params = tmp_path / "p.json"
+    out = tmp_path / "ratio.tif"
+    params.write_text(
+        json.dumps({"vnir": vnir, "swir": swir, "block_rows": 16, "output": str(out)})
+    )
+    done = _engine("run", "ratio", "--params-json", str(params))
+    assert done.returncode == 0, done.stderr
+    lines = _lines(done.stdout)  # every stdout line is one JSON object
+    assert lines[0]["engine"]["version"] == __version__ and lines[0]["engine"]["pid"] > 0
+    progress = [m["progress"] for m in lines if "progress" in m]
+    assert (
+        progress == sorted(progress) and progress[-1] == pytest.approx(1.0) and len(progress) == 4
+    )
+    assert any("boresight ratio" in m.get("info", "") for m in lines)
+    result = lines[-1]["result"]
+    ref = tmp_path / "ref.tif"
+    lib = registry()["ratio"](vnir=vnir, swir=swir, output=str(ref))
+    assert result == {**lib, "output": str(out)}
+    with quiet_georef(), rasterio.open(out) as a, rasterio.open(ref) as b:
+        np.testing.assert_array_equal(a.read(), b.read())
+
+
+def test_user_error_is_one_line_and_exit_1(pair, tmp_path):
+    vnir, swir = pair
+    out = tmp_path / "r.tif"
+    done = _engine(
+        "run",
+        "ratio",
+        "--params-json",
+        "-",
+        input=json.dumps({"vnir": vnir, "swir": swir, "swir_nm": 5000, "output": str(out)}),
+    )
+    assert done.returncode == 1
+    last = _lines(done.stdout)[-1]
+    assert set(last) == {"error"} and "swir_nm" in last["error"] and "\n" not in last["error"]
+    assert not out.exists()
+    bad = _engine("run", "no-such-operation", "--params-json", "-", input="{}")
+    assert bad.returncode == 1 and "unknown operation" in _lines(bad.stdout)[-1]["error"]
+    junk = _engine("run", "ratio", "--params-json", "-", input="[1, 2")
+    assert junk.returncode == 1 and "not valid JSON" in _lines(junk.stdout)[-1]["error"]
+
+
+def test_sigterm_cancels_and_leaves_nothing(tmp_path):
+    """What QGIS's cancel sends: the operation stops, removes its output, says so, exit 3."""
+    rng = np.random.default_rng(2)
+    shape = (4000, 64)
+    vnir = write_envi(
+        str(tmp_path / "v.img"),
+        rng.integers(1, 4000, (6, *shape)).astype("uint16"),
+        np.linspace(870.0, 970.0, 6),
+    )
+    swir = write_envi(
+        str(tmp_path / "s.img"),
+        rng.integers(1, 4000, (6, *shape)).astype("uint16"),
+        980.0 + 30.0 * np.arange(6),
+    )
+    out = tmp_path / "out" / "ratio.tif"
+    out.parent.mkdir()
+    params = tmp_path / "p.json"
+    params.write_text(json.dumps({"vnir": vnir, "swir": swir, "block_rows": 1, "output": str(out)}))
+    proc = subprocess.Popen(
+        [*ENGINE, "run", "ratio", "--params-json", str(params)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    seen = []
+    for line in proc.stdout:  # wait until the block loop runs
+        seen.append(json.loads(line))
+        if "progress" in seen[-1] and seen[-1]["progress"] > 0.01:
+            break
+    proc.send_signal(signal.SIGTERM)
+    rest, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 3
+    last = _lines(rest)[-1]
+    assert last == {"error": "cancelled by the user: no output was written"}
+    assert os.listdir(out.parent) == []  # neither the output nor the writer's temporary file
+
+
+def test_engine_imports_stay_lazy():
+    """`engine version` (what the plugin calls at QGIS start) loads no NumPy or GDAL."""
+    code = "import sys; from geoboresight.cli import main; sys.argv=['g','engine','version']\n"
+    code += "try:\n    main()\nexcept SystemExit:\n    pass\n"
+    code += "print(sorted(m for m in ('numpy','rasterio','scipy','sklearn','matplotlib') if m in sys.modules))"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.stdout.strip().splitlines()[-1] == "[]", done.stdout + done.stderr
