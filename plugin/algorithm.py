@@ -211,6 +211,20 @@ def _stem(path: str) -> str:
     return os.path.splitext(os.path.basename(str(path)))[0]
 
 
+def _warn_without_crs(path: str, feedback) -> None:
+    """A raster in raw sensor geometry opens in a project that stays in EPSG:4326 (pixels read
+    as degrees, the 3D view refuses it) and QGIS warns about nothing: say so once."""
+    from qgis.core import QgsRasterLayer
+
+    layer = QgsRasterLayer(path, "check", "gdal")
+    if layer.isValid() and not layer.crs().isValid():
+        feedback.pushWarning(
+            f"{os.path.basename(path)} is in raw sensor geometry (no CRS): QGIS shows its "
+            "pixels as if they were degrees and the 3D view refuses it; georeference the line "
+            "(Georeferencing group) to place it on a map"
+        )
+
+
 class EngineAlgorithm(QgsProcessingAlgorithm):
     """A QGIS algorithm generated from one operation of the engine's list."""
 
@@ -391,6 +405,7 @@ class EngineAlgorithm(QgsProcessingAlgorithm):
                 continue
             if p["kind"] == "raster_out":
                 style_output(path, context, feedback)
+                _warn_without_crs(path, feedback)
             self._name_layer(path, p, source, context)
         return outputs
 

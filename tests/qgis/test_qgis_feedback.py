@@ -165,6 +165,28 @@ def test_progress_and_cancel_at_the_first_block(provider, inputs, tmp_path):
     assert not [n for n in os.listdir(tmp_path) if n.startswith(".r.")]  # no temp file left
 
 
+def test_raw_geometry_output_is_flagged(provider, inputs, tmp_path):
+    """No CRS: QGIS alone would read pixels as degrees without a word."""
+    from qgis.core import QgsProcessingFeedback
+
+    warnings = []
+
+    class Feedback(QgsProcessingFeedback):
+        def pushWarning(self, warning):  # noqa: N802
+            warnings.append(warning)
+            super().pushWarning(warning)
+
+    with quiet_georef(), rasterio.open(inputs.scene["vnir"]) as src:
+        assert src.crs is None  # the simulated scene is in raw sensor geometry
+    out = str(tmp_path / "r.tif")
+    _run(
+        "ratio",
+        {"vnir": inputs.scene["vnir"], "swir": inputs.scene["swir"], "output": out},
+        Feedback(),
+    )
+    assert any("r.tif is in raw sensor geometry (no CRS)" in w for w in warnings), warnings
+
+
 def test_progress_reaches_100(provider, inputs, tmp_path):
     fb = _feedback()
     _run(
