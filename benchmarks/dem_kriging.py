@@ -17,8 +17,9 @@ Cases (the same 286 × 2,000 grid, 572,000 pixels; the same random control point
   (``execute("grid", ..., backend="C", n_closest_points=32)``), the closest peer to ours: its
   constructor still fits the variogram on all N × N point pairs;
 - ``ours N``: geoboresight's kriging (:func:`geoboresight.dem.kriging.krige_grid`: variogram
-  fitted by PyKrige on ≤ 2,000 points, then blockwise moving-window kriging with the 32
-  nearest points, PyKrige's C backend);
+  fitted by PyKrige on ≤ 2,000 points, then blocks of targets sharing one neighbourhood (each
+  target keeps its 32 nearest points), one batched LU per block, on nodes every range/40 px
+  interpolated bilinearly; PyKrige's kriging system, compared with PyKrige in tests/test_dem.py);
 - ``chain``: geoboresight's whole relative-DEM chain (offset, disparity, heights, ≥ 20,000
   control points, variogram fit, local kriging of every pixel, cross-validation) on a
   synthetic textured pair of 286 × 2,000 pixels.
@@ -79,7 +80,7 @@ def case(name: str, n: int) -> dict:
         x, y, z = _points(n)
         t0 = time.perf_counter()
         vg = fit_variogram(x, y, z)
-        dem, _ = krige_grid(x, y, z, (ROWS, COLS), vg, n_closest_points=32, backend="C")
+        dem, _ = krige_grid(x, y, z, (ROWS, COLS), vg, n_closest_points=32)
         out["mean"] = float(np.nanmean(dem))
     elif name == "pykrige":
         from pykrige.ok import OrdinaryKriging
@@ -193,7 +194,7 @@ def table(rows: list[dict]) -> str:
     ours = {r["points"]: r for r in rows if r["case"] == "ours" and "error" not in r}
     label = {
         "chain": "geoboresight relative-DEM chain (matching + kriging + cross-validation)",
-        "ours": "geoboresight kriging (variogram fit + local 32 points, blockwise, C backend)",
+        "ours": "geoboresight kriging (variogram fit + blocks of targets sharing one local neighbourhood, one LU per block, nodes every range/40 px)",
         "pykrige": "PyKrige default: `OrdinaryKriging(...).execute('grid')` (vectorised)",
         "pykrige-local": "PyKrige moving window: `execute('grid', backend='C', n_closest_points=32)`",
     }

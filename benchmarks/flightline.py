@@ -20,6 +20,11 @@
 4. **RX against its streamed limit**, in the same run: a process that only reads the cube
    block by block (same strips, threads and bands as ``rx``) and runs the covariance ``syrk``
    and the whitening GEMMs (the same triangular blocks), twice over the line, beside ``rx``.
+5. **Many lines on Dask** (``--batch-jobs N``, 0 skips): ``--batch-op`` on N jobs of a
+   ``--batch-lines`` line (every job reads the same line, each writes its own output): one
+   after another as processes, ``geoboresight batch --workers 1`` and ``--workers 2`` (a
+   ``LocalCluster``), and ``geoboresight batch --scheduler`` against a ``dask scheduler`` and
+   two ``dask worker`` processes (one thread each) started separately.
 
 Lines are written in ``--workdir`` (checked for free space first) and deleted at the end
 unless ``--keep``. Prints Markdown tables (paste them into benchmarks/RESULTS.md with the
@@ -89,6 +94,7 @@ def simulate(work: str, tile: int, seed: int) -> str:
             + ["--geometry", "large-squint", "--clouds", "1", "--output", scene],
             check=True,
             stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
         )
     return scene
 
@@ -207,6 +213,85 @@ for _ in io.map_windows(cube.reader(bands, None), white, **strips):
 """
 
 
+def batch_scaling(scene: str, work: str, jobs: int, lines: int, op: str, log: str) -> list:
+    """Wall time of ``jobs`` runs of ``op``: sequential, local Dask clusters, a scheduler."""
+    line = make_line(scene, os.path.join(work, f"batch{lines}"), lines)
+    rows = []
+
+    def jobs_file(tag: str) -> str:
+        out = os.path.join(work, f"batch-{tag}")
+        os.makedirs(out, exist_ok=True)
+        v, s = os.path.join(line, "vnir.hdr"), os.path.join(line, "swir.hdr")
+        extra = {k: v for k, v in GEOMETRY.items()} if op == "relative-dem" else {}
+        path = os.path.join(out, "jobs.json")
+        with open(path, "w", encoding="utf-8") as f:
+            json.dump(
+                [
+                    {"vnir": v, "swir": s, "output": os.path.join(out, f"{i}.tif"), **extra}
+                    for i in range(jobs)
+                ],
+                f,
+            )
+        return path
+
+    t0 = time.perf_counter()
+    for i in range(jobs):
+        path = jobs_file("seq")
+        with open(path, encoding="utf-8") as f:
+            job = json.load(f)[i]
+        args = [f"--{k.replace('_', '-')}={v}" for k, v in job.items()]
+        run([EXE, op, *args, "--overwrite"], log)
+    seq = time.perf_counter() - t0
+    rows.append(("one after another (processes)", f"{seq:.1f}", "1.00×"))
+    for n in (1, 2):
+        r = run([EXE, "batch", op, jobs_file(f"w{n}"), "--workers", str(n), "--overwrite"], log)
+        rows.append((f"`batch --workers {n}` (LocalCluster)", f"{r['seconds']:.1f}", r))
+    port = 8786 + os.getpid() % 1000
+    dask = os.path.join(os.path.dirname(sys.executable), "dask")
+    procs = [
+        subprocess.Popen(
+            [dask, "scheduler", "--port", str(port), "--dashboard-address", ":0"],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+    ]
+    try:
+        time.sleep(3)
+        for _ in range(2):
+            procs.append(
+                subprocess.Popen(
+                    [dask, "worker", f"tcp://127.0.0.1:{port}", "--nworkers", "1"]
+                    + ["--nthreads", "1", "--no-dashboard"],
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL,
+                )
+            )
+        time.sleep(5)
+        r = run(
+            [EXE, "batch", op, jobs_file("sched"), "--scheduler", f"tcp://127.0.0.1:{port}"]
+            + ["--overwrite"],
+            log,
+        )
+        rows.append(
+            ("`batch --scheduler` (dask scheduler + 2 worker processes)", f"{r['seconds']:.1f}", r)
+        )
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+            p.wait()
+    shutil.rmtree(line, ignore_errors=True)
+    return [
+        (
+            label,
+            sec,
+            x
+            if isinstance(x, str)
+            else (f"{seq / float(sec):.2f}×" if x["status"] == 0 else f"FAILED ({x['status']})"),
+        )
+        for label, sec, x in rows
+    ]
+
+
 def table(rows: list[tuple], header: tuple) -> str:
     out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     out += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
@@ -243,6 +328,10 @@ def main(argv=None) -> int:
     ap.add_argument("--keep", action="store_true")
     ap.add_argument("--no-report", action="store_true")
     ap.add_argument("--no-rx-limit", action="store_true")
+    ap.add_argument("--batch-jobs", type=int, default=4, help="Dask scaling: jobs (0: skip)")
+    ap.add_argument("--batch-lines", type=int, default=2000)
+    ap.add_argument("--batch-op", default="relative-dem")
+    ap.add_argument("--only-batch", action="store_true", help="only the Dask scaling table")
     ap.add_argument("--json", help="also write every figure to this JSON file")
     args = ap.parse_args(argv)
 
@@ -252,6 +341,16 @@ def main(argv=None) -> int:
     print(f"work folder {work}; load average {figures['load_start']}", flush=True)
     try:
         scene = simulate(work, args.tile, args.seed)
+        if args.batch_jobs:
+            rows = batch_scaling(scene, work, args.batch_jobs, args.batch_lines, args.batch_op, log)
+            print(
+                f"\n{args.batch_jobs} × {args.batch_op} on a {args.batch_lines}-line line, "
+                f"load average now {load()}\n"
+            )
+            print(table(rows, ("how", "wall (s)", "speed-up vs one after another")))
+            figures["batch"] = rows
+            if args.only_batch:
+                return 0
         sizes = sorted({args.lines, *(int(x) for x in args.memory_lines.split(",") if x)})
         need = max(sizes) * COLS * BYTES_PER_PIXEL_LINE / 1e9
         if free_gb(work) < need + 2:
