@@ -517,7 +517,8 @@ def test_unmix_by_strips_equals_whole(block_rows):
 def test_endmember_csv_and_selection(tmp_path):
     path = tmp_path / "lib.csv"
     path.write_text(
-        "wavelength_nm,fwhm_nm,soil,grass\n0.50,6.5,0.2,0.05\n0.40,6.5,0.1,0.04\n0.60,6.5,0.3,0.1\n"
+        "wavelength_um,fwhm_um,soil,grass\n0.50,0.0065,0.2,0.05\n0.40,0.0065,0.1,0.04\n"
+        "0.60,0.0065,0.3,0.1\n"
     )
     wl, spectra, names = read_spectral_library(path)
     assert names == ["soil", "grass"]  # the band-width column is not a material
@@ -530,3 +531,36 @@ def test_endmember_csv_and_selection(tmp_path):
         unmix.select_endmembers(spectra, names, ["soil", "tree"])
     with pytest.raises(InputError, match="does not exist"):
         read_spectral_library(tmp_path / "missing.csv")
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        # A unit in the header that the values contradict: refused, not silently rescaled.
+        ("wavelength_nm,soil\n0.5,0.2\n0.6,0.3\n", r"says 'wavelength_nm'.*0\.5–0\.6"),
+        # No unit and values that could be either: refused (band numbers?).
+        ("wavelength,soil\n5,0.2\n60,0.3\n", r"could be nanometres or micrometres"),
+        ("band,soil\n500,0.2\n600,0.3\n", r"first column is 'band'"),
+        ("wavelength_nm,soil,soil\n500,0.2,0.1\n600,0.3,0.2\n", r"distinct, non-empty names"),
+        ("wavelength_nm,soil\n500,nan\n600,0.3\n", r"NaN or infinite"),
+        ("wavelength_nm,soil,grass\n500,0.2\n600,0.3,0.1\n", r"line 2: 2 value\(s\) for 3"),
+    ],
+)
+def test_endmember_csv_schema_refuses_what_it_cannot_read_for_sure(tmp_path, text, message):
+    path = tmp_path / "lib.csv"
+    path.write_text(text)
+    with pytest.raises(InputError, match=message) as err:
+        read_spectral_library(path)
+    assert "lib.csv" in str(err.value)
+
+
+def test_endmember_csv_units_from_header_or_unambiguous_values(tmp_path):
+    for header, values, expected in [
+        ("wavelength (nm)", (500, 600), [500, 600]),
+        ("wavelength_um", (0.5, 0.6), [500, 600]),
+        ("Wavelength", (0.5, 0.6), [500, 600]),  # only µm fits 0.5–0.6
+        ("Wavelength", (500, 600), [500, 600]),
+    ]:
+        path = tmp_path / "lib.csv"
+        path.write_text(f"{header},soil\n{values[0]},0.2\n{values[1]},0.3\n")
+        np.testing.assert_allclose(read_spectral_library(path)[0], expected)

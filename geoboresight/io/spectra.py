@@ -16,7 +16,7 @@ from .cube import ENVI_DTYPES, envi_header
 from .wavelengths import parse_list, unit_scale
 
 #: CSV columns holding the library's band widths, not a material.
-_FWHM_COLUMNS = ("fwhm", "fwhm_nm")
+_FWHM_COLUMNS = ("fwhm",)
 
 
 def read_spectral_library(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, list[str]]:
@@ -40,12 +40,24 @@ def read_spectral_library(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarr
         wl, spectra = wl[order], spectra[:, order]
         if np.any(np.diff(wl) <= 0):
             raise InputError(f"endmember library {path}: wavelengths must be distinct")
-    if wl.max() < 100:
-        wl = wl * 1000.0
     return wl, spectra, names
 
 
+def _column_unit(name: str) -> str:
+    """The unit a column header declares: 'nm', 'um' or '' (none)."""
+    low = name.strip().lower().replace("µ", "u").replace("μ", "u")
+    for unit in ("nm", "um", "micrometer", "micrometre", "micron", "nanomet"):
+        if unit in low.replace("wavelength", "").replace("fwhm", ""):
+            return "nm" if unit in ("nm", "nanomet") else "um"
+    return ""
+
+
 def _read_csv(path):
+    """The endmember table's schema: a header row naming the columns; first the wavelength
+    (``wavelength``, optionally with its unit: ``wavelength_nm``, ``wavelength (um)``), then
+    optional band widths (``fwhm``, ``fwhm_nm``), then one column of reflectance per material,
+    each with a distinct name. A unit in the header must agree with the values; without one,
+    the values decide only where they can be one unit alone (300–2600 nm or 0.3–2.6 µm)."""
     with open(path, newline="", encoding="utf-8-sig") as f:
         rows = [r for r in csv.reader(f) if r and any(c.strip() for c in r)]
     if len(rows) < 3 or len(rows[0]) < 2:
@@ -53,15 +65,44 @@ def _read_csv(path):
             f"endmember CSV {path}: expected a header row, then one row per wavelength with "
             "the wavelength (nm) first and one reflectance column per endmember"
         )
-    names = [c.strip() for c in rows[0][1:]]
+    header = [c.strip() for c in rows[0]]
+    if not any(w in header[0].lower() for w in ("wave", "wl", "lambda")):
+        raise InputError(
+            f"endmember CSV {path}: the first column is {header[0]!r}; it must be the "
+            "wavelength (name it e.g. 'wavelength_nm'), followed by one column per material"
+        )
+    names = header[1:]
+    for i, r in enumerate(rows[1:], start=2):
+        if len(r) < len(header):
+            raise InputError(
+                f"endmember CSV {path}, line {i}: {len(r)} value(s) for {len(header)} columns"
+            )
     try:
-        data = np.array([[float(c) for c in r[: len(names) + 1]] for r in rows[1:]])
+        data = np.array([[float(c) for c in r[: len(header)]] for r in rows[1:]])
     except ValueError as exc:
         raise InputError(f"endmember CSV {path}: non-numeric value ({exc})") from None
-    keep = [i for i, n in enumerate(names) if n.lower() not in _FWHM_COLUMNS]
+    if not np.isfinite(data).all():
+        raise InputError(f"endmember CSV {path}: NaN or infinite values; fill or remove them")
+    keep = [i for i, n in enumerate(names) if n.lower().split("_")[0] not in _FWHM_COLUMNS]
+    chosen = [names[i] for i in keep]
     if not keep:
         raise InputError(f"endmember CSV {path}: no endmember column after the wavelength")
-    return data[:, 0], data[:, 1:][:, keep].T.copy(), [names[i] for i in keep]
+    if any(not n for n in chosen) or len(set(chosen)) != len(chosen):
+        raise InputError(
+            f"endmember CSV {path}: material columns need distinct, non-empty names "
+            f"(got {', '.join(repr(n) for n in chosen)})"
+        )
+    wl = data[:, 0]
+    declared = _column_unit(header[0])
+    scale = unit_scale(declared, wl, f"endmember CSV {path}")
+    nm = wl * scale
+    if declared and not (300.0 <= nm.min() and nm.max() <= 2600.0):
+        raise InputError(
+            f"endmember CSV {path}: the header says {header[0]!r} but the values "
+            f"{wl.min():g}–{wl.max():g} are not VNIR/SWIR wavelengths in that unit; fix the "
+            "header's unit (nm or um) or the values"
+        )
+    return nm, data[:, 1:][:, keep].T.copy(), chosen
 
 
 def _read_sli(path):
