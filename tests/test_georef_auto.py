@@ -21,11 +21,31 @@ GSD = 1.5
 CORNER_ERROR_M = np.array([[6.0, -4.0], [-5.0, 3.0], [4.0, 5.0], [-3.0, -6.0]])
 
 
+_SCENES: dict = {}
+
+
+def _simulated(jitter, tmp_path_factory):
+    """One simulated scene per jitter for the whole module."""
+    if jitter not in _SCENES:
+        folder = tmp_path_factory.mktemp("ortho") / "scene"
+        gb.simulate_ortho_file(output=str(folder), lines=LINES, jitter_deg=jitter, seed=2)
+        _SCENES[jitter] = (jitter, folder)
+    return _SCENES[jitter]
+
+
 @pytest.fixture(scope="module", params=[0.0, 0.05, 0.1], ids=lambda j: f"jitter{j}")
 def scene(request, tmp_path_factory):
-    folder = tmp_path_factory.mktemp("ortho") / "scene"
-    gb.simulate_ortho_file(output=str(folder), lines=LINES, jitter_deg=request.param, seed=2)
-    return request.param, folder
+    return _simulated(request.param, tmp_path_factory)
+
+
+@pytest.fixture(scope="module")
+def scene_005(tmp_path_factory):
+    return _simulated(0.05, tmp_path_factory)
+
+
+@pytest.fixture(scope="module")
+def scene_01(tmp_path_factory):
+    return _simulated(0.1, tmp_path_factory)
 
 
 def test_the_true_igm_follows_the_flight_geometry_and_the_jitter(scene):
@@ -102,10 +122,8 @@ def test_auto_georeference_meets_one_pixel_against_the_true_igm_or_refuses(scene
         assert ds.crs.to_epsg() == 32636
 
 
-def test_auto_georeference_refuses_without_texture_far_off_or_without_crs(scene, tmp_path):
-    jitter, folder = scene
-    if jitter != 0.05:
-        pytest.skip("one scene is enough")
+def test_auto_georeference_refuses_without_texture_far_off_or_without_crs(scene_005, tmp_path):
+    jitter, folder = scene_005
     raw, ortho = str(folder / "raw.hdr"), str(folder / "orthophoto.tif")
     with rasterio.open(ortho) as src:
         flat = str(tmp_path / "flat.tif")
@@ -135,12 +153,10 @@ def test_auto_georeference_refuses_without_texture_far_off_or_without_crs(scene,
     assert sorted(p.name for p in tmp_path.iterdir()) == before
 
 
-def test_the_true_igm_geolocates_the_raw_line_onto_the_orthophoto(scene, tmp_path):
+def test_the_true_igm_geolocates_the_raw_line_onto_the_orthophoto(scene_01, tmp_path):
     """geolocate with the true IGM, then reproject-to the orthophoto's grid: the two overlay
     (correlation of the NIR bands at the same map cells)."""
-    jitter, folder = scene
-    if jitter != 0.1:
-        pytest.skip("one scene is enough")
+    jitter, folder = scene_01
     geo = str(tmp_path / "raw_map.tif")
     gb.geolocate_file(str(folder / "raw.hdr"), str(folder / "igm.img"), output=geo)
     on = str(tmp_path / "on_ortho.tif")
