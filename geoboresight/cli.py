@@ -220,6 +220,26 @@ def failure(exc: BaseException, debug: bool = False) -> BaseException:
 class SpecGroup(click.Group):
     """A click group whose subcommands are the registry's specs plus ``list``."""
 
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        """Click's main, with a usage error (unknown option, missing value) as one line that
+        says where the help is, instead of the usage block before the error."""
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode, **extra)
+        try:
+            rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except click.UsageError as exc:
+            top = prog_name or os.path.basename(sys.argv[0]) or self.name
+            where = exc.ctx.command_path if exc.ctx is not None else top
+            click.echo(f"Error: {exc.format_message()} (see '{where} --help')", err=True)
+            sys.exit(exc.exit_code)
+        except click.ClickException as exc:
+            exc.show()
+            sys.exit(exc.exit_code)
+        except click.Abort:
+            click.echo("Aborted!", err=True)
+            sys.exit(1)
+        sys.exit(rv if isinstance(rv, int) else 0)
+
     def list_commands(self, ctx):
         return ["list", "batch", "engine", *registry()]
 
@@ -293,6 +313,7 @@ def _batch(operation, jobs, scheduler, workers, overwrite):
 
 
 @click.group(
+    name="geoboresight",
     cls=SpecGroup,
     context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
 )
