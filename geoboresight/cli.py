@@ -125,7 +125,15 @@ class _Bar:
 def make_command(alg: Algorithm) -> click.Command:
     """A click command for ``alg``: options from its parameters, the run through ``execute``."""
 
-    def callback(overwrite: bool, quiet: bool, as_json: bool, debug: bool = False, **raw):
+    def callback(
+        overwrite: bool,
+        quiet: bool,
+        as_json: bool,
+        debug: bool = False,
+        cog: bool = False,
+        co: tuple = (),
+        **raw,
+    ):
         values = {}
         for p in alg.params:
             v = raw.get(p.name)
@@ -144,7 +152,9 @@ def make_command(alg: Algorithm) -> click.Command:
         log = None if quiet else (lambda m: click.echo(m, err=True))
         progress = Progress(bar, log=log)
         try:
-            result = execute(alg, values, progress=progress, overwrite=overwrite)
+            result = execute(
+                alg, values, progress=progress, overwrite=overwrite, cog=cog, co=list(co)
+            )
         except BaseException as exc:
             bar.close()
             raise failure(exc, debug) from None
@@ -166,6 +176,17 @@ def make_command(alg: Algorithm) -> click.Command:
             ["--overwrite"],
             is_flag=True,
             help="Replace outputs that already exist (inputs are never overwritten).",
+        ),
+        click.Option(
+            ["--cog"],
+            is_flag=True,
+            help="Write GeoTIFF outputs as Cloud-Optimised GeoTIFFs (GDAL's COG driver).",
+        ),
+        click.Option(
+            ["--co", "co"],
+            multiple=True,
+            metavar="NAME=VALUE",
+            help="GDAL creation option for GeoTIFF outputs (repeatable; e.g. --co COMPRESS=LZW).",
         ),
         click.Option(["-q", "--quiet"], is_flag=True, help="No progress bar or log messages."),
         click.Option(["--json", "as_json"], is_flag=True, help="Print the results as JSON."),

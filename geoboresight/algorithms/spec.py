@@ -300,9 +300,16 @@ class Algorithm:
         _check_bands(self, out)
         return out
 
-    def __call__(self, progress: Progress | None = None, overwrite: bool = False, **values):
+    def __call__(
+        self,
+        progress: Progress | None = None,
+        overwrite: bool = False,
+        cog: bool = False,
+        co=None,
+        **values,
+    ):
         """Run from Python: ``registry()['ratio'](vnir='a.hdr', output='r.tif')``."""
-        return execute(self, values, progress=progress, overwrite=overwrite)
+        return execute(self, values, progress=progress, overwrite=overwrite, cog=cog, co=co)
 
 
 def _check_bands(alg: Algorithm, values: dict) -> None:
@@ -336,7 +343,7 @@ def _resolve_aliases(alg: Algorithm, values: Mapping[str, Any]) -> dict:
 
 
 #: Parameters of every file-level operation that are not spec parameters.
-_RUN_ONLY = ("progress", "overwrite")
+_RUN_ONLY = ("progress", "overwrite", "cog", "co")
 
 
 def _check_signature(alg: Algorithm) -> None:
@@ -377,11 +384,14 @@ def execute(
     values: Mapping[str, Any],
     progress: Progress | None = None,
     overwrite: bool = False,
+    cog: bool = False,
+    co=None,
 ) -> dict:
     """Validate ``values`` and run ``alg``'s operation (which refuses unsafe outputs and
-    removes the outputs it created when it fails)."""
+    removes the outputs it created when it fails); ``cog``/``co`` say how its GeoTIFF outputs
+    are written (Cloud-Optimised, GDAL creation options ``NAME=VALUE``)."""
     values = alg.validate(values)
-    return alg.run(**values, progress=as_progress(progress), overwrite=overwrite)
+    return alg.run(**values, progress=as_progress(progress), overwrite=overwrite, cog=cog, co=co)
 
 
 __all__ = [

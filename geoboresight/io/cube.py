@@ -21,7 +21,7 @@ import numpy as np
 
 from .grid import Grid
 from .raster import open_raster
-from .wavelengths import read_wavelengths
+from .wavelengths import good_bands, read_wavelengths
 
 #: NumPy types of ENVI's "data type" codes.
 ENVI_DTYPES = {1: "u1", 2: "i2", 3: "i4", 4: "f4", 5: "f8", 12: "u2", 13: "u4", 14: "i8", 15: "u8"}
@@ -89,7 +89,7 @@ class Cube:
     Use :func:`open_cube`. ``wavelengths``/``fwhm`` are in nm (None when the files have none).
     """
 
-    def __init__(self, parts, grid: Grid, wavelengths, fwhm):
+    def __init__(self, parts, grid: Grid, wavelengths, fwhm, good=None):
         self._parts = parts
         self.grid = grid
         self.height = grid.height
@@ -99,6 +99,8 @@ class Cube:
         self.wavelengths = wavelengths
         self.fwhm = fwhm
         self.count = sum(p.count for p in parts)
+        #: False for the bands an ENVI ``bbl`` marks bad (:func:`good_bands`).
+        self.good = np.ones(self.count, bool) if good is None else np.asarray(good, bool)
         self.paths = [p.path for p in parts]
         self._local = threading.local()
 
@@ -229,7 +231,7 @@ def open_cube(paths, label: str = "image") -> Cube:
     """
     if isinstance(paths, str | os.PathLike):
         paths = [paths]
-    parts, wls, fws = [], [], []
+    parts, wls, fws, goods = [], [], [], []
     grid = None
     for path in paths:
         path = os.fspath(path)
@@ -241,6 +243,7 @@ def open_cube(paths, label: str = "image") -> Cube:
             else:
                 grid.require_same(g, f"{label} {paths[0]}", f"{label} {path}")
             wl, fw = read_wavelengths(src)
+            goods.append(good_bands(src))
             wls.append(wl)
             fws.append(fw)
             parts.append(
@@ -254,4 +257,4 @@ def open_cube(paths, label: str = "image") -> Cube:
             )
     wavelengths = None if any(w is None for w in wls) else np.concatenate(wls)
     fwhm = None if any(f is None for f in fws) else np.concatenate(fws)
-    return Cube(parts, grid, wavelengths, fwhm)
+    return Cube(parts, grid, wavelengths, fwhm, np.concatenate(goods))

@@ -13,7 +13,7 @@ import numpy as np
 from ..errors import InputError
 from .grid import Grid
 from .raster import open_raster
-from .wavelengths import nearest_band, wavelengths_of
+from .wavelengths import good_bands, nearest_band, wavelengths_of
 
 #: Eq. 3 of Brook & Ben-Dor (2011): b(1010 nm) / b(920 nm), the SWIR band over the VNIR band.
 SWIR_NM = 1010.0
@@ -118,6 +118,17 @@ def _sensor_wavelengths(
     return wavelengths_of(src, f"{label} {path}", user, option)
 
 
+def _good(src, label: str, path: str) -> np.ndarray:
+    """The bands the ENVI ``bbl`` keeps; refuse a file whose bands are all bad."""
+    good = good_bands(src)
+    if not good.any():
+        raise InputError(
+            f"{label} {path}: its header's 'bbl' marks every band bad: nothing to work with "
+            "(fix the 'bbl' list)"
+        )
+    return good
+
+
 def open_dual(
     vnir: str,
     swir: str | None = None,
@@ -143,9 +154,11 @@ def open_dual(
         wl_v, fw_v = _sensor_wavelengths(src, vnir, vnir_wavelengths, "VNIR")
         grid_v = Grid.of(src)
         nodata_v = src.nodata
+        good_v = _good(src, label, vnir)
     if swir is None:
-        below = np.flatnonzero(wl_v < seam_nm)
-        above = np.flatnonzero(wl_v >= seam_nm)
+        # Bands the ENVI 'bbl' marks bad belong to neither sensor: never picked nor read.
+        below = np.flatnonzero((wl_v < seam_nm) & good_v)
+        above = np.flatnonzero((wl_v >= seam_nm) & good_v)
         if below.size == 0 or above.size == 0:
             raise InputError(
                 f"{label} {vnir}: its bands ({wl_v.min():.1f}–{wl_v.max():.1f} nm) do not "
@@ -166,9 +179,18 @@ def open_dual(
         wl_s, fw_s = _sensor_wavelengths(src, swir, swir_wavelengths, "SWIR")
         grid_s = Grid.of(src)
         nodata_s = src.nodata
+        good_s = _good(src, "SWIR", swir)
     grid_v.require_same(grid_s, f"VNIR {vnir}", f"SWIR {swir}")
-    vn = SensorFile(vnir, "VNIR", tuple(range(1, len(wl_v) + 1)), wl_v, fw_v, nodata_v)
-    sw = SensorFile(swir, "SWIR", tuple(range(1, len(wl_s) + 1)), wl_s, fw_s, nodata_s)
+    pick = lambda path, name, wl, fw, nd, good: SensorFile(  # noqa: E731
+        path,
+        name,
+        tuple(int(i) + 1 for i in np.flatnonzero(good)),
+        wl[good],
+        None if fw is None else fw[good],
+        nd,
+    )
+    vn = pick(vnir, "VNIR", wl_v, fw_v, nodata_v, good_v)
+    sw = pick(swir, "SWIR", wl_s, fw_s, nodata_s, good_s)
     grid = Grid(
         grid_v.width, grid_v.height, grid_v.crs or grid_s.crs, grid_v.transform or grid_s.transform
     )

@@ -7,23 +7,159 @@ Raw sensor geometry (no CRS, no geotransform) is common for pushbroom data: it i
 from __future__ import annotations
 
 import contextlib
+import contextvars
+import logging
 import os
+import re
 import warnings
 from xml.sax.saxutils import escape
 
 import numpy as np
 import rasterio
+import rasterio.shutil
+from rasterio.enums import Resampling
 from rasterio.errors import NotGeoreferencedWarning, RasterioIOError
 from rasterio.transform import Affine
 
 from .. import __version__
-from ..errors import InputError, OutputError
-from .grid import FLOAT_NODATA, Grid
+from ..errors import InputError, OutputError, ParameterError
+from .grid import FLOAT_NODATA, TILE, Grid
 from .wavelengths import format_wavelengths
-from .write import atomic_output, output_error, scrub
+from .write import atomic_output, output_error, scrub, temp_name
 
 #: GDAL block cache (MB) while reading: enough for a few strips of a full-width cube.
 GDAL_CACHE_MB = 64
+
+
+#: How GeoTIFF outputs are written in this context: (Cloud-Optimised?, creation options).
+_WRITER: contextvars.ContextVar[tuple[bool, dict]] = contextvars.ContextVar(
+    "geoboresight_writer", default=(False, {})
+)
+_CO_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+
+
+def parse_creation_options(co, label: str = "co") -> dict:
+    """GDAL creation options from rio's ``NAME=VALUE`` convention: a text
+    ``"NAME=VALUE,NAME=VALUE"``, a list of such texts, or a dict; names upper-cased.
+    Raise :class:`ParameterError` naming ``label`` for an entry without ``=``."""
+    if not co:
+        return {}
+    if isinstance(co, dict):
+        items = [f"{k}={v}" for k, v in co.items()]
+    else:
+        texts = [co] if isinstance(co, str) else list(co)
+        items = [i.strip() for t in texts for i in str(t).split(",") if i.strip()]
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        name, value = name.strip(), value.strip()
+        if not sep or not _CO_NAME.match(name) or not value:
+            raise ParameterError(
+                f"parameter '{label}': {item!r} is not NAME=VALUE (e.g. COMPRESS=LZW,"
+                "BLOCKSIZE=512); see GDAL's GTiff and COG driver pages for the names"
+            )
+        out[name.upper()] = value
+    return out
+
+
+def check_creation_options(driver: str, options: dict, label: str = "co") -> None:
+    """Raise :class:`ParameterError` when GDAL's ``driver`` does not know an option or value.
+
+    GDAL only logs a warning and ignores such an option, so the output would silently not be
+    what was asked: a 1 × 1 file is created in memory and GDAL's complaints are collected.
+    """
+    if not options:
+        return
+    complaints: list[str] = []
+
+    class _Collect(logging.Handler):
+        def emit(self, record):
+            msg = record.getMessage()
+            if "creation option" in msg or "not recognised" in msg or "unexpected value" in msg:
+                complaints.append(msg.split(" in ", 1)[-1])
+
+    logger = logging.getLogger("rasterio._env")
+    handler = _Collect(logging.WARNING)
+    logger.addHandler(handler)
+    # A logger configured quieter than WARNING would drop the complaints before the handler.
+    level = logger.level
+    if logger.getEffectiveLevel() > logging.WARNING:
+        logger.setLevel(logging.WARNING)
+    probe = f"/vsimem/geoboresight_co_{os.getpid()}_{id(options)}.tif"
+    try:
+        with quiet_georef(), rasterio.Env():
+            if driver == "COG":
+                with rasterio.open(
+                    "/vsimem/src_" + probe[8:],
+                    "w",
+                    driver="GTiff",
+                    width=1,
+                    height=1,
+                    count=1,
+                    dtype="uint8",
+                ) as src:
+                    src.write(np.zeros((1, 1, 1), "uint8"))
+                rasterio.shutil.copy("/vsimem/src_" + probe[8:], probe, driver="COG", **options)
+            else:
+                with rasterio.open(
+                    probe,
+                    "w",
+                    driver=driver,
+                    width=1,
+                    height=1,
+                    count=1,
+                    dtype="uint8",
+                    **options,
+                ) as dst:
+                    dst.write(np.zeros((1, 1, 1), "uint8"))
+    except rasterio.errors.RasterioError as exc:
+        complaints.append(str(exc))
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(level)
+        for f in (probe, "/vsimem/src_" + probe[8:]):
+            with contextlib.suppress(Exception):
+                rasterio.shutil.delete(f)
+    if complaints:
+        raise ParameterError(
+            f"parameter '{label}': GDAL's {driver} driver refuses "
+            f"{', '.join(f'{k}={v}' for k, v in options.items())} ({'; '.join(complaints)}): "
+            f"check the names and values on GDAL's {driver} driver page"
+        )
+
+
+@contextlib.contextmanager
+def writer_options(cog: bool = False, co=None):
+    """Within this context every GeoTIFF output is written as a Cloud-Optimised GeoTIFF when
+    ``cog`` (GDAL's COG driver) and with the GDAL creation options ``co`` (rio's
+    ``NAME=VALUE`` convention, :func:`parse_creation_options`). Options are checked against
+    the driver before any work, so a misspelt one is refused rather than silently ignored.
+    """
+    options = parse_creation_options(co)
+    check_creation_options("COG" if cog else "GTiff", options)
+    token = _WRITER.set((bool(cog), options))
+    try:
+        yield
+    finally:
+        _WRITER.reset(token)
+
+
+def overview_factors(width: int, height: int) -> list[int]:
+    """Overview decimation factors 2, 4, 8, … until the smallest level fits in one tile (the
+    levels GDAL's COG driver makes with OVERVIEWS=AUTO); none for a raster of one tile."""
+    factors, f = [], 2
+    while max(width, height) / (f // 2) > TILE:
+        factors.append(f)
+        f *= 2
+    return factors
+
+
+def overview_resampling(dtype: str, colormap) -> Resampling:
+    """Average for continuous (float) data; nearest for integer data, whose values may be
+    classes that an average would turn into classes that do not exist."""
+    return (
+        Resampling.average if np.dtype(dtype).kind == "f" and not colormap else Resampling.nearest
+    )
 
 
 @contextlib.contextmanager
@@ -251,6 +387,11 @@ def create_raster(
     """
     extra = {"photometric": "palette"} if colormap else {}
     profile = Grid.of(grid).profile(count=count, dtype=dtype, nodata=nodata, **extra)
+    cog, options = _WRITER.get()
+    if options and not cog:
+        # The user's NAME=VALUE replace ours of the same name (rasterio's keys are lower case).
+        profile = {k: v for k, v in profile.items() if k.upper() not in options} | options
+    resampling = overview_resampling(profile["dtype"], colormap)
     with atomic_output(path, overwrite=overwrite) as tmp, quiet_georef():
         with rasterio.open(tmp, "w", **profile) as dst:
             if colormap:
@@ -261,12 +402,43 @@ def create_raster(
                 dst.set_band_description(i, name)
             for i, bt in enumerate(band_tags or (), start=1):
                 dst.update_tags(i, **{k: str(v) for k, v in bt.items()})
+            # Overviews, so that a map viewer (QGIS) draws a whole flight line quickly.
+            factors = overview_factors(dst.width, dst.height)
+            if factors:
+                dst.build_overviews(factors, resampling)
+                dst.update_tags(ns="rio_overview", resampling=resampling.name)
         verify_written(tmp, path, profile)
+        if cog:
+            _to_cog(tmp, path, profile, options, resampling)
         if category_names:
             # After the TIFF is closed (GDAL would rewrite its PAM file on close), beside the
             # temporary file so that it is renamed along with it.
             with open(tmp + ".aux.xml", "w", encoding="utf-8") as f:
                 f.write(_pam_categories(category_names))
+
+
+def _to_cog(tmp: str, path: str, profile: dict, options: dict, resampling: Resampling) -> None:
+    """Rewrite the verified GeoTIFF ``tmp`` in place as a Cloud-Optimised GeoTIFF (GDAL's COG
+    driver: tiles, then overviews, in the order a reader streams them), inside the atomic
+    write of ``path``; the overviews already built are reused (OVERVIEWS=AUTO)."""
+    cog_options = {
+        "COMPRESS": "DEFLATE",
+        "PREDICTOR": "YES",
+        "BLOCKSIZE": str(TILE),
+        "BIGTIFF": "IF_SAFER",
+        "OVERVIEWS": "AUTO",
+        "RESAMPLING": "AVERAGE" if resampling == Resampling.average else "NEAREST",
+    } | options
+    cog = temp_name(path)
+    try:
+        with quiet_georef():
+            rasterio.shutil.copy(tmp, cog, driver="COG", **cog_options)
+        verify_written(cog, path, profile)
+        os.replace(cog, tmp)
+    finally:
+        for leftover in (cog, cog + ".aux.xml"):
+            with contextlib.suppress(OSError):
+                os.remove(leftover)
 
 
 def verify_written(tmp: str, path: str, profile: dict) -> None:

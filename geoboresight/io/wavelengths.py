@@ -161,6 +161,24 @@ def read_wavelengths(src) -> tuple[np.ndarray | None, np.ndarray | None]:
     return None, None
 
 
+def good_bands(src) -> np.ndarray:
+    """True for each band the ENVI header's ``bbl`` (bad-band list: 1 good, 0 bad) keeps; all
+    True without one. Bad bands (detector edges, water vapour, dead bands flagged by the
+    processing chain) are never picked for the ratio, matching or spectral work."""
+    n = src.count
+    envi = src.tags(ns="ENVI") if "ENVI" in (src.tag_namespaces() or ()) else {}
+    if "bbl" not in envi:
+        return np.ones(n, bool)
+    name = getattr(src, "name", "the raster")
+    flags = parse_list(envi["bbl"], f"{name}: ENVI header 'bbl'")
+    if len(flags) != n or not np.isin(flags, (0, 1)).all():
+        raise InputError(
+            f"{name}: its header's 'bbl' (bad-band list) must hold one 0 (bad) or 1 (good) per "
+            f"band, {n} in all; it has {len(flags)} values: fix or remove the 'bbl' line"
+        )
+    return flags.astype(bool)
+
+
 def wavelengths_of(
     src, path: str, user: str | None = None, option: str = "--wavelengths"
 ) -> tuple[np.ndarray, np.ndarray | None]:

@@ -26,6 +26,7 @@ import shutil
 from collections.abc import Callable
 
 from ..errors import GeoboresightError, InputError, OutputError, ParameterError, ResourceError
+from ..io.raster import writer_options
 from ..io.write import check_output_path, output_error
 from ..progress import as_progress
 
@@ -35,7 +36,10 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
     or a list of paths) and ``outputs`` the files or folders it writes.
 
     The decorated function takes ``progress`` (a :class:`~geoboresight.progress.Progress` or
-    None) and gains ``overwrite`` (default False).
+    None) and gains ``overwrite`` (default False), ``cog`` (default False: write every
+    GeoTIFF output as a Cloud-Optimised GeoTIFF) and ``co`` (GDAL creation options in rio's
+    ``NAME=VALUE,NAME=VALUE`` convention), the last two set once here for every writer
+    (:func:`geoboresight.io.raster.writer_options`).
     """
 
     def decorate(func: Callable) -> Callable:
@@ -45,7 +49,7 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
             raise TypeError(f"{func.__name__}: no parameter(s) {', '.join(missing)}")
 
         @functools.wraps(func)
-        def run(*args, overwrite: bool = False, **kwargs):
+        def run(*args, overwrite: bool = False, cog: bool = False, co=None, **kwargs):
             bound = sig.bind(*args, **kwargs)
             bound.apply_defaults()
             values = bound.arguments
@@ -54,7 +58,8 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
             outs = check_paths(values, inputs, outputs, overwrite)
             existed = {o for o in outs if os.path.lexists(o)}
             try:
-                return func(*bound.args, **bound.kwargs)
+                with writer_options(cog=cog, co=co):
+                    return func(*bound.args, **bound.kwargs)
             except BaseException as exc:
                 for o in outs:
                     if o not in existed:
@@ -65,7 +70,8 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
                 raise translate_error(exc, ins, outs) from exc
 
         params = list(sig.parameters.values())
-        params.append(inspect.Parameter("overwrite", inspect.Parameter.KEYWORD_ONLY, default=False))
+        for name, default in (("overwrite", False), ("cog", False), ("co", None)):
+            params.append(inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=default))
         run.__signature__ = sig.replace(parameters=params)
         run.inputs = tuple(inputs)
         run.outputs = tuple(outputs)

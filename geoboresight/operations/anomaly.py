@@ -21,6 +21,7 @@ from ..anomaly.polygons import FIELDS
 from ..anomaly.roc import PFA, TITLE
 from ..anomaly.rx import INNER, OUTER
 from ..anomaly.svdd import NU, SAMPLE_SIZE
+from ..errors import InputError
 from ._operation import operation
 
 #: Lines per strip of a cube: 16 lines of a 286-sample AISA line = 4,576 pixels, so a strip's
@@ -33,6 +34,12 @@ def open_image(vnir, swir=None, include_nm="", exclude_nm=WATER_BANDS_NM):
     ``swir`` is given), the 0-based bands chosen by wavelength and their centres (nm, or None)."""
     cube = io.open_cube([vnir] + ([swir] if swir else []))
     bands = select_bands(cube.wavelengths, cube.count, include_nm, exclude_nm)
+    bands = bands[cube.good[bands]]  # bands an ENVI 'bbl' marks bad are never used
+    if bands.size < 2:
+        raise InputError(
+            f"{vnir}: once the bands its ENVI 'bbl' marks bad are left out, {bands.size} band(s) "
+            "remain: a detector needs at least 2 (check the header's 'bbl' and include_nm)"
+        )
     wl = None if cube.wavelengths is None else cube.wavelengths[bands]
     return cube, bands, wl
 

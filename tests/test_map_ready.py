@@ -1,0 +1,147 @@
+"""Map-ready rasters (issue 12): every GeoTIFF output can be a Cloud-Optimised GeoTIFF with
+overviews and rio's ``--co NAME=VALUE`` creation options, set once for every operation."""
+
+import numpy as np
+import pytest
+import rasterio
+from click.testing import CliRunner
+from rasterio.transform import from_origin
+from synth import SWIR_WL, VNIR_WL, cube, write_envi
+
+import geoboresight as gb
+from geoboresight.cli import main
+from geoboresight.errors import InputError, ParameterError
+from geoboresight.io import Grid, write_raster
+from geoboresight.io.raster import create_class_raster, writer_options
+
+
+def _pair(tmp_path, rows=600, cols=300):
+    v = write_envi(tmp_path / "v.img", cube(len(VNIR_WL), rows, cols, seed=1), VNIR_WL)
+    s = write_envi(tmp_path / "s.img", cube(len(SWIR_WL), rows, cols, seed=2), SWIR_WL)
+    return v, s
+
+
+def test_cli_cog_and_creation_options_keep_the_pixels(tmp_path):
+    v, s = _pair(tmp_path)
+    plain, cog = tmp_path / "plain.tif", tmp_path / "cog.tif"
+    base = ["ratio", "--vnir", v, "--swir", s, "-q"]
+    assert CliRunner().invoke(main, [*base, "-o", str(plain)]).exit_code == 0
+    r = CliRunner().invoke(main, [*base, "-o", str(cog), "--cog", "--co", "COMPRESS=LZW"])
+    assert r.exit_code == 0, r.output
+    with rasterio.open(plain) as a, rasterio.open(cog) as b:
+        # GDAL's own report of the layout and the compression asked for.
+        assert b.tags(ns="IMAGE_STRUCTURE").get("LAYOUT") == "COG"
+        assert b.compression.name == "lzw"
+        assert "LAYOUT" not in a.tags(ns="IMAGE_STRUCTURE")
+        np.testing.assert_array_equal(a.read(1), b.read(1))
+        assert a.overviews(1) == b.overviews(1) == [2, 4]  # until a level fits a tile
+        assert b.tags() == a.tags() and b.descriptions == a.descriptions
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".")) == []
+
+
+def test_float_overviews_are_nodata_aware_2x2_means(tmp_path):
+    rng = np.random.default_rng(0)
+    a = rng.random((600, 520)).astype("float32")
+    a[:7, :9] = -9999.0
+    grid = Grid(520, 600, "EPSG:32636", from_origin(700000, 3600000, 2.0, 2.0))
+    write_raster(str(tmp_path / "f.tif"), np.ma.masked_equal(a, -9999.0), grid)
+    with rasterio.open(tmp_path / "f.tif") as src:
+        assert src.overviews(1) == [2, 4]
+        ov = src.read(1, out_shape=(300, 260))
+    blocks = np.ma.masked_equal(a, -9999.0).reshape(300, 2, 260, 2).mean(axis=(1, 3))
+    np.testing.assert_allclose(ov[4:, 5:], blocks[4:, 5:].filled(), rtol=1e-6)
+    assert ov[0, 0] == -9999.0  # a block of nodata only stays nodata
+
+
+def test_class_overviews_never_invent_a_class(tmp_path):
+    rng = np.random.default_rng(1)
+    classes = rng.choice([0, 3, 7], size=(700, 700)).astype("uint8")
+    with writer_options(cog=True):
+        with create_class_raster(
+            str(tmp_path / "c.tif"),
+            Grid(700, 700),
+            tags={},
+            band_name="class",
+            colormap={0: (0, 0, 0, 255), 3: (255, 0, 0, 255), 7: (0, 0, 255, 255)},
+            category_names={0: "a", 3: "b", 7: "c"},
+        ) as dst:
+            dst.write(classes, 1)
+    with rasterio.open(tmp_path / "c.tif") as src:
+        assert src.tags(ns="IMAGE_STRUCTURE").get("LAYOUT") == "COG"
+        assert src.overviews(1) == [2, 4]
+        np.testing.assert_array_equal(src.read(1), classes)
+        for level in (2, 4):
+            ov = src.read(1, out_shape=(700 // level, 700 // level))
+            assert set(np.unique(ov)) <= {0, 3, 7}
+        assert src.colormap(1)[3][:3] == (255, 0, 0)
+        assert src.crs is None  # raw geometry stays raw
+
+
+def test_python_operation_takes_cog_and_co(tmp_path):
+    v, s = _pair(tmp_path, rows=40, cols=30)
+    out = tmp_path / "r.tif"
+    gb.ratio_file(v, s, output=str(out), cog=True, co="COMPRESS=ZSTD,LEVEL=9")
+    with rasterio.open(out) as src:
+        assert src.compression.name == "zstd"
+        assert src.tags(ns="IMAGE_STRUCTURE").get("LAYOUT") == "COG"
+        assert src.overviews(1) == []  # one tile: nothing to decimate
+
+
+@pytest.mark.parametrize(
+    "co, words",
+    [("FOO=1", "FOO"), ("COMPRESS=NOPE", "NOPE"), ("junk", "NAME=VALUE")],
+)
+def test_bad_creation_option_is_one_line_and_leaves_nothing(tmp_path, co, words):
+    v, s = _pair(tmp_path, rows=40, cols=30)
+    out = tmp_path / "r.tif"
+    r = CliRunner().invoke(
+        main, ["ratio", "--vnir", v, "--swir", s, "-o", str(out), "--co", co, "-q"]
+    )
+    assert r.exit_code != 0
+    line = r.output.strip()
+    assert "\n" not in line and "'co'" in line and words in line
+    assert not out.exists()
+    with pytest.raises(ParameterError, match="COG driver refuses TILED"):
+        gb.ratio_file(v, s, output=str(out), cog=True, co={"TILED": "YES"})
+    assert not out.exists()
+
+
+def _with_bbl(path, flags):
+    hdr = str(path)[:-4] + ".hdr"
+    with open(hdr, "a") as f:
+        f.write("bbl = {" + ", ".join(str(int(x)) for x in flags) + "}\n")
+    return path
+
+
+def test_envi_bad_band_list_is_never_picked_nor_used(tmp_path):
+    vn, sw = cube(len(VNIR_WL), seed=3), cube(len(SWIR_WL), seed=4)
+    v = _with_bbl(write_envi(tmp_path / "v.img", vn, VNIR_WL), [1] * 11 + [0])
+    s = _with_bbl(write_envi(tmp_path / "s.img", sw, SWIR_WL), [0] + [1] * 49)
+    dual = gb.open_dual(v, s)
+    assert 12 not in dual.vnir.bands and 1 not in dual.swir.bands
+    rb = dual.ratio_bands(band_mode="edges")  # last good VNIR over first good SWIR
+    assert (rb.vnir_band, rb.swir_band) == (11, 2)
+    assert rb.vnir_nm == pytest.approx(VNIR_WL[10]) and rb.swir_nm == pytest.approx(SWIR_WL[1])
+    out = tmp_path / "r.tif"
+    gb.ratio_file(v, s, output=str(out), band_mode="edges")
+    with rasterio.open(out) as src:
+        r = src.read(1, masked=True)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        want = sw[1].astype("float64") / vn[10].astype("float64")
+    np.testing.assert_allclose(r.compressed(), want[~r.mask].astype("float32"), rtol=1e-6)
+    # The anomaly detectors' band selection drops them too.
+    rx = tmp_path / "rx.tif"
+    gb.rx_file(v, s, output=str(rx), exclude_nm="")
+    with rasterio.open(rx) as src:
+        used = [int(b) for b in src.tags()["BANDS_USED"].split(",")]
+    assert 12 not in used and 13 not in used and len(used) == 11 + 49
+
+
+def test_bad_band_list_with_every_band_bad_or_wrong_length_is_refused(tmp_path):
+    v = _with_bbl(write_envi(tmp_path / "v.img", cube(len(VNIR_WL)), VNIR_WL), [0] * 12)
+    s = write_envi(tmp_path / "s.img", cube(len(SWIR_WL)), SWIR_WL)
+    with pytest.raises(InputError, match=r"bbl.*every band bad"):
+        gb.open_dual(v, s)
+    w = _with_bbl(write_envi(tmp_path / "w.img", cube(len(VNIR_WL)), VNIR_WL), [1, 0])
+    with pytest.raises(InputError, match=r"'bbl'.*12 in all; it has 2"):
+        gb.open_dual(w, s)
