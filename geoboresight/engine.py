@@ -71,6 +71,34 @@ RESULTS: dict[str, tuple[tuple[str, str, str], ...]] = {
         ("class_3_pixels", "number", "Pixels in class 3"),
         ("class_4_pixels", "number", "Pixels in class 4"),
         ("no_shadow_pixels", "number", "Pixels without shadow"),
+        ("ratio_mode", "number", "Most common ratio of the scene (its sunlit ground)"),
+    ),
+    "shadow-map": (
+        ("valid_pixels", "number", "Valid pixels"),
+        ("shadow_pixels", "number", "Shadow pixels"),
+        ("shadow_share", "number", "Share of the valid pixels in shadow"),
+        ("vnir_dark_dn", "number", "VNIR dark level (DN)"),
+        ("vnir_dark_source", "string", "Where the VNIR dark level comes from"),
+        ("swir_dark_dn", "number", "SWIR dark level (DN)"),
+        ("swir_dark_source", "string", "Where the SWIR dark level comes from"),
+        ("sunlit_nir_signal_dn", "number", "Sunlit NIR signal above dark (DN)"),
+        ("sunlit_swir_signal_dn", "number", "Sunlit SWIR signal above dark (DN)"),
+        ("sunlit_ratio", "number", "Ratio of the sunlit ground"),
+        ("class_scale", "number", "Scale of the class thresholds to the scene"),
+        ("water_blue_nir_limit", "number", "Blue/NIR limit of the water test"),
+        ("offset_along_px", "number", "Offset along track (pixels)"),
+        ("offset_across_px", "number", "Offset across track (pixels)"),
+        ("sample_pixels", "number", "Pixels sampled"),
+        (
+            "table2_ratio_bounds_on_scene",
+            "string",
+            "Table 2's classes as ratio bounds on this scene",
+        ),
+        ("class_1_pixels", "number", "Pixels in class 1"),
+        ("class_2_pixels", "number", "Pixels in class 2"),
+        ("class_3_pixels", "number", "Pixels in class 3"),
+        ("class_4_pixels", "number", "Pixels in class 4"),
+        ("no_shadow_pixels", "number", "Pixels without shadow"),
     ),
     "shadow-cluster": (
         ("components", "number", "Mixture components"),
@@ -82,6 +110,7 @@ RESULTS: dict[str, tuple[tuple[str, str, str], ...]] = {
         ("slope", "number", "Slope of the fraction model"),
         ("intercept", "number", "Intercept of the fraction model"),
         ("valid_pixels", "number", "Valid pixels"),
+        ("outside_line_pixels", "number", "Pixels with a ratio outside the fitted line's range"),
     ),
     "shadow-fraction-fit": (
         ("slope", "number", "Slope of the fraction model"),
@@ -139,6 +168,10 @@ RESULTS: dict[str, tuple[tuple[str, str, str], ...]] = {
         ("swir_wavelength_nm", "number", "Centre of the SWIR band used (nm)"),
         ("vnir_bands_averaged", "string", "VNIR bands averaged (JSON)"),
         ("swir_bands_averaged", "string", "SWIR bands averaged (JSON)"),
+        ("relief_std_m", "number", "Standard deviation of the relief (m)"),
+        ("relief_chi2", "number", "Chi-square of the relief against the noise"),
+        ("relief_dof", "number", "Degrees of freedom of the relief test"),
+        ("relief_p_value", "number", "p-value of the relief test"),
     ),
     "anomaly-polygons": (("features", "number", "Features written"),),
     "boresight-indicator": (
@@ -161,7 +194,12 @@ RESULTS: dict[str, tuple[tuple[str, str, str], ...]] = {
         ("disparity_px_per_m", "number", "Simulated disparity (pixels per metre)"),
         ("height_precision_m_per_px", "number", "Height precision (m per pixel of disparity)"),
     ),
+    "simulate-ortho": (("files", "string", "Files written (JSON)"),),
 }
+
+#: Results any operation may return, declared for all: warnings about the result's validity
+#: (the QGIS plugin also shows each as a warning in the log).
+COMMON_RESULTS = (("warnings", "string", "Warnings about this result (JSON list)"),)
 
 
 def version_info() -> dict:
@@ -238,7 +276,7 @@ def describe() -> dict:
                 "params": [describe_param(p) for p in alg.params],
                 "results": [
                     {"name": n, "type": t, "description": d}
-                    for n, t, d in RESULTS.get(alg.name, ())
+                    for n, t, d in RESULTS.get(alg.name, ()) + COMMON_RESULTS
                 ],
             }
         )

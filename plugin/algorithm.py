@@ -392,6 +392,8 @@ class EngineAlgorithm(QgsProcessingAlgorithm):
         declared = {r["name"]: r for r in self.declared_results()}
         outputs_by_name = {p["name"]: p for p in self.spec["params"] if p["is_output"]}
         outputs = {}
+        for warning in result.get("warnings") or ():
+            feedback.pushWarning(str(warning))
         for key, value in result.items():
             if key in declared and declared[key]["type"] == "string" and not isinstance(value, str):
                 value = json.dumps(value)  # lists and tables as JSON text a model can parse

@@ -329,6 +329,7 @@ def run(
     if state["error"]:
         raise QgsProcessingException(state["error"])
     if feedback is not None and feedback.isCanceled():
+        remove_partial(outputs, started)  # in case the engine had to be killed (Windows)
         raise QgsProcessingException("cancelled by the user: no output was written")
     if proc.exitStatus() == QProcess.CrashExit:
         remove_partial(outputs, started)

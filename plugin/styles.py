@@ -64,24 +64,12 @@ def needs_ramp(layer: QgsRasterLayer) -> bool:
     return layer.isValid() and layer.bandCount() == 1 and not is_paletted(layer)
 
 
-def category_names(path: str) -> list[str]:
-    """The raster's category names (band 1), read with QGIS's own GDAL bindings."""
-    from osgeo import gdal
-
-    ds = gdal.Open(path)
-    if ds is None:
-        return []
-    return list(ds.GetRasterBand(1).GetCategoryNames() or [])
-
-
-def class_renderer(layer: QgsRasterLayer, names: list[str]):
-    """A paletted renderer with only the named classes of the colour table, labelled."""
+def class_renderer(layer: QgsRasterLayer):
+    """A paletted renderer with only the named classes of the colour table, labelled. QGIS's
+    GDAL provider labels each colour-table entry with its category name (the library writes
+    them in the PAM sidecar) or, for an unnamed entry, with its bare number: those go."""
     classes = QgsPalettedRasterRenderer.colorTableToClassData(layer.dataProvider().colorTable(1))
-    kept = []
-    for c in classes:
-        if 0 <= c.value < len(names) and names[c.value].strip():
-            c.label = names[c.value]
-            kept.append(c)
+    kept = [c for c in classes if c.label.strip() and c.label.strip() != str(int(c.value))]
     return QgsPalettedRasterRenderer(layer.dataProvider(), 1, kept) if kept else None
 
 
@@ -91,7 +79,7 @@ def write_style(path: str) -> str | None:
     if not layer.isValid() or layer.bandCount() != 1:
         return None
     if is_paletted(layer):
-        renderer = class_renderer(layer, category_names(path))
+        renderer = class_renderer(layer)
         if renderer is None:
             return None  # a colour table without names: QGIS's own paletted renderer
         layer.setRenderer(renderer)

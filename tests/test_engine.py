@@ -16,7 +16,7 @@ import rasterio
 
 from geoboresight import __version__
 from geoboresight.algorithms import registry
-from geoboresight.engine import PROTOCOL, RESULTS
+from geoboresight.engine import COMMON_RESULTS, PROTOCOL, RESULTS
 from geoboresight.io import quiet_georef, write_envi
 
 ENGINE = [sys.executable, "-m", "geoboresight.cli", "engine"]
@@ -76,7 +76,7 @@ def test_describe_lists_every_spec_with_its_parameters():
                 assert q["choices"] == list(p.choices)
         assert {g["id"] for g in doc["groups"]} >= {a["group_id"]}
         declared = [r["name"] for r in a["results"]]
-        assert declared == [r[0] for r in RESULTS.get(name, ())]
+        assert declared == [r[0] for r in RESULTS.get(name, ()) + COMMON_RESULTS]
 
 
 def test_declared_results_name_known_operations_and_types():

@@ -16,9 +16,7 @@ import json
 import os
 import shutil
 import subprocess
-import sys
 
-import numpy as np
 import pytest
 from qgis_cases import to_qgis, values_for
 from qgis_compare import assert_same_file, same_value
@@ -163,45 +161,15 @@ def test_every_operation_in_the_desktop_matches_the_library(desktop, name):
 
 
 def _category_names(path):
-    """The class raster's named categories, read with GDAL (independent of the plugin)."""
-    from osgeo import gdal
+    """The class raster's named categories, from the PAM sidecar the library writes (read
+    here with the standard library: independent of the plugin and of GDAL)."""
+    import xml.etree.ElementTree as ET
 
-    names = gdal.Open(path).GetRasterBand(1).GetCategoryNames() or []
+    sidecar = path + ".aux.xml"
+    if not os.path.exists(sidecar):
+        return []
+    root = ET.parse(sidecar).getroot()
+    names = [
+        c.text or "" for c in root.findall(".//PAMRasterBand[@band='1']/CategoryNames/Category")
+    ]
     return [n for n in names if n.strip()]
-
-
-def test_qgis_process_never_loads_the_library_or_its_wheels(desktop):
-    report, *_ = desktop
-    assert report["steps"][-1] == "done"
-    loaded = [m for m in report["modules"] if m.split(".")[0] != "numpy"]
-    assert loaded == [], loaded
-    libs = report["gdal_libraries"]
-    assert len(libs) == 1 and libs[0].startswith("/usr/lib/"), libs  # the system's GDAL alone
-
-
-def test_ratio_dialog_help_run_and_styled_layer(desktop, inputs):
-    report, job, *_ = desktop
-    spec = registry()["ratio"]
-    assert spec.short_help in report["dialog_help"], report["dialog_help"][:500]
-    layers = report["dialog_layers"]
-    assert len(layers) == 1, (layers, report.get("dialog_log"))
-    layer = layers[0]
-    assert layer["renderer"] == "singlebandpseudocolor"
-    stem = os.path.splitext(os.path.basename(inputs.scene["vnir"]))[0]
-    assert layer["name"] == f"{spec.display_name} ({stem})", layer  # output and input
-
-
-@pytest.mark.parametrize("shot", ["screenshot", "dialog_shot", "canvas_shot"])
-def test_screenshots_are_not_blank(desktop, shot):
-    import matplotlib.image as mpimg
-
-    report, job, *_ = desktop
-    image = mpimg.imread(job[shot])[..., :3]
-    assert image.shape[0] > 300 and image.shape[1] > 500, image.shape
-    colours = np.unique((image.reshape(-1, 3) * 255).astype(np.uint8), axis=0)
-    assert len(colours) > 50, len(colours)  # widgets, text and a rendered raster, not one fill
-    assert float(image.std()) > 0.05
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(pytest.main([__file__, "-q"]))
