@@ -145,3 +145,21 @@ def test_bad_band_list_with_every_band_bad_or_wrong_length_is_refused(tmp_path):
     w = _with_bbl(write_envi(tmp_path / "w.img", cube(len(VNIR_WL)), VNIR_WL), [1, 0])
     with pytest.raises(InputError, match=r"'bbl'.*12 in all; it has 2"):
         gb.open_dual(w, s)
+
+
+def test_cube_outputs_carry_wavelengths_in_gdal_imagery_domain(tmp_path):
+    wl = [480.0, 560.0, 660.0, 860.0]
+    write_raster(
+        str(tmp_path / "c.tif"),
+        np.ones((4, 20, 30), "float32"),
+        Grid(30, 20),
+        band_tags=[{"wavelength": f"{w}", "wavelength_units": "nm", "fwhm": "10"} for w in wl],
+    )
+    with rasterio.open(tmp_path / "c.tif") as src:
+        got = [float(src.tags(b, ns="IMAGERY")["CENTRAL_WAVELENGTH_UM"]) for b in (1, 2, 3, 4)]
+        assert src.tags(1, ns="IMAGERY")["FWHM_UM"] == "0.010000"
+    np.testing.assert_allclose(got, np.array(wl) / 1000)
+    # ENVI cubes: GDAL (≥ 3.10) reports the header's wavelengths in the IMAGERY domain itself.
+    e = write_envi(tmp_path / "e.img", cube(3, seed=5), [500.0, 600.0, 700.0])
+    with rasterio.open(e) as src:
+        assert float(src.tags(3, ns="IMAGERY")["CENTRAL_WAVELENGTH_UM"]) == pytest.approx(0.7)

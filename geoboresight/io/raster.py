@@ -24,7 +24,7 @@ from rasterio.transform import Affine
 from .. import __version__
 from ..errors import InputError, OutputError, ParameterError
 from .grid import FLOAT_NODATA, TILE, Grid
-from .wavelengths import format_wavelengths
+from .wavelengths import format_wavelengths, unit_scale
 from .write import atomic_output, output_error, scrub, temp_name
 
 #: GDAL block cache (MB) while reading: enough for a few strips of a full-width cube.
@@ -402,6 +402,9 @@ def create_raster(
                 dst.set_band_description(i, name)
             for i, bt in enumerate(band_tags or (), start=1):
                 dst.update_tags(i, **{k: str(v) for k, v in bt.items()})
+                imagery = _imagery_tags(bt)
+                if imagery:
+                    dst.update_tags(i, ns="IMAGERY", **imagery)
             # Overviews, so that a map viewer (QGIS) draws a whole flight line quickly.
             factors = overview_factors(dst.width, dst.height)
             if factors:
@@ -415,6 +418,23 @@ def create_raster(
             # temporary file so that it is renamed along with it.
             with open(tmp + ".aux.xml", "w", encoding="utf-8") as f:
                 f.write(_pam_categories(category_names))
+
+
+def _imagery_tags(band_tags: dict) -> dict:
+    """A cube band's ``wavelength``/``fwhm`` tags also in GDAL's IMAGERY domain
+    (CENTRAL_WAVELENGTH_UM, FWHM_UM; GDAL ≥ 3.10), where GDAL tools and QGIS look."""
+    if "wavelength" not in band_tags:
+        return {}
+    try:
+        wl = float(band_tags["wavelength"])
+        nm = unit_scale(band_tags.get("wavelength_units"), np.array([wl]))
+    except (InputError, ValueError):
+        return {}  # not a wavelength this package can read: leave the IMAGERY domain alone
+    out = {"CENTRAL_WAVELENGTH_UM": f"{wl * nm / 1000:.6f}"}
+    if "fwhm" in band_tags:
+        with contextlib.suppress(ValueError):
+            out["FWHM_UM"] = f"{float(band_tags['fwhm']) * nm / 1000:.6f}"
+    return out
 
 
 def _to_cog(tmp: str, path: str, profile: dict, options: dict, resampling: Resampling) -> None:
