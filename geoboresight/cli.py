@@ -132,6 +132,7 @@ def make_command(alg: Algorithm) -> click.Command:
         debug: bool = False,
         cog: bool = False,
         co: tuple = (),
+        raw_gsd: float | None = None,
         **raw,
     ):
         values = {}
@@ -153,7 +154,13 @@ def make_command(alg: Algorithm) -> click.Command:
         progress = Progress(bar, log=log)
         try:
             result = execute(
-                alg, values, progress=progress, overwrite=overwrite, cog=cog, co=list(co)
+                alg,
+                values,
+                progress=progress,
+                overwrite=overwrite,
+                cog=cog,
+                co=list(co),
+                raw_gsd=raw_gsd,
             )
         except BaseException as exc:
             bar.close()
@@ -187,6 +194,13 @@ def make_command(alg: Algorithm) -> click.Command:
             multiple=True,
             metavar="NAME=VALUE",
             help="GDAL creation option for GeoTIFF outputs (repeatable; e.g. --co COMPRESS=LZW).",
+        ),
+        click.Option(
+            ["--raw-gsd", "raw_gsd"],
+            type=float,
+            metavar="METRES",
+            help="Raw-geometry outputs: write a local engineering CRS in metres with this pixel "
+            "size (no Earth position), so that a GIS measures metres instead of degrees.",
         ),
         click.Option(["-q", "--quiet"], is_flag=True, help="No progress bar or log messages."),
         click.Option(["--json", "as_json"], is_flag=True, help="Print the results as JSON."),

@@ -163,3 +163,29 @@ def test_cube_outputs_carry_wavelengths_in_gdal_imagery_domain(tmp_path):
     e = write_envi(tmp_path / "e.img", cube(3, seed=5), [500.0, 600.0, 700.0])
     with rasterio.open(e) as src:
         assert float(src.tags(3, ns="IMAGERY")["CENTRAL_WAVELENGTH_UM"]) == pytest.approx(0.7)
+
+
+def test_raw_gsd_writes_a_local_metric_crs_only_on_raw_outputs(tmp_path):
+    v, s = _pair(tmp_path, rows=40, cols=30)
+    out = tmp_path / "r.tif"
+    r = CliRunner().invoke(
+        main, ["ratio", "--vnir", v, "--swir", s, "-o", str(out), "--raw-gsd", "1.5", "-q"]
+    )
+    assert r.exit_code == 0, r.output
+    with rasterio.open(out) as src:
+        assert src.crs.to_wkt().startswith("LOCAL_CS[") and not src.crs.is_geographic
+        assert src.crs.to_epsg() is None  # no Earth position
+        assert tuple(src.transform)[:6] == (1.5, 0.0, 0.0, 0.0, -1.5, 0.0)
+        assert src.tags()["RAW_GEOMETRY_GSD_M"] == "1.5"
+    # A georeferenced output keeps its own CRS and grid.
+    grid = Grid(20, 10, "EPSG:32636", from_origin(700000, 3600000, 2.0, 2.0))
+    with writer_options(raw_gsd=1.5):
+        write_raster(str(tmp_path / "g.tif"), np.ones((10, 20), "float32"), grid)
+    with rasterio.open(tmp_path / "g.tif") as src:
+        assert src.crs.to_epsg() == 32636 and src.transform.a == 2.0
+    for bad in ("0", "-2", "nan"):
+        r = CliRunner().invoke(
+            main,
+            ["ratio", "--vnir", v, "--swir", s, "-o", str(tmp_path / "b.tif"), "--raw-gsd", bad],
+        )
+        assert r.exit_code != 0 and "raw_gsd" in r.output and not (tmp_path / "b.tif").exists()

@@ -306,10 +306,13 @@ class Algorithm:
         overwrite: bool = False,
         cog: bool = False,
         co=None,
+        raw_gsd=None,
         **values,
     ):
         """Run from Python: ``registry()['ratio'](vnir='a.hdr', output='r.tif')``."""
-        return execute(self, values, progress=progress, overwrite=overwrite, cog=cog, co=co)
+        return execute(
+            self, values, progress=progress, overwrite=overwrite, cog=cog, co=co, raw_gsd=raw_gsd
+        )
 
 
 def _check_bands(alg: Algorithm, values: dict) -> None:
@@ -343,7 +346,7 @@ def _resolve_aliases(alg: Algorithm, values: Mapping[str, Any]) -> dict:
 
 
 #: Parameters of every file-level operation that are not spec parameters.
-_RUN_ONLY = ("progress", "overwrite", "cog", "co")
+_RUN_ONLY = ("progress", "overwrite", "cog", "co", "raw_gsd")
 
 
 def _check_signature(alg: Algorithm) -> None:
@@ -386,12 +389,20 @@ def execute(
     overwrite: bool = False,
     cog: bool = False,
     co=None,
+    raw_gsd=None,
 ) -> dict:
     """Validate ``values`` and run ``alg``'s operation (which refuses unsafe outputs and
     removes the outputs it created when it fails); ``cog``/``co`` say how its GeoTIFF outputs
     are written (Cloud-Optimised, GDAL creation options ``NAME=VALUE``)."""
     values = alg.validate(values)
-    return alg.run(**values, progress=as_progress(progress), overwrite=overwrite, cog=cog, co=co)
+    return alg.run(
+        **values,
+        progress=as_progress(progress),
+        overwrite=overwrite,
+        cog=cog,
+        co=co,
+        raw_gsd=raw_gsd,
+    )
 
 
 __all__ = [

@@ -31,10 +31,33 @@ from .write import atomic_output, output_error, scrub, temp_name
 GDAL_CACHE_MB = 64
 
 
-#: How GeoTIFF outputs are written in this context: (Cloud-Optimised?, creation options).
-_WRITER: contextvars.ContextVar[tuple[bool, dict]] = contextvars.ContextVar(
-    "geoboresight_writer", default=(False, {})
+#: How GeoTIFF outputs are written in this context: (Cloud-Optimised?, creation options,
+#: ground sample distance in metres for raw-geometry outputs or None).
+_WRITER: contextvars.ContextVar[tuple[bool, dict, float | None]] = contextvars.ContextVar(
+    "geoboresight_writer", default=(False, {}, None)
 )
+
+#: The local engineering CRS of a raw-geometry output written with a known GSD: metres across
+#: (x) and along (y, line 0 at the top) the track from the first pixel, no Earth position
+#: (no datum, no ellipsoid). GDAL writes it as a user-defined GeoTIFF model; QGIS (3.22 and
+#: later) reads it as a valid, non-geographic CRS in metres, so distances are right and the 3D
+#: view, which refuses geographic CRSs, accepts it.
+RAW_LOCAL_WKT = (
+    'LOCAL_CS["geoboresight raw sensor geometry (metres from the GSD, no Earth position)",'
+    'LOCAL_DATUM["none",32767],UNIT["metre",1],AXIS["X",EAST],AXIS["Y",NORTH]]'
+)
+
+
+def raw_local_grid(grid: Grid, gsd_m: float) -> Grid:
+    """``grid`` (raw sensor geometry) in :data:`RAW_LOCAL_WKT`: pixels ``gsd_m`` metres wide,
+    column c at x = c·GSD, line r at y = −r·GSD (north-up display, line 0 on top)."""
+    from rasterio.crs import CRS
+
+    return Grid(
+        grid.width, grid.height, CRS.from_wkt(RAW_LOCAL_WKT), Affine(gsd_m, 0, 0, 0, -gsd_m, 0)
+    )
+
+
 _CO_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 
 
@@ -129,15 +152,27 @@ def check_creation_options(driver: str, options: dict, label: str = "co") -> Non
 
 
 @contextlib.contextmanager
-def writer_options(cog: bool = False, co=None):
+def writer_options(cog: bool = False, co=None, raw_gsd=None):
     """Within this context every GeoTIFF output is written as a Cloud-Optimised GeoTIFF when
     ``cog`` (GDAL's COG driver) and with the GDAL creation options ``co`` (rio's
     ``NAME=VALUE`` convention, :func:`parse_creation_options`). Options are checked against
     the driver before any work, so a misspelt one is refused rather than silently ignored.
+    With ``raw_gsd`` (metres), outputs in raw sensor geometry are written in the local
+    engineering CRS :data:`RAW_LOCAL_WKT` with that pixel size (:func:`raw_local_grid`):
+    no Earth position is claimed, but a GIS measures metres instead of reading pixels as degrees.
     """
     options = parse_creation_options(co)
     check_creation_options("COG" if cog else "GTiff", options)
-    token = _WRITER.set((bool(cog), options))
+    if raw_gsd is not None:
+        try:
+            raw_gsd = float(raw_gsd)
+        except (TypeError, ValueError):
+            raw_gsd = float("nan")
+        if not (raw_gsd > 0 and np.isfinite(raw_gsd)):
+            raise ParameterError(
+                "parameter 'raw_gsd': expected the ground sample distance in metres (> 0), e.g. 1.5"
+            )
+    token = _WRITER.set((bool(cog), options, raw_gsd))
     try:
         yield
     finally:
@@ -386,8 +421,12 @@ def create_raster(
     read them. Yields the open rasterio dataset.
     """
     extra = {"photometric": "palette"} if colormap else {}
-    profile = Grid.of(grid).profile(count=count, dtype=dtype, nodata=nodata, **extra)
-    cog, options = _WRITER.get()
+    cog, options, raw_gsd = _WRITER.get()
+    grid = Grid.of(grid)
+    if raw_gsd is not None and not grid.georeferenced:
+        grid = raw_local_grid(grid, raw_gsd)
+        tags = {**(tags or {}), "raw_geometry_gsd_m": f"{raw_gsd:g}"}
+    profile = grid.profile(count=count, dtype=dtype, nodata=nodata, **extra)
     if options and not cog:
         # The user's NAME=VALUE replace ours of the same name (rasterio's keys are lower case).
         profile = {k: v for k, v in profile.items() if k.upper() not in options} | options

@@ -39,7 +39,8 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
     None) and gains ``overwrite`` (default False), ``cog`` (default False: write every
     GeoTIFF output as a Cloud-Optimised GeoTIFF) and ``co`` (GDAL creation options in rio's
     ``NAME=VALUE,NAME=VALUE`` convention), the last two set once here for every writer
-    (:func:`geoboresight.io.raster.writer_options`).
+    (:func:`geoboresight.io.raster.writer_options`), as is ``raw_gsd`` (metres: raw-geometry
+    outputs in a local engineering CRS with that pixel size instead of no CRS at all).
     """
 
     def decorate(func: Callable) -> Callable:
@@ -49,7 +50,7 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
             raise TypeError(f"{func.__name__}: no parameter(s) {', '.join(missing)}")
 
         @functools.wraps(func)
-        def run(*args, overwrite: bool = False, cog: bool = False, co=None, **kwargs):
+        def run(*args, overwrite: bool = False, cog: bool = False, co=None, raw_gsd=None, **kwargs):
             bound = sig.bind(*args, **kwargs)
             bound.apply_defaults()
             values = bound.arguments
@@ -58,7 +59,7 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
             outs = check_paths(values, inputs, outputs, overwrite)
             existed = {o for o in outs if os.path.lexists(o)}
             try:
-                with writer_options(cog=cog, co=co):
+                with writer_options(cog=cog, co=co, raw_gsd=raw_gsd):
                     return func(*bound.args, **bound.kwargs)
             except BaseException as exc:
                 for o in outs:
@@ -70,7 +71,12 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
                 raise translate_error(exc, ins, outs) from exc
 
         params = list(sig.parameters.values())
-        for name, default in (("overwrite", False), ("cog", False), ("co", None)):
+        for name, default in (
+            ("overwrite", False),
+            ("cog", False),
+            ("co", None),
+            ("raw_gsd", None),
+        ):
             params.append(inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=default))
         run.__signature__ = sig.replace(parameters=params)
         run.inputs = tuple(inputs)
