@@ -189,3 +189,22 @@ def test_raw_gsd_writes_a_local_metric_crs_only_on_raw_outputs(tmp_path):
             ["ratio", "--vnir", v, "--swir", s, "-o", str(tmp_path / "b.tif"), "--raw-gsd", bad],
         )
         assert r.exit_code != 0 and "raw_gsd" in r.output and not (tmp_path / "b.tif").exists()
+
+
+def test_a_raw_gsd_product_is_still_raw_geometry_when_read(tmp_path):
+    from geoboresight.io import open_raster
+
+    v, s = _pair(tmp_path, rows=40, cols=30)
+    out = tmp_path / "r.tif"
+    gb.ratio_file(v, s, output=str(out), raw_gsd=2.0)
+    with open_raster(out) as src:
+        assert not Grid.of(src).georeferenced  # metres from the GSD, no Earth position
+    ref = tmp_path / "ref.tif"
+    write_raster(
+        str(ref),
+        np.ones((10, 10), "float32"),
+        Grid(10, 10, "EPSG:32636", from_origin(700000, 3600000, 2.0, 2.0)),
+    )
+    with pytest.raises(InputError, match="raw sensor geometry"):
+        gb.reproject_to_file(str(out), reference=str(ref), output=str(tmp_path / "p.tif"))
+    assert not (tmp_path / "p.tif").exists()

@@ -20,8 +20,17 @@ FLOAT_NODATA = -9999.0
 TILE = 256
 
 
+def is_local_crs(crs) -> bool:
+    """True for an engineering (local) CRS: no Earth position, e.g. the metres-from-the-GSD
+    CRS of raw-geometry outputs written with ``--raw-gsd`` (:data:`~.raster.RAW_LOCAL_WKT`)."""
+    return crs is not None and not crs.is_geographic and not crs.is_projected
+
+
 def is_georeferenced(src) -> bool:
-    """True when the dataset has a CRS or a non-identity geotransform."""
+    """True when the dataset has an Earth CRS or a non-identity geotransform; a local
+    engineering CRS (raw geometry in metres from the GSD) is raw sensor geometry."""
+    if is_local_crs(src.crs):
+        return False
     return src.crs is not None or (src.transform != Affine.identity())
 
 
@@ -39,11 +48,12 @@ class Grid:
         """The grid of an open rasterio dataset (or of a :class:`Grid`, returned as is)."""
         if isinstance(src, Grid):
             return src
+        georef = is_georeferenced(src)
         return cls(
             int(src.width),
             int(src.height),
-            src.crs,
-            src.transform if is_georeferenced(src) else None,
+            src.crs if georef else None,
+            src.transform if georef else None,
         )
 
     @property
