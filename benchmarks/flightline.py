@@ -100,30 +100,36 @@ def simulate(work: str, tile: int, seed: int) -> str:
 
 
 def make_line(scene: str, out: str, lines: int) -> str:
-    """Tile the simulated scene along-track into ``lines`` lines (streamed: little memory)."""
+    """Tile the simulated scene along-track into ``lines`` lines.
+
+    Streamed through a 1 MiB buffer: this process must stay small, because a child started
+    with ``fork``/``vfork`` carries its parent's peak RSS into its own ``ru_maxrss``."""
     os.makedirs(out, exist_ok=True)
+    buf = bytearray(1 << 20)
     for name in ("vnir", "swir"):
         with open(os.path.join(scene, f"{name}.hdr"), encoding="utf-8") as f:
             hdr = f.read()
         n0 = int(re.search(r"lines\s*=\s*(\d+)", hdr).group(1))
-        with open(os.path.join(scene, f"{name}.img"), "rb") as f:
-            data = f.read()
-        per_line = len(data) // n0
-        with open(os.path.join(out, f"{name}.img"), "wb") as f:
+        src_path = os.path.join(scene, f"{name}.img")
+        per_line = os.path.getsize(src_path) // n0
+        with open(src_path, "rb") as src, open(os.path.join(out, f"{name}.img"), "wb") as dst:
             left = lines
             while left:
                 k = min(left, n0)
-                f.write(data[: k * per_line])
+                src.seek(0)
+                todo = k * per_line
+                while todo:
+                    got = src.readinto(memoryview(buf)[: min(len(buf), todo)])
+                    dst.write(memoryview(buf)[:got])
+                    todo -= got
                 left -= k
         with open(os.path.join(out, f"{name}.hdr"), "w", encoding="utf-8") as f:
             f.write(re.sub(r"lines\s*=\s*\d+", f"lines   = {lines}", hdr))
-        del data
     # Let the data reach the disk, then read it once (the page cache then holds it, as for
     # any file the user has just copied): no operation pays for the kernel's flushing.
     os.sync()
     for name in ("vnir", "swir"):
         with open(os.path.join(out, f"{name}.img"), "rb", buffering=0) as f:
-            buf = bytearray(64 << 20)
             while f.readinto(buf):
                 pass
     return out
@@ -339,6 +345,12 @@ def main(argv=None) -> int:
     log = os.path.join(work, "stderr.log")
     figures: dict = {"load_start": load(), "lines": args.lines}
     print(f"work folder {work}; load average {figures['load_start']}", flush=True)
+
+    def own_peak() -> str:
+        import resource
+
+        return f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2:.3f} GB"
+
     try:
         scene = simulate(work, args.tile, args.seed)
         if args.batch_jobs:
@@ -371,7 +383,10 @@ def main(argv=None) -> int:
             rep = run_ops(line, ["report"], os.path.join(work, "out"), log)["report"]
             rows.append(("`report --products`", f"{rep['seconds']:.1f}", f"{rep['peak_gb']:.2f}"))
             figures["report"] = rep
-        print(f"\n{args.lines} lines ({gb:.2f} GB), load average now {load()}\n")
+        print(
+            f"\n{args.lines} lines ({gb:.2f} GB), load average now {load()}; this script's "
+            f"own peak RSS (the floor of the figures) {own_peak()}\n"
+        )
         print(table(rows, ("operation", "wall (s)", "peak RSS (GB)")))
 
         # 4: RX against the streamed limit, on the same line in the same run.

@@ -105,10 +105,15 @@ class Variogram:
 
 
 def _check_points(x, y, z):
-    x, y, z = (np.asarray(v, np.float64).ravel() for v in (x, y, z))
+    """The finite control points, float64 — or float32 when all three are float32 (a flight
+    line's points are stored so: memory), without a copy when nothing is dropped."""
+    dtype = np.float32 if all(np.asarray(v).dtype == np.float32 for v in (x, y, z)) else np.float64
+    x, y, z = (np.asarray(v, dtype).ravel() for v in (x, y, z))
     if not (x.size == y.size == z.size):
         raise InputError("control point coordinates and values differ in length")
     ok = np.isfinite(x) & np.isfinite(y) & np.isfinite(z)
+    if ok.all():
+        return x, y, z
     return x[ok], y[ok], z[ok]
 
 
@@ -256,7 +261,7 @@ class LocalKriging:
             sl = slice(s, s + BATCH)
             _, idx = self.tree.query(np.column_stack([cx[sl], cy[sl]]), k=k)
             idx = idx.reshape(-1, k)
-            px, py = self.x[idx], self.y[idx]
+            px, py = self.x[idx].astype(np.float64), self.y[idx].astype(np.float64)
             nb = len(idx)
             a = np.empty((nb, k + 1, k + 1))
             a[:, :k, :k] = -self.model(_distance(px, py, px, py))
@@ -273,7 +278,7 @@ class LocalKriging:
                 sol = np.stack(
                     [np.linalg.lstsq(ai, bi, rcond=None)[0] for ai, bi in zip(a, b, strict=True)]
                 )
-            est[sl] = np.einsum("bk,bkm->bm", self.z[idx], sol[:, :k])
+            est[sl] = np.einsum("bk,bkm->bm", self.z[idx].astype(np.float64), sol[:, :k])
             var[sl] = -np.einsum("bkm,bkm->bm", sol, b)
         return est, np.maximum(var, 0.0)
 

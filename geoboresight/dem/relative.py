@@ -251,13 +251,14 @@ def match_strip(
     line0 = first_line + own.start
     n_lines = own.stop - own.start
     index = _second_index(disp.reliable, d_par, own, s, line0, height, width)
-    seconds = sec[_lattice(index, _stride(2 * height * width, sample_size))]
+    seconds = sec[_lattice(index, _stride(2 * height * width, sample_size))].astype(np.float32)
     reliable = disp.reliable[own]
     h = disparity_to_height(disp.along[own], disp.across[own], factor)
     ok_h = reliable & np.isfinite(h)
     pix = (line0 + np.arange(n_lines))[:, None] * width + np.arange(width)[None, :]
-    heights = h[ok_h & _lattice(pix, _stride(height * width, sample_size))]
-    x, y, z = control_points(h, reliable, point_spacing)
+    # What the line keeps of a strip is stored in float32 (memory; x and y are exact).
+    heights = h[ok_h & _lattice(pix, _stride(height * width, sample_size))].astype(np.float32)
+    x, y, z = (a.astype(np.float32) for a in control_points(h, reliable, point_spacing))
     own_disp = Disparity(
         along=disp.along[own],
         across=disp.across[own],
@@ -270,7 +271,7 @@ def match_strip(
     return StripMatches(
         own_disp,
         ok[own],
-        (x, y + line0, z),
+        (x, y + np.float32(line0), z),
         heights,
         seconds,
         int(reliable.sum()),

@@ -68,6 +68,27 @@ def _disparity_stack(d, valid) -> np.ndarray:
     ).astype("float32")
 
 
+def release_memory() -> None:
+    """Give the memory freed by a strip back to the system (glibc's ``malloc_trim``; nothing
+    elsewhere). Worker threads allocate and free dozens of strip-sized temporaries; glibc keeps
+    them in per-thread arenas, which otherwise grow with the line (measured: 0.30 GB peak on
+    5,000 lines, 0.81 GB on 80,000)."""
+    global _TRIM
+    if _TRIM is None:
+        import ctypes
+        import ctypes.util
+
+        try:
+            _TRIM = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").malloc_trim
+        except (OSError, AttributeError):
+            _TRIM = False
+    if _TRIM:
+        _TRIM(0)
+
+
+_TRIM = None
+
+
 def _raster_or_none(path, grid, **options):
     """:func:`~geoboresight.io.create_raster` for an optional output (None: nothing)."""
     return io.create_raster(path, grid, **options) if path else contextlib.nullcontext()
@@ -502,7 +523,20 @@ def _match_line(pair, offset, factor, options: dict, rows: int, dst, progress):
         if dst is not None:
             dst.write(_disparity_stack(part.disparity, part.valid), window=win)
         valid.append(np.packbits(part.valid))
-        strips.append(replace(part, disparity=None, valid=None))  # keep the small parts only
+        # Keep the small parts only, copied here: left in the worker thread's memory arena
+        # they would pin pages of it that the strip's temporaries freed.
+        strips.append(
+            replace(
+                part,
+                disparity=None,
+                valid=None,
+                points=tuple(np.array(a) for a in part.points),
+                heights=part.heights.copy(),
+                seconds=part.seconds.copy(),
+            )
+        )
+        del part
+        release_memory()
     line = line_statistics(
         strips,
         factor=factor,
