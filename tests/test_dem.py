@@ -299,6 +299,11 @@ def test_local_kriging_is_as_close_to_pykrige_global_as_its_moving_window(model)
     assert rms(dem - truth) < 0.3
     cv = cross_validate(x, y, z, vg, n_closest_points=16)
     assert cv["rmse_m"] < 1.0 and cv["n"] == 150
+    # Held out of the line's own kriging (no second tree): the same validation.
+    kr = LocalKriging(x, y, z, vg, n_closest_points=16)
+    again = cross_validate(x, y, z, vg, n_closest_points=16, kriging=kr)
+    assert again["n"] == 150
+    assert again["rmse_m"] == pytest.approx(cv["rmse_m"], rel=0.02)
 
 
 @pytest.mark.parametrize("block_rows", [7, 33, 100])

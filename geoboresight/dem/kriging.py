@@ -242,25 +242,41 @@ class LocalKriging:
         extent = max(np.ptp(x) + 1.0, 1.0) * max(np.ptp(y) + 1.0, 1.0)
         self.density = x.size / extent
 
-    def _k(self, block_side: float) -> int:
+    def _k(self, block_side: float, share: float = 1.0) -> int:
         """Points shared by a block ``block_side`` pixels wide: those within the block's
         circumscribed circle widened by the radius holding ``n_closest_points`` (at the
         line's mean density), so that every target of the block keeps its own nearest
         points."""
-        r_n = math.sqrt(self.n / (math.pi * self.density))
+        density = self.density * share
+        r_n = math.sqrt(self.n / (math.pi * density))
         r = block_side / math.sqrt(2.0) + r_n
-        return int(min(self.x.size, max(self.n, math.ceil(self.density * math.pi * r * r))))
+        return int(min(self.x.size, max(self.n, math.ceil(density * math.pi * r * r))))
 
     # -- the systems ------------------------------------------------------------------------
-    def _solve(self, cx, cy, tx, ty, k):
+    def _neighbours(self, centres, k, exclude):
+        """Indices (blocks × k) of the ``k`` control points nearest each centre, leaving out
+        the points where ``exclude`` is True."""
+        if exclude is None:
+            return self.tree.query(centres, k=k)[1].reshape(-1, k)
+        q = k
+        while True:
+            q = min(self.x.size, 2 * q)
+            cand = self.tree.query(centres, k=q)[1].reshape(-1, q)
+            keep = ~exclude[cand]
+            if q == self.x.size or (keep.sum(axis=1) >= k).all():
+                break
+        order = np.argsort(~keep, axis=1, kind="stable")[:, :k]
+        return np.take_along_axis(cand, order, axis=1)
+
+    def _solve(self, cx, cy, tx, ty, k, exclude=None):
         """Estimate and variance at targets ``(tx, ty)`` (blocks × targets), each block of
-        targets kriged from the ``k`` control points nearest its centre ``(cx, cy)``."""
+        targets kriged from the ``k`` control points nearest its centre ``(cx, cy)`` (leaving
+        out the points ``exclude``)."""
         est = np.empty(tx.shape)
         var = np.empty(tx.shape)
         for s in range(0, len(cx), BATCH):
             sl = slice(s, s + BATCH)
-            _, idx = self.tree.query(np.column_stack([cx[sl], cy[sl]]), k=k)
-            idx = idx.reshape(-1, k)
+            idx = self._neighbours(np.column_stack([cx[sl], cy[sl]]), k, exclude)
             px, py = self.x[idx].astype(np.float64), self.y[idx].astype(np.float64)
             nb = len(idx)
             a = np.empty((nb, k + 1, k + 1))
@@ -283,9 +299,12 @@ class LocalKriging:
         return est, np.maximum(var, 0.0)
 
     # -- scattered targets ------------------------------------------------------------------
-    def points(self, xt: np.ndarray, yt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def points(
+        self, xt: np.ndarray, yt: np.ndarray, exclude: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Estimate and kriging variance at scattered targets; targets in one ``BLOCK_PX``
-        cell share a neighbourhood."""
+        cell share a neighbourhood. ``exclude`` (bool per control point): points left out of
+        every neighbourhood, e.g. held out for cross-validation (no second tree)."""
         xt = np.asarray(xt, np.float64).ravel()
         yt = np.asarray(yt, np.float64).ravel()
         if xt.size == 0:
@@ -300,7 +319,15 @@ class LocalKriging:
         tx, ty = xt[pick], yt[pick]
         # The neighbourhood covers the widest group (scattered targets: mostly one per cell).
         spread = float(max(np.ptp(tx, axis=1).max(), np.ptp(ty, axis=1).max()))
-        e, v = self._solve(tx.mean(axis=1), ty.mean(axis=1), tx, ty, self._k(spread + 1.0))
+        k = self._k(spread + 1.0)
+        if exclude is not None:
+            exclude = np.asarray(exclude, bool)
+            kept = int((~exclude).sum())
+            if kept < 2:
+                raise InputError(f"only {kept} control points left: too few to krige")
+            # The points left in have the density of all but the excluded ones.
+            k = min(kept, self._k(spread + 1.0, kept / self.x.size))
+        e, v = self._solve(tx.mean(axis=1), ty.mean(axis=1), tx, ty, k, exclude)
         est = np.empty(xt.size)
         var = np.empty(xt.size)
         keep = slot < count[:, None]
@@ -434,11 +461,14 @@ def cross_validate(
     fraction: float = 0.1,
     max_points: int = 2000,
     seed: int = 0,
+    kriging: LocalKriging | None = None,
 ) -> dict:
     """Hold-out cross-validation: krige a random ``fraction`` of points from the others.
 
-    Returns RMSE, MAE and mean error (m), and the mean squared standardised error
-    (error² / kriging variance; ≈ 1 when the kriging variance is honest).
+    ``kriging``: the :class:`LocalKriging` of these same points, if built already (the held-out
+    points are then left out of its neighbourhoods: no second tree). Returns RMSE, MAE and mean
+    error (m), and the mean squared standardised error (error² / kriging variance; ≈ 1 when the
+    kriging variance is honest).
     """
     x, y, z = _check_points(x, y, z)
     rng = np.random.default_rng(seed)
@@ -447,9 +477,11 @@ def cross_validate(
         raise InputError(f"only {x.size} control points: too few for cross-validation")
     test = np.zeros(x.size, bool)
     test[rng.choice(x.size, n_test, replace=False)] = True
-    est, var = krige_points(
-        x[~test], y[~test], z[~test], x[test], y[test], variogram, n_closest_points
-    )
+    if kriging is None:
+        kriging = LocalKriging(x, y, z, variogram, n_closest_points)
+    elif kriging.x.size != x.size:
+        raise ParameterError("cross_validate: 'kriging' was built on other control points")
+    est, var = kriging.points(x[test], y[test], exclude=test)
     err = est - z[test]
     with np.errstate(divide="ignore", invalid="ignore"):
         msse = float(np.nanmean(err**2 / var))

@@ -506,7 +506,7 @@ def relative_dem(
     dem, var = kr.grid_rows(0, vnir.shape[0], vnir.shape[1], ok)
     cv = None
     if validate:
-        cv = validate_kriging(x, y, z, vg, n_closest_points, progress)
+        cv = validate_kriging(x, y, z, vg, n_closest_points, progress, kr)
     progress.update(1.0, "relative DEM done")
     disp = strip.disparity
     h = disparity_to_height(disp.along, disp.across, factor) - line.datum
@@ -538,10 +538,12 @@ def fit_points(x, y, z, model: str, progress: Progress | None = None) -> Variogr
     return vg
 
 
-def validate_kriging(x, y, z, variogram, n_closest_points, progress=None) -> dict:
+def validate_kriging(
+    x, y, z, variogram, n_closest_points, progress=None, kriging: LocalKriging | None = None
+) -> dict:
     """Hold-out cross-validation of the kriging (:func:`~geoboresight.dem.kriging.
-    cross_validate`), reported."""
-    cv = cross_validate(x, y, z, variogram, n_closest_points=n_closest_points)
+    cross_validate`, reusing ``kriging`` when given), reported."""
+    cv = cross_validate(x, y, z, variogram, n_closest_points=n_closest_points, kriging=kriging)
     as_progress(progress).info(
         f"kriging cross-validation ({cv['n']} held-out points): RMSE {cv['rmse_m']:.2f} m, "
         f"mean error {cv['mean_error_m']:+.2f} m"

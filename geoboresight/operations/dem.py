@@ -452,7 +452,7 @@ def relative_dem_file(
     dem_range = _write_kriged(
         kriging, valid_strips, rows, dual.grid, output, variance, tags, progress.sub(0.75, 0.95)
     )
-    cv = validate_kriging(x, y, z, vg, n_closest_points, progress)
+    cv = validate_kriging(x, y, z, vg, n_closest_points, progress, kriging)
     result = {
         "output": output,
         "sigma_d_px": round(p.sigma_d_px, 4),
