@@ -395,7 +395,8 @@ class EngineAlgorithm(QgsProcessingAlgorithm):
         for warning in result.get("warnings") or ():
             feedback.pushWarning(str(warning))
         for key, value in result.items():
-            if key in declared and declared[key]["type"] == "string" and not isinstance(value, str):
+            declared_string = key in declared and declared[key]["type"] == "string"
+            if isinstance(value, list | dict) or (declared_string and not isinstance(value, str)):
                 value = json.dumps(value)  # lists and tables as JSON text a model can parse
             outputs[key] = value
             if key not in outputs_by_name:
