@@ -431,7 +431,11 @@ def create_raster(
         # The user's NAME=VALUE replace ours of the same name (rasterio's keys are lower case).
         profile = {k: v for k, v in profile.items() if k.upper() not in options} | options
     resampling = overview_resampling(profile["dtype"], colormap)
-    with atomic_output(path, overwrite=overwrite) as tmp, quiet_georef():
+    # GDAL's block cache (5 % of RAM by default) would hold every written block, then the
+    # whole base level while the overviews are built: cap it as for reading, so memory stays
+    # bounded by a strip whatever the line's length (a user's own GDAL_CACHEMAX wins).
+    cache = {} if os.environ.get("GDAL_CACHEMAX") else {"GDAL_CACHEMAX": GDAL_CACHE_MB}
+    with atomic_output(path, overwrite=overwrite) as tmp, quiet_georef(), rasterio.Env(**cache):
         with rasterio.open(tmp, "w", **profile) as dst:
             if colormap:
                 dst.write_colormap(1, colormap)
