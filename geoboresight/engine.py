@@ -195,6 +195,44 @@ RESULTS: dict[str, tuple[tuple[str, str, str], ...]] = {
         ("height_precision_m_per_px", "number", "Height precision (m per pixel of disparity)"),
     ),
     "simulate-ortho": (("files", "string", "Files written (JSON)"),),
+    **{
+        name: (
+            *extra,
+            ("width", "number", "Columns of the map grid"),
+            ("height", "number", "Lines of the map grid"),
+            ("valid_pixels", "number", "Pixels inside the footprint"),
+            ("bands", "number", "Bands warped"),
+        )
+        for name, extra in (
+            (
+                "geolocate",
+                (
+                    ("masked_nan", "number", "IGM pixels masked: NaN or nodata"),
+                    ("masked_non_monotonic", "number", "IGM pixels masked: folded over"),
+                ),
+            ),
+            (
+                "georeference",
+                (
+                    ("rmse", "number", "RMSE of the GCP residuals (map units)"),
+                    ("rmse_px", "number", "RMSE of the GCP residuals (pixels)"),
+                ),
+            ),
+            (
+                "auto-georeference",
+                (
+                    ("matches", "number", "Feature matches"),
+                    ("inliers", "number", "RANSAC inliers"),
+                    ("rmse_px", "number", "Cross-validated RMSE of the inliers (pixels)"),
+                ),
+            ),
+        )
+    },
+    "reproject-to": (
+        ("crs", "string", "CRS of the reference grid"),
+        ("width", "number", "Columns of the reference grid"),
+        ("height", "number", "Lines of the reference grid"),
+    ),
 }
 
 #: Results any operation may return, declared for all: warnings about the result's validity

@@ -32,6 +32,20 @@ CASES: dict[str, dict] = {
     "unmix": {"swir": None, "names": lambda i: ",".join(i.endmember_names()[:3])},
     "simulate": {"lines": 16},
     "report": {"svdd": False},  # the DEM section then says it needs the sensor geometry
+    # Georeferencing: a jittered raw line with its true IGM and orthophoto (simulate-ortho).
+    "simulate-ortho": {"lines": 48},
+    "geolocate": {"input": lambda i: i.ortho("raw.hdr"), "igm": lambda i: i.ortho("igm.img")},
+    "georeference": {"input": lambda i: i.ortho("raw.hdr"), "gcps": lambda i: i.gcps()},
+    "auto-georeference": {
+        "input": lambda i: i.ortho("raw.hdr"),
+        "reference": lambda i: i.ortho("orthophoto.tif"),
+        "corners": lambda i: i.corners(),
+        "reference_band": 4,  # NIR, as the raw band
+    },
+    "reproject-to": {
+        "input": lambda i: i.derived("geolocate"),
+        "reference": lambda i: i.ortho("orthophoto.tif"),
+    },
 }
 
 #: Rasters named like a scene file (simulator's truth files included) take that file.
@@ -77,6 +91,44 @@ class Inputs:
             self._derived[alg] = values
             spec(**values)
         return self._derived[alg][output]
+
+    def ortho(self, name: str) -> str:
+        """A file of a small simulate-ortho scene made once by the library."""
+        folder = os.path.join(self.work_dir, "ortho")
+        if not os.path.isdir(folder):
+            from geoboresight import simulate_ortho_file
+
+            simulate_ortho_file(output=folder, lines=96, jitter_deg=0.05, seed=2)
+        return os.path.join(folder, name)
+
+    def _igm(self):
+        import rasterio
+
+        from geoboresight.io import quiet_georef
+
+        with quiet_georef(), rasterio.open(self.ortho("igm.img")) as src:
+            return src.read(), src.crs
+
+    def corners(self) -> str:
+        """The line's true corner coordinates, 5 m off: the rough placement a user gives."""
+        from geoboresight.io.orthoscene import true_corners
+
+        igm, _ = self._igm()
+        return ",".join(f"{v:.3f}" for v in (true_corners(igm) + 5.0).ravel())
+
+    def gcps(self) -> str:
+        """A GCP CSV of 12 raw pixels with their true map coordinates from the IGM."""
+        path = os.path.join(self.work_dir, "gcps.csv")
+        if not os.path.exists(path):
+            igm, crs = self._igm()
+            rows, cols = igm.shape[1:]
+            with open(path, "w", encoding="utf-8") as f:
+                f.write(f"# CRS: {crs.to_string()}\npixel,line,x,y\n")
+                for r in (2, rows // 3, 2 * rows // 3, rows - 3):
+                    for c in (2, cols // 2, cols - 3):
+                        x, y = igm[0, r, c], igm[1, r, c]
+                        f.write(f"{c + 0.5},{r + 0.5},{x:.3f},{y:.3f}\n")
+        return path
 
     def endmember_names(self) -> list[str]:
         from geoboresight.io.spectra import read_spectral_library
