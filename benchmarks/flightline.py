@@ -24,7 +24,7 @@
    ``--batch-lines`` line (every job reads the same line, each writes its own output): one
    after another as processes, ``geoboresight batch --workers 1`` and ``--workers 2`` (a
    ``LocalCluster``), and ``geoboresight batch --scheduler`` against a ``dask scheduler`` and
-   two ``dask worker`` processes (one thread each) started separately.
+   two ``dask worker --no-nanny`` processes (one thread each) started separately.
 
 Lines are written in ``--workdir`` (checked for free space first) and deleted at the end
 unless ``--keep``. Prints Markdown tables (paste them into benchmarks/RESULTS.md with the
@@ -47,6 +47,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 EXE = os.path.join(os.path.dirname(sys.executable), "geoboresight")
 COLS, BYTES_PER_PIXEL_LINE = 286, 198 * 2
 GEOMETRY = {"squint_deg": 3.0, "flying_height": 1500.0, "ifov_mrad": 1.0}  # large-squint
+#: One BLAS/OpenMP thread per Dask worker process (what Dask's nannies set).
+THREADS = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
 NINE = (
     "ratio",
     "stats",
@@ -264,12 +266,15 @@ def batch_scaling(scene: str, work: str, jobs: int, lines: int, op: str, log: st
     try:
         time.sleep(3)
         for _ in range(2):
+            # Without a nanny, as batch's own workers (geoboresight.batch.worker_environ): a
+            # nanny would set MALLOC_TRIM_THRESHOLD_, 2–3× slower for these operations.
             procs.append(
                 subprocess.Popen(
-                    [dask, "worker", f"tcp://127.0.0.1:{port}", "--nworkers", "1"]
+                    [dask, "worker", f"tcp://127.0.0.1:{port}", "--no-nanny"]
                     + ["--nthreads", "1", "--no-dashboard"],
                     stdout=subprocess.DEVNULL,
                     stderr=subprocess.DEVNULL,
+                    env={**os.environ, **THREADS},
                 )
             )
         time.sleep(5)
