@@ -253,7 +253,7 @@ def test_kriging_equals_pykrige_when_the_neighbourhood_holds_every_point(model):
     z = 10 * np.sin(x / 12) + 5 * np.cos(y / 9) + rng.normal(0, 0.3, 60)
     vg = fit_variogram(x, y, z, model=model)
     ref = _pykrige(x, y, z, vg)
-    np.testing.assert_allclose(ref.variogram_model_parameters, vg.as_kriged().parameters)
+    np.testing.assert_allclose(ref.variogram_model_parameters, vg.parameters)
     gx, gy = np.arange(80.0), np.arange(50.0)
     z_ref, v_ref = ref.execute("grid", gx, gy)
     kr = LocalKriging(x, y, z, vg, n_closest_points=60, step=1)
@@ -266,7 +266,7 @@ def test_kriging_equals_pykrige_when_the_neighbourhood_holds_every_point(model):
     np.testing.assert_allclose(est, z_ref.ravel(), atol=tol * 10)
     np.testing.assert_allclose(v, v_ref.ravel(), atol=tol * 10)
     np.testing.assert_allclose(
-        vg.as_kriged()(np.linspace(0, 100, 7)),
+        vg(np.linspace(0, 100, 7)),
         ref.variogram_function(ref.variogram_model_parameters, np.linspace(0, 100, 7)),
         rtol=1e-12,
     )
@@ -464,14 +464,16 @@ def test_drift_profile_by_windows_equals_whole(rows, block):
 
 
 def _pykrige(x, y, z, vg):
-    """PyKrige's OrdinaryKriging with our fitted variogram given as a list, as the relative
-    DEM always did (PyKrige reads it as [sill, range, nugget])."""
+    """PyKrige's OrdinaryKriging with our fitted variogram. Its parameters go in as a dict: a
+    list means [sill, range, nugget] to PyKrige, while it reports [psill, range, nugget]."""
+    names = {"linear": ("slope", "nugget"), "power": ("scale", "exponent", "nugget")}
+    keys = names.get(vg.model, ("psill", "range", "nugget"))
     return OrdinaryKriging(
         x,
         y,
         z,
         variogram_model=vg.model,
-        variogram_parameters=list(vg.parameters),
+        variogram_parameters=dict(zip(keys, vg.parameters, strict=True)),
         exact_values=False,
     )
 
