@@ -132,6 +132,25 @@ def match_halo(
     )
 
 
+def _pair(vnir, swir, valid=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The two matching images as float64 on one grid, and where both are usable (finite and
+    ``valid``); a clear error when the images or the mask are on different grids."""
+    vnir = np.asarray(vnir, np.float64)
+    swir = np.asarray(swir, np.float64)
+    if vnir.shape != swir.shape:
+        raise InputError(
+            f"VNIR band {vnir.shape} and SWIR band {swir.shape} are not on the same pixel grid"
+        )
+    ok = np.isfinite(vnir) & np.isfinite(swir)
+    if valid is not None:
+        if valid.shape != vnir.shape:
+            raise InputError(
+                f"the mask {valid.shape} is not on the image grid {vnir.shape}: mismatched grids"
+            )
+        ok &= valid
+    return vnir, swir, ok
+
+
 def _lattice(index: np.ndarray, stride: int) -> np.ndarray:
     """The regular sample: every ``stride``-th value of the line (by its index)."""
     return index % stride == 0 if stride > 1 else np.ones(index.shape, bool)
@@ -211,19 +230,7 @@ def match_strip(
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.2: image matching,
     disparity to relative height, Figures 8 and 9).
     """
-    vnir = np.asarray(vnir, np.float64)
-    swir = np.asarray(swir, np.float64)
-    if vnir.shape != swir.shape:
-        raise InputError(
-            f"VNIR band {vnir.shape} and SWIR band {swir.shape} are not on the same pixel grid"
-        )
-    ok = np.isfinite(vnir) & np.isfinite(swir)
-    if valid is not None:
-        if valid.shape != vnir.shape:
-            raise InputError(
-                f"the mask {valid.shape} is not on the image grid {vnir.shape}: mismatched grids"
-            )
-        ok &= valid
+    vnir, swir, ok = _pair(vnir, swir, valid)
     height, width = line_shape or vnir.shape
     own = range(vnir.shape[0])[rows if rows is not None else slice(None)]
     own = slice(own.start, own.stop)
@@ -455,19 +462,7 @@ def relative_dem(
     """
     progress = as_progress(progress)
     factor.check()
-    vnir = np.asarray(vnir, np.float64)
-    swir = np.asarray(swir, np.float64)
-    if vnir.shape != swir.shape:
-        raise InputError(
-            f"VNIR band {vnir.shape} and SWIR band {swir.shape} are not on the same pixel grid"
-        )
-    ok = np.isfinite(vnir) & np.isfinite(swir)
-    if valid is not None:
-        if valid.shape != vnir.shape:
-            raise InputError(
-                f"the mask {valid.shape} is not on the image grid {vnir.shape}: mismatched grids"
-            )
-        ok &= valid
+    vnir, swir, ok = _pair(vnir, swir, valid)
     offset = merged_offset(vnir, swir, ok)
     progress.info(
         f"boresight offset: {offset.along:+.3f} px along-track, {offset.across:+.3f} px "
