@@ -22,7 +22,11 @@ SPEC_MODULES = sorted(
 )
 KERNEL_FILES = sorted(
     [PKG / "ratio.py", PKG / "stats.py"]
-    + [p for d in ("shadow", "dem", "anomaly", "simulate", "georef") for p in (PKG / d).glob("*.py")]
+    + [
+        p
+        for d in ("shadow", "dem", "anomaly", "simulate", "georef")
+        for p in (PKG / d).glob("*.py")
+    ]
 )
 
 #: Parameters that name one concept in every operation: same kind, default, range and unit.
