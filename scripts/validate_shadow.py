@@ -24,9 +24,14 @@ Table 2 class; sun-shadow's IoU against the truth.
 The parameters of ``shadow-map`` were fixed on the first scene (simulator, urban, 30.8°)
 before the others were run (the "tuning" column says which).
 
+A second group, the hold-out (``--holdout``; :func:`holdout_cases`: model-2 seeds 5–9 and
+three simulator scenes with conditions drawn at random from stated ranges), is not looked at
+while the method is developed and is run once at the end.
+
 Usage::
 
-    python scripts/validate_shadow.py [--lines 128] [--quick] [--out FOLDER] [--markdown FILE]
+    python scripts/validate_shadow.py [--lines 128] [--quick | --holdout] [--out FOLDER]
+        [--markdown FILE]
 """
 
 from __future__ import annotations
@@ -100,6 +105,68 @@ CASES = (
 )
 QUICK = (0, 2, 7, 9)
 
+#: Seed of the hold-out draws (fixed so the hold-out is the same every run).
+HOLDOUT_SEED = 20261122
+
+
+def holdout_cases(seed=HOLDOUT_SEED):
+    """The hold-out scenes: not looked at while the method is developed (on ``CASES``), run
+    once at the end. Conditions drawn at random (uniform unless stated) from these ranges:
+
+    * model 2, seeds 5–9 (other layouts and earthlib spectra than seeds 0–4): sun zenith
+      20–62°, azimuth 0–360°, aerosol optical depth at 500 nm 0.05–0.5, relief 0 m (half of
+      the scenes) or 5–30 m, VNIR / SWIR dark level 40–400 / 250–2,000 DN, gains ×0.4–1.6
+      each, adjacency 0–0.8, 6–14 buildings, 6–16 trees, boresight offset 0–1.5 px along and
+      −0.5–0.5 px across;
+    * simulator, three scenes: preset urban, mixed, glade (one each), simulator seeds 1–3
+      (other layouts and noise than seed 0), sun zenith 20–62°, azimuth 0–360° (from the
+      flight direction), aerosol optical depth at 550 nm 0.05–0.4, VNIR / SWIR dark offset
+      40–400 / 250–1,600 DN, gains ×0.5–1.3 each (12-bit DN, clipped at 4,095).
+    """
+    rng = np.random.default_rng(seed)
+    u = lambda a, b: round(float(rng.uniform(a, b)), 2)  # noqa: E731
+    cases = []
+    for s in range(5, 10):
+        o = dict(
+            seed=s,
+            sun_zenith=u(20, 62),
+            sun_azimuth=u(0, 360),
+            aot500=u(0.05, 0.5),
+            relief_m=0.0 if rng.random() < 0.5 else u(5, 30),
+            vnir_dark=u(40, 400),
+            swir_dark=u(250, 2000),
+            vnir_gain=u(0.4, 1.6),
+            swir_gain=u(0.4, 1.6),
+            adjacency=u(0.0, 0.8),
+            buildings=int(rng.integers(6, 15)),
+            trees=int(rng.integers(6, 17)),
+            offset_px=(u(0.0, 1.5), u(-0.5, 0.5)),
+        )
+        label = (
+            f"HO m2 seed {s}, {o['sun_zenith']:.0f}°/az {o['sun_azimuth']:.0f}°, aot "
+            f"{o['aot500']:.2f}, darks {o['vnir_dark']:.0f}/{o['swir_dark']:.0f}, gains "
+            f"×{o['vnir_gain']:.2f}/×{o['swir_gain']:.2f}, adjacency {o['adjacency']:.2f}, "
+            f"relief {o['relief_m']:.0f} m"
+        )
+        cases.append((label, 2, o))
+    for k, preset in enumerate(("urban", "mixed", "glade")):
+        o = dict(
+            preset=preset,
+            seed=k + 1,
+            zenith=u(20, 62),
+            azimuth=u(0, 360),
+            aot550=u(0.05, 0.4),
+            dark=(u(40, 400), u(250, 1600)),
+            gain=(u(0.5, 1.3), u(0.5, 1.3)),
+        )
+        label = (
+            f"HO sim {preset} seed {k + 1}, {o['zenith']:.0f}°/az {o['azimuth']:.0f}°, aot "
+            f"{o['aot550']:.2f}, darks {o['dark'][0]:.0f}/{o['dark'][1]:.0f}, gains "
+            f"×{o['gain'][0]:.2f}/×{o['gain'][1]:.2f}"
+        )
+        cases.append((label, 1, o))
+    return tuple(cases)
+
 
 def read(path):
     with quiet_georef(), rasterio.open(path) as src:
@@ -130,7 +197,14 @@ def make_scene(model, opts, lines, folder):
     material map, sun zenith, sun azimuth as sun-shadow takes it, cell size)."""
     if model == 1:
         o = dict(opts)
-        sc = simulate_scene(o["preset"], lines=lines, seed=0, sun_zenith=o["zenith"])
+        sc = simulate_scene(
+            o["preset"],
+            lines=lines,
+            seed=o.get("seed", 0),
+            sun_zenith=o["zenith"],
+            sun_azimuth=o.get("azimuth"),
+            **({"aot550": o["aot550"]} if "aot550" in o else {}),
+        )
         dark, gain = o.get("dark", SIM_DARK), o.get("gain", (1.0, 1.0))
         if dark != SIM_DARK or gain != (1.0, 1.0):
 
@@ -255,6 +329,11 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--lines", type=int, default=128)
     ap.add_argument("--quick", action="store_true", help="four scenes only")
+    ap.add_argument(
+        "--holdout",
+        action="store_true",
+        help="the hold-out scenes (holdout_cases) instead of the development scenes",
+    )
     ap.add_argument("--out", help="keep the scenes and products in this (new) folder")
     ap.add_argument("--markdown", help="also write the table to this file")
     args = ap.parse_args(argv)
@@ -264,7 +343,10 @@ def main(argv=None):
     else:
         ctx = tempfile.TemporaryDirectory(prefix="validate_shadow_")
         folder = ctx.name
-    cases = [CASES[i] for i in QUICK] if args.quick else CASES
+    if args.holdout:
+        cases = holdout_cases()
+    else:
+        cases = [CASES[i] for i in QUICK] if args.quick else CASES
     try:
         rows = []
         for i, (label, model, opts) in enumerate(cases):
