@@ -30,6 +30,8 @@ from .progress import Progress, as_progress
 
 DEFAULT_PERCENTILES = (1.0, 5.0, 25.0, 50.0, 75.0, 95.0, 99.0)
 _FINE_BINS = 65536
+#: Most values :func:`order_statistics` gathers from one histogram bin (8 MB of float64).
+MAX_HELD = 1 << 20
 
 
 @dataclass
@@ -181,11 +183,165 @@ def _from_moments(m: Moments) -> dict:
 
 
 def _fine_bin(v: np.ndarray, lo: float, hi: float) -> np.ndarray:
-    # One binning function for passes 2 and 3, so both agree on every value's bin.
+    # One binning function for every pass, so all passes agree on every value's bin.
     if hi <= lo:
         return np.zeros(v.shape, dtype=np.int64)
-    idx = ((v - lo) * (_FINE_BINS / (hi - lo))).astype(np.int64)
-    return np.clip(idx, 0, _FINE_BINS - 1)
+    # Clip before the cast: far outside a narrow range, the float index overflows int64.
+    idx = np.clip((v - lo) * (_FINE_BINS / (hi - lo)), 0, _FINE_BINS - 1)
+    return idx.astype(np.int64)
+
+
+def fine_histogram(values: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """Counts of ``values`` in the fine bins of ``[lo, hi]`` that :func:`order_statistics` uses
+    (values outside the range fall into the end bins)."""
+    v = np.asarray(values, dtype="float64")
+    return np.bincount(_fine_bin(v, lo, hi), minlength=_FINE_BINS)
+
+
+@dataclass
+class _Cell:
+    """The stream's values in bin ``b`` of range ``(lo, hi)`` at every level of ``chain``:
+    ``size`` values, ``below`` of the stream's values before them, ranks ``ranks`` among them."""
+
+    chain: tuple[tuple[float, float, int], ...]
+    below: int
+    size: int
+    ranks: list[int]
+    value: float | None = None  # set when every member is the same value
+
+    def members(self, v: np.ndarray) -> np.ndarray:
+        keep = np.ones(v.shape, dtype=bool)
+        for lo, hi, b in self.chain:
+            keep &= _fine_bin(v, lo, hi) == b
+        return v[keep]
+
+    def child_range(self) -> tuple[float, float]:
+        lo, hi, b = self.chain[-1]
+        width = (hi - lo) / _FINE_BINS
+        return lo + b * width, lo + (b + 1) * width
+
+
+def _split(chain, lo, hi, counts, below, ranks) -> list[_Cell]:
+    # The bins of (lo, hi) that hold the wanted ranks, as cells one level deeper.
+    cum = np.cumsum(counts) + below
+    cells: dict[int, _Cell] = {}
+    for k in ranks:
+        b = int(np.searchsorted(cum, k, side="right"))
+        if b not in cells:
+            start = int(cum[b - 1]) if b > 0 else below
+            cells[b] = _Cell(chain + ((lo, hi, b),), start, int(counts[b]), [])
+        cells[b].ranks.append(k)
+    return list(cells.values())
+
+
+def order_statistics(
+    blocks: Callable[[], Iterator[np.ndarray]],
+    ranks: Iterable[int],
+    *,
+    lo: float,
+    hi: float,
+    counts: np.ndarray | None = None,
+    max_held: int = MAX_HELD,
+    progress: Progress | None = None,
+) -> dict[int, float]:
+    """Exact order statistics of a stream of values, in memory bounded by ``max_held`` values.
+
+    The ``k``-th smallest value (0-based) for each ``k`` in ``ranks``, equal to
+    ``np.sort(all_values)[k]``, found without holding the stream: a fine histogram of
+    ``[lo, hi]`` locates the bin of each rank; a bin holding more than ``max_held`` values is
+    histogrammed again over its own width (one more pass for all such bins, repeated while
+    needed: outliers that stretch ``[lo, hi]`` cost passes, not memory); a last pass gathers the
+    values of the located bins and sorts them.
+
+    Parameters
+    ----------
+    blocks : callable returning an iterator of 1-D float arrays
+        Called once per pass; yields the values of each block (valid values only).
+    ranks : iterable of int
+        0-based ranks, each in ``[0, n)`` for the stream's ``n`` values.
+    lo, hi : float
+        The stream's minimum and maximum (from a previous pass, e.g. :class:`Moments`).
+    counts : int array, optional
+        :func:`fine_histogram` of the whole stream over ``[lo, hi]``, if a previous pass made
+        it (saves one pass).
+    max_held : int
+        Most values gathered per located bin before it is split further.
+
+    Returns
+    -------
+    dict
+        ``{k: value}``.
+
+    References
+    ----------
+    Knuth, D.E. The Art of Computer Programming, vol. 3, 2nd ed., 1998, §5.3.3 (selection);
+    the radix-select scheme here needs no more memory than one block and the bins.
+    """
+    progress = as_progress(progress)
+    ranks = sorted({int(k) for k in ranks})
+    if counts is None:
+        counts = np.zeros(_FINE_BINS, dtype=np.int64)
+        for v in blocks():
+            counts += fine_histogram(v, lo, hi)
+            progress.check()
+    n = int(np.sum(counts))
+    if ranks and not 0 <= ranks[0] <= ranks[-1] < n:
+        raise ValueError(f"ranks must lie in [0, {n}), got {ranks[0]}..{ranks[-1]}")
+    cells = _split((), lo, hi, counts, 0, ranks)
+    # Split the crowded bins until each holds at most max_held values or a single value. Each
+    # level divides a bin's width by _FINE_BINS, so float64 ends this within a few levels.
+    for _level in range(8):
+        crowded = [c for c in cells if c.size > max_held and c.value is None]
+        if not crowded:
+            break
+        sub = [np.zeros(_FINE_BINS, dtype=np.int64) for _ in crowded]
+        extremes = [[math.inf, -math.inf] for _ in crowded]
+        for v in blocks():
+            v = np.asarray(v, dtype="float64")
+            for c, h, ext in zip(crowded, sub, extremes, strict=True):
+                m = c.members(v)
+                if m.size:
+                    h += fine_histogram(m, *c.child_range())
+                    ext[0] = min(ext[0], float(m.min()))
+                    ext[1] = max(ext[1], float(m.max()))
+            progress.check()
+        for c, h, ext in zip(crowded, sub, extremes, strict=True):
+            cells.remove(c)
+            if ext[0] == ext[1]:  # all equal: nothing to split
+                c.value = ext[0]
+                cells.append(c)
+            else:
+                cells.extend(_split(c.chain, *c.child_range(), h, c.below, c.ranks))
+    # Gather the located bins' values; sort each bin and read the ranks off it.
+    open_cells = [c for c in cells if c.value is None]
+    held: list[list[np.ndarray]] = [[] for _ in open_cells]
+    if open_cells:
+        for v in blocks():
+            v = np.asarray(v, dtype="float64")
+            for c, h in zip(open_cells, held, strict=True):
+                m = c.members(v)
+                if m.size:
+                    h.append(m)
+            progress.check()
+    out: dict[int, float] = {}
+    for c in cells:
+        if c.value is not None:
+            out.update({k: c.value for k in c.ranks})
+    for c, h in zip(open_cells, held, strict=True):
+        vals = np.sort(np.concatenate(h))
+        out.update({k: float(vals[k - c.below]) for k in c.ranks})
+    return out
+
+
+def median_blocks(
+    blocks: Callable[[], Iterator[np.ndarray]], *, n: int, lo: float, hi: float, **options
+) -> float:
+    """Exact median (``np.median``) of a stream of ``n`` values in ``[lo, hi]``
+    (:func:`order_statistics`)."""
+    pos = (n - 1) / 2
+    ks = {math.floor(pos), math.ceil(pos)}
+    got = order_statistics(blocks, ks, lo=lo, hi=hi, **options)
+    return (got[math.floor(pos)] + got[math.ceil(pos)]) / 2
 
 
 def describe_blocks(
@@ -228,34 +384,16 @@ def describe_blocks(
         if math.isfinite(std):
             n_out += int(np.count_nonzero(np.abs(v - m.mean) > 3.0 * std))
         counts += np.histogram(v, bins=bins, range=(lo, hi) if hi > lo else (lo - 0.5, lo + 0.5))[0]
-        fine += np.bincount(_fine_bin(v, lo, hi), minlength=_FINE_BINS)
+        fine += fine_histogram(v, lo, hi)
         progress.check()
     progress.update(2 / 3, "histogram")
     # Ranks needed for NumPy-style linear interpolation: floor and ceil of q/100·(n−1).
-    cum = np.cumsum(fine)
-    wanted: dict[int, list[int]] = {}
+    wanted_ranks = set()
     for q in qs:
         pos = q / 100.0 * (m.n - 1)
-        for k in {math.floor(pos), math.ceil(pos)}:
-            b = int(np.searchsorted(cum, k, side="right"))
-            wanted.setdefault(b, []).append(k)
+        wanted_ranks |= {math.floor(pos), math.ceil(pos)}
     # Pass 3: the values of the bins holding those ranks.
-    held: dict[int, list[np.ndarray]] = {b: [] for b in wanted}
-    keys = np.array(sorted(wanted))
-    for v in blocks():
-        v = np.asarray(v, dtype="float64")
-        idx = _fine_bin(v, lo, hi)
-        sel = np.isin(idx, keys)
-        if sel.any():
-            for b in keys:
-                held[int(b)].append(v[sel & (idx == b)])
-        progress.check()
-    order: dict[int, float] = {}
-    for b, ks in wanted.items():
-        vals = np.sort(np.concatenate(held[b]))
-        first = int(cum[b - 1]) if b > 0 else 0
-        for k in ks:
-            order[k] = float(vals[k - first])
+    order = order_statistics(blocks, wanted_ranks, lo=lo, hi=hi, counts=fine, progress=progress)
     pct = {}
     for q in qs:
         pos = q / 100.0 * (m.n - 1)

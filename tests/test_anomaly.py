@@ -564,3 +564,20 @@ def test_endmember_csv_units_from_header_or_unambiguous_values(tmp_path):
         path = tmp_path / "lib.csv"
         path.write_text(f"{header},soil\n{values[0]},0.2\n{values[1]},0.3\n")
         np.testing.assert_allclose(read_spectral_library(path)[0], expected)
+
+
+@pytest.mark.parametrize("n_blocks", [1, 3, 17])
+def test_robust_location_blocks_equals_numpy_and_scipy(n_blocks):
+    # Independent truth: np.median and scipy's median_abs_deviation on all the values at once.
+    from scipy.stats import median_abs_deviation
+
+    rng = np.random.default_rng(4)
+    x = np.concatenate([rng.normal(2.1, 0.05, 30_000), rng.normal(9.0, 3.0, 40), [1e9]])
+    rng.shuffle(x)
+    med, sigma = indicator.robust_location_blocks(lambda: iter(np.array_split(x, n_blocks)))
+    assert med == np.median(x)
+    assert sigma == pytest.approx(median_abs_deviation(x, scale="normal"), rel=1e-14)
+    # Half the values tied: MAD 0, so σ is the standard deviation.
+    t = np.concatenate([np.full(600, 1.5), rng.normal(1.5, 0.2, 400)])
+    med, sigma = indicator.robust_location_blocks(lambda: iter(np.array_split(t, n_blocks)))
+    assert (med, sigma) == (1.5, pytest.approx(t.std(), rel=1e-12))

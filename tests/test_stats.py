@@ -121,3 +121,76 @@ def test_band_out_of_range_and_all_nodata(tmp_path):
     assert not (tmp_path / "s.json").exists()
     with pytest.raises(ParameterError, match="percentiles"):
         STATS(input=p, percentiles="5,150", output=tmp_path / "s.json")
+
+
+# --- exact order statistics in bounded memory (issue 14: memory flat in line length) ---------
+
+
+def _stream(x, n_blocks):
+    return lambda: iter(np.array_split(x, n_blocks))
+
+
+@pytest.mark.parametrize(
+    "kind", ["normal", "ties", "outliers", "two_values", "constant", "tiny_range"]
+)
+@pytest.mark.parametrize("max_held", [3, 50, 1 << 20])
+def test_order_statistics_equal_numpy_sort(kind, max_held):
+    from geoboresight.stats import order_statistics
+
+    rng = np.random.default_rng(7)
+    x = {
+        "normal": rng.normal(2.1, 0.3, 20_001),
+        # Many exact ties: a crowded bin whose members are all one value.
+        "ties": np.repeat(rng.normal(size=40), 500),
+        # A few huge outliers stretch [lo, hi]: nearly everything falls in one fine bin.
+        "outliers": np.concatenate([rng.normal(2.0, 0.01, 20_000), [1e12, -1e9, 3e15]]),
+        "two_values": np.repeat([0.5, np.nextafter(0.5, 1)], 9_000),
+        "constant": np.full(1_000, 3.25),
+        "tiny_range": 1.0 + rng.integers(0, 5, 10_000) * np.finfo(float).eps,
+    }[kind]
+    rng.shuffle(x)
+    ranks = sorted({0, len(x) // 3, (len(x) - 1) // 2, len(x) // 2, len(x) - 1})
+    got = order_statistics(
+        _stream(x, 7), ranks, lo=float(x.min()), hi=float(x.max()), max_held=max_held
+    )
+    ref = np.sort(x)
+    assert got == {k: float(ref[k]) for k in ranks}
+
+
+def test_order_statistics_holds_at_most_max_held(monkeypatch):
+    # The largest array it concatenates is bounded by max_held (plus nothing of the stream).
+    from geoboresight import stats
+
+    sizes = []
+    real = np.concatenate
+    monkeypatch.setattr(
+        stats.np,
+        "concatenate",
+        lambda a, *k, **kw: sizes.append(sum(len(p) for p in a)) or real(a, *k, **kw),
+    )
+    x = np.random.default_rng(1).normal(size=200_000)
+    got = stats.order_statistics(_stream(x, 20), [100_000], lo=x.min(), hi=x.max(), max_held=64)
+    assert got[100_000] == np.sort(x)[100_000]
+    assert sizes and max(sizes) <= 64
+
+
+def test_median_blocks_and_percentiles_with_outliers():
+    from geoboresight.stats import median_blocks
+
+    x = np.concatenate([np.random.default_rng(3).normal(5, 1, 10_000), [1e15]])
+    assert median_blocks(_stream(x, 3), n=x.size, lo=x.min(), hi=x.max()) == np.median(x)
+    even = x[:-1]
+    assert median_blocks(_stream(even, 4), n=even.size, lo=even.min(), hi=even.max()) == (
+        np.median(even)
+    )
+    d = describe_blocks(_stream(x, 5))
+    for q in (1, 5, 25, 50, 75, 95, 99):
+        assert d.percentiles[f"p{q:g}"] == pytest.approx(np.percentile(x, q), rel=1e-12, abs=0)
+
+
+def test_order_statistics_refuses_ranks_out_of_range():
+    from geoboresight.stats import order_statistics
+
+    x = np.arange(10.0)
+    with pytest.raises(ValueError, match="ranks"):
+        order_statistics(_stream(x, 2), [10], lo=0.0, hi=9.0)

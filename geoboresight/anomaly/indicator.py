@@ -27,6 +27,8 @@ scene's median as ``fill``): the same numbers as :func:`boresight_indicator` on 
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -60,17 +62,57 @@ def check_options(threshold: float = THRESHOLD, tail: str = "both", window: int 
 
 def robust_location(values: np.ndarray) -> tuple[float, float]:
     """(median, σ = 1.4826·MAD) of a 1-D array of valid values (the standard deviation when
-    more than half of them share one value)."""
-    from scipy.stats import median_abs_deviation
-
+    more than half of them share one value); :func:`robust_location_blocks` of one block."""
     vals = np.asarray(values, dtype=np.float64)
-    if vals.size < 3:
-        raise InputError(f"only {vals.size} valid ratio pixel(s): the indicator needs a scene")
-    med = float(np.median(vals))
-    sigma = float(median_abs_deviation(vals, scale="normal"))
+    return robust_location_blocks(lambda: iter((vals,)))
+
+
+def robust_location_blocks(blocks: Callable[[], Iterator[np.ndarray]]) -> tuple[float, float]:
+    """(median, σ = 1.4826·MAD) of a stream of valid values, exact, in bounded memory.
+
+    Equal to ``np.median`` and ``scipy.stats.median_abs_deviation(scale="normal")`` of all the
+    values, without holding them: five passes over ``blocks`` (count and extremes, then the
+    median and the median absolute deviation as exact order statistics,
+    :func:`geoboresight.stats.order_statistics`). When more than half the values share one value
+    (MAD 0), σ is their standard deviation.
+
+    Parameters
+    ----------
+    blocks : callable returning an iterator of 1-D float arrays
+        Called once per pass; yields the valid values of each block.
+
+    Returns
+    -------
+    (float, float)
+        The median and σ.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.3, Figure 11D).
+    Rousseeuw, P.J.; Croux, C. Alternatives to the median absolute deviation. J. Am. Stat. Assoc.
+    1993, 88, 1273–1283 (1.4826 · MAD as a consistent estimate of σ).
+    """
+    from scipy.special import ndtri
+
+    from ..stats import Moments, median_blocks
+
+    m = Moments()
+    for v in blocks():
+        m = m.merge(Moments.of(np.asarray(v, dtype=np.float64)))
+    if m.n < 3:
+        raise InputError(f"only {m.n} valid ratio pixel(s): the indicator needs a scene")
+    med = median_blocks(blocks, n=m.n, lo=m.minimum, hi=m.maximum)
+
+    def deviations():
+        return (np.abs(np.asarray(v, dtype=np.float64) - med) for v in blocks())
+
+    spread = max(m.maximum - med, med - m.minimum)
+    # scipy's scale="normal": MAD divided by the standard normal's 75 % quantile.
+    sigma = median_blocks(deviations, n=m.n, lo=0.0, hi=spread) / float(ndtri(0.75))
     if sigma <= 0:
         # More than half the pixels share one value: fall back on the standard deviation.
-        sigma = float(vals.std())
+        sigma = math.sqrt(m.m2 / m.n)
         if sigma <= 0:
             raise InputError("the boresight ratio is constant over the scene: nothing stands out")
     return med, sigma

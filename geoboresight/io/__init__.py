@@ -16,6 +16,7 @@ from .raster import (
     write_envi,
     write_raster,
 )
+from .spill import Spill
 from .wavelengths import nearest_band, read_wavelengths, wavelengths_of
 from .windows import (
     DEFAULT_BLOCK_ROWS,
@@ -38,6 +39,7 @@ __all__ = [
     "DualSensor",
     "Grid",
     "RatioBands",
+    "Spill",
     "SensorFile",
     "atomic_output",
     "band_count",

@@ -311,11 +311,12 @@ def boresight_indicator_file(
 ) -> dict:
     """Write the boresight anomaly indicator: the robust z-score of the boresight ratio.
 
-    ``z = (r − median) / (1.4826 · MAD)`` over the scene (pass 1 gathers the valid ratios);
-    with ``window`` > 1, ``r`` is first replaced by its difference to the median of its
-    ``window`` × ``window`` neighbourhood (strips read with ``window // 2`` lines of halo; one
-    more pass for the residuals' median and MAD). Pixels whose score exceeds ``threshold`` are
-    anomalies.
+    ``z = (r − median) / (1.4826 · MAD)`` over the scene (the exact median and MAD, in a few
+    passes over the strips: memory does not grow with the line); with ``window`` > 1, ``r`` is
+    first replaced by its difference to the median of its ``window`` × ``window`` neighbourhood
+    (strips read with ``window // 2`` lines of halo; the residuals are spilled once to a
+    temporary file beside ``output`` for their median and MAD). Pixels whose score exceeds
+    ``threshold`` are anomalies.
 
     Parameters
     ----------
@@ -353,40 +354,30 @@ def boresight_indicator_file(
         grid = io.Grid.of(src)
         read = io.band_reader(src, 1)
         strips = {"height": grid.height, "width": grid.width, "block_rows": block_rows}
-        values = np.concatenate(
-            [
-                v
-                for _, v in io.map_windows(
-                    read,
-                    ind.valid_values,
-                    **strips,
-                    progress=progress.sub(0.0, 1 / passes),
-                    message="indicator: scene statistics",
-                )
-            ]
-        )
+        # The scene's median and MAD are exact order statistics found in a few passes over
+        # the strips (memory flat in the line's length), as `stats` finds its percentiles.
+        stats_share = progress.sub(0.0, 1 - 1 / passes)
+        raw = _passes(read, ind.valid_values, strips, stats_share.sub(0.0, 0.5 if local else 1))
+        median, sigma = ind.robust_location_blocks(raw)
         fill = None
         halo = (0, 0)
         if local:
             # The scene's median fills nodata in every strip's median filter, as in one
-            # whole-image filter; the residuals' own median and MAD are the reference.
-            fill = float(np.median(values)) if values.size else 0.0
+            # whole-image filter; the residuals' own median and MAD are the reference. The
+            # residuals (a median filter per strip) are computed once and spilled to disk.
+            fill = median
             halo = (window // 2, window // 2)
-            values = np.concatenate(
-                [
-                    ind.valid_values(res)
-                    for _, res in io.map_windows(
-                        read,
-                        lambda r, ok: ind.local_residual(r, ok, window=window, fill=fill),
-                        **strips,
-                        halo=halo,
-                        progress=progress.sub(1 / passes, 2 / passes),
-                        message="indicator: local residuals",
-                    )
-                ]
-            )
-        median, sigma = ind.robust_location(values)
-        del values
+            with io.Spill(near=output) as spill:
+                for _, res in io.map_windows(
+                    read,
+                    lambda r, ok: ind.local_residual(r, ok, window=window, fill=fill),
+                    **strips,
+                    halo=halo,
+                    progress=stats_share.sub(0.5, 0.75),
+                    message="indicator: local residuals",
+                ):
+                    spill.append(ind.valid_values(res))
+                median, sigma = ind.robust_location_blocks(spill.blocks)
         progress.info(f"boresight ratio median {median:.5g}, robust σ {sigma:.4g}")
 
         def score(r, ok):
@@ -427,6 +418,21 @@ def boresight_indicator_file(
         "median": median,
         "robust_sigma": sigma,
     }
+
+
+def _passes(read, func, strips, progress, message="indicator: scene statistics"):
+    """``blocks()`` for a multi-pass statistic: each call streams ``func`` over the strips
+    again (the statistics take five passes, or more when outliers crowd a histogram bin)."""
+    done = [0]
+
+    def blocks():
+        k = done[0]
+        done[0] += 1
+        sub = progress.sub(min(k, 4) / 5, min(k + 1, 5) / 5)
+        text = f"{message} (pass {k + 1})"
+        return (v for _, v in io.map_windows(read, func, **strips, progress=sub, message=text))
+
+    return blocks
 
 
 def _optional_mask(path, grid, tags):
