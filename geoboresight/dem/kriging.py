@@ -5,8 +5,9 @@ The paper interpolates the relative DEM by kriging. PyKrige's ordinary kriging b
 so a flight line with hundreds of thousands of control points does not fit in memory; its
 moving-window mode solves one system per pixel, minutes for a flight line. Here:
 
-- the variogram model is fitted once per line by PyKrige on a random subset of the points
-  (``max_fit_points``: the experimental variogram needs all pairwise distances);
+- the variogram model is fitted once per line, by PyKrige's fitting routine, to the experimental
+  variogram of a random subset of the points (``max_fit_points``) with lags up to
+  :func:`max_lag` (twice the strip's width: a long line's far pairs say nothing about relief);
 - the targets are kriged by *blocks*: every block of targets (about ``BLOCK_PX`` × ``BLOCK_PX``
   pixels of the grid, or a group of nearby scattered targets) shares one neighbourhood, the
   control points nearest its centre within its circumscribed circle widened by the radius that
@@ -107,6 +108,57 @@ def _check_points(x, y, z):
     return x[ok], y[ok], z[ok]
 
 
+def max_lag(x: np.ndarray, y: np.ndarray) -> float:
+    """The largest lag (pixels) worth a class of the experimental variogram of points ``x, y``.
+
+    A flight line is a strip: across track no lag exceeds the swath, and along track most
+    pairs are thousands of pixels apart, far beyond any relief's range. Binned from 0 to the
+    largest distance, as PyKrige does, 20 classes of a 20,000-line line are ~1,000 px wide and
+    the fit is all nugget. Lags are therefore kept up to twice the strip's narrower extent
+    (the across-track width of a line; the whole field of a square scene, where this equals
+    PyKrige's binning): pairs up to that distance sample every direction the strip allows.
+    """
+    extent = min(float(np.ptp(x)), float(np.ptp(y)))
+    diagonal = math.hypot(float(np.ptp(x)), float(np.ptp(y)))
+    return min(diagonal, 2.0 * extent) if extent > 0 else diagonal
+
+
+def experimental_variogram(
+    x: np.ndarray, y: np.ndarray, z: np.ndarray, nlags: int = 20, lag_max: float | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Lags and semivariances of ``nlags`` equal distance classes, PyKrige's binning.
+
+    Classes span the pairs' smallest distance to their largest, PyKrige's own scheme
+    (``pykrige.core._initialize_variogram_model``); with ``lag_max`` only pairs up to that
+    distance are counted (found with a KD-tree, so a long line's points need not be paired
+    all with all). Returns the mean distance and the mean of ``(z_i − z_j)² / 2`` per non-empty
+    class.
+    """
+    pts = np.column_stack([x, y]).astype(np.float64)
+    zz = np.asarray(z, dtype=np.float64)
+    diagonal = math.hypot(float(np.ptp(pts[:, 0])), float(np.ptp(pts[:, 1])))
+    if lag_max is None or lag_max >= diagonal:
+        from scipy.spatial.distance import pdist
+
+        d = pdist(pts)
+        g = 0.5 * pdist(zz[:, None], metric="sqeuclidean")
+    else:
+        pairs = cKDTree(pts).query_pairs(float(lag_max), output_type="ndarray")
+        d = np.hypot(*(pts[pairs[:, 0]] - pts[pairs[:, 1]]).T)
+        g = 0.5 * (zz[pairs[:, 0]] - zz[pairs[:, 1]]) ** 2
+    if d.size == 0:
+        raise InputError("the control points have no pairs to compute a variogram from")
+    dmin, dmax = float(d.min()), float(d.max())
+    step = (dmax - dmin) / nlags  # PyKrige's arithmetic, so the edges agree to the bit
+    edges = np.array([dmin + k * step for k in range(nlags)] + [dmax + 0.001])
+    cls = np.searchsorted(edges, d, side="right") - 1
+    count = np.bincount(cls, minlength=nlags)[:nlags]
+    keep = count > 0
+    lags = np.bincount(cls, weights=d, minlength=nlags)[:nlags][keep] / count[keep]
+    semi = np.bincount(cls, weights=g, minlength=nlags)[:nlags][keep] / count[keep]
+    return lags, semi
+
+
 def fit_variogram(
     x: np.ndarray,
     y: np.ndarray,
@@ -115,8 +167,25 @@ def fit_variogram(
     nlags: int = 20,
     max_fit_points: int = 2000,
     seed: int = 0,
+    lag_max: float | str | None = "auto",
+    min_nugget: float = 0.0,
 ) -> Variogram:
-    """Fit ``model`` to the experimental variogram of (a random subset of) the points (PyKrige)."""
+    """Fit ``model`` to the experimental variogram of (a random subset of) the points.
+
+    The experimental variogram is :func:`experimental_variogram` up to ``lag_max`` ("auto":
+    :func:`max_lag`, which on a square scene is PyKrige's own binning; None: all pairs), and
+    the model is fitted to it by PyKrige's routine (soft-L1 least squares, shorter lags
+    weighted more). On a long line more points are drawn, in proportion to the square root of
+    its length over ``lag_max``, so that about as many pairs fall within the lags as in a
+    square scene.
+
+    ``min_nugget`` is a floor on the nugget (bounded models, linear and power): the variance of
+    a known measurement error of the heights. Matched heights carry the matching noise σ_h,
+    but the noise of neighbouring points is correlated (their matching windows overlap), so
+    the experimental variogram at short lags underestimates it and the fit may put the nugget
+    near 0; kriging then reproduces the noise instead of filtering it (Cressie 1993, §3.2.1:
+    the nugget as measurement-error variance).
+    """
     from pykrige.ok import OrdinaryKriging
 
     if model not in MODELS:
@@ -132,20 +201,25 @@ def fit_variogram(
             "variogram fit failed: all control points have the same height, so there is no "
             "spatial variation to model"
         )
-    if x.size > max_fit_points:
-        pick = np.random.default_rng(seed).choice(x.size, int(max_fit_points), replace=False)
+    if lag_max == "auto":
+        lag_max = max_lag(x, y)
+    diagonal = math.hypot(float(np.ptp(x)), float(np.ptp(y)))
+    n_fit = int(max_fit_points)
+    if lag_max is not None and 0 < lag_max < diagonal:
+        # About as many pairs within lag_max as max_fit_points give in a square scene: a
+        # strip's pairs fall within it with a chance ≈ 2 · lag_max / length.
+        n_fit = int(max_fit_points * math.sqrt(diagonal / (2.0 * lag_max)))
+    if x.size > n_fit:
+        pick = np.random.default_rng(seed).choice(x.size, n_fit, replace=False)
         x, y, z = x[pick], y[pick], z[pick]
     try:
-        ok = OrdinaryKriging(
-            x,
-            y,
-            z,
-            variogram_model=model,
-            nlags=int(nlags),
-            weight=True,
-            enable_statistics=False,
-        )
-        params = tuple(float(p) for p in ok.variogram_model_parameters)
+        lags, semi = experimental_variogram(x, y, z, int(nlags), lag_max)
+        # PyKrige's fitting routine (the one OrdinaryKriging runs on its own classes), so that
+        # the fit equals PyKrige's wherever the classes do (tests/test_dem.py).
+        function = OrdinaryKriging.variogram_dict[model]
+        params = tuple(float(p) for p in _fit_model(lags, semi, model, function, min_nugget))
+    except InputError:
+        raise
     except Exception as exc:  # PyKrige/SciPy raise assorted errors for degenerate data
         raise ParameterError(
             f"variogram fit failed for the {model} model ({exc}); try another model "
@@ -162,6 +236,35 @@ def fit_variogram(
             f"unusable parameters ({params}); try another model or more control points"
         )
     return Variogram(model, params, int(x.size))
+
+
+def _fit_model(lags, semi, model, function, min_nugget=0.0) -> np.ndarray:
+    """PyKrige's fitting routine (``pykrige.core._calculate_variogram_model``: its start, its
+    bounds, soft-L1 least squares on its weighted residuals), with the nugget's lower bound
+    ``min_nugget`` instead of 0. With ``min_nugget`` 0 it is PyKrige's fit (tested)."""
+    from pykrige.core import _variogram_residuals
+    from scipy.optimize import least_squares
+
+    top, bottom = float(np.amax(semi)), float(np.amin(semi))
+    # The nugget stays below the largest semivariance (least_squares needs lower < upper).
+    floor = min(max(float(min_nugget), 0.0), 0.999 * top)
+    if model == "linear":
+        x0 = [(top - bottom) / (np.amax(lags) - np.amin(lags)), max(bottom, floor)]
+        bounds = ([0.0, floor], [np.inf, top])
+    elif model == "power":
+        x0 = [(top - bottom) / (np.amax(lags) - np.amin(lags)), 1.1, max(bottom, floor)]
+        bounds = ([0.0, 0.001, floor], [np.inf, 1.999, top])
+    else:
+        x0 = [top - bottom, 0.25 * np.amax(lags), max(bottom, floor)]
+        bounds = ([0.0, 0.0, floor], [10.0 * top, np.amax(lags), top])
+    res = least_squares(
+        _variogram_residuals,
+        x0,
+        bounds=bounds,
+        loss="soft_l1",
+        args=(lags, semi, function, True),
+    )
+    return res.x
 
 
 def grid_step(variogram: Variogram, max_step: int = MAX_STEP) -> int:

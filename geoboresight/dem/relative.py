@@ -496,7 +496,7 @@ def relative_dem(
     if not precision.meaningful and require_meaningful:
         raise InputError(precision.message())
     x, y, z = line.points
-    vg = fit_points(x, y, z, variogram_model, progress)
+    vg = fit_points(x, y, z, variogram_model, progress, precision.sigma_h_m)
     kr = LocalKriging(x, y, z, vg, n_closest_points)
     dem, var = kr.grid_rows(0, vnir.shape[0], vnir.shape[1], ok)
     cv = None
@@ -520,15 +520,18 @@ def relative_dem(
     )
 
 
-def fit_points(x, y, z, model: str, progress: Progress | None = None) -> Variogram:
+def fit_points(
+    x, y, z, model: str, progress: Progress | None = None, sigma_h: float = 0.0
+) -> Variogram:
     """The variogram of the line's control points (:func:`~geoboresight.dem.kriging.
-    fit_variogram`), refusing fewer than 10 points with the remedy."""
+    fit_variogram`), refusing fewer than 10 points with the remedy. Its nugget is at least
+    ``sigma_h²``: the heights' matching noise is a measurement error the kriging filters."""
     if x.size < 10:
         raise InputError(
             f"only {x.size} control points: too few reliable matches for a surface; use a "
             "larger matching window or a smaller point spacing"
         )
-    vg = fit_variogram(x, y, z, model=model)
+    vg = fit_variogram(x, y, z, model=model, min_nugget=float(sigma_h) ** 2)
     as_progress(progress).info(f"{x.size} control points; variogram {vg.model}: {vg.describe()}")
     return vg
 

@@ -419,7 +419,7 @@ def relative_dem_file(
             if not p.meaningful and not force:
                 raise InputError(p.message())
             x, y, z = line.points
-            vg = fit_points(x, y, z, variogram, progress)
+            vg = fit_points(x, y, z, variogram, progress, p.sigma_h_m)
             tags = {
                 "product": "relative DEM (Brook & Ben-Dor 2011, 3.2): 0 m = lowest reliable region",
                 **info,
