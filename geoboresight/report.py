@@ -139,19 +139,27 @@ class Runner:
         return step
 
 
+#: Longest side (pixels) of the rasters drawn in the report's figures.
+QUICKLOOK_PX = 2000
+
+
 def raster_figure(path: str, title: str, label: str, out_png: str) -> str:
     """A quick look of band 1: classes in their own colour table, values on a 2–98 % stretch."""
     from matplotlib.colors import BoundaryNorm, ListedColormap
 
     from .io import open_raster, read_masked
+    from .io.windows import decimated_shape
 
     with open_raster(path) as src:
-        values, valid = read_masked(src, 1)
+        height, width = src.height, src.width
+        # A page figure shows at most ~1,000 rows: a whole flight line is read decimated
+        # (from its overviews), not in full.
+        _, shape = decimated_shape(height, width, QUICKLOOK_PX)
+        values, valid = read_masked(src, 1, out_shape=shape)
         try:
             colormap = src.colormap(1)
         except ValueError:
             colormap = None
-    height, width = values.shape
     fig, ax = new_figure(width=min(9.0, 2.0 + 6.0 * width / max(height, width)) + 1.5, height=4.8)
     ax.grid(False)
     data = np.ma.array(values, mask=~valid)
@@ -165,12 +173,19 @@ def raster_figure(path: str, title: str, label: str, out_png: str) -> str:
             norm=BoundaryNorm(np.arange(top + 1) - 0.5, top),
             interpolation="nearest",
             aspect="auto",
+            extent=(0, width, height, 0),
         )
         fig.colorbar(image, ax=ax, ticks=codes, label=label)
     else:
         lo, hi = np.percentile(values[valid], [2, 98]) if valid.any() else (0.0, 1.0)
         image = ax.imshow(
-            data, cmap="viridis", vmin=lo, vmax=hi, interpolation="nearest", aspect="auto"
+            data,
+            cmap="viridis",
+            vmin=lo,
+            vmax=hi,
+            interpolation="nearest",
+            aspect="auto",
+            extent=(0, width, height, 0),
         )
         fig.colorbar(image, ax=ax, label=label)
     ax.set_title(title)

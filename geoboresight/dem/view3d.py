@@ -20,6 +20,8 @@ EXAGGERATION = 3.0
 #: Viewing elevation and azimuth (degrees).
 ELEVATION = 35.0
 AZIMUTH = -60.0
+#: Facets per side of the drawn surface at most.
+MAX_FACETS = 200
 
 
 def stretch_rgb(red: np.ndarray, green: np.ndarray, blue: np.ndarray, percent: float = 2.0):
@@ -42,7 +44,7 @@ def drape_figure(
     exaggeration: float = EXAGGERATION,
     pixel_size: tuple[float, float] = (1.0, 1.0),
     unit: str = "m",
-    max_facets: int = 200,
+    max_facets: int = MAX_FACETS,
     elevation: float = ELEVATION,
     azimuth: float = AZIMUTH,
     title: str | None = None,

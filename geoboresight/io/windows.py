@@ -184,11 +184,16 @@ def single_threaded_blas():
         yield
 
 
-def read_masked(src, band: int, window: Window | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(float32 values, valid mask) of one band: invalid where nodata, masked or non-finite."""
+def read_masked(
+    src, band: int, window: Window | None = None, out_shape: tuple[int, int] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """(float32 values, valid mask) of one band: invalid where nodata, masked or non-finite.
+
+    With ``out_shape`` the band is read decimated (nearest neighbour, from the overviews when
+    the file has them): a quick look of a whole flight line without reading it all."""
     import rasterio
 
-    data = src.read(band, window=window)
+    data = src.read(band, window=window, out_shape=out_shape)
     valid = np.ones(data.shape, dtype=bool)
     if src.nodata is not None:
         valid &= data != src.nodata
@@ -198,10 +203,17 @@ def read_masked(src, band: int, window: Window | None = None) -> tuple[np.ndarra
         # Honour an internal mask band (e.g. a GeoTIFF with a per-dataset mask).
         flags = src.mask_flag_enums[band - 1]
         if rasterio.enums.MaskFlags.all_valid not in flags:
-            valid &= src.read_masks(band, window=window) > 0
+            valid &= src.read_masks(band, window=window, out_shape=out_shape) > 0
     values = data.astype("float32", copy=False)
     valid &= np.isfinite(values)
     return values, valid
+
+
+def decimated_shape(height: int, width: int, max_side: int) -> tuple[int, tuple[int, int]]:
+    """``(step, (rows, cols))``: the smallest integer step that brings the longer side of a
+    ``height × width`` raster to at most ``max_side``, and the shape read at that step."""
+    step = max(1, -(-max(height, width) // int(max_side)))
+    return step, (-(-height // step), -(-width // step))
 
 
 def band_reader(src, band: int) -> Callable[[int, int], tuple[np.ndarray, np.ndarray]]:

@@ -36,12 +36,13 @@ from ..dem.view3d import (
     ELEVATION,
     EXAGGERATION,
     GREEN_NM,
+    MAX_FACETS,
     RED_NM,
     drape_figure,
     stretch_rgb,
 )
 from ..errors import InputError
-from ..io.bands import open_matching_pair, read_bands, require_on_grid
+from ..io.bands import open_matching_pair, require_on_grid
 from ..io.dual import SEAM_NM, TOLERANCE_NM
 from ._operation import operation
 from .offset import line_offset
@@ -652,21 +653,27 @@ def view_3d_file(
     from ..figures import save_figure
 
     dual = io.open_dual(vnir, swir, seam_nm, vnir_wavelengths, swir_wavelengths)
+    # The view draws at most MAX_FACETS facets per side: the DEM and the RGB are read at that
+    # step (decimated reads), not whole, so a flight line of any length costs the same.
+    _, shape = io.windows.decimated_shape(*dual.grid.shape, MAX_FACETS)
     with io.open_raster(dem, "DEM") as src:
         require_on_grid(src, dual.grid, f"DEM {dem}")
-        height, ok = io.read_masked(src, 1)
+        height, ok = io.read_masked(src, 1, out_shape=shape)
         georef = io.is_georeferenced(src)
         res = (abs(src.transform.e), abs(src.transform.a)) if georef else None
         gsd_tag = src.tags().get("GSD_M")
     bands = [dual.vnir.band_for(nm, tolerance_nm) for nm in (red_nm, green_nm, blue_nm)]
     with io.open_raster(dual.vnir.path, "image") as src:
-        rgb, rgb_ok = read_bands(src, bands, progress=progress.sub(0.0, 0.3))
+        rgb, rgb_ok = zip(*(io.read_masked(src, b, out_shape=shape) for b in bands), strict=True)
+    progress.update(0.3, "read")
     if res is not None:
         size, unit = res, "m"
     elif gsd_tag:
         size, unit = (float(gsd_tag), float(gsd_tag)), "m"
     else:
         size, unit = (1.0, 1.0), "px"
+    # A decimated pixel covers height/rows × width/cols pixels of the grid.
+    size = (size[0] * dual.grid.height / shape[0], size[1] * dual.grid.width / shape[1])
     fig = drape_figure(
         np.where(ok, height, np.nan),
         stretch_rgb(*np.where(rgb_ok, rgb, np.nan)),
