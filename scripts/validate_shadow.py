@@ -118,18 +118,18 @@ HOLDOUT = {
 
 def holdout_cases(group=1):
     """The hold-out scenes: not looked at while the method is developed (on ``CASES``), run
-    once at the end. Conditions drawn at random (uniform unless stated) from these ranges:
+    once. Conditions drawn at random (uniform unless stated) from these ranges:
 
-    * model 2, five seeds (group 1: 5–9, group 2: 10–14, group 3: 15–19; other layouts and earthlib spectra
-      than seeds 0–4): sun zenith
-      20–62°, azimuth 0–360°, aerosol optical depth at 500 nm 0.05–0.5, relief 0 m (half of
-      the scenes) or 5–30 m, VNIR / SWIR dark level 40–400 / 250–2,000 DN, gains ×0.4–1.6
-      each, adjacency 0–0.8, 6–14 buildings, 6–16 trees, boresight offset 0–1.5 px along and
-      −0.5–0.5 px across;
-    * simulator, three scenes: preset urban, mixed, glade (one each), simulator seeds
-      (group 1: 1–3, group 2: 4–6, group 3: 7–9; other layouts and noise than seed 0), sun zenith 20–62°, azimuth 0–360° (from the
-      flight direction), aerosol optical depth at 550 nm 0.05–0.4, VNIR / SWIR dark offset
-      40–400 / 250–1,600 DN, gains ×0.5–1.3 each (12-bit DN, clipped at 4,095).
+    * model 2, five seeds (group 1: 5–9, group 2: 10–14, group 3: 15–19; other layouts and
+      earthlib spectra than seeds 0–4): sun zenith 20–62°, azimuth 0–360°, aerosol optical
+      depth at 500 nm 0.05–0.5, relief 0 m (half of the scenes) or 5–30 m, VNIR / SWIR dark
+      level 40–400 / 250–2,000 DN, gains ×0.4–1.6 each, adjacency 0–0.8, 6–14 buildings, 6–16
+      trees, boresight offset 0–1.5 px along and −0.5–0.5 px across;
+    * simulator, three scenes: preset urban, mixed, glade (one each), simulator seeds (group 1:
+      1–3, group 2: 4–6, group 3: 7–9; other layouts and noise than seed 0), sun zenith
+      20–62°, azimuth 0–360° (from the flight direction), aerosol optical depth at 550 nm
+      0.05–0.4, VNIR / SWIR dark offset 40–400 / 250–1,600 DN, gains ×0.5–1.3 each (12-bit
+      DN, clipped at 4,095).
     """
     seed, m2_seeds, sim_seeds = HOLDOUT[group]
     rng = np.random.default_rng(seed)
