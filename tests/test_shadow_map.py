@@ -301,9 +301,9 @@ def test_shadow_map_on_independent_scene(model2_scene, tmp_path):
 
 @pytest.mark.xfail(
     strict=True,
-    reason="goals not met on this scene: F1 0.71 (recall ~0.6: shadows lit by sunlit walls "
-    "and ground keep more than a sixth of the sunlit signal), dark-pixel baseline 0.74; see "
-    "docs/shadow.md",
+    reason="goals not met on this scene: F1 0.71 (precision 0.92, recall 0.58: shadows lit "
+    "by sunlit walls and ground keep more than a sixth of the sunlit signal), dark-pixel "
+    "baseline 0.74 (the method unchanged in issue 15's second session); see docs/shadow.md",
 )
 def test_shadow_map_f1_goal_on_independent_scene(model2_scene, tmp_path):
     sc, folder = model2_scene

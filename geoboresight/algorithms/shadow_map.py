@@ -39,7 +39,8 @@ SHADOW_MAP = Algorithm(
         "source, the sunlit signals, the offset, the sunlit boresight ratio and the ratio "
         "bounds Table 2 would have on this scene, and warnings. Validated on two independent "
         "scene models (docs/shadow.md): it still misses shadow under strong skylight (hazy "
-        "air, high sun zenith) and in narrow courtyards lit by sunlit walls."
+        "air, high sun zenith) and in narrow courtyards lit by sunlit walls, and takes black "
+        "roofs, and asphalt in scenes of very bright soil, for shadow."
     ),
     params=(
         *DUAL_PARAMS,
