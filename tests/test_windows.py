@@ -181,3 +181,48 @@ def test_grid_check_names_both_files(tmp_path):
             io.require_same_grid(a, b, "ratio raster", "mask")
     msg = str(err.value)
     assert "a.tif" in msg and "b.tif" in msg and "12 × 10" in msg and "13 × 10" in msg
+
+
+def _reusing_reader(cube, valid):
+    # Like Cube.reader: every read lands in the same buffer (the previous result is overwritten).
+    buf = np.empty_like(cube)
+    vbuf = np.empty_like(valid)
+
+    def read(r0, r1):
+        n = r1 - r0
+        buf[:, :n] = cube[:, r0:r1]
+        vbuf[:n] = valid[r0:r1]
+        return buf[:, :n], vbuf[:n]
+
+    return read
+
+
+@pytest.mark.parametrize("block_rows", [1, 4, 16, 100])
+@pytest.mark.parametrize("n_positions", [0, 1, 7, 300, 2400])
+def test_read_pixels_equals_indexing_the_whole_image(block_rows, n_positions):
+    rng = np.random.default_rng(n_positions)
+    cube = rng.normal(size=(5, 60, 40)).astype(np.float32)
+    valid = rng.random((60, 40)) > 0.1
+    positions = np.sort(rng.choice(60 * 40, n_positions, replace=False))
+    values, ok = io.read_pixels(
+        _reusing_reader(cube, valid), positions, height=60, width=40, block_rows=block_rows
+    )
+    np.testing.assert_array_equal(values, cube.reshape(5, -1)[:, positions])
+    np.testing.assert_array_equal(ok, valid.ravel()[positions])
+
+
+@pytest.mark.parametrize("block_rows", [3, 64])
+def test_sample_windows_draws_as_strip_by_strip(block_rows):
+    # The sample is the one drawing one uniform number per pixel strip by strip would give.
+    rng = np.random.default_rng(2)
+    cube = rng.normal(size=(3, 50, 30))
+    valid = rng.random((50, 30)) > 0.2
+    values, ok = io.sample_windows(
+        _reusing_reader(cube, valid), height=50, width=30, size=200, seed=9, block_rows=block_rows
+    )
+    draw = np.random.default_rng(9)
+    chosen = np.concatenate(
+        [(draw.random((min(7, 50 - r), 30)) < 200 / 1500).ravel() for r in range(0, 50, 7)]
+    )
+    np.testing.assert_array_equal(values, cube.reshape(3, -1)[:, chosen])
+    np.testing.assert_array_equal(ok, valid.ravel()[chosen])

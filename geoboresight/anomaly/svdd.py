@@ -143,24 +143,6 @@ def sample_positions(n_pixels: int, size: int, rng: np.random.Generator) -> np.n
     return np.sort(rng.choice(n_pixels, min(n_pixels, int(size * 1.5) + 10), replace=False))
 
 
-def pixels_at(
-    cube: np.ndarray,
-    valid: np.ndarray | None = None,
-    *,
-    positions: np.ndarray,
-    start: int,
-) -> np.ndarray:
-    """(m, k) float64 spectra of the valid pixels of a (k, rows, cols) strip found in the
-    sorted flat image ``positions``; ``start`` is the flat position of the strip's first pixel."""
-    k = cube.shape[0]
-    n = cube.shape[1] * cube.shape[2]
-    lo, hi = np.searchsorted(positions, [start, start + n])
-    local = positions[lo:hi] - start
-    if valid is not None:
-        local = local[valid.ravel()[local]]
-    return cube.reshape(k, -1)[:, local].T.astype(np.float64)
-
-
 def keep_at_most(sample: np.ndarray, size: int, rng: np.random.Generator) -> np.ndarray:
     """``sample`` (n, k), or ``size`` of its rows drawn at random when it has more."""
     if len(sample) > size:

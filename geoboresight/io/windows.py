@@ -240,6 +240,63 @@ def bands_reader(sources) -> Callable[[int, int], tuple[np.ndarray, np.ndarray]]
     return read
 
 
+def read_pixels(
+    read: Callable[[int, int], tuple[np.ndarray, np.ndarray]],
+    positions: np.ndarray,
+    *,
+    height: int,
+    width: int,
+    block_rows: int = DEFAULT_BLOCK_ROWS,
+    progress: Progress | None = None,
+    message: str | None = "sampling",
+) -> tuple[np.ndarray, np.ndarray]:
+    """The pixels at sorted flat ``positions`` (line × width + column), reading only the lines
+    that hold them.
+
+    ``read`` returns ``(values (n_bands, rows, cols) or (rows, cols), valid (rows, cols))``
+    (:func:`bands_reader`, :func:`band_reader`, :meth:`Cube.reader`). A strip of which more
+    than half the lines hold a position is read whole; otherwise its lines are read one by one:
+    a sample of a thousand pixels of a 20,000-line flight line reads a thousand lines, not the
+    line. Returns ``(values (n_bands, n) or (n,), valid (n,))`` in the order of ``positions``.
+    """
+    pos = np.asarray(positions, dtype=np.int64)
+    rows = np.unique(pos // width)
+
+    def take(data, row0, flat):
+        # Fancy indexing copies: a reader may reuse its buffer for the next read.
+        values, valid = data
+        r, c = np.divmod(flat - row0 * width, width)
+        return values[..., r, c], valid[r, c]
+
+    def read_strip(row0, row1):
+        flat = pos[np.searchsorted(pos, row0 * width) : np.searchsorted(pos, row1 * width)]
+        need = rows[np.searchsorted(rows, row0) : np.searchsorted(rows, row1)]
+        if 2 * need.size > row1 - row0:
+            return [take(read(row0, row1), row0, flat)]
+        line = flat // width
+        return [take(read(r, r + 1), r, flat[line == r]) for r in need]
+
+    parts = [
+        part
+        for _, strip in map_windows(
+            read_strip,
+            lambda parts: parts,
+            height=height,
+            width=width,
+            block_rows=block_rows,
+            progress=progress,
+            message=message,
+        )
+        for part in strip
+    ]
+    if not parts:  # no position at all: the bands' shape from one line
+        parts = [take(read(0, 1), 0, pos)]
+    return (
+        np.concatenate([v for v, _ in parts], axis=-1),
+        np.concatenate([ok for _, ok in parts]),
+    )
+
+
 def sample_windows(
     read: Callable[[int, int], tuple[np.ndarray, np.ndarray]],
     *,
@@ -255,26 +312,25 @@ def sample_windows(
 
     ``read`` returns ``(values (n_bands, rows, cols), valid (rows, cols))`` (see
     :func:`bands_reader`). Every pixel is drawn with the same probability, so the sample is
-    uniform over the whole flight line. Returns ``(values (n_bands, n), valid (n,))``.
+    uniform over the whole flight line; only the lines holding drawn pixels are read
+    (:func:`read_pixels`). Returns ``(values (n_bands, n), valid (n,))``.
     """
     rng = np.random.default_rng(seed)
-    p = min(1.0, size / max(1, height * width))
-    cols, oks = [], []
-
-    def pick(values, valid):
-        # Drawn in strip order in the calling thread: the same seed gives the same sample.
-        chosen = rng.random(valid.shape) < p
-        return values[:, chosen], valid[chosen]
-
-    for _, (v, ok) in map_windows(
+    n = height * width
+    p = min(1.0, size / max(1, n))
+    # The draw is one uniform number per pixel in image order, made a million at a time: the
+    # same numbers, so the same sample, as drawing strip by strip while reading.
+    chunk = 1 << 20
+    positions = np.concatenate(
+        [np.flatnonzero(rng.random(min(chunk, n - k)) < p) + k for k in range(0, n, chunk)]
+        or [np.empty(0, np.int64)]
+    )
+    return read_pixels(
         read,
-        pick,
+        positions,
         height=height,
         width=width,
         block_rows=block_rows,
         progress=progress,
         message=message,
-    ):
-        cols.append(v)
-        oks.append(ok)
-    return np.concatenate(cols, axis=1), np.concatenate(oks)
+    )

@@ -254,22 +254,16 @@ def svdd_file(
         rng = np.random.default_rng(seed)
         positions = svdd.sample_positions(cube.height * cube.width, sample_size, rng)
 
-        def pick(data, valid, block):
-            start = block.window.row_off * block.width
-            return svdd.pixels_at(data, valid, positions=positions, start=start)
-
-        picked = [
-            part
-            for _, part in io.map_windows(
-                cube.reader(bands, None),
-                pick,
-                **strips,
-                pass_block=True,
-                progress=progress.sub(0.0, 0.2),
-                message="SVDD: background sample",
-            )
-        ]
-        sample = svdd.keep_at_most(np.concatenate(picked), sample_size, rng)
+        # Only the lines holding drawn pixels are read (a thousand lines, not the line).
+        values, ok = io.read_pixels(
+            cube.reader(bands, None),
+            positions,
+            **strips,
+            progress=progress.sub(0.0, 0.2),
+            message="SVDD: background sample",
+        )
+        picked = values[:, ok].T.astype(np.float64)
+        sample = svdd.keep_at_most(picked, sample_size, rng)
         model = svdd.fit_svdd(sample, sigma=sigma or None, nu=nu)
         progress.info(
             f"SVDD: {len(sample)} training pixels, σ = {model.sigma:.4g}"
