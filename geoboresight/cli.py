@@ -15,7 +15,7 @@ import sys
 import click
 
 from . import __version__
-from .algorithms import registry
+from .algorithms import find, registry
 from .algorithms.spec import Algorithm, Param, execute
 from .errors import Cancelled, GeoboresightError
 from .progress import Progress
@@ -287,8 +287,8 @@ class SpecGroup(click.Group):
             from .engine import engine_command
 
             return engine_command()
-        algs = registry()
-        return make_command(algs[name]) if name in algs else None
+        alg = find(name)  # imports this operation's spec module only (start-up time)
+        return make_command(alg) if alg is not None else None
 
 
 @click.command(name="list", short_help="List the operations, grouped as in the QGIS toolbox.")

@@ -201,3 +201,36 @@ def test_kernels_share_one_calling_convention():
         assert params[i].default is None, name
         assert all(p.default is inspect.Parameter.empty for p in params[:i]), name
         assert all(p.kind is inspect.Parameter.KEYWORD_ONLY for p in params[i + 1 :]), name
+
+
+def test_spec_module_index_matches_the_modules():
+    # algorithms.MODULES lets one command import its own spec module only; it must name every
+    # operation's real module, and nothing else.
+    import importlib
+    import pkgutil
+
+    import geoboresight.algorithms as algorithms
+
+    real = {}
+    for info in pkgutil.iter_modules(algorithms.__path__):
+        if info.name == "spec" or info.name.startswith("_"):
+            continue
+        module = importlib.import_module(f"geoboresight.algorithms.{info.name}")
+        real.update({a.name: info.name for a in getattr(module, "ALGORITHMS", ())})
+    assert algorithms.MODULES == real
+    assert all(algorithms.get(n).name == n for n in real)
+
+
+def test_one_command_imports_its_own_module_only():
+    # Start-up: `geoboresight ratio` must not import the other operations' science stacks.
+    import subprocess
+    import sys
+
+    code = (
+        "import sys; from geoboresight.cli import main\n"
+        "cmd = main.get_command(None, 'ratio'); assert cmd is not None\n"
+        "print(','.join(m for m in ('scipy', 'sklearn', 'matplotlib', 'pykrige', "
+        "'geoboresight.operations.anomaly', 'geoboresight.algorithms.dem') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == ""
