@@ -29,8 +29,16 @@ HOLD = r"""
 import glob, os, sys, time
 import geoboresight.cli as cli
 folder, stem = sys.argv[1], sys.argv[2]
+import signal
+# A test suite started as a background shell job (`make test &`) runs with SIGINT ignored,
+# and its children inherit that: restore Python's own handler, as an interactive run has.
+signal.signal(signal.SIGINT, signal.default_int_handler)
+held = []
 def hold(self, fraction, message):
-    if glob.glob(os.path.join(folder, "." + stem + ".*.tmp*")):
+    # Hold once, mid-write (a temporary output exists), for the test's signal; later calls
+    # (e.g. the progress of the clean-up after the signal) go on.
+    if not held and glob.glob(os.path.join(folder, "." + stem + ".*.tmp*")):
+        held.append(1)
         print("MID", flush=True)
         time.sleep(120)
 cli._Bar.__call__ = hold
