@@ -273,7 +273,7 @@ def main(argv=None):
     from geoboresight.dem.kriging import fit_variogram, krige_grid
 
     t0 = time.perf_counter()
-    vg = fit_variogram(x, y, z)
+    vg = fit_variogram(x, y, z, min_nugget=r.precision.sigma_h_m**2)  # as the chain fits it
     kr, _ = krige_grid(x, y, z, h.shape, vg, mask=ok)
     t_kr = time.perf_counter() - t0
     t0 = time.perf_counter()

@@ -720,3 +720,12 @@ def test_variogram_nugget_floor_filters_correlated_matching_noise():
         worse += rmse[1] > rmse[0] * 1.001
         better += rmse[1] < rmse[0] * 0.95
     assert worse == 0 and better >= 1
+
+
+def test_variogram_nugget_floor_unknown_noise_sets_no_floor():
+    # σ_h cannot always be estimated (NaN): the fit is then the free one, not an error.
+    rng = np.random.default_rng(0)
+    x, y = rng.uniform(0, 100, 200), rng.uniform(0, 100, 200)
+    z = np.sin(x / 15) * 5 + rng.normal(0, 0.3, 200)
+    free = fit_variogram(x, y, z)
+    assert fit_variogram(x, y, z, min_nugget=float("nan")).parameters == free.parameters

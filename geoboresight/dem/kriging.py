@@ -247,7 +247,9 @@ def _fit_model(lags, semi, model, function, min_nugget=0.0) -> np.ndarray:
 
     top, bottom = float(np.amax(semi)), float(np.amin(semi))
     # The nugget stays below the largest semivariance (least_squares needs lower < upper).
-    floor = min(max(float(min_nugget), 0.0), 0.999 * top)
+    # An unknown noise (σ_h not estimable: NaN) sets no floor.
+    floor = float(min_nugget) if math.isfinite(min_nugget) else 0.0
+    floor = min(max(floor, 0.0), 0.999 * top)
     if model == "linear":
         x0 = [(top - bottom) / (np.amax(lags) - np.amin(lags)), max(bottom, floor)]
         bounds = ([0.0, floor], [np.inf, top])
