@@ -3,6 +3,8 @@ NumPy kernels against their Dask versions."""
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 import rasterio
@@ -226,3 +228,46 @@ def test_sample_windows_draws_as_strip_by_strip(block_rows):
     )
     np.testing.assert_array_equal(values, cube.reshape(3, -1)[:, chosen])
     np.testing.assert_array_equal(ok, valid.ravel()[chosen])
+
+
+@pytest.mark.parametrize("rows", [1, 16, 100, 256, 300, 1000])
+@pytest.mark.parametrize("count", [1, 3])
+def test_create_raster_strip_writes_equal_one_write_and_do_not_bloat(tmp_path, rows, count):
+    # GDAL recompresses and appends a tile each time a write leaves it: strips must reach it
+    # as whole tile rows (io.raster.TileRowWriter), giving the same pixels in a file of the
+    # same size as one whole write.
+    from rasterio.windows import Window
+
+    rng = np.random.default_rng(rows)
+    data = rng.normal(size=(count, 1000, 300)).astype("float32")
+    grid = io.Grid(300, 1000)
+    with io.create_raster(str(tmp_path / "one.tif"), grid, count=count) as dst:
+        dst.write(data)
+    with io.create_raster(str(tmp_path / "strips.tif"), grid, count=count) as dst:
+        for r in range(0, 1000, rows):
+            n = min(rows, 1000 - r)
+            part = data[:, r : r + n]
+            if count == 1:
+                dst.write(part[0], 1, window=Window(0, r, 300, n))
+            else:
+                dst.write(part, window=Window(0, r, 300, n))
+    with rasterio.open(tmp_path / "one.tif") as a, rasterio.open(tmp_path / "strips.tif") as b:
+        np.testing.assert_array_equal(a.read(), data)
+        np.testing.assert_array_equal(b.read(), data)
+    one, strips = (os.path.getsize(tmp_path / n) for n in ("one.tif", "strips.tif"))
+    assert strips <= one * 1.05
+
+
+def test_tile_row_writer_passes_other_writes_through(tmp_path):
+    # Out-of-order and partial-width writes go straight to GDAL, after what was gathered.
+    from rasterio.windows import Window
+
+    data = np.arange(600 * 300, dtype="float32").reshape(600, 300)
+    with io.create_raster(str(tmp_path / "x.tif"), io.Grid(300, 600)) as dst:
+        dst.write(data[0:10], 1, window=Window(0, 0, 300, 10))  # gathered
+        dst.write(data[300:310, :100], 1, window=Window(0, 300, 100, 10))  # partial width
+        dst.write(data[300:310, 100:], 1, window=Window(100, 300, 200, 10))
+        dst.write(data[10:300], 1, window=Window(0, 10, 300, 290))  # back to gathering
+        dst.write(data[310:], 1, window=Window(0, 310, 300, 290))
+    with rasterio.open(tmp_path / "x.tif") as src:
+        np.testing.assert_array_equal(src.read(1), data)

@@ -565,7 +565,7 @@ def reproject_onto(product: str, reference: str, output: str, *, resampling: str
             for b in range(1, src.count + 1):
                 reproject(
                     rio_band(src, b),
-                    rio_band(dst, b),
+                    rio_band(dst.dataset, b),
                     src_nodata=nodata,
                     dst_nodata=nodata,
                     resampling=Resampling[method],

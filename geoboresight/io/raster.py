@@ -20,6 +20,7 @@ import rasterio.shutil
 from rasterio.enums import Resampling
 from rasterio.errors import NotGeoreferencedWarning, RasterioIOError
 from rasterio.transform import Affine
+from rasterio.windows import Window
 
 from .. import __version__
 from ..errors import InputError, OutputError, ParameterError
@@ -398,6 +399,103 @@ def write_envi(
     return path
 
 
+#: Largest buffer (bytes) TileRowWriter gathers before writing; wider rows are written as they come.
+TILE_ROW_BUFFER = 64 << 20
+
+
+class TileRowWriter:
+    """An open GeoTIFF whose consecutive full-width writes reach GDAL as whole rows of tiles.
+
+    GDAL's GeoTIFF driver compresses a tile whenever a write moves on to another tile, and a
+    tile written again is compressed again and appended: written strip by strip (16 lines, as
+    the cube operations do), each 256-line tile of a compressed output was compressed 16
+    times, the file was 4× its size and the write took 4.9 s for a 20,000 × 286 float32 score
+    (0.2 s in whole tile rows). Full-width writes of consecutive lines are therefore gathered
+    here up to the next tile-row boundary; any other write goes straight through (after what is
+    gathered). Other attributes are the dataset's; calling one of its methods writes what is
+    gathered first.
+    """
+
+    def __init__(self, dst, max_bytes: int = TILE_ROW_BUFFER):
+        self._dst = dst
+        self._block = int(dst.block_shapes[0][0]) if dst.block_shapes else 1
+        self._max_bytes = max_bytes
+        self._buf = None  # (bands, lines, width) gathered lines
+        self._start = self._next = self._end = 0
+        self._indexes: tuple[int, ...] = ()
+
+    @property
+    def dataset(self):
+        """The rasterio dataset itself (e.g. for ``rasterio.band`` in a warp), after what is
+        gathered is written."""
+        self.flush()
+        return self._dst
+
+    def __getattr__(self, name):
+        attr = getattr(self._dst, name)
+        if callable(attr):
+            self.flush()
+        return attr
+
+    def _gatherable(self, arr, window, kwargs) -> bool:
+        return (
+            isinstance(window, Window)
+            and not kwargs
+            and type(arr) is np.ndarray
+            and arr.ndim in (2, 3)
+            and window.col_off == 0
+            and window.width == self._dst.width
+            and arr.shape[-2:] == (window.height, window.width)
+            and self._block > 1
+        )
+
+    def write(self, arr, indexes=None, window=None, **kwargs):
+        if not self._gatherable(arr, window, kwargs):
+            self.flush()
+            return self._dst.write(arr, indexes, window=window, **kwargs)
+        data = arr if arr.ndim == 3 else arr[None]
+        if indexes is None:
+            indexes = tuple(range(1, self._dst.count + 1))
+        idx = (int(indexes),) if np.ndim(indexes) == 0 else tuple(int(i) for i in indexes)
+        if len(idx) != data.shape[0]:
+            self.flush()
+            return self._dst.write(arr, indexes, window=window)
+        row = int(window.row_off)
+        if self._buf is not None and (
+            idx != self._indexes or row != self._next or data.dtype != self._buf.dtype
+        ):
+            self.flush()
+        done, n = 0, data.shape[1]
+        while done < n:
+            if self._buf is None:
+                start = row + done
+                end = min(self._dst.height, (start // self._block + 1) * self._block)
+                shape = (len(idx), end - start, self._dst.width)
+                if int(np.prod(shape)) * data.dtype.itemsize > self._max_bytes:
+                    part = data[:, done:]
+                    win = Window(0, start, self._dst.width, part.shape[1])
+                    return self._dst.write(part, list(idx), window=win)
+                self._buf = np.empty(shape, dtype=data.dtype)
+                self._start = self._next = start
+                self._end, self._indexes = end, idx
+            take = min(n - done, self._end - self._next)
+            at = self._next - self._start
+            self._buf[:, at : at + take] = data[:, done : done + take]
+            self._next += take
+            done += take
+            if self._next == self._end:
+                self.flush()
+
+    def flush(self) -> None:
+        """Write the gathered lines."""
+        if self._buf is None:
+            return
+        buf, self._buf = self._buf, None
+        lines = self._next - self._start
+        win = Window(0, self._start, self._dst.width, lines)
+        self._dst.write(buf[:, :lines], list(self._indexes), window=win)
+
+
 @contextlib.contextmanager
 def create_raster(
     path: str,
@@ -418,7 +516,8 @@ def create_raster(
     The profile is :meth:`Grid.profile`'s (tiled, compressed, predictor, nodata); raw sensor
     geometry stays raw. Tags, band names and a colour table are written once the caller's
     block has run; category names go in the GDAL PAM sidecar (.aux.xml), where GDAL and QGIS
-    read them. Yields the open rasterio dataset.
+    read them. Yields the open dataset, wrapped in a :class:`TileRowWriter` (strip-by-strip
+    writes reach GDAL as whole tile rows).
     """
     extra = {"photometric": "palette"} if colormap else {}
     cog, options, raw_gsd = _WRITER.get()
@@ -439,7 +538,9 @@ def create_raster(
         with rasterio.open(tmp, "w", **profile) as dst:
             if colormap:
                 dst.write_colormap(1, colormap)
-            yield dst
+            writer = TileRowWriter(dst)
+            yield writer
+            writer.flush()
             dst.update_tags(**base_tags(**(tags or {})))
             for i, name in enumerate(band_names or (), start=1):
                 dst.set_band_description(i, name)
