@@ -240,6 +240,43 @@ def bands_reader(sources) -> Callable[[int, int], tuple[np.ndarray, np.ndarray]]
     return read
 
 
+def value_passes(
+    read: Callable[[int, int], Any],
+    func: Callable[..., np.ndarray],
+    *,
+    height: int,
+    width: int,
+    block_rows: int = DEFAULT_BLOCK_ROWS,
+    progress: Progress | None = None,
+    message: str | None = None,
+    passes: int = 1,
+) -> Callable[[], Iterator[np.ndarray]]:
+    """``blocks()`` for a statistic that takes several passes over a raster
+    (:func:`geoboresight.stats.describe_blocks`, :func:`~geoboresight.stats.order_statistics`):
+    each call streams ``func(*read(r0, r1))`` (the strip's values) over the strips again. With
+    ``progress``, the k-th call reports in the k-th of ``passes`` equal shares (later calls in
+    the last)."""
+    done = [0]
+
+    def blocks() -> Iterator[np.ndarray]:
+        k = min(done[0], passes - 1)
+        done[0] += 1
+        sub = None if progress is None else progress.sub(k / passes, (k + 1) / passes)
+        text = f"{message} (pass {done[0]})" if message else None
+        strips = map_windows(
+            read,
+            func,
+            height=height,
+            width=width,
+            block_rows=block_rows,
+            progress=sub,
+            message=text,
+        )
+        return (v for _, v in strips)
+
+    return blocks
+
+
 #: read_pixels reads a strip's lines one by one when fewer than one line in this many is needed:
 #: one read per line costs about a millisecond through GDAL (measured: a 50,000-pixel sample of
 #: an 80,000-line line, half its lines read one by one, took 3× longer than whole strips).

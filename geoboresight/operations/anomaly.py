@@ -351,7 +351,14 @@ def boresight_indicator_file(
         # The scene's median and MAD are exact order statistics found in a few passes over
         # the strips (memory flat in the line's length), as `stats` finds its percentiles.
         stats_share = progress.sub(0.0, 1 - 1 / passes)
-        raw = _passes(read, ind.valid_values, strips, stats_share.sub(0.0, 0.5 if local else 1))
+        raw = io.windows.value_passes(
+            read,
+            ind.valid_values,
+            **strips,
+            progress=stats_share.sub(0.0, 0.5 if local else 1.0),
+            message="indicator: scene statistics",
+            passes=5,  # count and extremes, then the median and the MAD, two passes each
+        )
         median, sigma = ind.robust_location_blocks(raw)
         fill = None
         halo = (0, 0)
@@ -412,21 +419,6 @@ def boresight_indicator_file(
         "median": median,
         "robust_sigma": sigma,
     }
-
-
-def _passes(read, func, strips, progress, message="indicator: scene statistics"):
-    """``blocks()`` for a multi-pass statistic: each call streams ``func`` over the strips
-    again (the statistics take five passes, or more when outliers crowd a histogram bin)."""
-    done = [0]
-
-    def blocks():
-        k = done[0]
-        done[0] += 1
-        sub = progress.sub(min(k, 4) / 5, min(k + 1, 5) / 5)
-        text = f"{message} (pass {k + 1})"
-        return (v for _, v in io.map_windows(read, func, **strips, progress=sub, message=text))
-
-    return blocks
 
 
 def _optional_mask(path, grid, tags):

@@ -83,17 +83,13 @@ def stats_file(
         desc_name = src.descriptions[band - 1] or f"band {band}"
         read = io.band_reader(src, band)
 
-        def blocks():
-            return (
-                v
-                for _, v in io.map_windows(
-                    read,
-                    lambda values, valid: values[valid],
-                    height=src.height,
-                    width=src.width,
-                    block_rows=block_rows,
-                )
-            )
+        blocks = io.windows.value_passes(
+            read,
+            lambda values, valid: values[valid],
+            height=src.height,
+            width=src.width,
+            block_rows=block_rows,
+        )
 
         d = describe_blocks(
             blocks, bins=bins, percentiles=qs, progress=progress, label=f"{input} band {band}"
