@@ -19,6 +19,14 @@ from .io.write import atomic_output
 DPI = 110
 
 
+def decimated_shape(height: int, width: int, max_side: int) -> tuple[int, tuple[int, int]]:
+    """``(step, (rows, cols))``: the smallest integer step that brings the longer side of a
+    ``height × width`` raster to at most ``max_side``, and the shape drawn at that step (a
+    figure shows a few hundred to a few thousand pixels a side, whatever the flight line)."""
+    step = max(1, -(-max(height, width) // int(max_side)))
+    return step, (-(-height // step), -(-width // step))
+
+
 def blank_figure(
     width: float = 6.4, height: float = 4.2, *, dpi: float | None = DPI, layout="constrained"
 ) -> Figure:

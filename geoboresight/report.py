@@ -147,8 +147,8 @@ def raster_figure(path: str, title: str, label: str, out_png: str) -> str:
     """A quick look of band 1: classes in their own colour table, values on a 2–98 % stretch."""
     from matplotlib.colors import BoundaryNorm, ListedColormap
 
+    from .figures import decimated_shape
     from .io import open_raster, read_masked
-    from .io.windows import decimated_shape
 
     with open_raster(path) as src:
         height, width = src.height, src.width

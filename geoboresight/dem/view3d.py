@@ -61,7 +61,7 @@ def drape_figure(
     pixel_size : (along-track, across-track) size of a pixel, metres (1 px in raw geometry
         when unknown, then ``unit`` should say "px").
     """
-    from ..figures import blank_figure
+    from ..figures import blank_figure, decimated_shape
 
     dem = np.asarray(dem, np.float64)
     rgb = np.asarray(rgb, np.float64)
@@ -74,7 +74,7 @@ def drape_figure(
     ok = np.isfinite(dem)
     if not ok.any():
         raise InputError("the DEM has no valid height to draw")
-    step = max(1, int(np.ceil(max(dem.shape) / max_facets)))
+    step, _ = decimated_shape(*dem.shape, max_facets)
     z = dem[::step, ::step]
     colours = rgb[::step, ::step].copy()
     hole = ~np.isfinite(z)

@@ -209,13 +209,6 @@ def read_masked(
     return values, valid
 
 
-def decimated_shape(height: int, width: int, max_side: int) -> tuple[int, tuple[int, int]]:
-    """``(step, (rows, cols))``: the smallest integer step that brings the longer side of a
-    ``height × width`` raster to at most ``max_side``, and the shape read at that step."""
-    step = max(1, -(-max(height, width) // int(max_side)))
-    return step, (-(-height // step), -(-width // step))
-
-
 def band_reader(src, band: int) -> Callable[[int, int], tuple[np.ndarray, np.ndarray]]:
     """``read(row0, row1) -> (values, valid)`` of one band of an open dataset."""
 

@@ -650,12 +650,12 @@ def view_3d_file(
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.2, Figure 9E).
     """
-    from ..figures import save_figure
+    from ..figures import decimated_shape, save_figure
 
     dual = io.open_dual(vnir, swir, seam_nm, vnir_wavelengths, swir_wavelengths)
     # The view draws at most MAX_FACETS facets per side: the DEM and the RGB are read at that
     # step (decimated reads), not whole, so a flight line of any length costs the same.
-    _, shape = io.windows.decimated_shape(*dual.grid.shape, MAX_FACETS)
+    _, shape = decimated_shape(*dual.grid.shape, MAX_FACETS)
     with io.open_raster(dem, "DEM") as src:
         require_on_grid(src, dual.grid, f"DEM {dem}")
         height, ok = io.read_masked(src, 1, out_shape=shape)
