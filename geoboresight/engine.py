@@ -390,10 +390,15 @@ def run(name: str, params_source: str, overwrite: bool = False, stdout=None) -> 
                 emit(line)
 
             progress = Progress(callback=report, log=lambda m: emit({"info": str(m)}))
+            result = None
             try:
                 result = execute(spec, values, progress=progress, overwrite=overwrite)
+                # Done: the outputs are in place, so a SIGTERM from now on comes too late to
+                # cancel anything; the result is reported (the client says the cancel was late).
+                signal.signal(signal.SIGTERM, signal.SIG_IGN)
             except _Cancel:
-                raise Cancelled("cancelled by the user") from None
+                if result is None:
+                    raise Cancelled("cancelled by the user") from None
         except Cancelled:
             emit({"error": "cancelled by the user: no output was written"})
             return 3

@@ -329,6 +329,13 @@ def run(
     if state["error"]:
         raise QgsProcessingException(state["error"])
     if feedback is not None and feedback.isCanceled():
+        if state["result"] is not None:
+            # The engine had finished (its outputs in place) before the cancel reached it:
+            # say so rather than claim that nothing was written.
+            feedback.pushInfo(
+                "the run had finished before the cancel reached the engine: its outputs are kept"
+            )
+            return state["result"]
         remove_partial(outputs, started)  # in case the engine had to be killed (Windows)
         raise QgsProcessingException("cancelled by the user: no output was written")
     if proc.exitStatus() == QProcess.CrashExit:

@@ -176,3 +176,29 @@ def test_engine_imports_stay_lazy():
     code += "print(sorted(m for m in ('numpy','rasterio','scipy','sklearn','matplotlib') if m in sys.modules))"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert done.stdout.strip().splitlines()[-1] == "[]", done.stdout + done.stderr
+
+
+def test_sigterm_after_the_run_finished_reports_the_result(pair, tmp_path):
+    """A cancel that reaches the engine once the operation has returned (its outputs in place)
+    is too late: the engine reports the result and exits 0, and the plugin says the cancel
+    came late instead of claiming that nothing was written."""
+    vnir, swir = pair
+    out = tmp_path / "r.tif"
+    params = tmp_path / "p.json"
+    params.write_text(json.dumps({"vnir": vnir, "swir": swir, "output": str(out)}))
+    code = (
+        "import os, signal, sys\n"
+        "from geoboresight import engine\n"
+        "plain = engine._plain\n"
+        "def late(result):  # the SIGTERM arrives as the result is about to be reported\n"
+        "    os.kill(os.getpid(), signal.SIGTERM)\n"
+        "    return plain(result)\n"
+        "engine._plain = late\n"
+        "sys.exit(engine.run('ratio', sys.argv[1]))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code, str(params)], capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    last = _lines(done.stdout)[-1]
+    assert last["result"]["output"] == str(out) and out.exists()
