@@ -20,6 +20,9 @@
 5. The same sweep on the independent scene model (``validation/scene_model2.py``: 25 m of
    smooth relief with tree crowns, 256 × 200 px, 1 m GSD), which shares no code with the
    simulator: the test must accept wherever the forced DEM reaches r ≥ 0.9 and refuse at 0.1°.
+6. ``--relief-scenes dev|holdout``: the relief test's goal on eight scenes of both models,
+   each at six squints (3°–0.1°): the development scenes the test was designed on, or eight
+   hold-out scenes drawn at random (fixed seed) from stated ranges, run once.
 """
 
 from __future__ import annotations
@@ -120,8 +123,118 @@ def sweep_row(squint, k, p, rmse_px, rmse_dem, r_dem) -> str:
     return (
         f"| {squint:g} | {k:.4f} | {p.sigma_d_px:.3f} | {p.sigma_h_m:.2f} | {rmse_px:.2f} | "
         f"{rmse_px / p.sigma_h_m:.2f} | {rmse_dem:.2f} | {r_dem:.3f} | {p.relief_m:.2f} = "
-        f"{p.snr:.2f} σ_h | {p.statistic:.0f} / {p.dof}, {p.p_value:.2g} | {verdict} |"
+        f"{p.snr:.2f} × {p.noise_m:.2f} | {p.statistic:.0f} / {p.dof}, {p.p_value:.2g} | "
+        f"{verdict} |"
     )
+
+
+SWEEP_HEADER = (
+    "| squint (°) | k (px/m) | σ_d (px, from data) | bound σ_h (m) | measured RMSE per pixel "
+    "(m) | ratio | DEM RMSE vs window-avg DSM (m) | forced DEM r vs DSM | relief between "
+    "2 × 2-window blocks (m) = × noise of a block mean σ_h/2 (m) | χ² / dof, p | DEM verdict |"
+)
+
+SQUINTS = (3.0, 2.0, 1.0, 0.5, 0.3, 0.1)
+
+
+def relief_scenes(group):
+    """Eight scenes for the relief test's goal, as (label, make(squint) -> (vnir, swir, k,
+    dsm)). ``dev``: the scenes the block test was designed on (issue 15, third session).
+    ``holdout``: drawn at random (generator seed 20261123) and run once: model 2 seeds 20–24,
+    relief 8–40 m, 0–35 trees, sun zenith 25–55°, 256 × 200 px; simulator mixed seeds 2 and
+    3, dunes seed 1 (256 lines, large-squint geometry)."""
+
+    def sim(preset, seed):
+        def make(squint):
+            sc = simulate(preset, 256, seed, geometry="large-squint", squint_deg=squint)
+            v, s = bands(sc)
+            return v, s, sc.truth["disparity_px_per_m"]["along"], sc.dsm.astype(float)
+
+        return f"sim {preset} seed {seed}", make
+
+    def m2(seed, relief, trees, zenith=40.0):
+        def make(squint):
+            sc = simulate2(
+                rows=256,
+                cols=200,
+                seed=seed,
+                sun_zenith=zenith,
+                relief_m=relief,
+                squint_deg=squint,
+                buildings=0,
+                trees=trees,
+            )
+            v = sc.vnir[int(np.argmin(np.abs(sc.vnir_nm - 920)))].astype(float)
+            s = sc.swir[int(np.argmin(np.abs(sc.swir_nm - 1010)))].astype(float)
+            return v, s, sc.truth["disparity_px_per_m"], sc.dsm.astype(float)
+
+        return f"m2 seed {seed}, relief {relief:g} m, {trees} trees, sun {zenith:g}°", make
+
+    if group == "dev":
+        return [
+            sim("mixed", 0),
+            sim("mixed", 1),
+            sim("dunes", 0),
+            sim("urban", 0),
+            m2(5, 25, 30),
+            m2(6, 25, 30),
+            m2(7, 15, 10),
+            m2(8, 35, 0),
+        ]
+    rng = np.random.default_rng(20261123)
+    u = lambda a, b: round(float(rng.uniform(a, b)), 1)  # noqa: E731
+    out = [m2(s, u(8, 40), int(rng.integers(0, 36)), u(25, 55)) for s in range(20, 25)]
+    return out + [sim("mixed", 2), sim("mixed", 3), sim("dunes", 1)]
+
+
+def relief_goal_table(group, window, min_peak, emit):
+    """Section 6: every scene at every squint, the verdict against the goal."""
+    emit(f"### The relief test's goal on eight {group} scenes (six squints each)")
+    emit()
+    emit(
+        "| scene | squint (°) | forced DEM r vs DSM | relief = × noise of a block mean | "
+        "χ² / dof, p | verdict | goal |"
+    )
+    emit("|---|---|---|---|---|---|---|")
+    tally = {"accept": [0, 0], "refuse": [0, 0]}
+    for label, make in relief_scenes(group):
+        for squint in SQUINTS:
+            v, s, kk, dsm = make(squint)
+            rr = relative_dem(
+                v,
+                s,
+                factor=HeightFactor(kk),
+                window=window,
+                min_peak=min_peak,
+                require_meaningful=False,
+                validate=False,
+            )
+            okd = np.isfinite(rr.dem)
+            r_dem, _ = score(rr.dem, dsm, okd)
+            p = rr.precision
+            if r_dem >= 0.9:
+                need, met = "accept (r ≥ 0.9)", p.meaningful
+                tally["accept"][0] += met
+                tally["accept"][1] += 1
+            elif squint <= 0.1:
+                need, met = "refuse (0.1°)", not p.meaningful
+                tally["refuse"][0] += met
+                tally["refuse"][1] += 1
+            else:
+                need, met = "–", None
+            mark = "" if met is None else (" ✓" if met else " **✗**")
+            emit(
+                f"| {label} | {squint:g} | {r_dem:.3f} | {p.relief_m:.2f} m = {p.snr:.2f} × "
+                f"{p.noise_m:.2f} m | {p.statistic:.1f} / {p.dof}, {p.p_value:.2g} | "
+                f"{'meaningful' if p.meaningful else 'refused'} | {need}{mark} |"
+            )
+    emit()
+    a, r = tally["accept"], tally["refuse"]
+    emit(
+        f"Goal: accepted where the forced DEM reaches r ≥ 0.9: {a[0]} of {a[1]}; refused at "
+        f"0.1°: {r[0]} of {r[1]}."
+    )
+    emit()
 
 
 def main(argv=None):
@@ -145,6 +258,11 @@ def main(argv=None):
         "--no-texture",
         action="store_true",
         help="simulate uniform materials (the simulator before its sub-material texture)",
+    )
+    ap.add_argument(
+        "--relief-scenes",
+        choices=("dev", "holdout"),
+        help="also the relief test's goal on eight scenes × six squints (section 6)",
     )
     ap.add_argument("--markdown", help="also write the tables to this Markdown file")
     args = ap.parse_args(argv)
@@ -197,7 +315,7 @@ def main(argv=None):
     row("σ_h = σ_d · GSD / tan θ", lambda c: f"{c['r'].precision.sigma_h_m:.2f} m")
     row("reliable pixels", lambda c: f"{100 * c['r'].disparity.reliable.mean():.1f} %")
     row(
-        "DEM verdict (relief/noise; χ² test p-value)",
+        "DEM verdict (relief / noise of a 2 × 2-window block mean; χ² test p-value)",
         lambda c: (
             ("meaningful" if c["r"].precision.meaningful else "refused")
             + f" ({c['r'].precision.snr:.2f}; p = {c['r'].precision.p_value:.2g})"
@@ -337,11 +455,9 @@ def main(argv=None):
     # 4: squint sweep ---------------------------------------------------------------------
     emit("### Height error against the bound σ_h = σ_d · GSD / tan θ, across squint angles")
     emit()
-    emit(
-        "| squint (°) | k (px/m) | σ_d (px, from data) | bound σ_h (m) | measured RMSE per pixel (m) | ratio | DEM RMSE vs window-avg DSM (m) | forced DEM r vs DSM | relief (std above noise, m) = relief/σ_h | χ² / dof, p | DEM verdict |"
-    )
+    emit(SWEEP_HEADER)
     emit("|---|---|---|---|---|---|---|---|---|---|---|")
-    for squint in (3.0, 2.0, 1.0, 0.5, 0.3, 0.1):
+    for squint in SQUINTS:
         scene = simulate(
             args.preset, args.lines, args.seed, geometry="large-squint", squint_deg=squint
         )
@@ -374,11 +490,9 @@ def main(argv=None):
     # 5: the independent scene model ------------------------------------------------------
     emit("### Independent scene model (validation/scene_model2.py), 25 m of relief, seed 5")
     emit()
-    emit(
-        "| squint (°) | k (px/m) | σ_d (px, from data) | bound σ_h (m) | measured RMSE per pixel (m) | ratio | DEM RMSE vs window-avg DSM (m) | forced DEM r vs DSM | relief (std above noise, m) = relief/σ_h | χ² / dof, p | DEM verdict |"
-    )
+    emit(SWEEP_HEADER)
     emit("|---|---|---|---|---|---|---|---|---|---|---|")
-    for squint in (3.0, 2.0, 1.0, 0.3, 0.1):
+    for squint in SQUINTS:
         sc2 = simulate2(
             rows=256,
             cols=200,
@@ -411,6 +525,8 @@ def main(argv=None):
         r_dem, _ = score(rr.dem, hh, okd)
         emit(sweep_row(squint, kk, rr.precision, rmse_px, rmse_dem, r_dem))
     emit()
+    if args.relief_scenes:
+        relief_goal_table(args.relief_scenes, args.window, args.min_peak, emit)
     if args.markdown:
         with open(args.markdown, "w", encoding="utf-8") as f:
             f.write("\n".join(out) + "\n")

@@ -43,7 +43,8 @@ from .height import (
     HeightFactor,
     HeightPrecision,
     disparity_to_height,
-    height_precision,
+    relief_test,
+    window_centres,
 )
 from .kriging import (
     N_CLOSEST_POINTS,
@@ -165,6 +166,7 @@ class StripMatches:
     points: tuple[np.ndarray, np.ndarray, np.ndarray]  # column, line, raw height (m)
     heights: np.ndarray  # lattice sample of the reliable raw heights (m)
     seconds: np.ndarray  # lattice sample of second differences of the parallax disparity
+    centres: tuple[np.ndarray, np.ndarray, np.ndarray]  # independent windows: row, col, height
     reliable: int
     valid_count: int
 
@@ -222,7 +224,9 @@ def match_strip(
     StripMatches
         The strip's disparity and valid pixels, its control points (raw heights, before the
         datum), lattice samples of its reliable heights and of the second differences of its
-        parallax disparity, and its counts of reliable and valid pixels.
+        parallax disparity, the heights of its independent windows for the relief test
+        (:func:`~geoboresight.dem.height.window_centres`), and its counts of reliable and
+        valid pixels.
 
     References
     ----------
@@ -266,6 +270,8 @@ def match_strip(
     # What the line keeps of a strip is stored in float32 (memory; x and y are exact).
     heights = h[ok_h & _lattice(pix, _stride(height * width, sample_size))].astype(np.float32)
     x, y, z = (a.astype(np.float32) for a in control_points(h, reliable, point_spacing))
+    # The relief test's independent heights: one per window on the line's lattice.
+    cr, cc, ch = window_centres(h, ok_h, disp.window, first_line=line0)
     own_disp = Disparity(
         along=disp.along[own],
         across=disp.across[own],
@@ -281,6 +287,7 @@ def match_strip(
         (x, y + np.float32(line0), z),
         heights,
         seconds,
+        (cr.astype(np.int32), cc.astype(np.int32), ch.astype(np.float32)),
         int(reliable.sum()),
         int(ok[own].sum()),
     )
@@ -355,14 +362,8 @@ def line_statistics(
         raise InputError("no reliable height to set the lowest region to 0")
     datum = float(np.percentile(heights, zero_percentile))
     sigma_d = noise_from_differences(np.concatenate([p.seconds for p in strips]))
-    precision = height_precision(
-        heights - datum,
-        np.ones(heights.size, bool),
-        sigma_d,
-        factor,
-        window=window,
-        n_pixels=n_rel,
-    )
+    cr, cc, ch = (np.concatenate([p.centres[i] for p in strips]) for i in range(3))
+    precision = relief_test(ch, cr, cc, sigma_d, factor, window=window)
     x, y, z = (np.concatenate([p.points[i] for p in strips]) for i in range(3))
     return LineStatistics(datum, precision, (x, y, z - datum), n_rel, n_ok)
 

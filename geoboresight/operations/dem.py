@@ -427,6 +427,7 @@ def relative_dem_file(
                 "sigma_d_px": f"{p.sigma_d_px:.4f}",
                 "sigma_h_m": f"{p.sigma_h_m:.4f}",
                 "relief_std_m": f"{p.relief_m:.3f}",
+                "relief_noise_m": f"{p.noise_m:.3f}",
                 "relief_to_noise": f"{p.snr:.3f}",
                 "relief_test": p.test(),
                 "meaningful": "yes"
@@ -459,7 +460,9 @@ def relative_dem_file(
         "sigma_d_px": round(p.sigma_d_px, 4),
         "sigma_h_m": round(p.sigma_h_m, 3),
         "relief_std_m": round(p.relief_m, 3),
+        "relief_noise_m": round(p.noise_m, 3),
         "relief_to_noise": round(p.snr, 3),
+        "relief_block_px": [p.block * p.window[0], p.block * p.window[1]],
         "relief_chi2": round(p.statistic, 3),
         "relief_dof": p.dof,
         "relief_p_value": p.p_value,
