@@ -137,54 +137,91 @@ SWEEP_HEADER = (
 SQUINTS = (3.0, 2.0, 1.0, 0.5, 0.3, 0.1)
 
 
+def sim_scene(preset, seed, lines=256):
+    """(label, make(squint) -> (vnir, swir, k, dsm)): the simulator, large-squint geometry."""
+
+    def make(squint):
+        sc = simulate(preset, lines, seed, geometry="large-squint", squint_deg=squint)
+        v, s = bands(sc)
+        return v, s, sc.truth["disparity_px_per_m"]["along"], sc.dsm.astype(float)
+
+    return f"sim {preset} seed {seed}", make
+
+
+def m2_scene(seed, relief, trees, zenith=40.0):
+    """(label, make(squint) -> (vnir, swir, k, dsm)): the independent model, 256 × 200 px,
+    no buildings, VNIR 920 nm vs SWIR 1,010 nm."""
+
+    def make(squint):
+        sc = simulate2(
+            rows=256,
+            cols=200,
+            seed=seed,
+            sun_zenith=zenith,
+            relief_m=relief,
+            squint_deg=squint,
+            buildings=0,
+            trees=trees,
+        )
+        v = sc.vnir[int(np.argmin(np.abs(sc.vnir_nm - 920)))].astype(float)
+        s = sc.swir[int(np.argmin(np.abs(sc.swir_nm - 1010)))].astype(float)
+        return v, s, sc.truth["disparity_px_per_m"], sc.dsm.astype(float)
+
+    return f"m2 seed {seed}, relief {relief:g} m, {trees} trees, sun {zenith:g}°", make
+
+
+def forced_dem(vnir, swir, k, window, min_peak):
+    """The relative DEM whatever the verdict (the verdict is a column of the tables)."""
+    return relative_dem(
+        vnir,
+        swir,
+        factor=HeightFactor(k),
+        window=window,
+        min_peak=min_peak,
+        require_meaningful=False,
+        validate=False,
+    )
+
+
+def sweep_table(make, window, min_peak, emit):
+    """Sections 4 and 5: every squint of one scene, height error against the bound σ_h."""
+    emit(SWEEP_HEADER)
+    emit("|---|---|---|---|---|---|---|---|---|---|---|")
+    for squint in SQUINTS:
+        vv, ss, kk, hh = make(squint)
+        rr = forced_dem(vv, ss, kk, window, min_peak)
+        m = np.isfinite(rr.height) & rr.disparity.reliable
+        hw = ndimage.uniform_filter(hh, window)
+        e = rr.height[m] - hw[m]
+        rmse_px = float(np.sqrt(np.mean((e - e.mean()) ** 2)))
+        okd = np.isfinite(rr.dem)
+        _, rmse_dem = score(rr.dem, hw, okd)
+        r_dem, _ = score(rr.dem, hh, okd)
+        emit(sweep_row(squint, kk, rr.precision, rmse_px, rmse_dem, r_dem))
+    emit()
+
+
 def relief_scenes(group):
     """Eight scenes for the relief test's goal, as (label, make(squint) -> (vnir, swir, k,
     dsm)). ``dev``: the scenes the block test was designed on (issue 15, third session).
     ``holdout``: drawn at random (generator seed 20261123) and run once: model 2 seeds 20–24,
     relief 8–40 m, 0–35 trees, sun zenith 25–55°, 256 × 200 px; simulator mixed seeds 2 and
     3, dunes seed 1 (256 lines, large-squint geometry)."""
-
-    def sim(preset, seed):
-        def make(squint):
-            sc = simulate(preset, 256, seed, geometry="large-squint", squint_deg=squint)
-            v, s = bands(sc)
-            return v, s, sc.truth["disparity_px_per_m"]["along"], sc.dsm.astype(float)
-
-        return f"sim {preset} seed {seed}", make
-
-    def m2(seed, relief, trees, zenith=40.0):
-        def make(squint):
-            sc = simulate2(
-                rows=256,
-                cols=200,
-                seed=seed,
-                sun_zenith=zenith,
-                relief_m=relief,
-                squint_deg=squint,
-                buildings=0,
-                trees=trees,
-            )
-            v = sc.vnir[int(np.argmin(np.abs(sc.vnir_nm - 920)))].astype(float)
-            s = sc.swir[int(np.argmin(np.abs(sc.swir_nm - 1010)))].astype(float)
-            return v, s, sc.truth["disparity_px_per_m"], sc.dsm.astype(float)
-
-        return f"m2 seed {seed}, relief {relief:g} m, {trees} trees, sun {zenith:g}°", make
-
     if group == "dev":
         return [
-            sim("mixed", 0),
-            sim("mixed", 1),
-            sim("dunes", 0),
-            sim("urban", 0),
-            m2(5, 25, 30),
-            m2(6, 25, 30),
-            m2(7, 15, 10),
-            m2(8, 35, 0),
+            sim_scene("mixed", 0),
+            sim_scene("mixed", 1),
+            sim_scene("dunes", 0),
+            sim_scene("urban", 0),
+            m2_scene(5, 25, 30),
+            m2_scene(6, 25, 30),
+            m2_scene(7, 15, 10),
+            m2_scene(8, 35, 0),
         ]
     rng = np.random.default_rng(20261123)
     u = lambda a, b: round(float(rng.uniform(a, b)), 1)  # noqa: E731
-    out = [m2(s, u(8, 40), int(rng.integers(0, 36)), u(25, 55)) for s in range(20, 25)]
-    return out + [sim("mixed", 2), sim("mixed", 3), sim("dunes", 1)]
+    out = [m2_scene(s, u(8, 40), int(rng.integers(0, 36)), u(25, 55)) for s in range(20, 25)]
+    return out + [sim_scene("mixed", 2), sim_scene("mixed", 3), sim_scene("dunes", 1)]
 
 
 def relief_goal_table(group, window, min_peak, emit):
@@ -200,15 +237,7 @@ def relief_goal_table(group, window, min_peak, emit):
     for label, make in relief_scenes(group):
         for squint in SQUINTS:
             v, s, kk, dsm = make(squint)
-            rr = relative_dem(
-                v,
-                s,
-                factor=HeightFactor(kk),
-                window=window,
-                min_peak=min_peak,
-                require_meaningful=False,
-                validate=False,
-            )
+            rr = forced_dem(v, s, kk, window, min_peak)
             okd = np.isfinite(rr.dem)
             r_dem, _ = score(rr.dem, dsm, okd)
             p = rr.precision
@@ -455,33 +484,7 @@ def main(argv=None):
     # 4: squint sweep ---------------------------------------------------------------------
     emit("### Height error against the bound σ_h = σ_d · GSD / tan θ, across squint angles")
     emit()
-    emit(SWEEP_HEADER)
-    emit("|---|---|---|---|---|---|---|---|---|---|---|")
-    for squint in SQUINTS:
-        scene = simulate(
-            args.preset, args.lines, args.seed, geometry="large-squint", squint_deg=squint
-        )
-        kk = scene.truth["disparity_px_per_m"]["along"]
-        vv, ss = bands(scene)
-        hh = scene.dsm.astype(float)
-        rr = relative_dem(
-            vv,
-            ss,
-            factor=HeightFactor(kk),
-            window=args.window,
-            min_peak=args.min_peak,
-            require_meaningful=False,
-            validate=False,
-        )
-        m = np.isfinite(rr.height) & rr.disparity.reliable
-        hw = ndimage.uniform_filter(hh, args.window)
-        e = rr.height[m] - hw[m]
-        rmse_px = float(np.sqrt(np.mean((e - e.mean()) ** 2)))
-        okd = np.isfinite(rr.dem)
-        _, rmse_dem = score(rr.dem, hw, okd)
-        r_dem, _ = score(rr.dem, hh, okd)
-        emit(sweep_row(squint, kk, rr.precision, rmse_px, rmse_dem, r_dem))
-    emit()
+    sweep_table(sim_scene(args.preset, args.seed, args.lines)[1], args.window, args.min_peak, emit)
     emit(
         "Measured RMSE per pixel: heights of reliable pixels (disparity / k, before kriging) "
         "against the true DSM averaged over the matching window, mean removed. Ratio = measured / "
@@ -490,41 +493,7 @@ def main(argv=None):
     # 5: the independent scene model ------------------------------------------------------
     emit("### Independent scene model (validation/scene_model2.py), 25 m of relief, seed 5")
     emit()
-    emit(SWEEP_HEADER)
-    emit("|---|---|---|---|---|---|---|---|---|---|---|")
-    for squint in SQUINTS:
-        sc2 = simulate2(
-            rows=256,
-            cols=200,
-            seed=5,
-            sun_zenith=40.0,
-            relief_m=25.0,
-            squint_deg=squint,
-            buildings=0,
-            trees=30,
-        )
-        kk = sc2.truth["disparity_px_per_m"]
-        vv = sc2.vnir[int(np.argmin(np.abs(sc2.vnir_nm - 920)))].astype(float)
-        ss = sc2.swir[int(np.argmin(np.abs(sc2.swir_nm - 1010)))].astype(float)
-        rr = relative_dem(
-            vv,
-            ss,
-            factor=HeightFactor(kk),
-            window=args.window,
-            min_peak=args.min_peak,
-            require_meaningful=False,
-            validate=False,
-        )
-        hh = sc2.dsm.astype(float)
-        hw = ndimage.uniform_filter(hh, args.window)
-        m = np.isfinite(rr.height) & rr.disparity.reliable
-        e = rr.height[m] - hw[m]
-        rmse_px = float(np.sqrt(np.mean((e - e.mean()) ** 2)))
-        okd = np.isfinite(rr.dem)
-        _, rmse_dem = score(rr.dem, hw, okd)
-        r_dem, _ = score(rr.dem, hh, okd)
-        emit(sweep_row(squint, kk, rr.precision, rmse_px, rmse_dem, r_dem))
-    emit()
+    sweep_table(m2_scene(5, 25.0, 30)[1], args.window, args.min_peak, emit)
     if args.relief_scenes:
         relief_goal_table(args.relief_scenes, args.window, args.min_peak, emit)
     if args.markdown:
