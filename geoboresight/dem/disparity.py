@@ -23,7 +23,7 @@ from scipy import ndimage
 
 from ..errors import InputError, ParameterError
 from ..progress import Progress, as_progress
-from .height import GROSS
+from .height import not_gross
 
 #: Matching window (odd, pixels): larger matches more pixels reliably but blurs relief.
 WINDOW = 15
@@ -402,13 +402,9 @@ def noise_from_differences(seconds: np.ndarray, min_pairs: int = 50) -> float:
     sec = np.asarray(seconds, np.float64)
     if sec.size < min_pairs:
         return float("nan")
-    from scipy.stats import median_abs_deviation
-
     # Drop only gross blunders (> 10 robust σ), which the cell medians remove anyway; the
-    # same cut as the relief test's (height.GROSS).
-    mad = median_abs_deviation(sec, scale="normal")
-    if mad > 0:
-        sec = sec[np.abs(sec - np.median(sec)) <= GROSS * mad]
+    # relief test's cut.
+    sec = sec[not_gross(sec)]
     return float(np.sqrt(np.mean(sec**2) / 6.0))
 
 

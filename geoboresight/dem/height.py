@@ -183,7 +183,7 @@ class HeightPrecision:
     dof: int = 0  # blocks − 1
     p_value: float = float("nan")
     alpha: float = ALPHA
-    block: int = 2  # windows per side of a block
+    block: int = RELIEF_BLOCK  # windows per side of a block
     window: tuple[int, int] = (1, 1)  # matching window (lines, columns)
     windows: int = 0  # reliable independent windows the test used
     blocks: int = 0
@@ -255,6 +255,19 @@ def window_centres(
     return ((rows[r][ir] // wr).astype(np.int64), (c[ic] // wc).astype(np.int64), h[ok])
 
 
+def not_gross(values: np.ndarray) -> np.ndarray:
+    """True where a value is within ``GROSS`` robust standard deviations (scipy's
+    normal-consistent MAD) of the median: everything but gross blunders (all of it when the
+    MAD is 0)."""
+    from scipy.stats import median_abs_deviation
+
+    values = np.asarray(values, np.float64)
+    spread = median_abs_deviation(values, scale="normal")
+    if not spread > 0:
+        return np.ones(values.shape, bool)
+    return np.abs(values - np.median(values)) <= GROSS * spread
+
+
 def _window(window) -> tuple[int, int]:
     wr, wc = (window, window) if np.ndim(window) == 0 else tuple(window)
     if int(wr) < 1 or int(wc) < 1:
@@ -323,7 +336,7 @@ def relief_test(
     Snedecor, G.W.; Cochran, W.G. Statistical Methods, 8th ed.; Iowa State University Press:
     Ames, IA, USA, 1989 (χ² test of a variance against a hypothesised value; weighted means).
     """
-    from scipy.stats import chi2, median_abs_deviation
+    from scipy.stats import chi2
 
     if not (0 < alpha < 1):
         raise ParameterError(f"parameter 'alpha': {alpha} is not between 0 and 1")
@@ -343,10 +356,8 @@ def relief_test(
     # Gross mismatches (a wrong correlation peak) would inflate the spread. Only those go:
     # trimming a fixed share (the 0.5th–99.5th percentiles) drops the largest relief too and
     # made the test reject a true H0 in 1 % of the cases instead of 5 %.
-    spread = median_abs_deviation(h, scale="normal")
-    if spread > 0:
-        keep = np.abs(h - np.median(h)) <= GROSS * spread
-        h, rows, cols = h[keep], rows[keep], cols[keep]
+    keep = not_gross(h)
+    h, rows, cols = h[keep], rows[keep], cols[keep]
     key = (rows // block) * (int(cols.max()) // block + 1) + cols // block
     _, inv, n = np.unique(key, return_inverse=True, return_counts=True)
     m = np.bincount(inv, h) / n
