@@ -658,9 +658,23 @@ def test_variogram_fit_equals_pykrige_on_a_square_field(model):
     z = 5 * np.sin(x / 40) + 3 * np.cos(y / 55) + rng.normal(0, 0.5, 600)
     ours = fit_variogram(x, y, z, model=model)
     ref = OrdinaryKriging(x, y, z, variogram_model=model, nlags=20, weight=True)
-    scale = max(abs(v) for v in ours.parameters)  # a nugget of ~1e-39 compares absolutely
+    # Both are SciPy's least_squares (soft-L1) from the same start on the same classes, which
+    # stops when the cost changes by less than ftol = 1e-8 of itself: the two minima agree to
+    # that in cost, and to about sqrt(ftol) = 1e-4 in parameters along flat directions (the
+    # classes differ in their last bits, so the iterations do too). A nugget of ~1e-39
+    # compares absolutely.
+    from pykrige.core import _variogram_residuals
+
+    function = OrdinaryKriging.variogram_dict[model]
+
+    def cost(params):
+        r = _variogram_residuals(np.asarray(params), ref.lags, ref.semivariance, function, True)
+        return float(np.sum(2.0 * (np.sqrt(1.0 + r**2) - 1.0)))  # soft-L1, as least_squares
+
+    assert cost(ours.parameters) == pytest.approx(cost(ref.variogram_model_parameters), rel=1e-7)
+    scale = max(abs(v) for v in ours.parameters)
     np.testing.assert_allclose(
-        ours.parameters, ref.variogram_model_parameters, rtol=1e-6, atol=1e-9 * scale
+        ours.parameters, ref.variogram_model_parameters, rtol=1e-4, atol=1e-7 * scale
     )
     from geoboresight.dem.kriging import experimental_variogram
 
