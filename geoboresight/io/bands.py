@@ -170,8 +170,8 @@ def _raw_cube_reader(dual: DualSensor, vbs, sbs):
     BIL strips are mapped into memory and only the bands asked for are copied out (the pages
     holding them are all that is read: 2 of 198 bands cost 1/100 of the strip); BSQ and BIP go
     through :class:`~geoboresight.io.cube.Cube` (one read per band; the whole strip)."""
-    same = dual.vnir.path == dual.swir.path
-    cube = open_cube([dual.vnir.path] if same else [dual.vnir.path, dual.swir.path])
+    same = dual.vnir.reads == dual.swir.reads
+    cube = open_cube([dual.vnir.reads] if same else [dual.vnir.reads, dual.swir.reads])
     if any(part.raw is None for part in cube._parts):
         cube.close()
         return None, None
@@ -244,8 +244,8 @@ def open_matching_pair(
     sbs = band_range(dual.swir, swir_nm, swir_to_nm, tolerance_nm, "swir_to_nm")
     raw, cube = _raw_cube_reader(dual, vbs, sbs)
     with (
-        open_raster(dual.vnir.path, "VNIR") as v_src,
-        open_raster(dual.swir.path, "SWIR") as s_src,
+        open_raster(dual.vnir.reads, "VNIR") as v_src,
+        open_raster(dual.swir.reads, "SWIR") as s_src,
         open_raster(cloud_mask, "cloud mask") if cloud_mask else contextlib.nullcontext() as c_src,
         cube if cube is not None else contextlib.nullcontext(),
     ):

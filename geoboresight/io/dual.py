@@ -44,6 +44,20 @@ class SensorFile:
     wavelengths: np.ndarray  # centre of each of those bands, nm
     fwhm: np.ndarray | None = None
     nodata: float | None = None
+    #: What GDAL opens for the pixels: ``path`` itself, or a product's VRT
+    #: (:mod:`geoboresight.io.products`); ``path`` stays the user's file, for messages and tags.
+    source: str | None = None
+    #: Dark level per band of ``bands`` and column, shape (len(bands), width), or None.
+    dark: np.ndarray | None = None
+    #: Where ``dark`` comes from ("frames", "DARKREF file", "background matrix"); "" if none.
+    dark_source: str = ""
+    #: What the values are: "DN" or a radiance unit.
+    units: str = "DN"
+
+    @property
+    def reads(self) -> str:
+        """What GDAL opens for this sensor's pixels."""
+        return self.source or self.path
 
     def band_for(self, target_nm: float, tolerance_nm: float) -> int:
         """1-based file band nearest ``target_nm`` among this sensor's bands."""
@@ -71,6 +85,9 @@ class DualSensor:
     swir: SensorFile
     grid: Grid  # raw sensor geometry: crs and transform None
     merged: bool
+    #: The sensor product recognised (:class:`geoboresight.io.products.Product`), or None for
+    #: a plain ENVI/GeoTIFF pair.
+    product: object = None
 
     @property
     def width(self) -> int:
@@ -112,9 +129,9 @@ class DualSensor:
 
 
 def _sensor_wavelengths(
-    src, path: str, user: str | None, label: str
+    src, path: str, user: str | None, option: str
 ) -> tuple[np.ndarray, np.ndarray | None]:
-    option = f"--{label.lower()}-wavelengths / {label.lower()}_wavelengths="
+    label = "SWIR" if "swir" in option else "VNIR"
     return wavelengths_of(src, f"{label} {path}", user, option)
 
 
@@ -129,6 +146,48 @@ def _good(src, label: str, path: str) -> np.ndarray:
     return good
 
 
+def _image(path: str, label: str, user: str | None, option: str):
+    """(SensorImage, Grid, Product or None) of one file: a recognised sensor product's
+    images, or the file as GDAL reads it (one image, named "cube")."""
+    from .products import SensorImage, recognise
+
+    product = recognise(path)
+    images = product.images if product is not None else None
+    if images is None:
+        with open_raster(path, label) as src:
+            wl, fw = _sensor_wavelengths(src, path, user, option)
+            images = (SensorImage("cube", path, wl, fw, _good(src, label, path), src.nodata),)
+            grid = Grid.of(src)
+        return images, grid, None
+    with open_raster(images[0].source, f"{label} {product.kind}") as src:
+        grid = Grid.of(src)
+    for im in images[1:]:
+        with open_raster(im.source, f"{label} {product.kind}") as src:
+            grid.require_same(Grid.of(src), f"{product.kind} {path} ({images[0].name})", im.name)
+    return images, grid, product
+
+
+def _sensor(path: str, name: str, image, pick: np.ndarray) -> SensorFile:
+    """The bands ``pick`` (0-based, of ``image``) as one sensor of a dual dataset."""
+    return SensorFile(
+        path,
+        name,
+        tuple(int(i) + 1 for i in pick),
+        np.asarray(image.wavelengths, float)[pick],
+        None if image.fwhm is None else np.asarray(image.fwhm, float)[pick],
+        image.nodata,
+        source=None if image.source == path else image.source,
+        dark=None if image.dark is None else np.asarray(image.dark)[pick],
+        dark_source=image.dark_source,
+        units=image.units,
+    )
+
+
+def _good_of(image) -> np.ndarray:
+    n = len(image.wavelengths)
+    return np.ones(n, bool) if image.good is None else np.asarray(image.good, bool)
+
+
 def open_dual(
     vnir: str,
     swir: str | None = None,
@@ -141,7 +200,8 @@ def open_dual(
     Parameters
     ----------
     vnir : path
-        The VNIR file, or the merged VNIR+SWIR cube when ``swir`` is None.
+        The VNIR file, a merged VNIR+SWIR cube, or a sensor product holding both detectors
+        (EnMAP L1B, PRISMA L1: :mod:`geoboresight.io.products`) when ``swir`` is None.
     swir : path, optional
         The SWIR file, on the same pixel grid as ``vnir``.
     seam_nm : float
@@ -149,13 +209,28 @@ def open_dual(
     vnir_wavelengths, swir_wavelengths : str, optional
         Comma-separated band centres (nm) for files without wavelength metadata.
     """
-    with open_raster(vnir, "VNIR" if swir else "merged cube") as src:
-        label = "VNIR" if swir else "merged cube"
-        wl_v, fw_v = _sensor_wavelengths(src, vnir, vnir_wavelengths, "VNIR")
-        grid_v = Grid.of(src)
-        nodata_v = src.nodata
-        good_v = _good(src, label, vnir)
+    vnir = str(vnir)
+    label = "VNIR" if swir else "merged cube"
+    images, grid_v, product = _image(vnir, label, vnir_wavelengths, _option("VNIR"))
+    named = {im.name: im for im in images}
+    if swir is None and "VNIR" in named and "SWIR" in named:
+        # One product holding both detectors (EnMAP L1B, PRISMA L1).
+        v, s = named["VNIR"], named["SWIR"]
+        return DualSensor(
+            _sensor(vnir, "VNIR", v, np.flatnonzero(_good_of(v))),
+            _sensor(vnir, "SWIR", s, np.flatnonzero(_good_of(s))),
+            grid_v,
+            False,
+            product,
+        )
     if swir is None:
+        if len(images) != 1:
+            raise InputError(
+                f"{label} {vnir}: this {product.kind} product holds {', '.join(named)} only: "
+                "give the SWIR file as well"
+            )
+        cube = images[0]
+        wl_v, good_v = np.asarray(cube.wavelengths, float), _good_of(cube)
         # Bands the ENVI 'bbl' marks bad belong to neither sensor: never picked nor read.
         below = np.flatnonzero((wl_v < seam_nm) & good_v)
         above = np.flatnonzero((wl_v >= seam_nm) & good_v)
@@ -165,33 +240,30 @@ def open_dual(
                 f"straddle the seam at {seam_nm:g} nm, so it cannot be split into VNIR and "
                 "SWIR; give the SWIR file separately or change the seam wavelength"
             )
-        mk = lambda idx, name: SensorFile(  # noqa: E731
-            vnir,
-            name,
-            tuple(int(i) + 1 for i in idx),
-            wl_v[idx],
-            None if fw_v is None else fw_v[idx],
-            nodata_v,
+        return DualSensor(
+            _sensor(vnir, "VNIR", cube, below),
+            _sensor(vnir, "SWIR", cube, above),
+            grid_v,
+            True,
+            product,
         )
-        return DualSensor(mk(below, "VNIR"), mk(above, "SWIR"), grid_v, True)
 
-    with open_raster(swir, "SWIR") as src:
-        wl_s, fw_s = _sensor_wavelengths(src, swir, swir_wavelengths, "SWIR")
-        grid_s = Grid.of(src)
-        nodata_s = src.nodata
-        good_s = _good(src, "SWIR", swir)
+    swir = str(swir)
+    s_images, grid_s, s_product = _image(swir, "SWIR", swir_wavelengths, _option("SWIR"))
+    v = named.get("VNIR", images[0])
+    s = {im.name: im for im in s_images}.get("SWIR", s_images[0])
     grid_v.require_same(grid_s, f"VNIR {vnir}", f"SWIR {swir}")
-    pick = lambda path, name, wl, fw, nd, good: SensorFile(  # noqa: E731
-        path,
-        name,
-        tuple(int(i) + 1 for i in np.flatnonzero(good)),
-        wl[good],
-        None if fw is None else fw[good],
-        nd,
-    )
-    vn = pick(vnir, "VNIR", wl_v, fw_v, nodata_v, good_v)
-    sw = pick(swir, "SWIR", wl_s, fw_s, nodata_s, good_s)
     grid = Grid(
         grid_v.width, grid_v.height, grid_v.crs or grid_s.crs, grid_v.transform or grid_s.transform
     )
-    return DualSensor(vn, sw, grid, False)
+    return DualSensor(
+        _sensor(vnir, "VNIR", v, np.flatnonzero(_good_of(v))),
+        _sensor(swir, "SWIR", s, np.flatnonzero(_good_of(s))),
+        grid,
+        False,
+        product or s_product,
+    )
+
+
+def _option(label: str) -> str:
+    return f"--{label.lower()}-wavelengths / {label.lower()}_wavelengths="

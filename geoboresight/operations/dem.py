@@ -666,7 +666,7 @@ def view_3d_file(
         res = (abs(src.transform.e), abs(src.transform.a)) if georef else None
         gsd_tag = src.tags().get("GSD_M")
     bands = [dual.vnir.band_for(nm, tolerance_nm) for nm in (red_nm, green_nm, blue_nm)]
-    with io.open_raster(dual.vnir.path, "image") as src:
+    with io.open_raster(dual.vnir.reads, "image") as src:
         rgb, rgb_ok = zip(*(io.read_masked(src, b, out_shape=shape) for b in bands), strict=True)
     progress.update(0.3, "read")
     if res is not None:

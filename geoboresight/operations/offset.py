@@ -365,7 +365,7 @@ def coregister_file(
     n = len(sensor.bands)
     strips = {"height": dual.height, "width": dual.width, "block_rows": block_rows}
     with (
-        io.open_raster(sensor.path, "SWIR") as src,
+        io.open_raster(sensor.reads, "SWIR") as src,
         io.create_raster(
             output,
             dual.grid,

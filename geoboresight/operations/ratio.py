@@ -80,8 +80,8 @@ def ratio_file(
     }
     n_valid = 0
     with (
-        io.open_raster(dual.swir.path, "SWIR") as s_src,
-        io.open_raster(dual.vnir.path, "VNIR") as v_src,
+        io.open_raster(dual.swir.reads, "SWIR") as s_src,
+        io.open_raster(dual.vnir.reads, "VNIR") as v_src,
         io.create_raster(
             output,
             dual.grid,

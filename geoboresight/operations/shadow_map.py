@@ -182,9 +182,9 @@ def shadow_map_file(
     warnings: list[str] = []
     strips = {"height": dual.height, "width": dual.width, "block_rows": block_rows}
     with contextlib.ExitStack() as stack:
-        v_src = stack.enter_context(io.open_raster(dual.vnir.path, "VNIR"))
+        v_src = stack.enter_context(io.open_raster(dual.vnir.reads, "VNIR"))
         s_src = (
-            v_src if dual.merged else stack.enter_context(io.open_raster(dual.swir.path, "SWIR"))
+            v_src if dual.merged else stack.enter_context(io.open_raster(dual.swir.reads, "SWIR"))
         )
         # Pass 1: a random sample of the line for the dark levels and the sunlit modes.
         sources = [(v_src, b) for b in v_dark_b] + [(s_src, b) for b in s_dark_b]

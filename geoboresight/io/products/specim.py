@@ -1,0 +1,5 @@
+"""Reader stub: filled in by the specim reader work."""
+
+
+def read(path):
+    return None
