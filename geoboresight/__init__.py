@@ -97,6 +97,9 @@ OPERATIONS = {
 #: The I/O entry points a script needs beside the operations.
 IO = {
     "open_dual": "geoboresight.io.dual",
+    "DualLayout": "geoboresight.io.dual",
+    "BandChoice": "geoboresight.io.dual",
+    "writer_options": "geoboresight.io.raster",
     "open_cube": "geoboresight.io.cube",
     "map_windows": "geoboresight.io.windows",
     "reduce_windows": "geoboresight.io.windows",

@@ -16,7 +16,7 @@ import rasterio
 
 from geoboresight import __version__
 from geoboresight.algorithms import registry
-from geoboresight.engine import COMMON_RESULTS, PROTOCOL, RESULTS
+from geoboresight.engine import COMMON_RESULTS, PROTOCOL
 from geoboresight.io import quiet_georef, write_envi
 
 ENGINE = [sys.executable, "-m", "geoboresight.cli", "engine"]
@@ -76,14 +76,15 @@ def test_describe_lists_every_spec_with_its_parameters():
                 assert q["choices"] == list(p.choices)
         assert {g["id"] for g in doc["groups"]} >= {a["group_id"]}
         declared = [r["name"] for r in a["results"]]
-        assert declared == [r[0] for r in RESULTS.get(name, ()) + COMMON_RESULTS]
+        assert declared == [r.name for r in registry()[name].results] + [
+            r[0] for r in COMMON_RESULTS
+        ]
 
 
-def test_declared_results_name_known_operations_and_types():
-    assert set(RESULTS) <= set(registry())
-    for name, results in RESULTS.items():
-        outputs = {p.name for p in registry()[name].outputs}
-        for key, kind, description in results:
+def test_declared_results_have_types_and_are_not_files():
+    for name, alg in registry().items():
+        outputs = {p.name for p in alg.outputs}
+        for key, kind, description in alg.results:
             assert kind in ("number", "string", "boolean") and description
             assert key not in outputs, (name, key)  # files are declared by their parameter
 

@@ -88,16 +88,22 @@ def test_every_spec_runs_its_file_level_operation_exported_at_the_top():
 
 
 def test_a_spec_whose_operation_disagrees_is_refused_at_import():
+    from geoboresight.algorithms._common import BANDS, DUAL_PARAMS
+    from geoboresight.algorithms.spec import Group
+
     alg = registry()["ratio"]
-    with pytest.raises(TypeError, match="tolerance_nm"):
+    rest = tuple(p for p in alg.params if p.name in ("output", "block_rows"))
+    kw = dict(name="x", display_name="x", group=alg.group, short_help="", help="", run=alg.run)
+    with pytest.raises(TypeError, match="block_rows"):
+        Algorithm(params=(*DUAL_PARAMS, BANDS, alg.param("output")), **kw)
+    # A group whose member default differs from its value's default is refused too.
+    other = tuple(
+        type(p)(**{**p.__dict__, "default": 900.0}) if p.name == "vnir_nm" else p
+        for p in BANDS.params
+    )
+    with pytest.raises(TypeError, match="vnir_nm"):
         Algorithm(
-            name="x",
-            display_name="x",
-            group=alg.group,
-            short_help="",
-            help="",
-            params=tuple(p for p in alg.params if p.name != "tolerance_nm"),
-            run=alg.run,
+            params=(*DUAL_PARAMS, Group(name="bands", value=BANDS.value, params=other), *rest), **kw
         )
 
 

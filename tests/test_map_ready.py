@@ -80,7 +80,8 @@ def test_class_overviews_never_invent_a_class(tmp_path):
 def test_python_operation_takes_cog_and_co(tmp_path):
     v, s = _pair(tmp_path, rows=40, cols=30)
     out = tmp_path / "r.tif"
-    gb.ratio_file(v, s, output=str(out), cog=True, co="COMPRESS=ZSTD,LEVEL=9")
+    with gb.writer_options(cog=True, co="COMPRESS=ZSTD,LEVEL=9"):
+        gb.ratio_file(v, s, output=str(out))
     with rasterio.open(out) as src:
         assert src.compression.name == "zstd"
         assert src.tags(ns="IMAGE_STRUCTURE").get("LAYOUT") == "COG"
@@ -102,7 +103,8 @@ def test_bad_creation_option_is_one_line_and_leaves_nothing(tmp_path, co, words)
     assert "\n" not in line and "'co'" in line and words in line
     assert not out.exists()
     with pytest.raises(ParameterError, match="COG driver refuses TILED"):
-        gb.ratio_file(v, s, output=str(out), cog=True, co={"TILED": "YES"})
+        with gb.writer_options(cog=True, co={"TILED": "YES"}):
+            gb.ratio_file(v, s, output=str(out))
     assert not out.exists()
 
 
@@ -119,11 +121,11 @@ def test_envi_bad_band_list_is_never_picked_nor_used(tmp_path):
     s = _with_bbl(write_envi(tmp_path / "s.img", sw, SWIR_WL), [0] + [1] * 49)
     dual = gb.open_dual(v, s)
     assert 12 not in dual.vnir.bands and 1 not in dual.swir.bands
-    rb = dual.ratio_bands(band_mode="edges")  # last good VNIR over first good SWIR
+    rb = dual.ratio_bands(gb.BandChoice(band_mode="edges"))  # last good VNIR over first good SWIR
     assert (rb.vnir_band, rb.swir_band) == (11, 2)
     assert rb.vnir_nm == pytest.approx(VNIR_WL[10]) and rb.swir_nm == pytest.approx(SWIR_WL[1])
     out = tmp_path / "r.tif"
-    gb.ratio_file(v, s, output=str(out), band_mode="edges")
+    gb.ratio_file(v, s, output=str(out), bands=gb.BandChoice(band_mode="edges"))
     with rasterio.open(out) as src:
         r = src.read(1, masked=True)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -196,7 +198,8 @@ def test_a_raw_gsd_product_is_still_raw_geometry_when_read(tmp_path):
 
     v, s = _pair(tmp_path, rows=40, cols=30)
     out = tmp_path / "r.tif"
-    gb.ratio_file(v, s, output=str(out), raw_gsd=2.0)
+    with gb.writer_options(raw_gsd=2.0):
+        gb.ratio_file(v, s, output=str(out))
     with open_raster(out) as src:
         assert not Grid.of(src).georeferenced  # metres from the GSD, no Earth position
     ref = tmp_path / "ref.tif"

@@ -3,39 +3,51 @@
 from __future__ import annotations
 
 from .. import io
-from ..io.dual import SEAM_NM, SWIR_NM, TOLERANCE_NM, VNIR_NM
-from .spec import Enum, Number, RasterIn, Text, Wavelength
+from ..io.dual import SEAM_NM, SWIR_NM, TOLERANCE_NM, VNIR_NM, BandChoice, DualLayout
+from .spec import Enum, Group, Number, RasterIn, Text, Wavelength
 
-# Parameters shared by every operation that reads a dual-sensor dataset.
-DUAL_PARAMS = (
-    RasterIn(
-        name="vnir",
-        description="VNIR image (ENVI .hdr/.img or GeoTIFF), or the merged VNIR+SWIR cube",
-    ),
-    RasterIn(
-        name="swir",
-        description="SWIR image on the same pixel grid (leave empty for a merged cube)",
-        optional=True,
-    ),
-    Wavelength(
-        name="seam_nm",
-        description="Merged cube only: bands below this wavelength are VNIR, the rest SWIR (nm)",
-        default=SEAM_NM,
-        advanced=True,
-    ),
-    Text(
-        name="vnir_wavelengths",
-        description="Band centres of the VNIR file in nm, comma-separated (only if the file has none)",
-        optional=True,
-        advanced=True,
-    ),
-    Text(
-        name="swir_wavelengths",
-        description="Band centres of the SWIR file in nm, comma-separated (only if the file has none)",
-        optional=True,
-        advanced=True,
+VNIR = RasterIn(
+    name="vnir",
+    description=(
+        "VNIR image (ENVI .hdr/.img or GeoTIFF), a merged VNIR+SWIR cube, or a sensor product "
+        "holding both (EnMAP L1B, PRISMA L1)"
     ),
 )
+SWIR = RasterIn(
+    name="swir",
+    description="SWIR image on the same pixel grid (leave empty for a merged cube or a product)",
+    optional=True,
+)
+
+#: How a dual-sensor dataset is read where its files do not say it all (io.DualLayout).
+LAYOUT = Group(
+    name="layout",
+    value=DualLayout,
+    params=(
+        Wavelength(
+            name="seam_nm",
+            description="Merged cube only: bands below this wavelength are VNIR, the rest SWIR (nm)",
+            default=SEAM_NM,
+            advanced=True,
+        ),
+        Text(
+            name="vnir_wavelengths",
+            description="Band centres of the VNIR file in nm, comma-separated (only if the file has none)",
+            optional=True,
+            advanced=True,
+        ),
+        Text(
+            name="swir_wavelengths",
+            description="Band centres of the SWIR file in nm, comma-separated (only if the file has none)",
+            optional=True,
+            advanced=True,
+        ),
+    ),
+)
+
+#: Parameters shared by every operation that reads a dual-sensor dataset: the operation takes
+#: ``vnir`` (a path or an opened DualSensor), ``swir`` and ``layout``.
+DUAL_PARAMS = (VNIR, SWIR, LAYOUT)
 
 TOLERANCE = Number(
     name="tolerance_nm",
@@ -61,17 +73,26 @@ SWIR_BAND = Wavelength(
     aliases=("numerator_nm",),
 )
 
-BAND_PARAMS = (
-    Enum(
-        name="band_mode",
-        description="How to pick the two bands: nearest to the wavelengths below, or the first SWIR band over the last VNIR band",
-        choices=("wavelength", "edges"),
-        default="wavelength",
+#: The ratio's band choice (io.BandChoice), the operation's ``bands``.
+BANDS = Group(
+    name="bands",
+    value=BandChoice,
+    params=(
+        Enum(
+            name="band_mode",
+            description=(
+                "How to pick the two bands: nearest to the wavelengths below, or the first SWIR "
+                "band over the last VNIR band"
+            ),
+            choices=("wavelength", "edges"),
+            default="wavelength",
+        ),
+        VNIR_BAND,
+        SWIR_BAND,
+        TOLERANCE,
     ),
-    VNIR_BAND,
-    SWIR_BAND,
-    TOLERANCE,
 )
+BAND_PARAMS = (BANDS,)
 
 
 def block_rows(default: int = io.DEFAULT_BLOCK_ROWS) -> Number:

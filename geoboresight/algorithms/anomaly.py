@@ -32,6 +32,7 @@ from .spec import (
     Number,
     RasterIn,
     RasterOut,
+    Result,
     Text,
     VectorOut,
 )
@@ -66,6 +67,10 @@ CUBE_BLOCK = block_rows(CUBE_BLOCK_ROWS)
 
 RX = Algorithm(
     name="rx",
+    results=(
+        Result("bands", "number", "Bands used"),
+        Result("background_pixels", "number", "Background pixels"),
+    ),
     display_name="RX anomaly detector",
     group="Anomaly",
     short_help="Reed–Xiaoli: squared Mahalanobis distance of each pixel to the scene background.",
@@ -133,6 +138,10 @@ RX = Algorithm(
 
 SVDD = Algorithm(
     name="svdd",
+    results=(
+        Result("sigma", "number", "Kernel width used"),
+        Result("support_vectors", "number", "Support vectors"),
+    ),
     display_name="SVDD anomaly detector (RBF kernel)",
     group="Anomaly",
     short_help="Support Vector Data Description with a Gaussian kernel, trained on a random background sample.",
@@ -177,6 +186,11 @@ SVDD = Algorithm(
 
 INDICATOR = Algorithm(
     name="boresight-indicator",
+    results=(
+        Result("count", "number", "Anomalous pixels"),
+        Result("median", "number", "Median of the ratio"),
+        Result("robust_sigma", "number", "Robust standard deviation of the ratio"),
+    ),
     display_name="Boresight anomaly indicator",
     group="Anomaly",
     short_help="Pixels whose boresight ratio stands out: robust z-score (median/MAD) and a threshold.",
@@ -229,6 +243,7 @@ INDICATOR = Algorithm(
 
 UNMIX = Algorithm(
     name="unmix",
+    results=(Result("endmembers", "string", "Endmembers used (JSON)"),),
     display_name="Linear spectral unmixing",
     group="Anomaly",
     short_help="Abundance of each endmember per pixel (fully constrained: ≥ 0, sum to 1), with the residual.",
@@ -347,6 +362,7 @@ ROC = Algorithm(
 
 POLYGONS = Algorithm(
     name="anomaly-polygons",
+    results=(Result("features", "number", "Features written"),),
     display_name="Anomaly score to polygons",
     group="Anomaly",
     short_help="Groups of pixels above a score threshold as GeoPackage polygons or points with score attributes.",

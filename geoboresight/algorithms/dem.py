@@ -12,7 +12,7 @@ from ..dem.view3d import AZIMUTH, BLUE_NM, ELEVATION, EXAGGERATION, GREEN_NM, RE
 from ..io.dual import SWIR_NM, VNIR_NM
 from ..operations.dem import disparity_file, relative_dem_file, view_3d_file
 from ._common import DUAL_PARAMS, TOLERANCE
-from .spec import Algorithm, Enum, FileOut, Flag, Number, RasterIn, RasterOut, Wavelength
+from .spec import Algorithm, Enum, FileOut, Flag, Number, RasterIn, RasterOut, Result, Wavelength
 
 GROUP = "Relative DEM"
 
@@ -137,6 +137,11 @@ MATCH_PARAMS = (
 
 DISPARITY = Algorithm(
     name="disparity",
+    results=(
+        Result("reliable_pixels", "number", "Pixels with a reliable disparity"),
+        Result("offset_along_px", "number", "Mean offset along track (pixels)"),
+        Result("offset_across_px", "number", "Mean offset across track (pixels)"),
+    ),
     display_name="Disparity map (VNIR/SWIR matching)",
     group=GROUP,
     short_help="Dense sub-pixel VNIR/SWIR disparity with per-pixel reliability.",
@@ -163,6 +168,35 @@ DISPARITY = Algorithm(
 
 DEM = Algorithm(
     name="relative-dem",
+    results=(
+        Result("sigma_d_px", "number", "Disparity noise (pixels)"),
+        Result("sigma_h_m", "number", "Height noise (m)"),
+        Result("relief_to_noise", "number", "Relief over the noise of a block's mean height"),
+        Result("meaningful", "boolean", "Whether the relief stands above the noise"),
+        Result("message", "string", "What the product can be used for"),
+        Result("height_factor_px_per_m", "number", "Height factor (pixels of disparity per metre)"),
+        Result("offset_along_px", "number", "Mean offset along track (pixels)"),
+        Result("offset_across_px", "number", "Mean offset across track (pixels)"),
+        Result("reliable_pixels", "number", "Pixels with a reliable disparity"),
+        Result("control_points", "number", "Control points kriged"),
+        Result("variogram", "string", "Fitted variogram (JSON)"),
+        Result("cross_validation", "string", "Cross-validation of the kriging (JSON)"),
+        Result("dem_range_m", "string", "Range of the relative DEM (m, JSON)"),
+        Result("vnir_band", "number", "VNIR band used (1-based)"),
+        Result("vnir_wavelength_nm", "number", "Centre of the VNIR band used (nm)"),
+        Result("swir_band", "number", "SWIR band used (1-based)"),
+        Result("swir_wavelength_nm", "number", "Centre of the SWIR band used (nm)"),
+        Result("vnir_bands_averaged", "string", "VNIR bands averaged (JSON)"),
+        Result("swir_bands_averaged", "string", "SWIR bands averaged (JSON)"),
+        Result(
+            "relief_std_m", "number", "Relief: std of the block mean heights above their noise (m)"
+        ),
+        Result("relief_block_px", "string", "Blocks the relief test compares (px, JSON)"),
+        Result("relief_noise_m", "number", "Noise of a block's mean height, sigma_h / 2 (m)"),
+        Result("relief_chi2", "number", "Chi-square of the relief against the noise"),
+        Result("relief_dof", "number", "Degrees of freedom of the relief test"),
+        Result("relief_p_value", "number", "p-value of the relief test"),
+    ),
     display_name="Relative DEM (kriging)",
     group=GROUP,
     short_help="Relative heights from VNIR/SWIR parallax, kriged onto the grid; reports σ_h.",

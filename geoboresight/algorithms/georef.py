@@ -27,6 +27,7 @@ from .spec import (
     Number,
     RasterIn,
     RasterOut,
+    Result,
     Text,
 )
 
@@ -74,6 +75,14 @@ IGM_OUTPUT = RasterOut(
 
 GEOLOCATE = Algorithm(
     name="geolocate",
+    results=(
+        Result("masked_nan", "number", "IGM pixels masked: NaN or nodata"),
+        Result("masked_non_monotonic", "number", "IGM pixels masked: folded over"),
+        Result("width", "number", "Columns of the map grid"),
+        Result("height", "number", "Lines of the map grid"),
+        Result("valid_pixels", "number", "Pixels inside the footprint"),
+        Result("bands", "number", "Bands warped"),
+    ),
     display_name="Geolocate a raw product (IGM, GLT)",
     group=GROUP,
     short_help="Put a raw-geometry product on a map grid with the per-pixel coordinates of an IGM, a GLT or GDAL geolocation arrays.",
@@ -118,6 +127,14 @@ GEOLOCATE = Algorithm(
 
 GEOREFERENCE = Algorithm(
     name="georeference",
+    results=(
+        Result("rmse", "number", "RMSE of the GCP residuals (map units)"),
+        Result("rmse_px", "number", "RMSE of the GCP residuals (pixels)"),
+        Result("width", "number", "Columns of the map grid"),
+        Result("height", "number", "Lines of the map grid"),
+        Result("valid_pixels", "number", "Pixels inside the footprint"),
+        Result("bands", "number", "Bands warped"),
+    ),
     display_name="Georeference from GCPs",
     group=GROUP,
     short_help="Georeference a raw product from ground control points: polynomial (order 1–3) or thin-plate spline, with residuals.",
@@ -167,6 +184,15 @@ GEOREFERENCE = Algorithm(
 
 AUTO = Algorithm(
     name="auto-georeference",
+    results=(
+        Result("matches", "number", "Feature matches"),
+        Result("inliers", "number", "RANSAC inliers"),
+        Result("rmse_px", "number", "Cross-validated RMSE of the inliers (pixels)"),
+        Result("width", "number", "Columns of the map grid"),
+        Result("height", "number", "Lines of the map grid"),
+        Result("valid_pixels", "number", "Pixels inside the footprint"),
+        Result("bands", "number", "Bands warped"),
+    ),
     display_name="Georeference on an orthophoto (automatic tie points)",
     group=GROUP,
     short_help="Georeference a raw line on a reference orthophoto by automatic tie points (SIFT/ORB + RANSAC) and a model of the line's wobble.",
@@ -270,6 +296,11 @@ AUTO = Algorithm(
 
 REPROJECT_TO = Algorithm(
     name="reproject-to",
+    results=(
+        Result("crs", "string", "CRS of the reference grid"),
+        Result("width", "number", "Columns of the reference grid"),
+        Result("height", "number", "Lines of the reference grid"),
+    ),
     display_name="Reproject onto a reference grid",
     group=GROUP,
     short_help="Put a map product onto the exact grid (CRS, transform, size) of a reference raster; vectors to its CRS.",
@@ -298,6 +329,7 @@ REPROJECT_TO = Algorithm(
 
 SIMULATE_ORTHO = Algorithm(
     name="simulate-ortho",
+    results=(Result("files", "string", "Files written (JSON)"),),
     display_name="Simulate a jittered line with its orthophoto",
     group="Simulation",
     short_help="Simulate a raw line with roll/pitch/yaw jitter, its true IGM and an orthophoto of the scene.",

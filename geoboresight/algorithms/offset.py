@@ -8,10 +8,20 @@ from ..dem.offset import PROFILE_ROWS
 from ..operations.offset import boresight_offset_file, coregister_file
 from ._common import BLOCK_ROWS, DUAL_PARAMS
 from .dem import BAND_PARAMS, CLOUD, GEOMETRY, GROUP
-from .spec import Algorithm, Enum, FileOut, Flag, Number, RasterOut
+from .spec import Algorithm, Enum, FileOut, Flag, Number, RasterOut, Result
 
 OFFSET = Algorithm(
     name="boresight-offset",
+    results=(
+        Result("along_px", "number", "Offset along track (pixels)"),
+        Result("across_px", "number", "Offset across track (pixels)"),
+        Result("match_error", "number", "Residual of the match"),
+        Result("vnir_band", "number", "VNIR band used (1-based)"),
+        Result("vnir_wavelength_nm", "number", "Centre of the VNIR band used (nm)"),
+        Result("swir_band", "number", "SWIR band used (1-based)"),
+        Result("swir_wavelength_nm", "number", "Centre of the SWIR band used (nm)"),
+        Result("convention", "string", "Sign convention of the offset"),
+    ),
     display_name="Boresight offset (image-based)",
     group=GROUP,
     short_help="Sub-pixel VNIR→SWIR shift from the images alone, in pixels and angles, per block for drift.",
@@ -55,6 +65,11 @@ OFFSET = Algorithm(
 
 COREGISTER = Algorithm(
     name="coregister",
+    results=(
+        Result("bands", "number", "Bands resampled"),
+        Result("along_px", "number", "Offset along track applied (pixels)"),
+        Result("across_px", "number", "Offset across track applied (pixels)"),
+    ),
     display_name="Co-register SWIR onto VNIR",
     group=GROUP,
     short_help="Resample every SWIR band onto the VNIR pixel grid, removing the boresight offset.",

@@ -4,10 +4,17 @@ from __future__ import annotations
 
 from ..operations.ratio import ratio_file
 from ._common import BAND_PARAMS, BLOCK_ROWS, DUAL_PARAMS
-from .spec import Algorithm, RasterOut
+from .spec import Algorithm, RasterOut, Result
 
 RATIO = Algorithm(
     name="ratio",
+    results=(
+        Result("swir_band", "number", "SWIR band used (numerator, 1-based)"),
+        Result("swir_wavelength_nm", "number", "Centre of the SWIR band used (nm)"),
+        Result("vnir_band", "number", "VNIR band used (denominator, 1-based)"),
+        Result("vnir_wavelength_nm", "number", "Centre of the VNIR band used (nm)"),
+        Result("valid_pixels", "number", "Pixels with a valid ratio"),
+    ),
     display_name="Boresight band ratio",
     group="Boresight ratio and statistics",
     short_help="b(1010 nm) / b(920 nm): the first SWIR band over the last VNIR band (Eq. 3).",

@@ -26,6 +26,7 @@ from .spec import (
     Number,
     RasterIn,
     RasterOut,
+    Result,
     Text,
     VectorOut,
     Wavelength,
@@ -39,6 +40,15 @@ RATIO_BAND = Band(name="band", description="Band of the ratio raster", default=1
 
 CLASSES = Algorithm(
     name="shadow-classes",
+    results=(
+        Result("valid_pixels", "number", "Valid pixels"),
+        Result("class_1_pixels", "number", "Pixels in class 1"),
+        Result("class_2_pixels", "number", "Pixels in class 2"),
+        Result("class_3_pixels", "number", "Pixels in class 3"),
+        Result("class_4_pixels", "number", "Pixels in class 4"),
+        Result("no_shadow_pixels", "number", "Pixels without shadow"),
+        Result("ratio_mode", "number", "Most common ratio of the scene (its sunlit ground)"),
+    ),
     display_name="Shadow classes (Table 2)",
     group=GROUP,
     short_help="Classify the boresight ratio into shadow-fraction classes and a shadow mask.",
@@ -79,6 +89,12 @@ CLASSES = Algorithm(
 
 CLUSTER = Algorithm(
     name="shadow-cluster",
+    results=(
+        Result("components", "number", "Mixture components"),
+        Result("isolation", "number", "Isolation of the shadow cluster"),
+        Result("shadow_pixels", "number", "Shadow pixels"),
+        Result("nir_band", "number", "NIR band used (1-based)"),
+    ),
     display_name="Shadow cluster (scene-adaptive)",
     group=GROUP,
     short_help="Find the isolated shadow cluster in the (boresight ratio, 941 nm) scatter (Figure 4).",
@@ -146,6 +162,12 @@ CLUSTER = Algorithm(
 
 FRACTION_FIT = Algorithm(
     name="shadow-fraction-fit",
+    results=(
+        Result("slope", "number", "Slope of the fraction model"),
+        Result("intercept", "number", "Intercept of the fraction model"),
+        Result("r2", "number", "Coefficient of determination R²"),
+        Result("n", "number", "Pixels used in the fit"),
+    ),
     display_name="Shadow fraction model: fit (Figure 5B)",
     group=GROUP,
     short_help="Fit ratio = a · fraction + b over detected shadow against a ground-truth shadow fraction.",
@@ -178,6 +200,14 @@ FRACTION_FIT = Algorithm(
 
 FRACTION_APPLY = Algorithm(
     name="shadow-fraction-apply",
+    results=(
+        Result("slope", "number", "Slope of the fraction model"),
+        Result("intercept", "number", "Intercept of the fraction model"),
+        Result("valid_pixels", "number", "Valid pixels"),
+        Result(
+            "outside_line_pixels", "number", "Pixels with a ratio outside the fitted line's range"
+        ),
+    ),
     display_name="Shadow fraction model: apply",
     group=GROUP,
     short_help="Turn the boresight ratio into a continuous shadow fraction with a fitted line.",
@@ -213,6 +243,10 @@ FRACTION_APPLY = Algorithm(
 
 POLYGONS = Algorithm(
     name="shadow-polygons",
+    results=(
+        Result("polygons", "number", "Polygons written"),
+        Result("geometry", "string", "Geometry of the polygons (map or raw sensor geometry)"),
+    ),
     display_name="Shadow polygons",
     group=GROUP,
     short_help="Vectorise a shadow class raster into polygons with class and area attributes.",

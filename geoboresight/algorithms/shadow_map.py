@@ -7,12 +7,39 @@ from __future__ import annotations
 from ..operations.shadow_map import SAMPLE_SIZE, shadow_map_file
 from ..shadow.map import CORE_DARKNESS, EDGE_PIXELS
 from ._common import BLOCK_ROWS, DUAL_PARAMS, SWIR_BAND, TOLERANCE, VNIR_BAND, sample_size, seed
-from .spec import Algorithm, FileIn, Number, RasterOut
+from .spec import Algorithm, FileIn, Number, RasterOut, Result
 
 GROUP = "Shadow"
 
 SHADOW_MAP = Algorithm(
     name="shadow-map",
+    results=(
+        Result("valid_pixels", "number", "Valid pixels"),
+        Result("shadow_pixels", "number", "Shadow pixels"),
+        Result("shadow_share", "number", "Share of the valid pixels in shadow"),
+        Result("vnir_dark_dn", "number", "VNIR dark level (DN)"),
+        Result("vnir_dark_source", "string", "Where the VNIR dark level comes from"),
+        Result("swir_dark_dn", "number", "SWIR dark level (DN)"),
+        Result("swir_dark_source", "string", "Where the SWIR dark level comes from"),
+        Result("sunlit_nir_signal_dn", "number", "Sunlit NIR signal above dark (DN)"),
+        Result("sunlit_swir_signal_dn", "number", "Sunlit SWIR signal above dark (DN)"),
+        Result("sunlit_ratio", "number", "Ratio of the sunlit ground"),
+        Result("class_scale", "number", "Scale of the class thresholds to the scene"),
+        Result("water_blue_nir_limit", "number", "Blue/NIR limit of the water test"),
+        Result("offset_along_px", "number", "Offset along track (pixels)"),
+        Result("offset_across_px", "number", "Offset across track (pixels)"),
+        Result("sample_pixels", "number", "Pixels sampled"),
+        Result(
+            "table2_ratio_bounds_on_scene",
+            "string",
+            "Table 2's classes as ratio bounds on this scene",
+        ),
+        Result("class_1_pixels", "number", "Pixels in class 1"),
+        Result("class_2_pixels", "number", "Pixels in class 2"),
+        Result("class_3_pixels", "number", "Pixels in class 3"),
+        Result("class_4_pixels", "number", "Pixels in class 4"),
+        Result("no_shadow_pixels", "number", "Pixels without shadow"),
+    ),
     display_name="Boresight shadow map (VNIR + SWIR): mask and shadow-fraction classes",
     group=GROUP,
     short_help="Shadow mask and Table 2 shadow-fraction classes that do not mistake dark "

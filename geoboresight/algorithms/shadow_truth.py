@@ -9,12 +9,17 @@ from ..shadow.darkpixel import DARK_PERCENTILE, SAMPLE_SIZE, THRESHOLD
 from ..shadow.illumination import SUPERSAMPLE, SURFACES, Z_FACTOR
 from ..shadow.surface import AUTO
 from ._common import BLOCK_ROWS, TOLERANCE, sample_size, seed
-from .spec import Algorithm, Band, Enum, Number, RasterIn, RasterOut, Text
+from .spec import Algorithm, Band, Enum, Number, RasterIn, RasterOut, Result, Text
 
 GROUP = "Shadow"
 
 SUN_SHADOW = Algorithm(
     name="sun-shadow",
+    results=(
+        Result("shadow_pixels", "number", "Shadow pixels"),
+        Result("valid_pixels", "number", "Valid pixels"),
+        Result("relief_m", "number", "Relief of the surface (m)"),
+    ),
     display_name="Sun shadow (ground truth from a surface model)",
     group=GROUP,
     short_help="Shadow fraction, shadow mask and hillshade of a surface model for a sun position.",
@@ -96,6 +101,10 @@ SUN_SHADOW = Algorithm(
 
 DARK_PIXEL = Algorithm(
     name="dark-pixel-shadow",
+    results=(
+        Result("shadow_pixels", "number", "Shadow pixels"),
+        Result("candidates", "number", "Candidate dark pixels"),
+    ),
     display_name="Dark-pixel shadow (ATCOR-4-style baseline)",
     group=GROUP,
     short_help="Statistical dark-pixel shadow mask of the ATCOR-4 kind, for comparison.",

@@ -7,7 +7,7 @@ from ..simulate.atmosphere import AOT550, WATER_VAPOUR_CM
 from ..simulate.presets import GEOMETRIES, SCENES
 from ..simulate.scene import GEOMETRY, LINES, MIN_LINES, PRESET, SUPERSAMPLE
 from ._common import seed
-from .spec import Algorithm, Enum, Flag, FolderOut, Number, Text
+from .spec import Algorithm, Enum, Flag, FolderOut, Number, Result, Text
 
 HELP = """\
 Simulates a raw-geometry AISA-Dual scene (VNIR 400–970 nm and SWIR 980–2,450 nm, 198 bands,
@@ -32,6 +32,14 @@ modelled.
 
 SIMULATE = Algorithm(
     name="simulate",
+    results=(
+        Result("offset_along_px", "number", "Simulated offset along track (pixels)"),
+        Result("offset_across_px", "number", "Simulated offset across track (pixels)"),
+        Result("disparity_px_per_m", "number", "Simulated disparity (pixels per metre)"),
+        Result(
+            "height_precision_m_per_px", "number", "Height precision (m per pixel of disparity)"
+        ),
+    ),
     display_name="Simulate a dual-sensor scene",
     group="Simulation",
     short_help="Simulate an AISA-Dual VNIR+SWIR scene with shadows, relief, targets and its ground truth",

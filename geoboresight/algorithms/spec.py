@@ -235,6 +235,41 @@ class FolderOut(_Out):
 
 
 @dataclass(frozen=True, kw_only=True)
+class Group:
+    """Parameters that travel together (a band choice, the flight geometry, the matching
+    options): flat in every face (CLI options, QGIS fields, engine and batch keys), one small
+    frozen value for the operation, as rasterio passes a profile rather than its keys.
+
+    ``value`` is a frozen dataclass whose fields include the members' names; its defaults are
+    the members' defaults (checked at import). The operation takes the value under ``name``;
+    a Python caller passes either the value or nothing (the defaults).
+    """
+
+    name: str
+    value: type
+    params: tuple[Param, ...]
+
+    def build(self, values: Mapping[str, Any]) -> Any:
+        """The value from the members' validated values (missing members keep defaults)."""
+        return self.value(**{p.name: values[p.name] for p in self.params if p.name in values})
+
+
+@dataclass(frozen=True)
+class Result:
+    """One scalar value an operation returns beside its output files: its name, type
+    ("number", "string" or "boolean") and what it is. The engine declares them (QGIS: output
+    numbers and strings a model can chain); results not declared (e.g. ROC's per-score
+    ``auc_<name>``, named after the inputs) are still returned and logged."""
+
+    name: str
+    kind: str
+    description: str
+
+    def __iter__(self):  # (name, kind, description), as the engine's schema lists them
+        return iter((self.name, self.kind, self.description))
+
+
+@dataclass(frozen=True, kw_only=True)
 class Algorithm:
     """One GIS operation: what every face shows, and the one function that does the work.
 
@@ -248,10 +283,18 @@ class Algorithm:
     group: str
     short_help: str
     help: str
-    params: tuple[Param, ...]
+    params: tuple[Param | Group, ...]
     run: Callable[[dict, Progress], dict] = field(repr=False)
+    #: The values ``run`` returns beside its outputs (the engine's result schema).
+    results: tuple[Result, ...] = ()
+    #: The parameter groups among ``params`` (``params`` itself is flattened: what faces see).
+    groups: tuple[Group, ...] = field(default=(), init=False, repr=False)
 
     def __post_init__(self):
+        groups = tuple(p for p in self.params if isinstance(p, Group))
+        flat = tuple(q for p in self.params for q in (p.params if isinstance(p, Group) else (p,)))
+        object.__setattr__(self, "groups", groups)
+        object.__setattr__(self, "params", flat)
         if self.group not in GROUPS:
             raise ValueError(f"{self.name}: unknown group {self.group!r}")
         names = [p.name for p in self.params]
@@ -300,6 +343,15 @@ class Algorithm:
         _check_bands(self, out)
         return out
 
+    def bind(self, values: Mapping[str, Any]) -> dict:
+        """The operation's keyword arguments from validated flat values: each group's members
+        become its value."""
+        out = dict(values)
+        for g in self.groups:
+            members = {p.name: out.pop(p.name) for p in g.params if p.name in out}
+            out[g.name] = g.build(members)
+        return out
+
     def __call__(
         self,
         progress: Progress | None = None,
@@ -346,7 +398,7 @@ def _resolve_aliases(alg: Algorithm, values: Mapping[str, Any]) -> dict:
 
 
 #: Parameters of every file-level operation that are not spec parameters.
-_RUN_ONLY = ("progress", "overwrite", "cog", "co", "raw_gsd")
+_RUN_ONLY = ("progress", "overwrite")
 
 
 def _check_signature(alg: Algorithm) -> None:
@@ -354,14 +406,29 @@ def _check_signature(alg: Algorithm) -> None:
     outputs. Raised at import, so a renamed parameter cannot reach a face."""
     sig = inspect.signature(alg.run)
     fn = {n: p for n, p in sig.parameters.items() if n not in _RUN_ONLY}
-    names = {p.name for p in alg.params}
+    grouped = {p.name for g in alg.groups for p in g.params}
+    names = {p.name for p in alg.params} - grouped | {g.name for g in alg.groups}
     where = f"spec {alg.name!r} and {getattr(alg.run, '__name__', alg.run)}()"
+    for g in alg.groups:
+        default = fn[g.name].default if g.name in fn else inspect.Parameter.empty
+        if default is inspect.Parameter.empty or default != g.value():
+            raise TypeError(f"{where}: group '{g.name}' must default to {g.value()!r}")
+        for p in g.params:
+            if not hasattr(default, p.name):
+                raise TypeError(f"{where}: {g.value.__name__} has no field '{p.name}'")
+            if not p.required and getattr(default, p.name) != p.default:
+                raise TypeError(
+                    f"{where}: '{p.name}' defaults to {p.default!r} in the spec but "
+                    f"{getattr(default, p.name)!r} in {g.value.__name__}"
+                )
     if set(fn) != names:
         raise TypeError(
             f"{where} disagree: only in the spec {sorted(names - set(fn))}, "
             f"only in the function {sorted(set(fn) - names)}"
         )
     for p in alg.params:
+        if p.name in grouped:
+            continue
         default = fn[p.name].default
         if p.required:
             if default is not inspect.Parameter.empty and default is not None:
@@ -394,15 +461,11 @@ def execute(
     """Validate ``values`` and run ``alg``'s operation (which refuses unsafe outputs and
     removes the outputs it created when it fails); ``cog``/``co`` say how its GeoTIFF outputs
     are written (Cloud-Optimised, GDAL creation options ``NAME=VALUE``)."""
-    values = alg.validate(values)
-    return alg.run(
-        **values,
-        progress=as_progress(progress),
-        overwrite=overwrite,
-        cog=cog,
-        co=co,
-        raw_gsd=raw_gsd,
-    )
+    from ..io.raster import writer_options
+
+    values = alg.bind(alg.validate(values))
+    with writer_options(cog=cog, co=co, raw_gsd=raw_gsd):
+        return alg.run(**values, progress=as_progress(progress), overwrite=overwrite)
 
 
 __all__ = [
@@ -415,11 +478,13 @@ __all__ = [
     "Flag",
     "FolderOut",
     "GeoboresightError",
+    "Group",
     "MultiRaster",
     "Number",
     "Param",
     "RasterIn",
     "RasterOut",
+    "Result",
     "Text",
     "VectorOut",
     "Wavelength",

@@ -4,10 +4,17 @@ from __future__ import annotations
 
 from ..operations.stats import BINS, PERCENTILES, stats_file
 from ._common import BLOCK_ROWS
-from .spec import Algorithm, Band, FileOut, Number, RasterIn, Text
+from .spec import Algorithm, Band, FileOut, Number, RasterIn, Result, Text
 
 STATS = Algorithm(
     name="stats",
+    results=(
+        Result("n", "number", "Valid pixels (N)"),
+        Result("mean", "number", "Mean"),
+        Result("std", "number", "Standard deviation"),
+        Result("skewness", "number", "Skewness"),
+        Result("se_skewness", "number", "Standard error of the skewness"),
+    ),
     display_name="Descriptive statistics (SPSS style)",
     group="Boresight ratio and statistics",
     short_help="N, mean and its SE, std, variance, skewness and kurtosis with SEs and z tests, 3σ outliers, histogram.",

@@ -5,7 +5,7 @@ Core kernels never see a file; everything about files lives here (DESIGN.md).
 """
 
 from .cube import Cube, open_cube
-from .dual import DualSensor, RatioBands, SensorFile, open_dual
+from .dual import BandChoice, DualLayout, DualSensor, RatioBands, SensorFile, as_dual, open_dual
 from .grid import FLOAT_NODATA, Grid, is_georeferenced, require_same_grid
 from .raster import (
     band_count,
@@ -35,13 +35,16 @@ from .write import atomic_output, check_output_path, split_paths, write_json, wr
 __all__ = [
     "DEFAULT_BLOCK_ROWS",
     "FLOAT_NODATA",
+    "BandChoice",
     "Block",
     "Cube",
+    "DualLayout",
     "DualSensor",
     "Grid",
     "RatioBands",
     "Spill",
     "SensorFile",
+    "as_dual",
     "atomic_output",
     "band_count",
     "band_reader",

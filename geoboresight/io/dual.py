@@ -24,6 +24,28 @@ TOLERANCE_NM = 10.0
 
 
 @dataclass(frozen=True)
+class DualLayout:
+    """How a dual-sensor dataset is read when its files do not say it all: the seam of a
+    merged cube, band centres for files without wavelength metadata."""
+
+    seam_nm: float = SEAM_NM
+    vnir_wavelengths: str | None = None
+    swir_wavelengths: str | None = None
+
+
+@dataclass(frozen=True)
+class BandChoice:
+    """Which two bands make the boresight ratio (Eq. 3): nearest ``vnir_nm`` and ``swir_nm``
+    within ``tolerance_nm`` (``band_mode="wavelength"``), or the last VNIR band and the first
+    SWIR band (``"edges"``)."""
+
+    band_mode: str = "wavelength"
+    vnir_nm: float = VNIR_NM
+    swir_nm: float = SWIR_NM
+    tolerance_nm: float = TOLERANCE_NM
+
+
+@dataclass(frozen=True)
 class RatioBands:
     """The two bands of the boresight ratio (Eq. 3): 1-based band numbers in their files and
     their centre wavelengths (nm). The ratio is SWIR over VNIR."""
@@ -94,6 +116,11 @@ class DualSensor:
         return self.grid.width
 
     @property
+    def files(self) -> tuple[str, ...]:
+        """The user's files this dataset reads (one for a merged cube or a product)."""
+        return tuple(dict.fromkeys((self.vnir.path, self.swir.path)))
+
+    @property
     def height(self) -> int:
         return self.grid.height
 
@@ -105,19 +132,15 @@ class DualSensor:
     def transform(self):
         return self.grid.transform
 
-    def ratio_bands(
-        self,
-        vnir_nm: float = VNIR_NM,
-        swir_nm: float = SWIR_NM,
-        band_mode: str = "wavelength",
-        tolerance_nm: float = TOLERANCE_NM,
-    ) -> RatioBands:
+    def ratio_bands(self, choice: BandChoice = BandChoice()) -> RatioBands:
         """The two bands of the boresight ratio b(1010 nm) / b(920 nm) (Eq. 3).
 
         ``band_mode="wavelength"``: the band centres nearest ``vnir_nm`` (VNIR) and ``swir_nm``
         (SWIR), within ``tolerance_nm``. ``band_mode="edges"``: the first SWIR band over the
         last VNIR band, whatever their wavelengths (the paper's choice on AISA-Dual).
         """
+        band_mode, vnir_nm, swir_nm = choice.band_mode, choice.vnir_nm, choice.swir_nm
+        tolerance_nm = choice.tolerance_nm
         if band_mode == "edges":
             vb, sb = self.vnir.last, self.swir.first
         elif band_mode == "wavelength":
@@ -263,6 +286,18 @@ def open_dual(
         False,
         product or s_product,
     )
+
+
+def as_dual(vnir, swir=None, layout: DualLayout = DualLayout()) -> DualSensor:
+    """``vnir`` itself when it is an opened :class:`DualSensor` (as rasterio accepts a path or
+    a dataset), else :func:`open_dual` of the paths with ``layout``."""
+    if isinstance(vnir, DualSensor):
+        if swir is not None:
+            raise InputError(
+                "give either an opened dual-sensor dataset or two files, not both (swir)"
+            )
+        return vnir
+    return open_dual(vnir, swir, layout.seam_nm, layout.vnir_wavelengths, layout.swir_wavelengths)
 
 
 def _option(label: str) -> str:

@@ -26,7 +26,6 @@ import shutil
 from collections.abc import Callable
 
 from ..errors import GeoboresightError, InputError, OutputError, ParameterError, ResourceError
-from ..io.raster import writer_options
 from ..io.write import check_output_path, output_error
 from ..progress import as_progress
 
@@ -36,11 +35,10 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
     or a list of paths) and ``outputs`` the files or folders it writes.
 
     The decorated function takes ``progress`` (a :class:`~geoboresight.progress.Progress` or
-    None) and gains ``overwrite`` (default False), ``cog`` (default False: write every
-    GeoTIFF output as a Cloud-Optimised GeoTIFF) and ``co`` (GDAL creation options in rio's
-    ``NAME=VALUE,NAME=VALUE`` convention), the last two set once here for every writer
-    (:func:`geoboresight.io.raster.writer_options`), as is ``raw_gsd`` (metres: raw-geometry
-    outputs in a local engineering CRS with that pixel size instead of no CRS at all).
+    None) and gains ``overwrite`` (default False). How GeoTIFF outputs are written
+    (Cloud-Optimised, GDAL creation options, a local metric CRS for raw geometry) is set for
+    every writer at once by the context :func:`geoboresight.writer_options`, as rasterio's
+    ``Env`` sets GDAL's options: ``with gb.writer_options(cog=True): gb.ratio_file(...)``.
     """
 
     def decorate(func: Callable) -> Callable:
@@ -50,7 +48,7 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
             raise TypeError(f"{func.__name__}: no parameter(s) {', '.join(missing)}")
 
         @functools.wraps(func)
-        def run(*args, overwrite: bool = False, cog: bool = False, co=None, raw_gsd=None, **kwargs):
+        def run(*args, overwrite: bool = False, **kwargs):
             bound = sig.bind(*args, **kwargs)
             bound.apply_defaults()
             values = bound.arguments
@@ -59,8 +57,7 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
             outs = check_paths(values, inputs, outputs, overwrite)
             existed = {o for o in outs if os.path.lexists(o)}
             try:
-                with writer_options(cog=cog, co=co, raw_gsd=raw_gsd):
-                    return func(*bound.args, **bound.kwargs)
+                return func(*bound.args, **bound.kwargs)
             except BaseException as exc:
                 for o in outs:
                     if o not in existed:
@@ -71,13 +68,7 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
                 raise translate_error(exc, ins, outs) from exc
 
         params = list(sig.parameters.values())
-        for name, default in (
-            ("overwrite", False),
-            ("cog", False),
-            ("co", None),
-            ("raw_gsd", None),
-        ):
-            params.append(inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=default))
+        params.append(inspect.Parameter("overwrite", inspect.Parameter.KEYWORD_ONLY, default=False))
         run.__signature__ = sig.replace(parameters=params)
         run.inputs = tuple(inputs)
         run.outputs = tuple(outputs)
@@ -91,6 +82,9 @@ def _paths(value) -> list[str]:
         return []
     if isinstance(value, str | os.PathLike):
         return [os.fspath(value)]
+    files = getattr(value, "files", None)  # an opened dual-sensor value (DualSensor)
+    if files is not None:
+        return list(files)
     return [os.fspath(v) for v in value]
 
 

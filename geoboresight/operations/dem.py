@@ -43,7 +43,7 @@ from ..dem.view3d import (
 )
 from ..errors import InputError
 from ..io.bands import open_matching_pair, require_on_grid
-from ..io.dual import SEAM_NM, TOLERANCE_NM
+from ..io.dual import TOLERANCE_NM, DualLayout
 from ._operation import operation
 from .offset import line_offset
 
@@ -117,9 +117,7 @@ def disparity_file(
     cloud_mask=None,
     *,
     output,
-    seam_nm=SEAM_NM,
-    vnir_wavelengths=None,
-    swir_wavelengths=None,
+    layout=DualLayout(),
     vnir_nm=MATCH_VNIR_NM,
     swir_nm=MATCH_SWIR_NM,
     vnir_to_nm=MATCH_VNIR_TO_NM,
@@ -149,10 +147,8 @@ def disparity_file(
     output : path
         5-band float32 GeoTIFF: disparity along-track and across-track (px, SWIR minus VNIR
         position), correlation peak, peak sharpness and reliable (1/0); nodata -9999.
-    seam_nm : float
-        Merged cube only: bands below it are VNIR, the rest SWIR.
-    vnir_wavelengths, swir_wavelengths : str, optional
-        Band centres in nm, comma-separated, for files without wavelength metadata.
+    layout : DualLayout
+        How to read files that do not say it all (a merged cube's seam, band centres).
     vnir_nm, vnir_to_nm, swir_nm, swir_to_nm : float
         The matching images: the means of the bands centred in these ranges (one band each
         when ``*_to_nm`` is None).
@@ -179,7 +175,7 @@ def disparity_file(
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.2, image matching
     within ± 3 pixels along-track and ± 1 across-track).
     """
-    dual = io.open_dual(vnir, swir, seam_nm, vnir_wavelengths, swir_wavelengths)
+    dual = io.as_dual(vnir, swir, layout)
     with open_matching_pair(
         dual,
         vnir_nm=vnir_nm,
@@ -269,9 +265,7 @@ def relative_dem_file(
     variance=None,
     disparity=None,
     report=None,
-    seam_nm=SEAM_NM,
-    vnir_wavelengths=None,
-    swir_wavelengths=None,
+    layout=DualLayout(),
     vnir_nm=MATCH_VNIR_NM,
     swir_nm=MATCH_SWIR_NM,
     vnir_to_nm=MATCH_VNIR_TO_NM,
@@ -319,10 +313,8 @@ def relative_dem_file(
         :func:`disparity_file`).
     report : path, optional
         JSON report: σ_d, σ_h, offset, variogram, cross-validation of the kriging.
-    seam_nm : float
-        Merged cube only: bands below it are VNIR, the rest SWIR.
-    vnir_wavelengths, swir_wavelengths : str, optional
-        Band centres in nm, comma-separated, for files without wavelength metadata.
+    layout : DualLayout
+        How to read files that do not say it all (a merged cube's seam, band centres).
     vnir_nm, vnir_to_nm, swir_nm, swir_to_nm : float
         The matching images: the means of the bands centred in these ranges.
     tolerance_nm : float
@@ -372,7 +364,7 @@ def relative_dem_file(
         invert=invert_parallax,
     )
     gsd = ground_sample_distance(flying_height, ifov_mrad)
-    dual = io.open_dual(vnir, swir, seam_nm, vnir_wavelengths, swir_wavelengths)
+    dual = io.as_dual(vnir, swir, layout)
     progress.info(f"height-to-disparity factor {factor.magnitude:.5f} px/m ({parallax_axis}-track)")
     rows = strip_rows(point_spacing)
     with open_matching_pair(
@@ -601,9 +593,7 @@ def view_3d_file(
     swir=None,
     *,
     output,
-    seam_nm=SEAM_NM,
-    vnir_wavelengths=None,
-    swir_wavelengths=None,
+    layout=DualLayout(),
     red_nm=RED_NM,
     green_nm=GREEN_NM,
     blue_nm=BLUE_NM,
@@ -629,10 +619,8 @@ def view_3d_file(
         SWIR file on the same pixel grid.
     output : path
         The PNG.
-    seam_nm : float
-        Merged cube only: bands below it are VNIR, the rest SWIR.
-    vnir_wavelengths, swir_wavelengths : str, optional
-        Band centres in nm, comma-separated, for files without wavelength metadata.
+    layout : DualLayout
+        How to read files that do not say it all (a merged cube's seam, band centres).
     red_nm, green_nm, blue_nm : float
         The VNIR bands of the RGB, nearest these wavelengths.
     tolerance_nm : float
@@ -655,7 +643,7 @@ def view_3d_file(
     """
     from ..figures import decimated_shape, save_figure
 
-    dual = io.open_dual(vnir, swir, seam_nm, vnir_wavelengths, swir_wavelengths)
+    dual = io.as_dual(vnir, swir, layout)
     # The view draws at most MAX_FACETS facets per side: the DEM and the RGB are read at that
     # step (decimated reads), not whole, so a flight line of any length costs the same.
     _, shape = decimated_shape(*dual.grid.shape, MAX_FACETS)

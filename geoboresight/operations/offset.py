@@ -18,7 +18,7 @@ from ..dem.offset import (
 )
 from ..errors import InputError, ParameterError
 from ..io.bands import masked_bands_reader, open_matching_pair
-from ..io.dual import SEAM_NM, SWIR_NM, TOLERANCE_NM, VNIR_NM
+from ..io.dual import SWIR_NM, TOLERANCE_NM, VNIR_NM, DualLayout
 from ..progress import as_progress
 from ._operation import operation
 
@@ -113,9 +113,7 @@ def boresight_offset_file(
     *,
     output,
     plot=None,
-    seam_nm=SEAM_NM,
-    vnir_wavelengths=None,
-    swir_wavelengths=None,
+    layout=DualLayout(),
     vnir_nm=VNIR_NM,
     swir_nm=SWIR_NM,
     vnir_to_nm=None,
@@ -145,10 +143,8 @@ def boresight_offset_file(
         the bands matched and the profile along the flight line.
     plot : path, optional
         PNG plot of the offset per block of lines (needs ``profile_rows`` > 0).
-    seam_nm : float
-        Merged cube only: bands below it are VNIR, the rest SWIR.
-    vnir_wavelengths, swir_wavelengths : str, optional
-        Band centres in nm, comma-separated, for files without wavelength metadata.
+    layout : DualLayout
+        How to read files that do not say it all (a merged cube's seam, band centres).
     vnir_nm, swir_nm : float
         The bands matched, nearest these wavelengths.
     vnir_to_nm, swir_to_nm : float, optional
@@ -175,7 +171,7 @@ def boresight_offset_file(
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.2; the bands of
     Eq. 3).
     """
-    dual = io.open_dual(vnir, swir, seam_nm, vnir_wavelengths, swir_wavelengths)
+    dual = io.as_dual(vnir, swir, layout)
     with open_matching_pair(
         dual,
         vnir_nm=vnir_nm,
@@ -257,9 +253,7 @@ def coregister_file(
     cloud_mask=None,
     *,
     output,
-    seam_nm=SEAM_NM,
-    vnir_wavelengths=None,
-    swir_wavelengths=None,
+    layout=DualLayout(),
     vnir_nm=VNIR_NM,
     swir_nm=SWIR_NM,
     vnir_to_nm=None,
@@ -291,10 +285,8 @@ def coregister_file(
     output : path
         Float32 GeoTIFF with every SWIR band (descriptions and tags give the wavelengths),
         nodata -9999 where the shifted image has no data, on the VNIR grid.
-    seam_nm : float
-        Merged cube only: bands below it are VNIR, the rest SWIR.
-    vnir_wavelengths, swir_wavelengths : str, optional
-        Band centres in nm, comma-separated, for files without wavelength metadata.
+    layout : DualLayout
+        How to read files that do not say it all (a merged cube's seam, band centres).
     vnir_nm, swir_nm, vnir_to_nm, swir_to_nm : float
         The bands matched to measure the offset (see :func:`boresight_offset_file`).
     tolerance_nm : float
@@ -324,7 +316,7 @@ def coregister_file(
     if (along is None) != (across is None):
         raise ParameterError("give both 'along' and 'across', or neither (then they are measured)")
     order = int(order)
-    dual = io.open_dual(vnir, swir, seam_nm, vnir_wavelengths, swir_wavelengths)
+    dual = io.as_dual(vnir, swir, layout)
     if along is None:
         with open_matching_pair(
             dual,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import io
-from ..io.dual import SEAM_NM, SWIR_NM, TOLERANCE_NM, VNIR_NM
+from ..io.dual import BandChoice, DualLayout
 from ..ratio import boresight_ratio
 from ._operation import operation
 
@@ -16,13 +16,8 @@ def ratio_file(
     swir=None,
     *,
     output,
-    seam_nm=SEAM_NM,
-    vnir_wavelengths=None,
-    swir_wavelengths=None,
-    band_mode="wavelength",
-    vnir_nm=VNIR_NM,
-    swir_nm=SWIR_NM,
-    tolerance_nm=TOLERANCE_NM,
+    layout=DualLayout(),
+    bands=BandChoice(),
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
 ) -> dict:
@@ -30,23 +25,19 @@ def ratio_file(
 
     Parameters
     ----------
-    vnir : path
-        VNIR file (ENVI or GeoTIFF), or a merged VNIR+SWIR cube when ``swir`` is None.
+    vnir : path or DualSensor
+        VNIR file (ENVI or GeoTIFF), a merged VNIR+SWIR cube or a sensor product when ``swir``
+        is None, or a dataset opened with :func:`geoboresight.open_dual`.
     swir : path, optional
         SWIR file on the same pixel grid.
     output : path
         The float32 ratio GeoTIFF (nodata -9999), on the input's grid: raw sensor geometry stays
         raw, a CRS and geotransform are carried over.
-    seam_nm : float
-        Merged cube only: bands below it are VNIR, the rest SWIR.
-    vnir_wavelengths, swir_wavelengths : str, optional
-        Band centres in nm, comma-separated, for files without wavelength metadata.
-    band_mode : {"wavelength", "edges"}
-        Bands nearest ``vnir_nm``/``swir_nm``, or the last VNIR band and the first SWIR band.
-    vnir_nm, swir_nm : float
-        Wavelengths of the denominator (VNIR) and numerator (SWIR) bands.
-    tolerance_nm : float
-        Largest distance between a requested wavelength and a band centre.
+    layout : DualLayout
+        How to read files that do not say it all (a merged cube's seam, band centres).
+    bands : BandChoice
+        The two bands: nearest 920 nm (VNIR, denominator) and 1010 nm (SWIR, numerator) by
+        default, or the last VNIR and first SWIR band.
     block_rows : int
         Lines read at a time.
     progress : Progress, optional
@@ -61,8 +52,8 @@ def ratio_file(
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (Eq. 3).
     """
-    dual = io.open_dual(vnir, swir, seam_nm, vnir_wavelengths, swir_wavelengths)
-    bands = dual.ratio_bands(vnir_nm, swir_nm, band_mode, tolerance_nm)
+    dual = io.as_dual(vnir, swir, layout)
+    bands = dual.ratio_bands(bands)
     progress.info(
         f"boresight ratio: SWIR band {bands.swir_band} ({bands.swir_nm:.1f} nm) / VNIR band "
         f"{bands.vnir_band} ({bands.vnir_nm:.1f} nm); "

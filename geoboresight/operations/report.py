@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import shutil
 
 from .. import io
-from ..io.dual import SEAM_NM, SWIR_NM, TOLERANCE_NM, VNIR_NM
+from ..io.dual import BandChoice, DualLayout
 from ..io.write import temp_name
 from ._operation import operation
 
@@ -20,13 +21,8 @@ def report_file(
     swir=None,
     *,
     output,
-    seam_nm=SEAM_NM,
-    vnir_wavelengths=None,
-    swir_wavelengths=None,
-    band_mode="wavelength",
-    vnir_nm=VNIR_NM,
-    swir_nm=SWIR_NM,
-    tolerance_nm=TOLERANCE_NM,
+    layout=DualLayout(),
+    bands=BandChoice(),
     shadow_truth=None,
     target_truth=None,
     cloud_mask=None,
@@ -54,17 +50,10 @@ def report_file(
         SWIR file on the same pixel grid.
     output : path
         The report: one HTML file with every figure embedded (it opens offline).
-    seam_nm : float
-        Merged cube only: bands below it are VNIR, the rest SWIR.
-    vnir_wavelengths, swir_wavelengths : str, optional
-        Band centres in nm, comma-separated, for files without wavelength metadata.
-    band_mode : {"wavelength", "edges"}
-        The ratio's bands: nearest ``vnir_nm``/``swir_nm``, or the last VNIR band and the
-        first SWIR band.
-    vnir_nm, swir_nm : float
-        Wavelengths of the ratio's denominator (VNIR) and numerator (SWIR) bands.
-    tolerance_nm : float
-        Largest distance between a requested wavelength and a band centre.
+    layout : DualLayout
+        How to read files that do not say it all (a merged cube's seam, band centres).
+    bands : BandChoice
+        The ratio's two bands.
     shadow_truth : path, optional
         Ground-truth shadow fraction (0–1) on the VNIR grid, for the Figure 5 fit.
     target_truth : path, optional
@@ -99,13 +88,8 @@ def report_file(
     values = {
         "vnir": vnir,
         "swir": swir,
-        "seam_nm": seam_nm,
-        "vnir_wavelengths": vnir_wavelengths,
-        "swir_wavelengths": swir_wavelengths,
-        "band_mode": band_mode,
-        "vnir_nm": vnir_nm,
-        "swir_nm": swir_nm,
-        "tolerance_nm": tolerance_nm,
+        **dataclasses.asdict(layout),
+        **dataclasses.asdict(bands),
         "shadow_truth": shadow_truth,
         "target_truth": target_truth,
         "cloud_mask": cloud_mask,
@@ -118,7 +102,7 @@ def report_file(
     # The primary input must open (and carry wavelengths): a report of notes saying that
     # nothing could run would be a success in name only. Optional inputs given must open too
     # and lie on its grid.
-    dual = io.open_dual(vnir, swir, seam_nm, vnir_wavelengths, swir_wavelengths)
+    dual = io.as_dual(vnir, swir, layout)
     for label, path in (
         ("shadow_truth", shadow_truth),
         ("target_truth", target_truth),

@@ -16,7 +16,7 @@ import numpy as np
 from .. import io
 from ..errors import InputError, ParameterError
 from ..io.bands import band_range
-from ..io.dual import SEAM_NM, SWIR_NM, TOLERANCE_NM, VNIR_NM
+from ..io.dual import SWIR_NM, TOLERANCE_NM, VNIR_NM, BandChoice, DualLayout
 from ..io.shadow import class_table_csv
 from ..io.wavelengths import parse_list
 from ..shadow import classes as cls
@@ -92,9 +92,7 @@ def shadow_map_file(
     *,
     output,
     mask=None,
-    seam_nm=SEAM_NM,
-    vnir_wavelengths=None,
-    swir_wavelengths=None,
+    layout=DualLayout(),
     vnir_nm=VNIR_NM,
     swir_nm=SWIR_NM,
     tolerance_nm=TOLERANCE_NM,
@@ -124,10 +122,8 @@ def shadow_map_file(
         Byte class raster (0 no shadow, 1–4 the classes, 255 nodata) with a colour table.
     mask : path, optional
         Binary shadow mask (1 shadow, 0 not, 255 nodata).
-    seam_nm : float
-        Merged cube only: bands below it are VNIR, the rest SWIR.
-    vnir_wavelengths, swir_wavelengths : str, optional
-        Band centres in nm, comma-separated, for files without wavelength metadata.
+    layout : DualLayout
+        How to read files that do not say it all (a merged cube's seam, band centres).
     vnir_nm, swir_nm : float
         The bands of the boresight ratio (Eq. 3) the classes are read from.
     tolerance_nm : float
@@ -167,8 +163,8 @@ def shadow_map_file(
         raise ParameterError(f"parameter 'edge_pixels': {edge_pixels!r} must be a whole number ≥ 0")
     edge_pixels = int(edge_pixels)
     base_table = class_table(classes)
-    dual = io.open_dual(vnir, swir, seam_nm, vnir_wavelengths, swir_wavelengths)
-    rb = dual.ratio_bands(vnir_nm, swir_nm, "wavelength", tolerance_nm)
+    dual = io.as_dual(vnir, swir, layout)
+    rb = dual.ratio_bands(BandChoice("wavelength", vnir_nm, swir_nm, tolerance_nm))
     blue_b = band_range(dual.vnir, *smap.BLUE_NM, tolerance_nm=tolerance_nm)
     nir_b = band_range(dual.vnir, *smap.NIR_NM, tolerance_nm=tolerance_nm)
     swir_b = band_range(dual.swir, *smap.SWIR_NM, tolerance_nm=tolerance_nm)
