@@ -98,7 +98,7 @@ def test_offset_profile_sees_linear_drift():
 
 
 def test_offset_angles_formula():
-    ang = offset_angles(2.0, -0.5, ifov_mrad=1.0, flying_height_m=1500.0)
+    ang = offset_angles(2.0, -0.5, ifov_mrad=1.0, flying_height=1500.0)
     assert ang["along_mrad"] == pytest.approx(1e3 * math.atan(2.0 * math.tan(1e-3)))
     assert ang["along_mrad"] == pytest.approx(2.0, rel=1e-5)  # small angles: p · IFOV
     assert ang["across_deg"] == pytest.approx(math.degrees(-0.5e-3), rel=1e-5)
@@ -393,13 +393,15 @@ def test_relative_dem_no_reliable_matches():
 # ------------------------------------------------------------------------------- height factor
 def test_parallax_factor_from_k_or_geometry():
     assert parallax_factor(0.05) == HeightFactor(0.05, 0.0)
-    assert parallax_factor(0.05, axis="across", invert=True) == HeightFactor(0.0, -0.05)
-    k = parallax_factor(squint_deg=2.0, flying_height_m=1500.0, ifov_mrad=1.0).along
+    assert parallax_factor(0.05, parallax_axis="across", invert_parallax=True) == HeightFactor(
+        0.0, -0.05
+    )
+    k = parallax_factor(squint_deg=2.0, flying_height=1500.0, ifov_mrad=1.0).along
     assert k == height_factor(1500.0, 1.0, 2.0).along
     assert ground_sample_distance(1500.0, 1.0) == pytest.approx(1.5)
     assert ground_sample_distance(None, 1.0) is None
     with pytest.raises(ParameterError, match="squint_deg"):
-        parallax_factor(squint_deg=0.0, flying_height_m=1500.0, ifov_mrad=1.0)
+        parallax_factor(squint_deg=0.0, flying_height=1500.0, ifov_mrad=1.0)
     with pytest.raises(ParameterError, match="height_factor"):
         parallax_factor(-0.03)
     with pytest.raises(ParameterError, match="flying height, the IFOV and the squint"):

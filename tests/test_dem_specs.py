@@ -18,7 +18,7 @@ from geoboresight.algorithms import offset as offset_specs
 from geoboresight.dem.coregister import coregister, profile_to_lines
 from geoboresight.dem.offset import offset_profile
 from geoboresight.errors import InputError, ParameterError
-from geoboresight.io.bands import read_matching_pair
+from geoboresight.io.bands import MatchBands, read_matching_pair
 from geoboresight.operations.dem import view_3d_file
 from geoboresight.operations.offset import boresight_offset_file, coregister_file
 
@@ -245,9 +245,9 @@ def test_matching_pair_by_windows_equals_whole(scene, block_rows):
     strip holding the whole image, and those of the bands read whole and averaged."""
     d, p, h = scene
     dual = io.open_dual(p["vnir"], p["swir"])
-    args = dict(vnir_nm=910.0, vnir_to_nm=970.0, swir_nm=980.0, swir_to_nm=1100.0)
-    whole = read_matching_pair(dual, **args, cloud_mask=p["cloud"], block_rows=120)
-    got = read_matching_pair(dual, **args, cloud_mask=p["cloud"], block_rows=block_rows)
+    bands = MatchBands(vnir_nm=910.0, vnir_to_nm=970.0, swir_nm=980.0, swir_to_nm=1100.0)
+    whole = read_matching_pair(dual, bands, p["cloud"], block_rows=120)
+    got = read_matching_pair(dual, bands, p["cloud"], block_rows=block_rows)
     for name in ("vnir", "swir", "valid"):
         np.testing.assert_array_equal(getattr(got, name), getattr(whole, name), err_msg=name)
     assert got.vnir_bands == [11, 12] and got.swir_bands == [1, 2, 3, 4, 5]
@@ -272,10 +272,10 @@ def test_raw_envi_matching_pair_equals_gdal(tmp_path, interleave):
             tmp_path / f"{name}.img", cube, wl, interleave=interleave, nodata=7
         )
         paths[name + "_tif"] = write_gtiff(tmp_path / f"{name}.tif", cube, wl, nodata=7)
-    args = dict(vnir_nm=910.0, vnir_to_nm=970.0, swir_nm=980.0, swir_to_nm=1100.0)
-    raw = read_matching_pair(io.open_dual(paths["vnir"], paths["swir"]), **args, block_rows=16)
+    bands = MatchBands(vnir_nm=910.0, vnir_to_nm=970.0, swir_nm=980.0, swir_to_nm=1100.0)
+    raw = read_matching_pair(io.open_dual(paths["vnir"], paths["swir"]), bands, block_rows=16)
     gdal = read_matching_pair(
-        io.open_dual(paths["vnir_tif"], paths["swir_tif"]), **args, block_rows=16
+        io.open_dual(paths["vnir_tif"], paths["swir_tif"]), bands, block_rows=16
     )
     for name in ("vnir", "swir", "valid"):
         np.testing.assert_array_equal(getattr(raw, name), getattr(gdal, name), err_msg=name)
@@ -299,7 +299,7 @@ def test_coregister_file_by_strips_equals_whole_band(scene, tmp_path, drift, blo
             order="1",
             block_rows=block_rows,
         )
-        pair = read_matching_pair(io.open_dual(p["vnir"], p["swir"]), vnir_nm=920.0, swir_nm=1010.0)
+        pair = read_matching_pair(io.open_dual(p["vnir"], p["swir"]), MatchBands(920.0, 1010.0))
         prof = offset_profile(pair.vnir, pair.swir, pair.valid, block_rows=40)
         along = profile_to_lines(prof.rows, prof.along, 120)
         across = profile_to_lines(prof.rows, prof.across, 120)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 from .. import io
 from ..io.dual import SEAM_NM, SWIR_NM, TOLERANCE_NM, VNIR_NM, BandChoice, DualLayout
 from .spec import Enum, Group, Number, RasterIn, Text, Wavelength
@@ -59,19 +61,27 @@ TOLERANCE = Number(
     advanced=True,
 )
 
-#: The boresight ratio's two bands (Eq. 3), also the bands of the offset and co-registration.
+#: The VNIR and SWIR band an operation reads, nearest a wavelength: the boresight ratio's
+#: denominator and numerator (Eq. 3), the bands the offset matches, the dense matching's band
+#: ranges (from here). One name, one meaning; only the default differs (:func:`band_param`).
 VNIR_BAND = Wavelength(
     name="vnir_nm",
-    description="VNIR band, nearest this wavelength: the ratio's denominator (nm; paper: 920)",
+    description="VNIR band, nearest this wavelength (nm; the ratio's denominator: 920 in the paper)",
     default=VNIR_NM,
     aliases=("denominator_nm",),
 )
 SWIR_BAND = Wavelength(
     name="swir_nm",
-    description="SWIR band, nearest this wavelength: the ratio's numerator (nm; paper: 1010)",
+    description="SWIR band, nearest this wavelength (nm; the ratio's numerator: 1010 in the paper)",
     default=SWIR_NM,
     aliases=("numerator_nm",),
 )
+
+
+def band_param(band: Wavelength, default: float) -> Wavelength:
+    """``band`` (:data:`VNIR_BAND` or :data:`SWIR_BAND`) with another default."""
+    return dataclasses.replace(band, default=default)
+
 
 #: The ratio's band choice (io.BandChoice), the operation's ``bands``.
 BANDS = Group(

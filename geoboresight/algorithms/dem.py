@@ -4,62 +4,80 @@ every Relative DEM operation shares (the boresight offset and co-registration ar
 
 from __future__ import annotations
 
-from ..dem.bands import MATCH_SWIR_NM, MATCH_SWIR_TO_NM, MATCH_VNIR_NM, MATCH_VNIR_TO_NM
-from ..dem.disparity import MIN_PEAK, MIN_SHARPNESS, REFINE, SEARCH_ACROSS, SEARCH_ALONG, WINDOW
+from ..dem.disparity import (
+    MIN_PEAK,
+    MIN_SHARPNESS,
+    REFINE,
+    SEARCH_ACROSS,
+    SEARCH_ALONG,
+    WINDOW,
+    Matching,
+)
+from ..dem.height import FlightGeometry
 from ..dem.kriging import MODELS, N_CLOSEST_POINTS, VARIOGRAM
-from ..dem.relative import POINT_SPACING
+from ..dem.relative import POINT_SPACING, Kriging
 from ..dem.view3d import AZIMUTH, BLUE_NM, ELEVATION, EXAGGERATION, GREEN_NM, RED_NM
-from ..io.dual import SWIR_NM, VNIR_NM
+from ..io.bands import DENSE_MATCH, MatchBands
 from ..operations.dem import disparity_file, relative_dem_file, view_3d_file
-from ._common import DUAL_PARAMS, TOLERANCE
-from .spec import Algorithm, Enum, FileOut, Flag, Number, RasterIn, RasterOut, Result, Wavelength
+from ._common import DUAL_PARAMS, SWIR_BAND, TOLERANCE, VNIR_BAND, band_param
+from .spec import (
+    Algorithm,
+    Enum,
+    FileOut,
+    Flag,
+    Group,
+    Number,
+    RasterIn,
+    RasterOut,
+    Result,
+    Wavelength,
+)
 
 GROUP = "Relative DEM"
 
 
-def band_params(vnir_nm=VNIR_NM, swir_nm=SWIR_NM, vnir_to_nm=None, swir_to_nm=None) -> tuple:
-    """The bands matched between VNIR and SWIR: one band each, or band ranges averaged."""
-    return (
-        Wavelength(
-            name="vnir_nm",
-            description="VNIR band to match, nearest this wavelength (nm; the ratio's 920 nm)",
-            default=vnir_nm,
-        ),
-        Wavelength(
-            name="swir_nm",
-            description="SWIR band to match, nearest this wavelength (nm; the ratio's 1010 nm)",
-            default=swir_nm,
-        ),
-        Wavelength(
-            name="vnir_to_nm",
-            description=(
-                "Average the VNIR bands from 'vnir_nm' up to this wavelength (nm) into the "
-                "matching image (more signal, e.g. 900 to 970 nm); empty or equal to "
-                "'vnir_nm' = one band"
+def match_bands(default: MatchBands = MatchBands()) -> Group:
+    """The bands matched between VNIR and SWIR (io.MatchBands): one band each, or band ranges
+    averaged. The wavelengths' names and meanings are the ratio's (:data:`._common.VNIR_BAND`):
+    the VNIR (SWIR) band an operation reads; only their defaults differ."""
+    return Group(
+        name="match",
+        value=MatchBands,
+        default=default,
+        params=(
+            band_param(VNIR_BAND, default.vnir_nm),
+            band_param(SWIR_BAND, default.swir_nm),
+            Wavelength(
+                name="vnir_to_nm",
+                description=(
+                    "Average the VNIR bands from 'vnir_nm' up to this wavelength (nm) into the "
+                    "matching image (more signal, e.g. 900 to 970 nm); empty or equal to "
+                    "'vnir_nm' = one band"
+                ),
+                default=default.vnir_to_nm,
+                optional=True,
+                advanced=True,
             ),
-            default=vnir_to_nm,
-            optional=True,
-            advanced=True,
-        ),
-        Wavelength(
-            name="swir_to_nm",
-            description=(
-                "Average the SWIR bands from 'swir_nm' up to this wavelength (nm) into the "
-                "matching image (the 1,010 nm band is weak; e.g. 980 to 1,100 nm); empty or "
-                "equal to 'swir_nm' = one band"
+            Wavelength(
+                name="swir_to_nm",
+                description=(
+                    "Average the SWIR bands from 'swir_nm' up to this wavelength (nm) into the "
+                    "matching image (the 1,010 nm band is weak; e.g. 980 to 1,100 nm); empty or "
+                    "equal to 'swir_nm' = one band"
+                ),
+                default=default.swir_to_nm,
+                optional=True,
+                advanced=True,
             ),
-            default=swir_to_nm,
-            optional=True,
-            advanced=True,
+            TOLERANCE,
         ),
-        TOLERANCE,
     )
 
 
-#: Offset and co-registration: the ratio's own two bands (Eq. 3), as the issue asks.
-BAND_PARAMS = band_params()
+#: Offset and co-registration: the ratio's own two bands (Eq. 3).
+OFFSET_MATCH = match_bands()
 #: Dense matching: band means (900–970 nm against 980–1,100 nm; see geoboresight.dem.bands).
-MATCH_BAND_PARAMS = band_params(MATCH_VNIR_NM, MATCH_SWIR_NM, MATCH_VNIR_TO_NM, MATCH_SWIR_TO_NM)
+DENSE_MATCH_BANDS = match_bands(DENSE_MATCH)
 
 CLOUD = RasterIn(
     name="cloud_mask",
@@ -81,56 +99,61 @@ IFOV = Number(
     minimum=0.0,
     unit="mrad",
 )
-GEOMETRY = (FLYING_HEIGHT, IFOV)
+#: The flying height and IFOV alone (the offset's angles and metres): a FlightGeometry.
+GEOMETRY = Group(name="geometry", value=FlightGeometry, params=(FLYING_HEIGHT, IFOV))
 
-MATCH_PARAMS = (
-    Number(
-        name="window",
-        description="Matching window (odd number of pixels): larger matches more pixels but blurs relief",
-        default=WINDOW,
-        minimum=3,
-        maximum=101,
-        integer=True,
-    ),
-    Number(
-        name="search_along",
-        description="Search ± this many pixels along-track (paper: 3)",
-        default=SEARCH_ALONG,
-        minimum=1,
-        maximum=50,
-        integer=True,
-    ),
-    Number(
-        name="search_across",
-        description="Search ± this many pixels across-track (paper: 1)",
-        default=SEARCH_ACROSS,
-        minimum=0,
-        maximum=50,
-        integer=True,
-    ),
-    Number(
-        name="min_peak",
-        description="Reliable only where the correlation peak is at least this (0–1)",
-        default=MIN_PEAK,
-        minimum=-1.0,
-        maximum=1.0,
-        advanced=True,
-    ),
-    Number(
-        name="min_sharpness",
-        description="Reliable only where the correlation peak is at least this sharp (curvature)",
-        default=MIN_SHARPNESS,
-        minimum=0.0,
-        advanced=True,
-    ),
-    Number(
-        name="refine",
-        description="Sub-pixel refinement passes (warp and re-match: removes peak-locking bias)",
-        default=REFINE,
-        minimum=0,
-        maximum=5,
-        integer=True,
-        advanced=True,
+MATCHING = Group(
+    name="matching",
+    value=Matching,
+    params=(
+        Number(
+            name="window",
+            description="Matching window (odd number of pixels): larger matches more pixels but blurs relief",
+            default=WINDOW,
+            minimum=3,
+            maximum=101,
+            integer=True,
+        ),
+        Number(
+            name="search_along",
+            description="Search ± this many pixels along-track (paper: 3)",
+            default=SEARCH_ALONG,
+            minimum=1,
+            maximum=50,
+            integer=True,
+        ),
+        Number(
+            name="search_across",
+            description="Search ± this many pixels across-track (paper: 1)",
+            default=SEARCH_ACROSS,
+            minimum=0,
+            maximum=50,
+            integer=True,
+        ),
+        Number(
+            name="min_peak",
+            description="Reliable only where the correlation peak is at least this (0–1)",
+            default=MIN_PEAK,
+            minimum=-1.0,
+            maximum=1.0,
+            advanced=True,
+        ),
+        Number(
+            name="min_sharpness",
+            description="Reliable only where the correlation peak is at least this sharp (curvature)",
+            default=MIN_SHARPNESS,
+            minimum=0.0,
+            advanced=True,
+        ),
+        Number(
+            name="refine",
+            description="Sub-pixel refinement passes (warp and re-match: removes peak-locking bias)",
+            default=REFINE,
+            minimum=0,
+            maximum=5,
+            integer=True,
+            advanced=True,
+        ),
     ),
 )
 
@@ -157,9 +180,9 @@ DISPARITY = Algorithm(
     ),
     params=(
         *DUAL_PARAMS,
-        *MATCH_BAND_PARAMS,
+        DENSE_MATCH_BANDS,
         CLOUD,
-        *MATCH_PARAMS,
+        MATCHING,
         RasterOut(name="output", description="Disparity and reliability bands (GeoTIFF)"),
     ),
     run=disparity_file,
@@ -228,56 +251,69 @@ DEM = Algorithm(
     ),
     params=(
         *DUAL_PARAMS,
-        *MATCH_BAND_PARAMS,
+        DENSE_MATCH_BANDS,
         CLOUD,
-        Number(
-            name="height_factor",
-            description="Height-to-disparity factor k = tan θ / GSD (px per metre of height)",
-            optional=True,
-            unit="px/m",
+        Group(
+            name="geometry",
+            value=FlightGeometry,
+            params=(
+                Number(
+                    name="height_factor",
+                    description="Height-to-disparity factor k = tan θ / GSD (px per metre of height)",
+                    optional=True,
+                    unit="px/m",
+                ),
+                Number(
+                    name="squint_deg",
+                    description="Angle between the VNIR and SWIR lines of sight (degrees), if k is not given",
+                    optional=True,
+                    minimum=0.0,
+                    maximum=45.0,
+                    unit="°",
+                ),
+                FLYING_HEIGHT,
+                IFOV,
+                Enum(
+                    name="parallax_axis",
+                    description="Direction of the parallax (the squint plane)",
+                    choices=("along", "across"),
+                    default="along",
+                ),
+                Flag(
+                    name="invert_parallax",
+                    description="Elevated features appear at lower line (column) numbers in the SWIR image",
+                ),
+            ),
         ),
-        Number(
-            name="squint_deg",
-            description="Angle between the VNIR and SWIR lines of sight (degrees), if k is not given",
-            optional=True,
-            minimum=0.0,
-            maximum=45.0,
-            unit="°",
-        ),
-        *GEOMETRY,
-        Enum(
-            name="parallax_axis",
-            description="Direction of the parallax (the squint plane)",
-            choices=("along", "across"),
-            default="along",
-        ),
-        Flag(
-            name="invert_parallax",
-            description="Elevated features appear at lower line (column) numbers in the SWIR image",
-        ),
-        *MATCH_PARAMS,
-        Number(
-            name="point_spacing",
-            description="One control point per cell of this many pixels (median)",
-            default=POINT_SPACING,
-            minimum=1,
-            maximum=100,
-            integer=True,
-        ),
-        Enum(
-            name="variogram",
-            description="Variogram model fitted for kriging",
-            choices=MODELS,
-            default=VARIOGRAM,
-        ),
-        Number(
-            name="n_closest_points",
-            description="Control points in each local kriging neighbourhood",
-            default=N_CLOSEST_POINTS,
-            minimum=3,
-            maximum=500,
-            integer=True,
-            advanced=True,
+        MATCHING,
+        Group(
+            name="kriging",
+            value=Kriging,
+            params=(
+                Number(
+                    name="point_spacing",
+                    description="One control point per cell of this many pixels (median)",
+                    default=POINT_SPACING,
+                    minimum=1,
+                    maximum=100,
+                    integer=True,
+                ),
+                Enum(
+                    name="variogram",
+                    description="Variogram model fitted for kriging",
+                    choices=MODELS,
+                    default=VARIOGRAM,
+                ),
+                Number(
+                    name="n_closest_points",
+                    description="Control points in each local kriging neighbourhood",
+                    default=N_CLOSEST_POINTS,
+                    minimum=3,
+                    maximum=500,
+                    integer=True,
+                    advanced=True,
+                ),
+            ),
         ),
         Flag(
             name="force",

@@ -7,7 +7,7 @@ from ..dem.coregister import SPLINE_ORDER
 from ..dem.offset import PROFILE_ROWS
 from ..operations.offset import boresight_offset_file, coregister_file
 from ._common import BLOCK_ROWS, DUAL_PARAMS
-from .dem import BAND_PARAMS, CLOUD, GEOMETRY, GROUP
+from .dem import CLOUD, GEOMETRY, GROUP, OFFSET_MATCH
 from .spec import Algorithm, Enum, FileOut, Flag, Number, RasterOut, Result
 
 OFFSET = Algorithm(
@@ -41,9 +41,9 @@ OFFSET = Algorithm(
     ),
     params=(
         *DUAL_PARAMS,
-        *BAND_PARAMS,
+        OFFSET_MATCH,
         CLOUD,
-        *GEOMETRY,
+        GEOMETRY,
         Number(
             name="profile_rows",
             description="Also measure the offset per block of this many lines (0 = global only)",
@@ -84,7 +84,7 @@ COREGISTER = Algorithm(
     ),
     params=(
         *DUAL_PARAMS,
-        *BAND_PARAMS,
+        OFFSET_MATCH,
         CLOUD,
         Number(
             name="along",

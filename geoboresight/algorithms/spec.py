@@ -14,6 +14,7 @@ output of a run that failed.
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 import math
 import os
@@ -248,10 +249,18 @@ class Group:
     name: str
     value: type
     params: tuple[Param, ...]
+    #: The operation's default value, when it is not ``value()`` (e.g. dense matching's
+    #: band means beside the offset's single bands).
+    default: Any = None
+
+    @property
+    def initial(self) -> Any:
+        return self.value() if self.default is None else self.default
 
     def build(self, values: Mapping[str, Any]) -> Any:
         """The value from the members' validated values (missing members keep defaults)."""
-        return self.value(**{p.name: values[p.name] for p in self.params if p.name in values})
+        fields = {p.name: values[p.name] for p in self.params if p.name in values}
+        return dataclasses.replace(self.initial, **fields)
 
 
 @dataclass(frozen=True)
@@ -411,8 +420,8 @@ def _check_signature(alg: Algorithm) -> None:
     where = f"spec {alg.name!r} and {getattr(alg.run, '__name__', alg.run)}()"
     for g in alg.groups:
         default = fn[g.name].default if g.name in fn else inspect.Parameter.empty
-        if default is inspect.Parameter.empty or default != g.value():
-            raise TypeError(f"{where}: group '{g.name}' must default to {g.value()!r}")
+        if default is inspect.Parameter.empty or default != g.initial:
+            raise TypeError(f"{where}: group '{g.name}' must default to {g.initial!r}")
         for p in g.params:
             if not hasattr(default, p.name):
                 raise TypeError(f"{where}: {g.value.__name__} has no field '{p.name}'")

@@ -39,6 +39,20 @@ REFINE = 1
 
 
 @dataclass(frozen=True)
+class Matching:
+    """How the VNIR and SWIR images are matched pixel by pixel (§3.2): the window, the search
+    range around the global offset, the reliability thresholds and the sub-pixel refinement
+    (the keyword options of :func:`disparity_map`, as one value)."""
+
+    window: int = WINDOW
+    search_along: int = SEARCH_ALONG
+    search_across: int = SEARCH_ACROSS
+    min_peak: float = MIN_PEAK
+    min_sharpness: float = MIN_SHARPNESS
+    refine: int = REFINE
+
+
+@dataclass(frozen=True)
 class Disparity:
     """SWIR position minus VNIR position of each VNIR pixel's neighbourhood, in pixels.
 

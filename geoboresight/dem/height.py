@@ -15,6 +15,7 @@ The result is relative: the lowest reliable region is 0 m, everything else relat
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -60,7 +61,7 @@ class HeightFactor:
 
 
 def height_factor(
-    flying_height_m: float,
+    flying_height: float,
     ifov_mrad: float,
     squint_along_deg: float,
     squint_across_deg: float = 0.0,
@@ -70,53 +71,60 @@ def height_factor(
     ``θ`` is the angle between the SWIR and the VNIR lines of sight in the along-track
     (resp. across-track) plane, signed like :class:`HeightFactor`; ``GSD = H · IFOV``.
     """
-    if not (flying_height_m > 0):
-        raise ParameterError(f"parameter 'flying_height': must be > 0 m, got {flying_height_m}")
+    if not (flying_height > 0):
+        raise ParameterError(f"parameter 'flying_height': must be > 0 m, got {flying_height}")
     if not (ifov_mrad > 0):
         raise ParameterError(f"parameter 'ifov_mrad': must be > 0, got {ifov_mrad}")
-    gsd = ground_sample_distance(flying_height_m, ifov_mrad)
+    gsd = ground_sample_distance(flying_height, ifov_mrad)
     return HeightFactor(
         along=math.tan(math.radians(squint_along_deg)) / gsd,
         across=math.tan(math.radians(squint_across_deg)) / gsd,
     ).check()
 
 
-def ground_sample_distance(flying_height_m: float | None, ifov_mrad: float | None) -> float | None:
-    """Pixel size on the ground at nadir, ``GSD = H · IFOV`` (m); None unless both are given."""
-    if flying_height_m is None or ifov_mrad is None:
+#: ``height_factor`` under another name, for :func:`parallax_factor`, whose parameter of the
+#: same name is the factor itself.
+_factor_from_geometry = height_factor
+
+
+def ground_sample_distance(flying_height: float | None, ifov_mrad: float | None) -> float | None:
+    """Pixel size on the ground at nadir, ``GSD = H · IFOV`` (m, with ``flying_height`` in m);
+    None unless both are given."""
+    if flying_height is None or ifov_mrad is None:
         return None
-    if not (flying_height_m > 0 and ifov_mrad > 0):
+    if not (flying_height > 0 and ifov_mrad > 0):
         raise ParameterError("parameters 'flying_height' and 'ifov_mrad' must both be > 0")
-    return flying_height_m * ifov_mrad * 1e-3
+    return flying_height * ifov_mrad * 1e-3
 
 
 def parallax_factor(
-    height_factor_px_per_m: float | None = None,
+    height_factor: float | None = None,
     *,
     squint_deg: float | None = None,
-    flying_height_m: float | None = None,
+    flying_height: float | None = None,
     ifov_mrad: float | None = None,
-    axis: str = "along",
-    invert: bool = False,
+    parallax_axis: str = "along",
+    invert_parallax: bool = False,
 ) -> HeightFactor:
     """The height-to-disparity factor of a flight: given (px per metre), or ``tan θ / GSD``.
 
     Parameters
     ----------
-    height_factor_px_per_m : float, optional
-        ``k`` itself, > 0 (its direction is ``axis`` and ``invert``).
-    squint_deg, flying_height_m, ifov_mrad : float, optional
-        Without ``k``: the angle between the two lines of sight, the flying height and the IFOV,
-        giving ``k = tan θ / (H · IFOV)`` (:func:`height_factor`).
-    axis : {"along", "across"}
+    height_factor : float, optional
+        ``k`` itself in px per metre, > 0 (its direction is ``parallax_axis`` and
+        ``invert_parallax``).
+    squint_deg, flying_height, ifov_mrad : float, optional
+        Without ``k``: the angle between the two lines of sight (degrees), the flying height
+        (m) and the IFOV (mrad), giving ``k = tan θ / (H · IFOV)``.
+    parallax_axis : {"along", "across"}
         The plane of the squint: the parallax is along-track or across-track.
-    invert : bool
+    invert_parallax : bool
         Elevated features appear at lower line (column) numbers in the SWIR image.
     """
-    sign = -1.0 if invert else 1.0
-    k = height_factor_px_per_m
+    sign = -1.0 if invert_parallax else 1.0
+    k = height_factor
     if k is None:
-        if squint_deg is None or flying_height_m is None or ifov_mrad is None:
+        if squint_deg is None or flying_height is None or ifov_mrad is None:
             raise ParameterError(
                 "give the height-to-disparity factor ('height_factor', px per metre), or the "
                 "flying height, the IFOV and the squint angle between the two lines of sight"
@@ -126,15 +134,40 @@ def parallax_factor(
                 f"parameter 'squint_deg': must be > 0, got {squint_deg}; a zero squint makes no "
                 "parallax (use 'invert_parallax' for the direction)"
             )
-        k = height_factor(flying_height_m, ifov_mrad, squint_deg).along
+        k = _factor_from_geometry(flying_height, ifov_mrad, squint_deg).along
     if not (isinstance(k, int | float) and math.isfinite(k) and k > 0):
         raise ParameterError(
             f"parameter 'height_factor': must be > 0 px per metre, got {k}; it is the size of the "
             "parallax (use 'invert_parallax' for its direction)"
         )
-    if axis not in ("along", "across"):
-        raise ParameterError(f"parameter 'parallax_axis': 'along' or 'across', got {axis!r}")
-    return HeightFactor(sign * k, 0.0) if axis == "along" else HeightFactor(0.0, sign * k)
+    if parallax_axis not in ("along", "across"):
+        raise ParameterError(
+            f"parameter 'parallax_axis': 'along' or 'across', got {parallax_axis!r}"
+        )
+    return HeightFactor(sign * k, 0.0) if parallax_axis == "along" else HeightFactor(0.0, sign * k)
+
+
+@dataclass(frozen=True)
+class FlightGeometry:
+    """The flight geometry the relative DEM needs (§3.2): the height-to-disparity factor
+    ``k`` itself, or the squint, flying height and IFOV that give it; the parallax's axis
+    and direction. The flying height and IFOV alone give the ground sample distance."""
+
+    height_factor: float | None = None
+    squint_deg: float | None = None
+    flying_height: float | None = None
+    ifov_mrad: float | None = None
+    parallax_axis: str = "along"
+    invert_parallax: bool = False
+
+    def factor(self) -> HeightFactor:
+        """:func:`parallax_factor` of this geometry."""
+        return parallax_factor(**dataclasses.asdict(self))
+
+    @property
+    def gsd(self) -> float | None:
+        """:func:`ground_sample_distance` (m), None without flying height and IFOV."""
+        return ground_sample_distance(self.flying_height, self.ifov_mrad)
 
 
 def disparity_to_height(along: np.ndarray, across: np.ndarray, factor: HeightFactor) -> np.ndarray:

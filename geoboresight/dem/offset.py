@@ -407,7 +407,7 @@ def offset_angles(
     along_px: float,
     across_px: float,
     ifov_mrad: float,
-    flying_height_m: float | None = None,
+    flying_height: float | None = None,
 ) -> dict:
     """An offset in pixels as angles between the two lines of sight (and metres on the ground).
 
@@ -423,10 +423,10 @@ def offset_angles(
         ang = math.atan(p * math.tan(ifov))
         out[f"{name}_mrad"] = ang * 1e3
         out[f"{name}_deg"] = math.degrees(ang)
-    if flying_height_m is not None:
-        if not (flying_height_m > 0):
-            raise ParameterError(f"parameter 'flying_height': must be > 0 m, got {flying_height_m}")
-        gsd = flying_height_m * ifov
+    if flying_height is not None:
+        if not (flying_height > 0):
+            raise ParameterError(f"parameter 'flying_height': must be > 0 m, got {flying_height}")
+        gsd = flying_height * ifov
         out["gsd_m"] = gsd
         out["along_m"] = along_px * gsd
         out["across_m"] = across_px * gsd

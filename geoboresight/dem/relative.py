@@ -67,6 +67,17 @@ SAMPLE_SIZE = 2**21
 
 
 @dataclass(frozen=True)
+class Kriging:
+    """How the DEM is interpolated from the matched heights (§3.2, "kriging"): one control
+    point per ``point_spacing`` pixels, the ``variogram`` model, and ``n_closest_points`` in
+    each local kriging neighbourhood."""
+
+    point_spacing: int = POINT_SPACING
+    variogram: str = VARIOGRAM
+    n_closest_points: int = N_CLOSEST_POINTS
+
+
+@dataclass(frozen=True)
 class RelativeDem:
     dem: np.ndarray  # float32 m, 0 = lowest reliable region, NaN outside the valid mask
     variance: np.ndarray  # kriging variance, m²
@@ -381,7 +392,7 @@ def relative_dem(
     min_sharpness: float = MIN_SHARPNESS,
     refine: int = REFINE,
     point_spacing: int = POINT_SPACING,
-    variogram_model: str = VARIOGRAM,
+    variogram: str = VARIOGRAM,
     n_closest_points: int = N_CLOSEST_POINTS,
     zero_percentile: float = 1.0,
     validate: bool = True,
@@ -418,7 +429,7 @@ def relative_dem(
     point_spacing : int
         Side (pixels) of the cells that each give one control point, the median of their
         reliable heights.
-    variogram_model : {"spherical", "exponential", "gaussian", "linear", "power"}
+    variogram : {"spherical", "exponential", "gaussian", "linear", "power"}
         Variogram model fitted to the control points (PyKrige).
     n_closest_points : int
         Control points in each local kriging neighbourhood
@@ -497,7 +508,7 @@ def relative_dem(
     if not precision.meaningful and require_meaningful:
         raise InputError(precision.message())
     x, y, z = line.points
-    vg = fit_points(x, y, z, variogram_model, progress, precision.sigma_h_m)
+    vg = fit_points(x, y, z, variogram, progress, precision.sigma_h_m)
     kr = LocalKriging(x, y, z, vg, n_closest_points)
     dem, var = kr.grid_rows(0, vnir.shape[0], vnir.shape[1], ok)
     cv = None

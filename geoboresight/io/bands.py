@@ -15,14 +15,39 @@ from dataclasses import dataclass
 import numpy as np
 from rasterio.windows import Window
 
-from ..dem.bands import band_mean
+from ..dem.bands import (
+    MATCH_SWIR_NM,
+    MATCH_SWIR_TO_NM,
+    MATCH_VNIR_NM,
+    MATCH_VNIR_TO_NM,
+    band_mean,
+)
 from ..errors import InputError, ParameterError
 from ..progress import Progress
 from .cube import open_cube
-from .dual import TOLERANCE_NM, DualSensor, SensorFile
+from .dual import SWIR_NM, TOLERANCE_NM, VNIR_NM, DualSensor, SensorFile
 from .grid import Grid
 from .raster import open_raster
 from .windows import DEFAULT_BLOCK_ROWS, band_reader, bands_reader, map_windows, read_masked
+
+
+@dataclass(frozen=True)
+class MatchBands:
+    """The VNIR and SWIR images matched for the boresight offset and the relative DEM (§3.2):
+    the band nearest ``vnir_nm`` (``swir_nm``), or the mean of the bands centred in
+    [``vnir_nm``, ``vnir_to_nm``] ([``swir_nm``, ``swir_to_nm``]). By default the ratio's two
+    bands (Eq. 3); dense matching averages band ranges (:data:`DENSE_MATCH`)."""
+
+    vnir_nm: float = VNIR_NM
+    swir_nm: float = SWIR_NM
+    vnir_to_nm: float | None = None
+    swir_to_nm: float | None = None
+    tolerance_nm: float = TOLERANCE_NM
+
+
+#: Dense matching's images: band means 900–970 nm against 980–1,100 nm (the single 1,010 nm
+#: band is too weak to match pixel by pixel; docs/dem.md).
+DENSE_MATCH = MatchBands(MATCH_VNIR_NM, MATCH_SWIR_NM, MATCH_VNIR_TO_NM, MATCH_SWIR_TO_NM)
 
 
 def band_range(
@@ -224,24 +249,20 @@ def _bil_bands(part, idx, row0: int, row1: int, width: int):
 @contextlib.contextmanager
 def open_matching_pair(
     dual: DualSensor,
-    *,
-    vnir_nm: float,
-    swir_nm: float,
-    vnir_to_nm: float | None = None,
-    swir_to_nm: float | None = None,
-    tolerance_nm: float = TOLERANCE_NM,
+    bands: MatchBands = MatchBands(),
     cloud_mask: str | None = None,
 ):
     """Open the VNIR and SWIR matching images of a flight line for reading strip by strip
     (yields a :class:`MatchingReader`).
 
-    Each image is the band nearest ``vnir_nm`` (``swir_nm``), or the mean of the bands centred
-    in [``vnir_nm``, ``vnir_to_nm``] ([``swir_nm``, ``swir_to_nm``]). Valid where every band
-    read is valid and, with a ``cloud_mask`` (non-zero = cloud) on the same grid, cloud-free.
-    Raw ENVI files are read directly (the same values and validity as through GDAL).
+    Each image is ``bands``' VNIR (SWIR) band or band mean (:class:`MatchBands`). Valid
+    where every band read is valid and, with a ``cloud_mask`` (non-zero = cloud) on the same
+    grid, cloud-free. Raw ENVI files are read directly (the same values and validity as
+    through GDAL).
     """
-    vbs = band_range(dual.vnir, vnir_nm, vnir_to_nm, tolerance_nm, "vnir_to_nm")
-    sbs = band_range(dual.swir, swir_nm, swir_to_nm, tolerance_nm, "swir_to_nm")
+    tol = bands.tolerance_nm
+    vbs = band_range(dual.vnir, bands.vnir_nm, bands.vnir_to_nm, tol, "vnir_to_nm")
+    sbs = band_range(dual.swir, bands.swir_nm, bands.swir_to_nm, tol, "swir_to_nm")
     raw, cube = _raw_cube_reader(dual, vbs, sbs)
     with (
         open_raster(dual.vnir.reads, "VNIR") as v_src,
@@ -265,13 +286,9 @@ def open_matching_pair(
 
 def read_matching_pair(
     dual: DualSensor,
-    *,
-    vnir_nm: float,
-    swir_nm: float,
-    vnir_to_nm: float | None = None,
-    swir_to_nm: float | None = None,
-    tolerance_nm: float = TOLERANCE_NM,
+    bands: MatchBands = MatchBands(),
     cloud_mask: str | None = None,
+    *,
     block_rows: int = DEFAULT_BLOCK_ROWS,
     progress: Progress | None = None,
 ) -> MatchingPair:
@@ -281,15 +298,7 @@ def read_matching_pair(
     vnir = np.empty((height, width), np.float64)
     swir = np.empty((height, width), np.float64)
     valid = np.empty((height, width), bool)
-    with open_matching_pair(
-        dual,
-        vnir_nm=vnir_nm,
-        swir_nm=swir_nm,
-        vnir_to_nm=vnir_to_nm,
-        swir_to_nm=swir_to_nm,
-        tolerance_nm=tolerance_nm,
-        cloud_mask=cloud_mask,
-    ) as pair:
+    with open_matching_pair(dual, bands, cloud_mask) as pair:
         for win, (v, s, ok) in map_windows(
             pair.read,
             lambda v, s, ok: (v, s, ok),

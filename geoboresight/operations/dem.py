@@ -3,26 +3,17 @@
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 from dataclasses import replace
 
 import numpy as np
 
 from .. import io
-from ..dem.bands import MATCH_SWIR_NM, MATCH_SWIR_TO_NM, MATCH_VNIR_NM, MATCH_VNIR_TO_NM
-from ..dem.disparity import (
-    MIN_PEAK,
-    MIN_SHARPNESS,
-    REFINE,
-    SEARCH_ACROSS,
-    SEARCH_ALONG,
-    WINDOW,
-    disparity_halo,
-    disparity_map,
-)
-from ..dem.height import ground_sample_distance, parallax_factor
-from ..dem.kriging import N_CLOSEST_POINTS, VARIOGRAM, LocalKriging
+from ..dem.disparity import Matching, disparity_halo, disparity_map
+from ..dem.height import FlightGeometry
+from ..dem.kriging import LocalKriging
 from ..dem.relative import (
-    POINT_SPACING,
+    Kriging,
     fit_points,
     line_statistics,
     match_halo,
@@ -42,7 +33,7 @@ from ..dem.view3d import (
     stretch_rgb,
 )
 from ..errors import InputError
-from ..io.bands import open_matching_pair, require_on_grid
+from ..io.bands import DENSE_MATCH, open_matching_pair, require_on_grid
 from ..io.dual import TOLERANCE_NM, DualLayout
 from ._operation import operation
 from .offset import line_offset
@@ -118,17 +109,8 @@ def disparity_file(
     *,
     output,
     layout=DualLayout(),
-    vnir_nm=MATCH_VNIR_NM,
-    swir_nm=MATCH_SWIR_NM,
-    vnir_to_nm=MATCH_VNIR_TO_NM,
-    swir_to_nm=MATCH_SWIR_TO_NM,
-    tolerance_nm=TOLERANCE_NM,
-    window=WINDOW,
-    search_along=SEARCH_ALONG,
-    search_across=SEARCH_ACROSS,
-    min_peak=MIN_PEAK,
-    min_sharpness=MIN_SHARPNESS,
-    refine=REFINE,
+    match=DENSE_MATCH,
+    matching=Matching(),
     progress=None,
 ) -> dict:
     """Dense sub-pixel VNIR/SWIR disparity of a flight line, with per-pixel reliability.
@@ -149,19 +131,13 @@ def disparity_file(
         position), correlation peak, peak sharpness and reliable (1/0); nodata -9999.
     layout : DualLayout
         How to read files that do not say it all (a merged cube's seam, band centres).
-    vnir_nm, vnir_to_nm, swir_nm, swir_to_nm : float
-        The matching images: the means of the bands centred in these ranges (one band each
-        when ``*_to_nm`` is None).
-    tolerance_nm : float
-        Largest distance between a requested wavelength and a band centre.
-    window : int
-        Matching window (odd, pixels).
-    search_along, search_across : int
-        Search range (± px) around the global offset.
-    min_peak, min_sharpness : float
-        Reliability thresholds on the correlation peak and its curvature.
-    refine : int
-        Sub-pixel refinement passes.
+    match : MatchBands
+        The matching images: by default the means of the bands 900–970 nm and 980–1,100 nm
+        (:data:`~geoboresight.io.bands.DENSE_MATCH`).
+    matching : Matching
+        The matching window, the search range (± px) around the global offset, the
+        reliability thresholds on the correlation peak and its curvature, and the sub-pixel
+        refinement passes.
     progress : Progress, optional
 
     Returns
@@ -176,45 +152,35 @@ def disparity_file(
     within ± 3 pixels along-track and ± 1 across-track).
     """
     dual = io.as_dual(vnir, swir, layout)
-    with open_matching_pair(
-        dual,
-        vnir_nm=vnir_nm,
-        swir_nm=swir_nm,
-        vnir_to_nm=vnir_to_nm,
-        swir_to_nm=swir_to_nm,
-        tolerance_nm=tolerance_nm,
-        cloud_mask=cloud_mask,
-    ) as pair:
+    with open_matching_pair(dual, match, cloud_mask) as pair:
         off, _ = line_offset(pair, progress=progress.sub(0.0, 0.1))
         progress.info(f"search centred on the global offset {off.along:+.3f}, {off.across:+.3f} px")
         tags = {
             "product": "VNIR/SWIR disparity (SWIR minus VNIR position, px)",
             **pair.info(),
-            "window_px": window,
-            "search_along_px": search_along,
-            "search_across_px": search_across,
-            "min_peak": min_peak,
-            "min_sharpness": min_sharpness,
+            "window_px": matching.window,
+            "search_along_px": matching.search_along,
+            "search_across_px": matching.search_across,
+            "min_peak": matching.min_peak,
+            "min_sharpness": matching.min_sharpness,
             "offset_along_px": f"{off.along:.4f}",
             "offset_across_px": f"{off.across:.4f}",
         }
         halo = disparity_halo(
-            window, search_along=search_along, refine=refine, center_along=off.along
+            matching.window,
+            search_along=matching.search_along,
+            refine=matching.refine,
+            center_along=off.along,
         )
 
-        def match(v, s, ok, *, block):
+        def match_block(v, s, ok, *, block):
             ok = ok & np.isfinite(v) & np.isfinite(s)
             d = disparity_map(
                 v,
                 s,
                 ok,
-                window=window,
-                search_along=search_along,
-                search_across=search_across,
+                **dataclasses.asdict(matching),
                 center=(off.along, off.across),
-                refine=refine,
-                min_peak=min_peak,
-                min_sharpness=min_sharpness,
                 block_rows=v.shape[0],  # one block: the strip's halo is the block's
             )
             return _own_lines(d, ok, block.inner)
@@ -225,7 +191,7 @@ def disparity_file(
         ) as dst:
             for win, (d, ok) in io.map_windows(
                 pair.read,
-                match,
+                match_block,
                 height=pair.height,
                 width=pair.width,
                 block_rows=strip_rows(1),
@@ -241,8 +207,8 @@ def disparity_file(
     progress.info(f"{n_rel} reliable pixels of {n_ok} valid")
     if n_rel == 0:
         raise InputError(
-            f"no reliable matches with a {window} px window: use a larger window "
-            "(--window 21) or lower --min-peak"
+            f"no reliable matches with a {matching.window} px matching.window: use a larger matching.window "
+            "(--matching.window 21) or lower --min-peak"
         )
     return {
         "output": output,
@@ -266,26 +232,10 @@ def relative_dem_file(
     disparity=None,
     report=None,
     layout=DualLayout(),
-    vnir_nm=MATCH_VNIR_NM,
-    swir_nm=MATCH_SWIR_NM,
-    vnir_to_nm=MATCH_VNIR_TO_NM,
-    swir_to_nm=MATCH_SWIR_TO_NM,
-    tolerance_nm=TOLERANCE_NM,
-    height_factor=None,
-    squint_deg=None,
-    flying_height=None,
-    ifov_mrad=None,
-    parallax_axis="along",
-    invert_parallax=False,
-    window=WINDOW,
-    search_along=SEARCH_ALONG,
-    search_across=SEARCH_ACROSS,
-    min_peak=MIN_PEAK,
-    min_sharpness=MIN_SHARPNESS,
-    refine=REFINE,
-    point_spacing=POINT_SPACING,
-    variogram=VARIOGRAM,
-    n_closest_points=N_CLOSEST_POINTS,
+    match=DENSE_MATCH,
+    geometry=FlightGeometry(),
+    matching=Matching(),
+    kriging=Kriging(),
     force=False,
     progress=None,
 ) -> dict:
@@ -315,28 +265,17 @@ def relative_dem_file(
         JSON report: σ_d, σ_h, offset, variogram, cross-validation of the kriging.
     layout : DualLayout
         How to read files that do not say it all (a merged cube's seam, band centres).
-    vnir_nm, vnir_to_nm, swir_nm, swir_to_nm : float
-        The matching images: the means of the bands centred in these ranges.
-    tolerance_nm : float
-        Largest distance between a requested wavelength and a band centre.
-    height_factor : float, optional
-        ``k`` in px per metre of height; else from ``squint_deg``, ``flying_height`` and
-        ``ifov_mrad``.
-    squint_deg, flying_height, ifov_mrad : float, optional
-        The angle between the two lines of sight (degrees), the flying height (m) and the IFOV
-        (mrad); with the last two, the ground sample distance is recorded.
-    parallax_axis : {"along", "across"}
-        The direction of the parallax.
-    invert_parallax : bool
-        Elevated features appear at lower line (column) numbers in the SWIR image.
-    window, search_along, search_across, min_peak, min_sharpness, refine
+    match : MatchBands
+        The matching images (see :func:`disparity_file`).
+    geometry : FlightGeometry
+        ``k`` in px per metre of height, or the squint (degrees), flying height (m) and IFOV
+        (mrad) that give it; the parallax's axis and direction. With flying height and IFOV
+        the ground sample distance is recorded.
+    matching : Matching
         The matching (see :func:`disparity_file`).
-    point_spacing : int
-        One control point per cell of this many pixels (median).
-    variogram : str
-        The variogram model fitted for kriging.
-    n_closest_points : int
-        Control points in each local kriging neighbourhood.
+    kriging : Kriging
+        One control point per ``point_spacing`` pixels (median), the variogram model, and
+        the control points in each local kriging neighbourhood.
     force : bool
         Write the DEM even where σ_h exceeds the relief (tagged as not meaningful).
     progress : Progress, optional
@@ -355,27 +294,14 @@ def relative_dem_file(
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.2, the relative DEM
     by kriging; Figure 9).
     """
-    factor = parallax_factor(
-        height_factor,
-        squint_deg=squint_deg,
-        flying_height_m=flying_height,
-        ifov_mrad=ifov_mrad,
-        axis=parallax_axis,
-        invert=invert_parallax,
-    )
-    gsd = ground_sample_distance(flying_height, ifov_mrad)
+    factor = geometry.factor()
+    gsd = geometry.gsd
     dual = io.as_dual(vnir, swir, layout)
-    progress.info(f"height-to-disparity factor {factor.magnitude:.5f} px/m ({parallax_axis}-track)")
-    rows = strip_rows(point_spacing)
-    with open_matching_pair(
-        dual,
-        vnir_nm=vnir_nm,
-        swir_nm=swir_nm,
-        vnir_to_nm=vnir_to_nm,
-        swir_to_nm=swir_to_nm,
-        tolerance_nm=tolerance_nm,
-        cloud_mask=cloud_mask,
-    ) as pair:
+    progress.info(
+        f"height-to-disparity factor {factor.magnitude:.5f} px/m ({geometry.parallax_axis}-track)"
+    )
+    rows = strip_rows(kriging.point_spacing)
+    with open_matching_pair(dual, match, cloud_mask) as pair:
         info = pair.info()
         off, _ = line_offset(pair, progress=progress.sub(0.0, 0.1))
         progress.info(
@@ -394,15 +320,7 @@ def relative_dem_file(
                 pair,
                 off,
                 factor,
-                dict(
-                    window=window,
-                    search_along=search_along,
-                    search_across=search_across,
-                    min_peak=min_peak,
-                    min_sharpness=min_sharpness,
-                    refine=refine,
-                    point_spacing=point_spacing,
-                ),
+                {**dataclasses.asdict(matching), "point_spacing": kriging.point_spacing},
                 rows,
                 ddst,
                 progress.sub(0.1, 0.75),
@@ -412,7 +330,7 @@ def relative_dem_file(
             if not p.meaningful and not force:
                 raise InputError(p.message())
             x, y, z = line.points
-            vg = fit_points(x, y, z, variogram, progress, p.sigma_h_m)
+            vg = fit_points(x, y, z, kriging.variogram, progress, p.sigma_h_m)
             tags = {
                 "product": "relative DEM (Brook & Ben-Dor 2011, 3.2): 0 m = lowest reliable region",
                 **info,
@@ -426,27 +344,27 @@ def relative_dem_file(
                 if p.meaningful
                 else "NO: the relief does not stand out of sigma_h",
                 "height_factor_px_per_m": f"{factor.magnitude:.6f}",
-                "parallax_axis": parallax_axis,
+                "parallax_axis": geometry.parallax_axis,
                 "offset_along_px": f"{off.along:.4f}",
                 "offset_across_px": f"{off.across:.4f}",
-                "window_px": window,
-                "search_along_px": search_along,
-                "search_across_px": search_across,
-                "min_peak": min_peak,
-                "point_spacing_px": point_spacing,
+                "window_px": matching.window,
+                "search_along_px": matching.search_along,
+                "search_across_px": matching.search_across,
+                "min_peak": matching.min_peak,
+                "point_spacing_px": kriging.point_spacing,
                 "control_points": x.size,
                 "variogram": f"{vg.model}: {vg.describe()}",
-                "n_closest_points": n_closest_points,
+                "n_closest_points": kriging.n_closest_points,
                 "units": "metres",
             }
             if gsd is not None:
                 tags["gsd_m"] = f"{gsd:.4f}"
             disparity_tags.update(tags, product="VNIR/SWIR disparity (px) and reliability")
-    kriging = LocalKriging(x, y, z, vg, n_closest_points)
+    kriging = LocalKriging(x, y, z, vg, kriging.n_closest_points)
     dem_range = _write_kriged(
         kriging, valid_strips, rows, dual.grid, output, variance, tags, progress.sub(0.75, 0.95)
     )
-    cv = validate_kriging(x, y, z, vg, n_closest_points, progress, kriging)
+    cv = validate_kriging(x, y, z, vg, kriging.n_closest_points, progress, kriging)
     result = {
         "output": output,
         "sigma_d_px": round(p.sigma_d_px, 4),

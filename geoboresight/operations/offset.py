@@ -7,6 +7,7 @@ import numpy as np
 
 from .. import io
 from ..dem.coregister import SPLINE_ORDER, coregister, coregister_halo, profile_to_lines
+from ..dem.height import FlightGeometry
 from ..dem.offset import (
     PROFILE_ROWS,
     block_power,
@@ -17,8 +18,8 @@ from ..dem.offset import (
     profile_of,
 )
 from ..errors import InputError, ParameterError
-from ..io.bands import masked_bands_reader, open_matching_pair
-from ..io.dual import SWIR_NM, TOLERANCE_NM, VNIR_NM, DualLayout
+from ..io.bands import MatchBands, masked_bands_reader, open_matching_pair
+from ..io.dual import DualLayout
 from ..progress import as_progress
 from ._operation import operation
 
@@ -114,13 +115,8 @@ def boresight_offset_file(
     output,
     plot=None,
     layout=DualLayout(),
-    vnir_nm=VNIR_NM,
-    swir_nm=SWIR_NM,
-    vnir_to_nm=None,
-    swir_to_nm=None,
-    tolerance_nm=TOLERANCE_NM,
-    flying_height=None,
-    ifov_mrad=None,
+    match=MatchBands(),
+    geometry=FlightGeometry(),
     profile_rows=PROFILE_ROWS,
     progress=None,
 ) -> dict:
@@ -145,16 +141,10 @@ def boresight_offset_file(
         PNG plot of the offset per block of lines (needs ``profile_rows`` > 0).
     layout : DualLayout
         How to read files that do not say it all (a merged cube's seam, band centres).
-    vnir_nm, swir_nm : float
-        The bands matched, nearest these wavelengths.
-    vnir_to_nm, swir_to_nm : float, optional
-        Average the bands from ``vnir_nm`` (``swir_nm``) up to these wavelengths instead.
-    tolerance_nm : float
-        Largest distance between a requested wavelength and a band centre.
-    flying_height : float, optional
-        Flying height above the ground (m): with the IFOV, the offset in metres.
-    ifov_mrad : float, optional
-        Instantaneous field of view of one pixel (mrad): the offset as angles.
+    match : MatchBands
+        The bands matched: by default the ratio's, nearest 920 and 1010 nm (Eq. 3).
+    geometry : FlightGeometry
+        Its ``ifov_mrad`` gives the offset as angles, with ``flying_height`` in metres.
     profile_rows : int
         Also measure the offset per block of this many lines (0: the global offset only).
     progress : Progress, optional
@@ -172,15 +162,7 @@ def boresight_offset_file(
     Eq. 3).
     """
     dual = io.as_dual(vnir, swir, layout)
-    with open_matching_pair(
-        dual,
-        vnir_nm=vnir_nm,
-        swir_nm=swir_nm,
-        vnir_to_nm=vnir_to_nm,
-        swir_to_nm=swir_to_nm,
-        tolerance_nm=tolerance_nm,
-        cloud_mask=cloud_mask,
-    ) as pair:
+    with open_matching_pair(dual, match, cloud_mask) as pair:
         info = pair.info()
         progress.info(
             f"matching VNIR band {info['vnir_band']} ({info['vnir_wavelength_nm']} nm) with "
@@ -194,8 +176,8 @@ def boresight_offset_file(
         **info,
         "convention": CONVENTION,
     }
-    if ifov_mrad:
-        ang = offset_angles(off.along, off.across, ifov_mrad, flying_height)
+    if geometry.ifov_mrad:
+        ang = offset_angles(off.along, off.across, geometry.ifov_mrad, geometry.flying_height)
         result.update({k: round(val, 6) for k, val in ang.items()})
     progress.info(
         f"boresight offset: {off.along:+.3f} px along-track, {off.across:+.3f} px across-track"
@@ -254,11 +236,7 @@ def coregister_file(
     *,
     output,
     layout=DualLayout(),
-    vnir_nm=VNIR_NM,
-    swir_nm=SWIR_NM,
-    vnir_to_nm=None,
-    swir_to_nm=None,
-    tolerance_nm=TOLERANCE_NM,
+    match=MatchBands(),
     along=None,
     across=None,
     follow_drift=False,
@@ -287,10 +265,8 @@ def coregister_file(
         nodata -9999 where the shifted image has no data, on the VNIR grid.
     layout : DualLayout
         How to read files that do not say it all (a merged cube's seam, band centres).
-    vnir_nm, swir_nm, vnir_to_nm, swir_to_nm : float
+    match : MatchBands
         The bands matched to measure the offset (see :func:`boresight_offset_file`).
-    tolerance_nm : float
-        Largest distance between a requested wavelength and a band centre.
     along, across : float, optional
         A known offset (px); both or neither (then it is measured).
     follow_drift : bool
@@ -318,15 +294,7 @@ def coregister_file(
     order = int(order)
     dual = io.as_dual(vnir, swir, layout)
     if along is None:
-        with open_matching_pair(
-            dual,
-            vnir_nm=vnir_nm,
-            swir_nm=swir_nm,
-            vnir_to_nm=vnir_to_nm,
-            swir_to_nm=swir_to_nm,
-            tolerance_nm=tolerance_nm,
-            cloud_mask=cloud_mask,
-        ) as pair:
+        with open_matching_pair(dual, match, cloud_mask) as pair:
             off, prof = line_offset(
                 pair, profile_rows if follow_drift else 0, progress.sub(0.0, 0.2)
             )
