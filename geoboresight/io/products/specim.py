@@ -42,7 +42,7 @@ import numpy as np
 from ...errors import InputError
 from ..cube import ENVI_DTYPES, envi_header
 from ..raster import _envi_data_for_header, open_raster
-from ..wavelengths import good_bands, read_wavelengths
+from ..wavelengths import good_bands, parse_list, read_wavelengths, unit_scale
 from . import Product, SensorImage
 from ._raw import RawCube, raw_vrt
 
@@ -183,7 +183,20 @@ def _darkref(hdr: str, cube: RawCube) -> tuple[np.ndarray, str] | None:
             f"dark reference {ref_hdr} has {ref.bands} bands × {ref.samples} samples but the "
             f"capture {hdr} has {cube.bands} × {cube.samples}: use the DARKREF of this capture"
         )
-    return ref.line_mean(0, ref.lines), ref_hdr
+    dark = ref.line_mean(0, ref.lines)
+    if has_frame_counter(ref, ref.lines):
+        dark[0, :2] = np.nan  # its frame counter and zero pixel are not dark signal
+    return dark, ref_hdr
+
+
+def _fwhm(keys: dict, hdr: str, n: int) -> np.ndarray | None:
+    """The header's ``fwhm`` in nm, read here because GDAL keeps Specim's capitalised
+    ``Wavelength`` key as written and then drops the FWHM."""
+    raw = parse_list(keys["wavelength"], f"{hdr}: 'Wavelength'")
+    fwhm = parse_list(keys["fwhm"], f"{hdr}: 'fwhm'")
+    if len(fwhm) != n or len(raw) != n:
+        return None
+    return fwhm * unit_scale(keys.get("wavelength units"), raw, hdr)
 
 
 def _stamp(*paths: str) -> tuple:
@@ -266,6 +279,8 @@ def _read(path: str, hdr: str, data: str, stamps: tuple) -> Product | None:
             f"Specim header {hdr} has no 'wavelength' list: add the band centres (the "
             "'Wavelength = {...}' block Specim's software writes)"
         )
+    if fwhm is None and "fwhm" in keys and "wavelength" in keys:
+        fwhm = _fwhm(keys, hdr, len(wl))
     source = raw_vrt(cube, lines, wl, masked, stem="specim")
     image = SensorImage(
         name=image_name(wl),
