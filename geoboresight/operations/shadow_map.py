@@ -49,6 +49,22 @@ def _dark_from_header(src, bands: list[int], path: str, label: str):
     return smap.DarkLevel(float(per_band.mean()), f"header of {path}", per_band, 0)
 
 
+def _dark_from_product(sensor, bands: list[int]):
+    """The dark reference of a sensor product (Specim dark frames, a DARKREF file, HySpex's
+    background matrix: :attr:`SensorFile.dark`, per band and column), as one level per band of
+    ``bands``: the mean over the columns, since the map subtracts one level per band from a
+    random sample of pixels. None when the product carries none."""
+    if sensor.dark is None:
+        return None
+    dark = np.asarray(sensor.dark, np.float64)[[sensor.bands.index(b) for b in bands]]
+    # NaN marks columns that are not image (a Specim frame counter): left out of the mean.
+    count = np.isfinite(dark).sum(axis=1)
+    if (count == 0).any():
+        return None
+    per_band = np.where(np.isfinite(dark), dark, 0.0).sum(axis=1) / count
+    return smap.DarkLevel(float(per_band.mean()), sensor.dark_source or "product", per_band, 0)
+
+
 def _spread(bands: tuple[int, ...], n: int) -> list[int]:
     idx = np.unique(np.linspace(0, len(bands) - 1, min(n, len(bands))).round().astype(int))
     return [bands[i] for i in idx]
@@ -129,8 +145,10 @@ def shadow_map_file(
     tolerance_nm : float
         Largest distance between a requested wavelength and a band centre.
     vnir_dark, swir_dark : float, optional
-        Dark level (DN of zero signal) of each instrument; None = the header's 'dark level',
-        else estimated from the data (dark object). Give 0 for radiance.
+        Dark level (DN of zero signal) of each instrument; None = the sensor product's dark
+        reference (Specim dark frames or DARKREF file, HySpex background matrix: the mean over
+        the columns of each band; its source is reported as ``*_dark_source``), else the
+        header's 'dark level', else estimated from the data (dark object). Give 0 for radiance.
     offset_along, offset_across : float, optional
         Boresight offset of the SWIR relative to the VNIR (px); None = measured.
     core_darkness : float
@@ -198,7 +216,8 @@ def shadow_map_file(
         v_dark = _dark_levels(
             "VNIR",
             vnir_dark,
-            _dark_from_header(v_src, v_dark_b, dual.vnir.path, "VNIR"),
+            _dark_from_product(dual.vnir, v_dark_b)
+            or _dark_from_header(v_src, v_dark_b, dual.vnir.path, "VNIR"),
             vs,
             ok,
             progress,
@@ -206,15 +225,17 @@ def shadow_map_file(
         s_dark = _dark_levels(
             "SWIR",
             swir_dark,
-            _dark_from_header(s_src, s_dark_b, dual.swir.path, "SWIR"),
+            _dark_from_product(dual.swir, s_dark_b)
+            or _dark_from_header(s_src, s_dark_b, dual.swir.path, "SWIR"),
             ss,
             ok,
             progress,
         )
 
         def levels(dark: smap.DarkLevel, all_bands: list[int], wanted: list[int]):
-            """The level to subtract from the ``wanted`` bands: per band from a header."""
-            if dark.band_levels is not None and dark.source.startswith("header"):
+            """The level to subtract from the ``wanted`` bands: per band from a header or a
+            product's dark reference."""
+            if dark.band_levels is not None and dark.n_pixels == 0:
                 return np.asarray(dark.band_levels)[[all_bands.index(b) for b in wanted]]
             return dark.level
 

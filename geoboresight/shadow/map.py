@@ -90,6 +90,11 @@ class DarkLevel:
     def describe(self, name: str) -> str:
         if self.band_levels is None:
             return f"{name} dark level {self.level:.1f} DN ({self.source})"
+        if self.n_pixels == 0:  # per band from a header or a product's dark reference
+            return (
+                f"{name} dark level {self.level:.1f} DN ({self.source}; per band "
+                f"{np.min(self.band_levels):.1f}–{np.max(self.band_levels):.1f} DN)"
+            )
         return (
             f"{name} dark level {self.level:.1f} DN ({self.source}: the {self.n_pixels} darkest "
             f"pixels, dimmest band; their band means span {np.min(self.band_levels):.1f}–"
