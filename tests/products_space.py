@@ -203,3 +203,94 @@ def write_enmap_l1b(
         mask_s == 0,
         {"gains": gains, "offsets": offsets, "shift": shift, "name": name},
     )
+
+
+# --- PRISMA L1 ---------------------------------------------------------------------------------
+
+#: PRISMA-like slots, DESCENDING as in the product; VNIR: 3 unused slots (centre 0) first,
+#: SWIR: 2 unused slots last (a real file: 66 VNIR slots, first 3 zero; 173 SWIR, last 2 zero).
+PRISMA_VNIR_CW = np.concatenate([np.zeros(3), np.linspace(985.0, 402.0, 40)])
+PRISMA_SWIR_CW = np.concatenate([np.linspace(2450.0, 942.0, 50), np.zeros(2)])
+PRISMA_NAME = "PRS_L1_STD_OFFL_20200524101500_20200524101504_0001.he5"
+
+
+def write_prisma_l1(
+    path,
+    chunked: bool = False,
+    lines: int = 96,
+    samples: int = 80,
+    seed: int = 1,
+    scale: float = 100.0,
+    offset: float = 0.5,
+    damage: str | None = None,
+) -> Written:
+    """A PRISMA L1 HDF-EOS5 file at ``path``.
+
+    Layout (sister-jpl/sister ``sister/sensors/prisma.py``, EnMAP-Box
+    ``importprismal1algorithm.py``, ACOLITE and prismaread read it so):
+    ``HDFEOS/SWATHS/PRS_L1_HCO/Data Fields/VNIR_Cube`` and ``SWIR_Cube``, uint16, shape
+    (lines, bands, samples); root attributes ``List_Cw_Vnir``/``List_Cw_Swir`` (descending,
+    0 = unused slot), ``List_Fwhm_*``, ``List_Cw_*_Flags`` (1 = in use; sister keeps the bands
+    whose flag is true), ``ScaleFactor_*`` (100 in a real file) and ``Offset_*`` (0 in a real
+    file; 0.5 here so that its sign is tested): radiance = DN / ScaleFactor − Offset (prismaread;
+    sister and ACOLITE add the offset instead: the same while it is 0);
+    ``HDFEOS/SWATHS/PRS_L1_HCO/Geolocation Fields/Latitude_VNIR``, ``Longitude_VNIR``, float32
+    (not verified: the real dtype), (lines, samples). Unused slots hold DN 0.
+
+    ``chunked``: the cubes and coordinates stored chunked with gzip (chunks not aligned with the
+    shape), instead of contiguous. ``damage``: "no-vnir-cube", "wavelength-count" (List_Cw_Vnir
+    one value short), "no-wavelengths" (no List_Cw_Swir).
+    """
+    import h5py
+
+    path = str(path)
+    rad = {}
+    cubes = {}
+    truth = scene(
+        np.concatenate([PRISMA_VNIR_CW, PRISMA_SWIR_CW]).clip(400.0), lines, samples, seed=seed
+    )
+    truth *= 40.0  # W m-2 sr-1 um-1
+    n_v = PRISMA_VNIR_CW.size
+    for det, cw, part in (
+        ("VNIR", PRISMA_VNIR_CW, truth[:n_v]),
+        ("SWIR", PRISMA_SWIR_CW, truth[n_v:]),
+    ):
+        dn = _dn(part, [scale] * cw.size, [offset] * cw.size, "uint16", divide=True)
+        dn[cw == 0] = 0
+        cubes[det] = dn  # (bands, lines, samples)
+        rad[det] = dn / scale - offset
+    r, c = np.mgrid[0:lines, 0:samples].astype("float32")
+    lat = (45.0 - 0.00027 * r + 0.00004 * c).astype("float32")
+    lon = (9.0 + 0.00036 * c + 0.00005 * r).astype("float32")
+    opts = dict(chunks=True, compression="gzip") if chunked else {}
+    with h5py.File(path, "w") as f:
+        f.attrs["Processing_Level"] = np.bytes_("1")
+        for det, att, cw in (("VNIR", "Vnir", PRISMA_VNIR_CW), ("SWIR", "Swir", PRISMA_SWIR_CW)):
+            cw_out = cw[:-1] if (damage == "wavelength-count" and det == "VNIR") else cw
+            if not (damage == "no-wavelengths" and det == "SWIR"):
+                f.attrs[f"List_Cw_{att}"] = cw_out.astype("float32")
+            f.attrs[f"List_Fwhm_{att}"] = np.where(cw > 0, 10.0, 0.0).astype("float32")
+            f.attrs[f"List_Cw_{att}_Flags"] = (cw > 0).astype("int8")
+            f.attrs[f"ScaleFactor_{att}"] = np.float32(scale)
+            f.attrs[f"Offset_{att}"] = np.float32(offset)
+            if damage == "no-vnir-cube" and det == "VNIR":
+                continue
+            bil = np.ascontiguousarray(cubes[det].transpose(1, 0, 2))  # (lines, bands, samples)
+            if chunked:
+                opts["chunks"] = (32, 8, 40)
+            f.create_dataset(f"HDFEOS/SWATHS/PRS_L1_HCO/Data Fields/{det}_Cube", data=bil, **opts)
+        geo = "HDFEOS/SWATHS/PRS_L1_HCO/Geolocation Fields"
+        gopts = dict(chunks=(32, 40), compression="gzip") if chunked else {}
+        f.create_dataset(f"{geo}/Latitude_VNIR", data=lat, **gopts)
+        f.create_dataset(f"{geo}/Longitude_VNIR", data=lon, **gopts)
+    good_v, good_s = PRISMA_VNIR_CW > 0, PRISMA_SWIR_CW > 0
+    return Written(
+        path,
+        PRISMA_VNIR_CW.copy(),
+        PRISMA_SWIR_CW.copy(),
+        rad["VNIR"],
+        rad["SWIR"],
+        np.where(good_v, 10.0, 0.0),
+        np.where(good_s, 10.0, 0.0),
+        extra={"lat": lat, "lon": lon, "scale": scale, "offset": offset},
+    )
