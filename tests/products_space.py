@@ -209,8 +209,9 @@ def write_enmap_l1b(
 
 #: PRISMA-like slots, DESCENDING as in the product; VNIR: 3 unused slots (centre 0) first,
 #: SWIR: 2 unused slots last (a real file: 66 VNIR slots, first 3 zero; 173 SWIR, last 2 zero).
-PRISMA_VNIR_CW = np.concatenate([np.zeros(3), np.linspace(985.0, 402.0, 40)])
-PRISMA_SWIR_CW = np.concatenate([np.linspace(2450.0, 942.0, 50), np.zeros(2)])
+#: (Stored as float32 in the file: the values here are float32-exact.)
+PRISMA_VNIR_CW = np.concatenate([np.zeros(3), np.linspace(985.0, 402.0, 40)]).astype("f4") * 1.0
+PRISMA_SWIR_CW = np.concatenate([np.linspace(2450.0, 942.0, 50), np.zeros(2)]).astype("f4") * 1.0
 PRISMA_NAME = "PRS_L1_STD_OFFL_20200524101500_20200524101504_0001.he5"
 
 
