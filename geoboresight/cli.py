@@ -21,7 +21,8 @@ from .errors import Cancelled, GeoboresightError
 from .progress import Progress
 
 _CLICK_TYPES = {
-    "raster": click.Path(dir_okay=False),
+    # A folder too: a sensor product delivered as a folder (EnMAP L1B, io.products).
+    "raster": click.Path(),
     "multiraster": click.STRING,
     "file": click.Path(dir_okay=False),
     "band": click.INT,
