@@ -197,7 +197,9 @@ def test_ratio_of_the_product_alone_equals_numpy(tmp_path, kind):
 
 def test_prisma_edges_never_pick_unused_slots(tmp_path):
     w = _prisma(tmp_path)
-    res = geoboresight.ratio_file(w.path, output=tmp_path / "r.tif", band_mode="edges")
+    res = geoboresight.ratio_file(
+        w.path, output=tmp_path / "r.tif", bands=geoboresight.BandChoice(band_mode="edges")
+    )
     assert res["vnir_wavelength_nm"] == pytest.approx(w.vnir_wl.max())
     assert res["swir_wavelength_nm"] == pytest.approx(w.swir_wl[w.swir_wl > 0].min())
     assert w.vnir_wl[res["vnir_band"] - 1] > 0 and w.swir_wl[res["swir_band"] - 1] > 0

@@ -22,6 +22,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
+from .._state import VALIDATED
 from ..errors import GeoboresightError, ParameterError
 from ..progress import Progress, as_progress
 
@@ -69,7 +70,12 @@ class RasterIn(Param):
     kind: ClassVar[str] = "raster"
 
     def coerce(self, value):
-        return os.fspath(value)
+        if hasattr(value, "files"):  # an opened dataset (DualSensor), as rasterio takes one
+            return value
+        try:
+            return os.fspath(value)
+        except TypeError:
+            raise self._fail(f"expected a file path, got {_short(value)}") from None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -313,6 +319,9 @@ class Algorithm:
             if isinstance(p, Band) and p.raster not in names:
                 raise ValueError(f"{self.name}: band {p.name} refers to unknown {p.raster}")
         _check_signature(self)
+        # The operation checks a Python caller's arguments against this spec, as every face.
+        if getattr(self.run, "spec", None) is None and hasattr(self.run, "outputs"):
+            self.run.spec = self
 
     @property
     def inputs(self) -> tuple[Param, ...]:
@@ -352,13 +361,37 @@ class Algorithm:
         _check_bands(self, out)
         return out
 
-    def bind(self, values: Mapping[str, Any]) -> dict:
+    def flatten(self, kwargs: Mapping[str, Any]) -> tuple[dict, dict]:
+        """The flat values of an operation's keyword arguments (each group's value spread
+        into its members), and the group values given, so that a Python call goes through
+        the same checks as every face (:meth:`validate`)."""
+        flat = dict(kwargs)
+        given = {}
+        for g in self.groups:
+            if g.name not in flat:
+                continue
+            value = flat.pop(g.name)
+            if value is None:
+                continue
+            if not isinstance(value, g.value):
+                raise ParameterError(
+                    f"parameter '{g.name}': expected a {g.value.__name__}, got {_short(value)}"
+                )
+            given[g.name] = value
+            for p in g.params:
+                flat[p.name] = getattr(value, p.name)
+        return flat, given
+
+    def bind(self, values: Mapping[str, Any], given: Mapping[str, Any] | None = None) -> dict:
         """The operation's keyword arguments from validated flat values: each group's members
-        become its value."""
+        become its value (the caller's own value, with its members validated, when given)."""
         out = dict(values)
         for g in self.groups:
             members = {p.name: out.pop(p.name) for p in g.params if p.name in out}
-            out[g.name] = g.build(members)
+            if given and g.name in given:
+                out[g.name] = dataclasses.replace(given[g.name], **members)
+            else:
+                out[g.name] = g.build(members)
         return out
 
     def __call__(
@@ -474,7 +507,17 @@ def execute(
 
     values = alg.bind(alg.validate(values))
     with writer_options(cog=cog, co=co, raw_gsd=raw_gsd):
-        return alg.run(**values, progress=as_progress(progress), overwrite=overwrite)
+        token = VALIDATED.set(True)  # the operation need not check its arguments again
+        try:
+            return alg.run(**values, progress=as_progress(progress), overwrite=overwrite)
+        finally:
+            VALIDATED.reset(token)
+
+
+def _short(value: Any, limit: int = 80) -> str:
+    """``repr(value)`` cut to a readable length for an error line."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 1] + "…"
 
 
 __all__ = [

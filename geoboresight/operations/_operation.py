@@ -25,6 +25,7 @@ import os
 import shutil
 from collections.abc import Callable
 
+from .._state import VALIDATED
 from ..errors import GeoboresightError, InputError, OutputError, ParameterError, ResourceError
 from ..io.write import check_output_path, output_error
 from ..progress import as_progress
@@ -52,10 +53,17 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
             bound = sig.bind(*args, **kwargs)
             bound.apply_defaults()
             values = bound.arguments
+            spec = getattr(run, "spec", None)
+            if spec is not None and not VALIDATED.get():
+                # A Python call: the spec's coercion and checks, as the CLI, QGIS, the engine
+                # and batch get them (types, ranges, choices, finite numbers, bands).
+                flat, given = spec.flatten({k: v for k, v in values.items() if k != "progress"})
+                values.update(spec.bind(spec.validate(flat), given))
             values["progress"] = as_progress(values.get("progress"))
             check_finite(values)
             outs = check_paths(values, inputs, outputs, overwrite)
             existed = {o for o in outs if os.path.lexists(o)}
+            token = VALIDATED.set(False)  # operations it calls check their own arguments
             try:
                 return func(*bound.args, **bound.kwargs)
             except BaseException as exc:
@@ -66,6 +74,8 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
                     raise
                 ins = [p for name in inputs for p in _paths(values.get(name))]
                 raise translate_error(exc, ins, outs) from exc
+            finally:
+                VALIDATED.reset(token)
 
         params = list(sig.parameters.values())
         params.append(inspect.Parameter("overwrite", inspect.Parameter.KEYWORD_ONLY, default=False))
