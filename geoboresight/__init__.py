@@ -62,37 +62,28 @@ KERNELS = {
     "attitude_jitter": "geoboresight.simulate.ortho",
 }
 
+
+def _operations() -> dict[str, str]:
+    """File-level operations, one per operation of the command line and the QGIS toolbox:
+    ``{name: module}`` of every function decorated ``@operation`` in
+    :mod:`geoboresight.operations` (read from the modules' text, so that ``import
+    geoboresight`` stays light and an operation is declared in one place)."""
+    import pathlib
+    import re
+
+    found = {}
+    folder = pathlib.Path(__file__).parent / "operations"
+    declared = re.compile(r"^@operation\(.*?\)\ndef (\w+_file)\(", re.M | re.S)
+    for path in sorted(folder.glob("*.py")):
+        if path.stem.startswith("_"):
+            continue
+        for name in declared.findall(path.read_text(encoding="utf-8")):
+            found[name] = f"geoboresight.operations.{path.stem}"
+    return found
+
+
 #: File-level operations: one per operation of the command line and the QGIS toolbox.
-OPERATIONS = {
-    "ratio_file": "geoboresight.operations.ratio",
-    "stats_file": "geoboresight.operations.stats",
-    "shadow_map_file": "geoboresight.operations.shadow_map",
-    "shadow_classes_file": "geoboresight.operations.shadow",
-    "shadow_cluster_file": "geoboresight.operations.shadow",
-    "shadow_fraction_fit_file": "geoboresight.operations.shadow",
-    "shadow_fraction_apply_file": "geoboresight.operations.shadow",
-    "shadow_polygons_file": "geoboresight.operations.shadow",
-    "sun_shadow_file": "geoboresight.operations.shadow_truth",
-    "dark_pixel_shadow_file": "geoboresight.operations.shadow_truth",
-    "boresight_offset_file": "geoboresight.operations.offset",
-    "coregister_file": "geoboresight.operations.offset",
-    "disparity_file": "geoboresight.operations.dem",
-    "relative_dem_file": "geoboresight.operations.dem",
-    "view_3d_file": "geoboresight.operations.dem",
-    "rx_file": "geoboresight.operations.anomaly",
-    "svdd_file": "geoboresight.operations.anomaly",
-    "boresight_indicator_file": "geoboresight.operations.anomaly",
-    "unmix_file": "geoboresight.operations.anomaly",
-    "roc_file": "geoboresight.operations.anomaly",
-    "anomaly_polygons_file": "geoboresight.operations.anomaly",
-    "simulate_file": "geoboresight.operations.simulate",
-    "report_file": "geoboresight.operations.report",
-    "geolocate_file": "geoboresight.operations.georef",
-    "georeference_file": "geoboresight.operations.georef",
-    "auto_georeference_file": "geoboresight.operations.georef",
-    "reproject_to_file": "geoboresight.operations.georef",
-    "simulate_ortho_file": "geoboresight.operations.georef",
-}
+OPERATIONS = _operations()
 
 #: The I/O entry points a script needs beside the operations.
 IO = {

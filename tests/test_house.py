@@ -210,8 +210,8 @@ def test_kernels_share_one_calling_convention():
 
 
 def test_spec_module_index_matches_the_modules():
-    # algorithms.MODULES lets one command import its own spec module only; it must name every
-    # operation's real module, and nothing else.
+    # algorithms.spec_modules() lets one command import its own spec module only; read from
+    # the modules' text, it must name every operation's real module, and nothing else.
     import importlib
     import pkgutil
 
@@ -223,8 +223,12 @@ def test_spec_module_index_matches_the_modules():
             continue
         module = importlib.import_module(f"geoboresight.algorithms.{info.name}")
         real.update({a.name: info.name for a in getattr(module, "ALGORITHMS", ())})
-    assert algorithms.MODULES == real
+    assert algorithms.spec_modules() == real
     assert all(algorithms.get(n).name == n for n in real)
+    # The top-level names are derived the same way from the operations' modules: every spec's
+    # operation, and nothing else.
+    runs = {a.run.__name__: a.run.__module__ for a in registry().values()}
+    assert gb.OPERATIONS == runs
 
 
 def test_one_command_imports_its_own_module_only():

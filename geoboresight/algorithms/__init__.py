@@ -1,48 +1,46 @@
 """The list of operations. Each module in this package defines ``ALGORITHMS``, a tuple of
-:class:`~geoboresight.algorithms.spec.Algorithm`; adding an operation is adding one module.
+:class:`~geoboresight.algorithms.spec.Algorithm`: an operation is registered by its spec, and
+nowhere else (the command line, rio, the engine's schema, QGIS and the top-level Python names
+are derived from the specs and the operations' modules).
 """
 
 from __future__ import annotations
 
 import importlib
 import pkgutil
+import re
 from functools import cache
+from pathlib import Path
 
 from .spec import GROUPS, Algorithm, execute
 
-__all__ = ["GROUPS", "MODULES", "Algorithm", "execute", "get", "registry"]
+__all__ = ["GROUPS", "Algorithm", "execute", "get", "registry", "spec_modules"]
 
-#: The spec module of each operation, so that running one operation imports its own module
-#: (and the kernels it needs) rather than all of them: the command line starts in ~0.3 s
-#: instead of ~0.8 s, paid again by every operation a user, a script or QGIS runs.
-#: tests/test_house.py checks it against the modules' ``ALGORITHMS``.
-MODULES = {
-    **dict.fromkeys(
-        ("rx", "svdd", "boresight-indicator", "unmix", "roc", "anomaly-polygons"), "anomaly"
-    ),
-    **dict.fromkeys(("disparity", "relative-dem", "view-3d"), "dem"),
-    **dict.fromkeys(
-        ("geolocate", "georeference", "auto-georeference", "reproject-to", "simulate-ortho"),
-        "georef",
-    ),
-    **dict.fromkeys(("boresight-offset", "coregister"), "offset"),
-    "ratio": "ratio",
-    "report": "report",
-    **dict.fromkeys(
-        (
-            "shadow-classes",
-            "shadow-cluster",
-            "shadow-fraction-fit",
-            "shadow-fraction-apply",
-            "shadow-polygons",
-        ),
-        "shadow",
-    ),
-    "shadow-map": "shadow_map",
-    **dict.fromkeys(("sun-shadow", "dark-pixel-shadow"), "shadow_truth"),
-    "simulate": "simulate",
-    "stats": "stats",
-}
+#: An operation is declared once, by its spec (``Algorithm(name="ratio", ...)`` in a module of
+#: this package); this index of the spec module of each operation is read from the modules'
+#: text, so that running one operation imports its own spec module only (and the kernels it
+#: needs) rather than all of them: the command line starts in ~0.3 s instead of ~0.8 s, paid
+#: again by every operation a user, a script or QGIS runs. tests/test_house.py checks it
+#: against the modules' ``ALGORITHMS``.
+_DECLARED = re.compile(r'Algorithm\(\s*name="([a-z0-9-]+)"')
+
+
+@cache
+def spec_modules() -> dict[str, str]:
+    """``{operation name: spec module}``, from the spec modules' source text."""
+    found = {}
+    for path in sorted(Path(__file__).parent.glob("*.py")):
+        if path.stem == "spec" or path.stem.startswith("_"):
+            continue
+        for name in _DECLARED.findall(path.read_text(encoding="utf-8")):
+            found[name] = path.stem
+    return found
+
+
+def __getattr__(name: str):
+    if name == "MODULES":  # the index, under its former name
+        return spec_modules()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 @cache
@@ -64,8 +62,9 @@ def registry() -> dict[str, Algorithm]:
 
 def find(name: str) -> Algorithm | None:
     """The algorithm called ``name``, importing only its own spec module; None if unknown."""
-    if name in MODULES:
-        module = importlib.import_module(f"{__name__}.{MODULES[name]}")
+    modules = spec_modules()
+    if name in modules:
+        module = importlib.import_module(f"{__name__}.{modules[name]}")
         for alg in getattr(module, "ALGORITHMS", ()):
             if alg.name == name:
                 return alg
