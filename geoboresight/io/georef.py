@@ -82,11 +82,15 @@ def _pyproj(crs):
 
 
 def crs_units(crs) -> str:
-    """The unit name of a CRS's first axis (``metre``, ``degree``, ``US survey foot``)."""
+    """The unit of a CRS's first axis, in the plural (``metres``, ``degrees``, ``US survey
+    feet``)."""
     try:
-        return _pyproj(crs).axis_info[0].unit_name or "CRS units"
+        name = _pyproj(crs).axis_info[0].unit_name
     except Exception:  # noqa: BLE001 - an engineering CRS without axes
+        name = ""
+    if not name:
         return "CRS units"
+    return name[:-4] + "feet" if name.endswith("foot") else name + "s"
 
 
 def crs_name(crs) -> str:
@@ -715,7 +719,7 @@ def map_grid(x, y, valid, crs, resolution: float | None) -> Grid:
         coarsest = _round_sig(min(ext_x, ext_y) / need, up=False)
         units = crs_units(crs)
         raise ParameterError(
-            f"parameter 'resolution': {res:g} ({units}s of {crs_name(crs)}) would cover the "
+            f"parameter 'resolution': {res:g} ({units} of {crs_name(crs)}) would cover the "
             f"product's {ext_x:.4g} × {ext_y:.4g} footprint with {ext_x / res:.3g} × "
             f"{ext_y / res:.3g} cells (at least {need} along each side): give --resolution "
             f"{coarsest:g} or finer"
@@ -789,7 +793,7 @@ def check_warp_memory(grid: Grid, raw_shape, bands: int, dtype) -> None:
         )
     fit = _round_sig(1.05 * res * float(np.sqrt(cells * item / room)), up=True)
     raise ParameterError(
-        f"parameter 'resolution': {res:g} ({units}s of {crs_name(grid.crs)}) gives a "
+        f"parameter 'resolution': {res:g} ({units} of {crs_name(grid.crs)}) gives a "
         f"{grid.width:,} × {grid.height:,} grid whose warp needs {_human_bytes(need)} of memory "
         f"({nb} band(s) at a time), {_human_bytes(have)} at hand: give --resolution {fit:g} or "
         "coarser (or close other programs)"
