@@ -8,7 +8,6 @@ reports its error and, like any run, leaves no output behind; the others carry o
 
 from __future__ import annotations
 
-import csv
 import json
 import os
 from dataclasses import dataclass
@@ -57,11 +56,13 @@ def worker_environ() -> dict:
 
 
 def read_jobs(path: str) -> list[dict]:
-    """Jobs from a JSON list of objects, or a CSV whose header names the parameters."""
+    """Jobs from a JSON list of objects, or a CSV whose header names the parameters (comma,
+    semicolon or tab separated, with or without a byte-order mark: :mod:`geoboresight.io.tables`);
+    empty cells are left out (the parameter's default)."""
     if not os.path.exists(path):
         raise InputError(f"jobs file {path} does not exist")
     if path.lower().endswith(".json"):
-        with open(path, encoding="utf-8") as f:
+        with open(path, encoding="utf-8-sig") as f:
             try:
                 jobs = json.load(f)
             except json.JSONDecodeError as exc:
@@ -69,8 +70,20 @@ def read_jobs(path: str) -> list[dict]:
         if not isinstance(jobs, list) or not all(isinstance(j, dict) for j in jobs):
             raise InputError(f"jobs file {path}: expected a JSON list of objects (one per job)")
         return jobs
-    with open(path, newline="", encoding="utf-8") as f:
-        return [{k: v for k, v in row.items() if v not in (None, "")} for row in csv.DictReader(f)]
+    from .io.tables import read_table
+
+    # "CSV UTF-8" from a spreadsheet (byte-order mark), ';' or tab separators: one reader.
+    table = read_table(path, "jobs file")
+    jobs = []
+    for n, row in zip(table.line_numbers, table.rows, strict=True):
+        if len(row) > len(table.header):
+            raise InputError(
+                f"jobs file {path}, line {n}: {len(row)} values for {len(table.header)} "
+                f"columns ({', '.join(table.header)}): quote values that hold the separator "
+                f"{table.delimiter!r}"
+            )
+        jobs.append({k: v for k, v in zip(table.header, row, strict=False) if k and v != ""})
+    return jobs
 
 
 def run_batch(

@@ -39,7 +39,7 @@ INPUT = RasterIn(
 )
 CRS = Text(
     name="crs",
-    description="Output CRS (EPSG code, PROJ string or WKT; default: that of the coordinates)",
+    description="Output CRS (EPSG code, PROJ string or WKT; default: that of the coordinates, their UTM zone when in degrees)",
     optional=True,
 )
 RESOLUTION = Number(
@@ -91,7 +91,8 @@ GEOLOCATE = Algorithm(
         "scores, a cube) on a north-up map grid, using the per-pixel coordinates a processing "
         "chain already made:\n"
         "- an IGM (input geometry map: NERC-ARF APL, CaliGeoPRO, gref4hsi), an ENVI or GeoTIFF "
-        "file with the easting (band 1) and northing (band 2) of every raw pixel's centre;\n"
+        "file with the easting or longitude (band 1) and northing or latitude (band 2) of "
+        "every raw pixel's centre (APL's lon/lat IGMs go on their UTM zone);\n"
         "- a GLT (geometry lookup table: AVIRIS, EMIT), the one-based sample and line of the raw "
         "pixel seen in each map cell;\n"
         "- GDAL geolocation arrays (a dataset with a GEOLOCATION metadata domain), given as "

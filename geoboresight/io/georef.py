@@ -4,11 +4,16 @@ grid (GDAL's geolocation-array warper through rasterio) or a product onto a refe
 
 Every reader raises :class:`~geoboresight.errors.InputError` or
 :class:`~geoboresight.errors.ParameterError` with one line naming the file or parameter.
+
+Coordinates are checked against their CRS before use (:func:`check_coordinates`): UTM metres
+labelled EPSG:4326, or degrees labelled as a projected CRS, are refused with the input named.
+Geographic coordinates (APL's lon/lat IGMs, EMIT-style geolocation arrays, GCPs in WGS 84) are
+put on a metric grid, the UTM zone of the data (:func:`output_crs`), unless ``--crs`` says
+otherwise.
 """
 
 from __future__ import annotations
 
-import csv
 import json
 import os
 import re
@@ -21,6 +26,7 @@ import numpy as np
 from ..errors import InputError, ParameterError
 from .grid import FLOAT_NODATA, Grid
 from .raster import create_raster, open_raster
+from .tables import parse_number, read_table
 from .wavelengths import read_wavelengths
 
 #: Bands warped at a time (memory: this many raw bands plus their map-grid copies).
@@ -61,6 +67,234 @@ def transform_xy(x, y, src_crs, dst_crs):
     return np.asarray(xx), np.asarray(yy)
 
 
+def _pyproj(crs):
+    """pyproj's CRS of a rasterio CRS (from its EPSG code when it has one: rasterio's WKT
+    drops the area of use)."""
+    from pyproj import CRS as PyCRS
+
+    if not hasattr(crs, "to_wkt"):
+        return PyCRS.from_user_input(crs)
+    try:
+        code = crs.to_epsg()
+    except Exception:  # noqa: BLE001
+        code = None
+    return PyCRS.from_epsg(code) if code else PyCRS.from_wkt(crs.to_wkt())
+
+
+def crs_units(crs) -> str:
+    """The unit of a CRS's first axis, in the plural (``metres``, ``degrees``, ``US survey
+    feet``)."""
+    try:
+        name = _pyproj(crs).axis_info[0].unit_name
+    except Exception:  # noqa: BLE001 - an engineering CRS without axes
+        name = ""
+    if not name:
+        return "CRS units"
+    return name[:-4] + "feet" if name.endswith("foot") else name + "s"
+
+
+def crs_name(crs) -> str:
+    """A short name: the EPSG code when there is one, else the CRS's own name."""
+    try:
+        code = crs.to_epsg()
+    except Exception:  # noqa: BLE001
+        code = None
+    return f"EPSG:{code}" if code else _pyproj(crs).name
+
+
+#: APL's ``datum ellipsoid`` names of WGS 84 (aplcorr writes ``WGS-84``, apltran ``WGS84``).
+_WGS84_NAMES = {"wgs-84", "wgs84", "wgs 84"}
+
+
+def envi_header_crs(src, label: str):
+    """The CRS an ENVI header states where GDAL finds none (no ``map info`` or ``coordinate
+    system string``), as NERC-ARF APL writes its IGMs (arsf/APL ``src/geolocation.cpp``,
+    ``src/transform.cpp``):
+
+    * aplcorr: ``projection = Geographic Lat/Lon`` and ``datum ellipsoid = WGS-84``, bands
+      {Longitude, Latitude, Height}: EPSG:4326 (longitude first, as the bands are);
+    * apltran: ``proj4 projection string = +proj=...`` (taken as it is), else
+      ``projection = UTM <zone> North|South`` with ``datum ellipsoid = WGS84``.
+
+    None when the header says nothing of its CRS (or the file is not ENVI); an APL header
+    that names a projection this reader does not know is refused (give ``--igm-crs``).
+    """
+    if src.driver != "ENVI":
+        return None
+    try:
+        env = {k.lower(): v.strip() for k, v in (src.tags(ns="ENVI") or {}).items()}
+    except Exception:  # noqa: BLE001 - no ENVI domain
+        return None
+    proj4 = env.get("proj4_projection_string")
+    if proj4:
+        return parse_crs(proj4, f"{label} {src.name}: its 'proj4 projection string'")
+    projection = env.get("projection", "")
+    if not projection:
+        return None
+    ellipsoid = env.get("datum_ellipsoid", "WGS-84").lower()
+    words = projection.replace("/", " ").split()
+    if ellipsoid in _WGS84_NAMES:
+        if projection.lower().startswith("geographic"):
+            return parse_crs("EPSG:4326")
+        if len(words) == 3 and words[0].upper() == "UTM" and words[1].isdigit():
+            zone = int(words[1])
+            if 1 <= zone <= 60 and words[2].lower() in ("north", "south"):
+                base = 32600 if words[2].lower() == "north" else 32700
+                return parse_crs(f"EPSG:{base + zone}")
+    raise InputError(
+        f"{label} {src.name}: its header says 'projection = {projection}', 'datum ellipsoid = "
+        f"{env.get('datum_ellipsoid', '')}', which this reader does not translate: give its CRS "
+        "with --igm-crs (e.g. EPSG:27700 for the British National Grid)"
+    )
+
+
+def _centre_lonlat(x, y, crs) -> tuple[float, float]:
+    """The median position of coordinates ``x``, ``y`` in ``crs``, as WGS 84 lon/lat."""
+    xs, ys = np.asarray(x, "float64").ravel(), np.asarray(y, "float64").ravel()
+    ok = np.isfinite(xs) & np.isfinite(ys)
+    if not ok.any():
+        raise InputError("no finite coordinates")
+    cx, cy = float(np.median(xs[ok])), float(np.median(ys[ok]))
+    if not _pyproj(crs).is_geographic:
+        from rasterio.crs import CRS
+
+        lon, lat = transform_xy(np.array([cx]), np.array([cy]), crs, CRS.from_epsg(4326))
+        cx, cy = float(lon[0]), float(lat[0])
+    return (cx + 180.0) % 360.0 - 180.0, cy
+
+
+def utm_crs(x, y, crs):
+    """The UTM zone (pyproj's ``query_utm_crs_info``) holding the median position of
+    coordinates ``x``, ``y`` given in ``crs``: on the CRS's datum when it is NAD83 or NAD27
+    (and the position is in North America), else on WGS 84; beyond UTM's latitudes (84°N,
+    80°S) the polar stereographic grid of WGS 84 (UPS, EPSG:5041/5042)."""
+    from pyproj.aoi import AreaOfInterest
+    from pyproj.database import query_utm_crs_info
+
+    lon, lat = _centre_lonlat(x, y, crs)
+    datum = (_pyproj(crs).datum.name if _pyproj(crs).datum else "") or ""
+    names = ["WGS 84"]
+    if "North American Datum 1983" in datum:
+        names.insert(0, "NAD83")
+    elif "North American Datum 1927" in datum:
+        names.insert(0, "NAD27")
+    for name in names:
+        found = query_utm_crs_info(
+            datum_name=name, area_of_interest=AreaOfInterest(lon, lat, lon, lat)
+        )
+        if found:
+            # The zone of the data's hemisphere (a northern zone's area starts at the
+            # equator), nearest to its central meridian.
+            best = min(
+                found,
+                key=lambda i: (
+                    (i.area_of_use.south >= 0) != (lat >= 0),
+                    abs(lon - 0.5 * (i.area_of_use.west + i.area_of_use.east)),
+                ),
+            )
+            return parse_crs(f"{best.auth_name}:{best.code}")
+    return parse_crs("EPSG:5041" if lat > 0 else "EPSG:5042")
+
+
+def output_crs(crs, src_crs, x, y):
+    """The output CRS of a warp: ``crs`` (a user string) when given; else ``src_crs`` when it
+    is projected; else (coordinates in degrees: APL's lon/lat IGMs, geolocation arrays or GCPs
+    in WGS 84) the UTM zone of the data (:func:`utm_crs`), so that the grid is metric and
+    ``--resolution`` is in metres."""
+    if crs:
+        return parse_crs(crs)
+    if src_crs is None or not _pyproj(src_crs).is_geographic:
+        return src_crs
+    return utm_crs(x, y, src_crs)
+
+
+#: Plausible ground distance between neighbouring pixels of an imaging spectrometer (m):
+#: from drone and lab-rail scanners (about a centimetre, 1 mm allowed) to spaceborne ones
+#: (30 m EnMAP/PRISMA, 60 m EMIT; 10 km allowed).
+GROUND_SPACING_M = (1e-3, 1e4)
+
+
+def _ground_spacing_m(x, y, valid, crs) -> float | None:
+    """The median distance between neighbouring pixels in metres (None when it cannot be
+    told), degrees converted at the data's latitude."""
+    c = _pyproj(crs)
+    try:
+        if c.is_geographic:
+            lat0 = np.radians(np.clip(np.nanmedian(y[valid]), -89.0, 89.0))
+            return pixel_spacing(x * 111_320.0 * np.cos(lat0), y * 110_574.0, valid)
+        factor = c.axis_info[0].unit_conversion_factor if c.axis_info else 1.0
+        return pixel_spacing(x, y, valid) * float(factor or 1.0)
+    except (InputError, ValueError, IndexError):
+        return None
+
+
+def check_coordinates(x, y, crs, *, what: str, fix: str, valid=None, spacing: bool = False):
+    """Refuse coordinates that contradict their CRS, naming ``what`` holds them and saying
+    what to do (``fix``).
+
+    * geographic CRS: longitude beyond ±360° or latitude beyond ±90° (e.g. UTM metres
+      labelled EPSG:4326: a latitude of 3.45 million);
+    * projected CRS: a position outside the CRS's area of use (pyproj) widened by the area's
+      own width and height on every side (a generous margin: a line in the next UTM zone
+      passes);
+    * with ``spacing`` (per-pixel coordinates: IGMs, geolocation arrays), a median distance
+      between neighbouring pixels outside :data:`GROUND_SPACING_M` once converted to metres
+      (degrees labelled as metres advance micrometres from pixel to pixel).
+
+    The test is on the median position (one corrupt pixel is masked later, not refused).
+    """
+    x = np.asarray(x, "float64")
+    y = np.asarray(y, "float64")
+    ok = np.isfinite(x) & np.isfinite(y)
+    if valid is not None:
+        ok &= np.asarray(valid, bool)
+    if not ok.any():
+        return
+    mx, my = float(np.median(x[ok])), float(np.median(y[ok]))
+    span = (
+        f"x {np.min(x[ok]):.10g} … {np.max(x[ok]):.10g}, y {np.min(y[ok]):.10g} … "
+        f"{np.max(y[ok]):.10g}"
+    )
+    c = _pyproj(crs)
+    name = crs_name(crs)
+    if c.is_geographic:
+        if abs(my) > 90 or abs(mx) > 360:
+            raise InputError(
+                f"{what} holds {span}, which cannot be longitude and latitude in {name} "
+                f"(latitude within ±90°, longitude within ±360°): these are not degrees; {fix}"
+            )
+    else:
+        aou = c.area_of_use
+        if aou is not None:
+            from pyproj import Transformer
+
+            try:
+                tr = Transformer.from_crs("EPSG:4326", c, always_xy=True)
+                x0, y0, x1, y1 = tr.transform_bounds(
+                    aou.west, aou.south, aou.east, aou.north, densify_pts=21
+                )
+            except Exception:  # noqa: BLE001 - a CRS PROJ cannot bound: no area test
+                x0 = None
+            if x0 is not None and np.all(np.isfinite([x0, y0, x1, y1])):
+                dx, dy = x1 - x0, y1 - y0
+                if not (x0 - dx <= mx <= x1 + dx and y0 - dy <= my <= y1 + dy):
+                    raise InputError(
+                        f"{what} holds {span}, far outside the area where {name} is used "
+                        f"({aou.name.split('.')[0]}): the coordinates are in another CRS; {fix}"
+                    )
+    if spacing:
+        step = _ground_spacing_m(x, y, ok, crs)
+        lo, hi = GROUND_SPACING_M
+        if step is not None and not lo <= step <= hi:
+            units = crs_units(crs)
+            raise InputError(
+                f"{what}: neighbouring pixels lie {step:.3g} m apart when read in {name} "
+                f"({units}), outside the {lo:g} m to {hi:g} m of any imaging spectrometer: the "
+                f"values are in other units than {name} says (degrees read as metres, or "
+                f"metres as degrees); {fix}"
+            )
+
+
 # ------------------------------------------------------------------------------- IGM and GLT
 @dataclass(frozen=True)
 class Coordinates:
@@ -88,13 +322,17 @@ def read_coordinates(path, *, crs=None, label: str = "IGM") -> Coordinates:
     ``GEOLOCATION`` metadata domain (X and Y arrays, any step and offset).
 
     ``crs`` (a user string) is used when the file carries none, and overrides it otherwise.
+    An ENVI header without ``map info`` is read for APL's CRS lines (:func:`envi_header_crs`).
+    The coordinates are checked against the CRS (:func:`check_coordinates`).
     """
     path = os.fspath(path)
     user_crs = parse_crs(crs, "parameter 'igm_crs'") if crs else None
     with open_raster(path, label) as src:
         geo = _geolocation_metadata(src)
         if geo.get("X_DATASET") and geo.get("Y_DATASET"):
-            return _read_geolocation(src, geo, path, user_crs, label)
+            coords = _read_geolocation(src, geo, path, user_crs, label)
+            _check(coords, label, "from its SRS" if user_crs is None else "from --igm-crs")
+            return coords
         if src.count < 2:
             raise InputError(
                 f"{label} {path} has {src.count} band: an IGM needs easting (band 1) and "
@@ -102,13 +340,51 @@ def read_coordinates(path, *, crs=None, label: str = "IGM") -> Coordinates:
             )
         x = src.read(1, masked=True).astype("float64").filled(np.nan)
         y = src.read(2, masked=True).astype("float64").filled(np.nan)
-        file_crs = src.crs
+        file_crs = src.crs or (None if user_crs else envi_header_crs(src, label))
     use = user_crs or file_crs
     if use is None:
         raise InputError(
             f"{label} {path} carries no CRS in its header: give it with --igm-crs (e.g. EPSG:32636)"
         )
-    return Coordinates(x, y, use, path, f"IGM {os.path.basename(path)}")
+    coords = Coordinates(x, y, use, path, f"IGM {os.path.basename(path)}")
+    _check(coords, label, "from its header" if user_crs is None else "from --igm-crs")
+    return coords
+
+
+def _check(coords: Coordinates, label: str, origin: str) -> None:
+    fix = (
+        "give the right CRS with --igm-crs (e.g. EPSG:32636 for UTM 36N metres, EPSG:4326 for "
+        "longitude/latitude)"
+        if origin != "from --igm-crs"
+        else "check --igm-crs (e.g. EPSG:32636 for UTM 36N metres, EPSG:4326 for "
+        "longitude/latitude)"
+    )
+    check_coordinates(
+        coords.x,
+        coords.y,
+        coords.crs,
+        what=f"{label} {coords.path} (CRS {crs_name(coords.crs)} {origin})",
+        fix=fix,
+        spacing=True,
+    )
+
+
+def coordinates_for(input, igm=None, crs=None) -> Coordinates:
+    """The per-pixel coordinates of ``input``: its IGM (``igm``) when given, else its own GDAL
+    geolocation arrays. A product without them is refused: its bands are data, not
+    coordinates, whatever ``crs`` (``--igm-crs``, the CRS of an IGM) says."""
+    if igm:
+        return read_coordinates(igm, crs=crs, label="IGM")
+    input = os.fspath(input)
+    with open_raster(input, "input") as src:
+        has_arrays = bool(_geolocation_metadata(src).get("X_DATASET"))
+    if not has_arrays:
+        extra = " (--igm-crs gives the CRS of an IGM: it needs --igm)" if crs else ""
+        raise InputError(
+            f"input {input} has no GDAL geolocation arrays (GEOLOCATION metadata): give its "
+            f"coordinates with --igm (an IGM) or --glt (a GLT){extra}"
+        )
+    return read_coordinates(input, crs=crs, label="input")
 
 
 def _read_geolocation(src, geo: dict, path: str, user_crs, label: str) -> Coordinates:
@@ -166,7 +442,10 @@ class GLT:
 
 
 def read_glt(path, *, crs=None) -> GLT:
-    """Read a GLT (band 1: sample, band 2: line; one-based; 0 or nodata: nothing seen)."""
+    """Read a GLT (band 1: sample, band 2: line; one-based; 0 or nodata: nothing seen; a
+    negative index is ENVI's infill from a neighbouring cell, its absolute value the index:
+    :func:`geoboresight.georef.geoloc.glt_indices`), as ENVI, AVIRIS-NG and EMIT (emit-sds
+    ``emit_utils/reformat.py``: ``glt_x``, ``glt_y`` on an EPSG:4326 grid) write it."""
     path = os.fspath(path)
     with open_raster(path, "GLT") as src:
         if src.count < 2:
@@ -181,6 +460,17 @@ def read_glt(path, *, crs=None) -> GLT:
         )
     if grid.crs is None:
         raise InputError(f"GLT {path} carries no CRS: give it with --igm-crs")
+    t = grid.transform
+    col = np.array([0.0, grid.width, grid.width, 0.0])
+    row = np.array([0.0, 0.0, grid.height, grid.height])
+    cx, cy = t.c + t.a * col + t.b * row, t.f + t.d * col + t.e * row
+    check_coordinates(
+        cx,
+        cy,
+        grid.crs,
+        what=f"GLT {path}: its map grid (CRS {crs_name(grid.crs)})",
+        fix="give the right CRS with --igm-crs",
+    )
     if np.any(np.asarray(s.filled(0)) % 1) or np.any(np.asarray(line.filled(0)) % 1):
         raise InputError(
             f"GLT {path} holds non-integer indices: a GLT holds sample and line numbers"
@@ -207,58 +497,78 @@ class GCPs:
     path: str
 
 
-_CRS_LINE = re.compile(r"^\s*#\s*CRS\s*[:=]\s*(.+)$", re.I)
+_CRS_LINE = re.compile(r"^CRS\s*[:=]\s*(.*)$", re.I)
 
 
 def read_gcps(path, *, crs=None) -> GCPs:
-    """Read GCPs from a CSV (``pixel,line,x,y``, optionally ``enable``; a ``# CRS: ...``
-    comment line may give the CRS) or a QGIS Georeferencer ``.points`` file (``mapX, mapY,
-    pixelX, pixelY, enable, ...``; QGIS counts lines downwards as negative ``pixelY``; QGIS ≥
-    3.26 writes ``#CRS: <WKT>`` first). ``crs`` (a user string) overrides the file's CRS."""
+    """Read GCPs from a CSV or a QGIS Georeferencer ``.points`` file.
+
+    * CSV: a header naming ``pixel,line,x,y`` (any order, optionally ``enable``); a comment
+      line ``# CRS: EPSG:...`` may give the CRS.
+    * QGIS ``.points`` (every QGIS 3.x; recognised by a header starting ``mapX,mapY``): columns
+      by position, as QGIS reads them (``QgsGCPList::loadGcps``): map x, map y, source x,
+      source y, then ``enable`` (0: skipped), and QGIS's residuals (ignored). The header
+      names the source columns ``pixelX,pixelY`` (earlier releases) or ``sourceX,sourceY``
+      (recent ones, ``QgsGCPList::saveGcps``); a first line ``#CRS: <WKT>`` (about 3.26
+      on) is the GCPs' CRS. For a
+      raster without a geotransform, as raw products are, QGIS's source coordinates are the
+      pixel column and the negative line (its source layer's y axis points up): line =
+      −sourceY.
+
+    Comma, semicolon or tab separated, with or without a byte-order mark
+    (:mod:`geoboresight.io.tables`). ``crs`` (a user string) overrides the file's CRS.
+    """
     path = os.fspath(path)
-    if not os.path.isfile(path):
-        raise InputError(f"GCP file {path} does not exist: check the path")
-    with open(path, encoding="utf-8-sig", errors="replace") as f:
-        text = f.read()
+    table = read_table(path, "GCP file")
     file_crs = None
-    rows = []
-    for line in text.splitlines():
-        m = _CRS_LINE.match(line)
-        if m:
+    for comment in table.comments:
+        m = _CRS_LINE.match(comment)
+        if m and m.group(1).strip():
             file_crs = m.group(1).strip()
-        elif line.strip() and not line.lstrip().startswith("#"):
-            rows.append(line)
-    table = list(csv.reader(rows))
-    if not table:
-        raise InputError(f"GCP file {path} holds no GCPs")
-    header = [h.strip().lower() for h in table[0]]
-    qgis = {"mapx", "mapy", "pixelx", "pixely"} <= set(header)
+    header = [h.strip().lower() for h in table.header]
+    qgis = header[:2] == ["mapx", "mapy"] and len(header) >= 4
     plain = {"pixel", "line", "x", "y"} <= set(header)
     if not (qgis or plain):
         raise InputError(
             f"GCP file {path}: the first line must name the columns pixel,line,x,y (CSV) or "
-            "mapX,mapY,pixelX,pixelY (QGIS .points); found " + ",".join(table[0])
+            "mapX,mapY,sourceX,sourceY (QGIS .points); found " + ",".join(table.header)
         )
-    cols = ("pixelx", "pixely", "mapx", "mapy") if qgis else ("pixel", "line", "x", "y")
-    idx = [header.index(c) for c in cols]
-    en = header.index("enable") if "enable" in header else None
+    if qgis:
+        cols, idx, en = ("sourceX", "sourceY", "mapX", "mapY"), [2, 3, 0, 1], 4
+    else:
+        cols = ("pixel", "line", "x", "y")
+        idx = [header.index(c) for c in cols]
+        en = header.index("enable") if "enable" in header else None
     values, enabled = [], []
-    for n, row in enumerate(table[1:], start=2):
+    for n, row in zip(table.line_numbers, table.rows, strict=True):
         try:
-            values.append([float(row[i]) for i in idx])
-            enabled.append(bool(int(float(row[en]))) if en is not None and en < len(row) else True)
+            values.append([parse_number(row[i], table.delimiter) for i in idx])
+            on = en is not None and en < len(row) and row[en] != ""
+            enabled.append(bool(int(parse_number(row[en], table.delimiter))) if on else True)
         except (ValueError, IndexError):
             raise InputError(
                 f"GCP file {path}, line {n}: expected numbers in {', '.join(cols)}, got "
-                f"{','.join(row)!r}"
+                f"{table.delimiter.join(row)!r}"
             ) from None
+    if not values:
+        raise InputError(f"GCP file {path} holds no GCPs")
     v = np.array(values, "float64").reshape(-1, 4)
     pl = v[:, :2].copy()
     if qgis:
-        pl[:, 1] = -pl[:, 1]  # QGIS: y = -line
+        pl[:, 1] = -pl[:, 1]  # QGIS: sourceY = -line
     user = parse_crs(crs, "parameter 'gcp_crs'") if crs else None
     fcrs = parse_crs(file_crs, f"GCP file {path}: its CRS line") if file_crs else None
-    return GCPs(pl, v[:, 2:], np.array(enabled, bool), user or fcrs, path)
+    gcps = GCPs(pl, v[:, 2:], np.array(enabled, bool), user or fcrs, path)
+    if gcps.crs is not None and gcps.enabled.any():
+        origin = "from --gcp-crs" if user else "from its CRS line"
+        check_coordinates(
+            gcps.xy[gcps.enabled, 0],
+            gcps.xy[gcps.enabled, 1],
+            gcps.crs,
+            what=f"GCP file {path} (CRS {crs_name(gcps.crs)} {origin}): its map coordinates",
+            fix="give the right CRS with --gcp-crs (or in the file's '# CRS:' line)",
+        )
+    return gcps
 
 
 def corner_gcps(corners: str, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
@@ -382,13 +692,38 @@ def pixel_spacing(x: np.ndarray, y: np.ndarray, valid: np.ndarray) -> float:
     return float(np.sqrt(steps[0] * steps[-1]))
 
 
+#: Fewest output cells along each side of the grid (or the product's own pixels less one,
+#: for a product narrower than that): coarser cells show the product as a blob, and are
+#: almost always a unit mistake (degrees for metres).
+MIN_CELLS = 16
+#: Share of the available memory a warp may plan to use (GDAL's buffers and the rest of the
+#: process need the remainder).
+MEMORY_SHARE = 0.75
+
+
 def map_grid(x, y, valid, crs, resolution: float | None) -> Grid:
     """A north-up grid covering the pixel centres ``x``, ``y`` (plus one cell), its cells
-    aligned on multiples of ``resolution`` (default: the median pixel spacing)."""
+    aligned on multiples of ``resolution`` (default: the median pixel spacing).
+
+    Refused, naming the coarsest resolution that would do: a resolution that covers the
+    footprint with fewer than :data:`MIN_CELLS` cells along either side (fewer than the
+    product's lines or columns less one, for a product narrower than that).
+    """
     from rasterio.transform import from_origin
 
     res = float(resolution) if resolution else float(f"{pixel_spacing(x, y, valid):.3g}")
     xs, ys = x[valid], y[valid]
+    need = max(1, min(MIN_CELLS, min(np.shape(x)) - 1))
+    ext_x, ext_y = float(xs.max() - xs.min()), float(ys.max() - ys.min())
+    if min(ext_x, ext_y) / res < need:
+        coarsest = _round_sig(min(ext_x, ext_y) / need, up=False)
+        units = crs_units(crs)
+        raise ParameterError(
+            f"parameter 'resolution': {res:g} ({units} of {crs_name(crs)}) would cover the "
+            f"product's {ext_x:.4g} × {ext_y:.4g} footprint with {ext_x / res:.3g} × "
+            f"{ext_y / res:.3g} cells (at least {need} along each side): give --resolution "
+            f"{coarsest:g} or finer"
+        )
     left = np.floor((xs.min() - res) / res) * res
     top = np.ceil((ys.max() + res) / res) * res
     width = int(np.ceil((xs.max() + res - left) / res))
@@ -399,6 +734,70 @@ def map_grid(x, y, valid, crs, resolution: float | None) -> Grid:
             "resolution (in the units of the output CRS)"
         )
     return Grid(width, height, crs, from_origin(left, top, res, res))
+
+
+def _round_sig(v: float, up: bool) -> float:
+    """``v`` rounded to two significant digits, up or down (a limit stays on its side)."""
+    if not np.isfinite(v) or v <= 0:
+        return v
+    step = 10.0 ** (np.floor(np.log10(v)) - 1)
+    return float(f"{(np.ceil(v / step) if up else np.floor(v / step)) * step:.6g}")
+
+
+def available_memory() -> int:
+    """Bytes of memory available to this process now (psutil, which Dask brings; else the
+    physical pages the OS reports free)."""
+    try:
+        import psutil
+
+        return int(psutil.virtual_memory().available)
+    except Exception:  # noqa: BLE001 - psutil absent: the OS's count
+        try:
+            return int(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+        except (ValueError, OSError, AttributeError):
+            return 1 << 62  # unknown: do not refuse
+
+
+def _human_bytes(n: float) -> str:
+    for unit in ("B", "KB", "MB", "GB", "TB"):
+        if n < 1000 or unit == "TB":
+            return f"{n:.3g} {unit}"
+        n /= 1000.0
+    return f"{n:.3g} TB"
+
+
+def check_warp_memory(grid: Grid, raw_shape, bands: int, dtype) -> None:
+    """Refuse a warp whose buffers would not fit in memory, before any of it is done, naming
+    the resolution that would fit and the memory the asked one needs.
+
+    A block of :data:`BANDS_PER_WARP` bands is warped at a time: the block on the map grid,
+    and the raw block with its padded copy (``2 × (lines + 1) × (columns + 1)``), each in the
+    product's data type. The plan may use :data:`MEMORY_SHARE` of the available memory.
+    """
+    nb = min(BANDS_PER_WARP, max(int(bands), 1))
+    item = np.dtype(dtype).itemsize * nb
+    cells = float(grid.width) * float(grid.height)
+    raw = 2.0 * (raw_shape[0] + 1) * (raw_shape[1] + 1) * item
+    need = cells * item + raw
+    have = MEMORY_SHARE * available_memory()
+    if need <= have:
+        return
+    res = abs(float(grid.transform.a))
+    units = crs_units(grid.crs)
+    room = have - raw
+    if room <= 0:
+        raise ParameterError(
+            f"the warp of {nb} band(s) of the {raw_shape[1]} × {raw_shape[0]} product needs "
+            f"{_human_bytes(raw)} for the product alone, {_human_bytes(have)} of memory "
+            "available: close other programs or use a machine with more memory"
+        )
+    fit = _round_sig(1.05 * res * float(np.sqrt(cells * item / room)), up=True)
+    raise ParameterError(
+        f"parameter 'resolution': {res:g} ({units} of {crs_name(grid.crs)}) gives a "
+        f"{grid.width:,} × {grid.height:,} grid whose warp needs {_human_bytes(need)} of memory "
+        f"({nb} band(s) at a time), {_human_bytes(have)} at hand: give --resolution {fit:g} or "
+        "coarser (or close other programs)"
+    )
 
 
 def write_igm(path: str, x: np.ndarray, y: np.ndarray, crs, tags: dict) -> str:
@@ -447,6 +846,7 @@ def warp_geoloc(
                 f"{label} {product} ({src.width} × {src.height}) differ in size: they must "
                 "describe the same raw pixels"
             )
+        check_warp_memory(grid, (src.height, src.width), src.count, src.dtypes[0])
         method = choose_resampling(src, resampling)
         meta = _metadata(src)
         nodata = _nodata_for(src)

@@ -68,7 +68,7 @@ def _warp_model(
     input, output, model, src_crs, crs, resolution, resampling, tags, progress, igm_output
 ):
     width, height = _product_size(input)
-    dst_crs = gio.parse_crs(crs) if crs else src_crs
+    dst_crs = gio.output_crs(crs, src_crs, *model(np.array([width / 2]), np.array([height / 2])))
     cx, cy, geoloc = _model_geoloc(model, width, height, src_crs, dst_crs)
     ok = np.isfinite(cx) & np.isfinite(cy)
     grid = gio.map_grid(cx, cy, ok, dst_crs, resolution)
@@ -129,7 +129,8 @@ def geolocate_file(
     igm_crs : str, optional
         CRS of the IGM or GLT when its header carries none (or to override it).
     crs : str, optional
-        Output CRS (the IGM's by default); the coordinates are transformed with pyproj.
+        Output CRS (the IGM's by default; its UTM zone when it is in degrees); the
+        coordinates are transformed with pyproj.
     resolution : float
         Output cell size in the output CRS's units; 0 takes the median pixel spacing.
     resampling : {"auto", "nearest", "bilinear", "cubic"}
@@ -172,13 +173,13 @@ def geolocate_file(
         )
         progress.info(f"GLT lookup: {done['valid_pixels']} map cells filled")
         return {"output": output, **_grid_result(table.grid, {**done, "resampling": "nearest"})}
-    coords = gio.read_coordinates(igm or input, crs=igm_crs, label="IGM" if igm else "input")
+    coords = gio.coordinates_for(input, igm, igm_crs)
     if coords.x.shape != (height, width):
         raise InputError(
             f"IGM {coords.path} is {coords.x.shape[1]} × {coords.x.shape[0]} (columns × lines) but "
             f"input {input} is {width} × {height}: the IGM must belong to this product"
         )
-    dst_crs = gio.parse_crs(crs) if crs else coords.crs
+    dst_crs = gio.output_crs(crs, coords.crs, coords.x, coords.y)
     x, y = gio.transform_xy(coords.x, coords.y, coords.crs, dst_crs)
     try:
         clean = clean_igm(x, y)
