@@ -14,7 +14,15 @@ from pathlib import Path
 
 from .spec import GROUPS, Algorithm, execute
 
-__all__ = ["GROUPS", "Algorithm", "execute", "get", "registry", "spec_modules"]
+__all__ = [
+    "GROUPS",
+    "Algorithm",
+    "execute",
+    "get",
+    "registry",
+    "spec_modules",
+    "spec_of_operation",
+]
 
 #: An operation is declared once, by its spec (``Algorithm(name="ratio", ...)`` in a module of
 #: this package); this index of the spec module of each operation is read from the modules'
@@ -35,6 +43,23 @@ def spec_modules() -> dict[str, str]:
         for name in _DECLARED.findall(path.read_text(encoding="utf-8")):
             found[name] = path.stem
     return found
+
+
+_RUNS = re.compile(r"\brun=(\w+_file)\b")
+
+
+def spec_of_operation(function: str) -> Algorithm | None:
+    """The spec whose ``run`` is the file-level operation called ``function`` (e.g.
+    ``"ratio_file"``), importing its spec module only; None if no spec runs it."""
+    for path in sorted(Path(__file__).parent.glob("*.py")):
+        if path.stem == "spec" or path.stem.startswith("_"):
+            continue
+        if function in _RUNS.findall(path.read_text(encoding="utf-8")):
+            module = importlib.import_module(f"{__name__}.{path.stem}")
+            for alg in getattr(module, "ALGORITHMS", ()):
+                if getattr(alg.run, "__name__", None) == function:
+                    return alg
+    return None
 
 
 def __getattr__(name: str):

@@ -72,10 +72,7 @@ class RasterIn(Param):
     def coerce(self, value):
         if hasattr(value, "files"):  # an opened dataset (DualSensor), as rasterio takes one
             return value
-        try:
-            return os.fspath(value)
-        except TypeError:
-            raise self._fail(f"expected a file path, got {_short(value)}") from None
+        return _path(self, value)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -87,6 +84,11 @@ class MultiRaster(Param):
     def coerce(self, value):
         from ..io.write import split_paths
 
+        if not (isinstance(value, str | os.PathLike) or isinstance(value, list | tuple)) or (
+            isinstance(value, list | tuple)
+            and not all(isinstance(v, str | os.PathLike) for v in value)
+        ):
+            raise self._fail(f"expected file paths, got {_short(value)}")
         paths = split_paths(value)
         if not paths:
             raise self._fail("give at least one raster")
@@ -101,7 +103,7 @@ class FileIn(Param):
     kind: ClassVar[str] = "file"
 
     def coerce(self, value):
-        return os.fspath(value)
+        return _path(self, value)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -112,10 +114,14 @@ class Band(Param):
     kind: ClassVar[str] = "band"
 
     def coerce(self, value):
+        if not _scalar(value):
+            raise self._fail(f"band must be a whole number, got {_short(value)}")
         try:
             band = int(value)
-        except (TypeError, ValueError):
-            raise self._fail(f"band must be a whole number, got {value!r}") from None
+        except (TypeError, ValueError, OverflowError):
+            raise self._fail(f"band must be a whole number, got {_short(value)}") from None
+        if float(value) != band:
+            raise self._fail(f"band must be a whole number, got {_short(value)}")
         if band < 1:
             raise self._fail(f"bands are numbered from 1, got {band}")
         return band
@@ -132,14 +138,20 @@ class Number(Param):
     kind: ClassVar[str] = "number"
 
     def coerce(self, value):
+        # JSON's true is not 1, and a list is not a number (the engine and batch pass JSON
+        # values as they come; the CLI passes text).
+        if not _scalar(value):
+            raise self._fail(f"expected a number, got {_short(value)}")
         try:
-            number = int(value) if self.integer else float(value)
-        except (TypeError, ValueError):
-            raise self._fail(f"expected a number, got {value!r}") from None
+            number = float(value)
+        except (TypeError, ValueError, OverflowError):
+            raise self._fail(f"expected a number, got {_short(value)}") from None
         if not math.isfinite(number):
-            raise self._fail(f"expected a finite number, got {value!r}")
-        if self.integer and float(value) != number:
-            raise self._fail(f"expected a whole number, got {value!r}")
+            raise self._fail(f"expected a finite number, got {_short(value)}")
+        if self.integer:
+            if number != int(number):
+                raise self._fail(f"expected a whole number, got {_short(value)}")
+            number = int(number)
         unit = f" {self.unit}" if self.unit else ""
         if self.minimum is not None and number < self.minimum:
             raise self._fail(f"{number}{unit} is below the minimum {self.minimum}{unit}")
@@ -166,11 +178,18 @@ class Enum(Param):
     kind: ClassVar[str] = "enum"
 
     def coerce(self, value):
-        if isinstance(value, int) and not isinstance(value, bool) and value < len(self.choices):
-            return self.choices[value]  # QGIS passes enums as indexes
-        value = str(value)
+        if isinstance(value, int) and not isinstance(value, bool):
+            # QGIS passes enums as indexes: 0 … n-1 (no negative index from the end).
+            if 0 <= value < len(self.choices):
+                return self.choices[value]
+            raise self._fail(
+                f"choice number {value} does not exist: give one of {', '.join(self.choices)} "
+                f"(or 0–{len(self.choices) - 1})"
+            )
+        if not isinstance(value, str):
+            raise self._fail(f"{_short(value)} is not one of {', '.join(self.choices)}")
         if value not in self.choices:
-            raise self._fail(f"{value!r} is not one of {', '.join(self.choices)}")
+            raise self._fail(f"{_short(value)} is not one of {', '.join(self.choices)}")
         return value
 
 
@@ -188,8 +207,10 @@ class Flag(Param):
                 return True
             if low in ("0", "false", "no", "off", ""):
                 return False
-            raise self._fail(f"expected yes or no, got {value!r}")
-        return bool(value)
+            raise self._fail(f"expected yes or no, got {_short(value)}")
+        if isinstance(value, bool) or (_scalar(value) and value in (0, 1)):
+            return bool(value)
+        raise self._fail(f"expected yes or no (true/false), got {_short(value)}")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -199,7 +220,11 @@ class Text(Param):
     kind: ClassVar[str] = "string"
 
     def coerce(self, value):
-        return str(value)
+        if isinstance(value, str):
+            return value
+        if _scalar(value):
+            return str(value)
+        raise self._fail(f"expected text, got {_short(value)}")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -208,7 +233,7 @@ class _Out(Param):
     is_output: ClassVar[bool] = True
 
     def coerce(self, value):
-        return os.fspath(value)
+        return _path(self, value)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -512,6 +537,26 @@ def execute(
             return alg.run(**values, progress=as_progress(progress), overwrite=overwrite)
         finally:
             VALIDATED.reset(token)
+
+
+def _scalar(value: Any) -> bool:
+    """A number or text: not a bool, list, dict or None (NumPy scalars count as numbers)."""
+    if isinstance(value, bool):
+        return False
+    if isinstance(value, str | int | float):
+        return True
+    return hasattr(value, "dtype") and getattr(value, "ndim", 1) == 0 and value.dtype.kind in "iuf"
+
+
+def _path(param: Param, value: Any) -> str:
+    """A file path given as text or a path object; anything else (a number, a list) refused
+    naming the parameter."""
+    if isinstance(value, str | os.PathLike):
+        path = os.fspath(value)
+        if "\0" in path:
+            raise param._fail("the path holds a NUL character")
+        return path
+    raise param._fail(f"expected a file path, got {_short(value)}")
 
 
 def _short(value: Any, limit: int = 80) -> str:
