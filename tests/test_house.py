@@ -204,6 +204,18 @@ def test_no_import_cycle_in_the_package():
     assert _cycle(graph) is None, " -> ".join(_cycle(graph))
 
 
+def test_the_bottom_layer_imports_nothing_above_it():
+    """Kernels and the figure module sit below the I/O layer: no import of io, the file-level
+    operations, the specs or a face (figures render; io.write.save_figure writes the PNG)."""
+    above = ("geoboresight.io", "geoboresight.operations", "geoboresight.algorithms")
+    faces = {"geoboresight.cli", "geoboresight.rio", "geoboresight.batch", "geoboresight.engine"}
+    graph = _import_graph()
+    for path in [*KERNEL_FILES, PKG / "figures.py"]:
+        deps = graph[_module_name(path)]
+        up = {d for d in deps if d.startswith(above) or d in faces}
+        assert not up, f"{path.name} imports {sorted(up)}"
+
+
 def test_io_modules_use_no_private_part_of_a_cube():
     for path in (PKG / "io").glob("*.py"):
         if path.name == "cube.py":

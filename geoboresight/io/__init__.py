@@ -30,7 +30,14 @@ from .windows import (
     row_windows,
     sample_windows,
 )
-from .write import atomic_output, check_output_path, split_paths, write_json, write_text
+from .write import (
+    atomic_output,
+    check_output_path,
+    save_figure,
+    split_paths,
+    write_json,
+    write_text,
+)
 
 __all__ = [
     "DEFAULT_BLOCK_ROWS",
@@ -63,6 +70,7 @@ __all__ = [
     "require_same_grid",
     "row_windows",
     "sample_windows",
+    "save_figure",
     "split_paths",
     "wavelengths_of",
     "write_envi",

@@ -389,6 +389,16 @@ def write_json(path: str | os.PathLike, data, overwrite: bool = True) -> str:
     return write_text(path, json.dumps(data, indent=2, default=float), overwrite=overwrite)
 
 
+def save_figure(fig, path: str | os.PathLike, overwrite: bool = True) -> str:
+    """Save the matplotlib figure ``fig`` (:mod:`geoboresight.figures` draws them) as PNG,
+    atomically (temporary file, then rename); ``path``. ``fig`` is only asked to
+    ``savefig``: this module does not import matplotlib."""
+    path = os.fspath(path)
+    with atomic_output(path, overwrite=overwrite) as tmp:
+        fig.savefig(tmp, format="png")
+    return path
+
+
 def split_paths(value) -> list[str]:
     """Paths from one path, a comma-separated string of paths, or a list of either (the command
     line gives a list of options, each of which may hold commas)."""
