@@ -275,6 +275,35 @@ def test_import_is_lazy_and_the_api_resolves():
     assert set(gb.__all__) <= set(dir(gb))
 
 
+def test_the_stub_declares_exactly_the_lazy_api():
+    """geoboresight/__init__.pyi (what type checkers and IDEs read) names every entry of
+    ``__all__``, each imported under its own name from the module the lazy table gives."""
+    stub = ast.parse((PKG / "__init__.pyi").read_text())
+    declared = {}
+    annotated = set()
+    for node in stub.body:
+        if isinstance(node, ast.ImportFrom):
+            assert node.level == 1, ast.unparse(node)
+            for alias in node.names:
+                assert alias.asname == alias.name, f"{alias.name}: re-export as itself"
+                assert alias.name not in declared, f"{alias.name} declared twice"
+                declared[alias.name] = f"geoboresight.{node.module}"
+        elif isinstance(node, ast.AnnAssign):
+            annotated.add(node.target.id)
+    assert sorted(declared) == gb.__all__
+    assert declared == {n: gb._API[n] for n in gb.__all__}
+    assert {"__version__", "__all__", "KERNELS", "OPERATIONS", "IO"} <= annotated
+
+
+def test_the_stub_ships_in_the_wheel():
+    import tomllib
+
+    config = tomllib.loads((PKG.parent / "pyproject.toml").read_text())
+    data = config["tool"]["setuptools"]["package-data"]["geoboresight"]
+    assert "__init__.pyi" in data and "py.typed" in data
+    assert (PKG / "py.typed").is_file()
+
+
 def test_kernels_share_one_calling_convention():
     """f(data..., valid=None, *, options): where a public kernel takes a validity mask, it is
     the first parameter with a default, and every later parameter is keyword-only."""
