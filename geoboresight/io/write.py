@@ -23,7 +23,6 @@ import re
 import secrets
 import shutil
 import socket
-import sqlite3
 import stat
 import time
 from collections.abc import Collection, Iterable, Iterator
@@ -342,12 +341,6 @@ def atomic_output(
             if err is None:
                 raise
             raise err from exc
-        except sqlite3.Error as exc:
-            # GeoPackage outputs: SQLite's own errors ("database or disk is full").
-            raise (
-                output_error(OSError(str(exc)), path, tmp, mine=True)
-                or OutputError(f"output {path} could not be written ({scrub(str(exc), tmp, path)})")
-            ) from exc
     finally:
         for leftover in (tmp, *(s for s, _ in sidecars)):
             with contextlib.suppress(OSError):
