@@ -1,4 +1,4 @@
-"""The house rules (DESIGN.md "Shape"), checked over the whole package so they cannot drift:
+"""The house rules (docs/DEVELOPING.md, "Layers, one direction"), checked over the whole package so they cannot drift:
 one public API, specs that are declarations of file-level operations, one name per concept,
 kernels free of files, no pyplot."""
 

@@ -1,7 +1,7 @@
 """The I/O layer: files, bands, wavelengths, nodata and masks, CRS and transform, windows and
 atomic writes.
 
-Core kernels never see a file; everything about files lives here (DESIGN.md).
+Core kernels never see a file; everything about files lives here (docs/DEVELOPING.md).
 """
 
 from .cube import Cube, open_cube
