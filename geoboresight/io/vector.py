@@ -2,10 +2,12 @@
 pyogrio (GDAL's OGR), written atomically.
 
 The engine runs in its own process, never inside QGIS's (where a second GDAL writing vectors
-beside QGIS's own was a risk), so GDAL's OGR writes the files: a layer named as asked, the attribute columns typed from their NumPy dtype (integer, float, text;
-NaN as null), the geometry type (``MultiPolygon`` for polygons, ``Point``, or ``Unknown`` for a
-mix) and the CRS. In raw sensor geometry there is no CRS: the layer gets none (GDAL's
-"undefined" SRS in a GeoPackage, no ``crs`` member in GeoJSON) and its description says so.
+beside QGIS's own was a risk), so GDAL's OGR writes the files: a layer named as asked, the
+attribute columns typed from their NumPy dtype (integer, float, text; NaN as null), the
+geometry type (``MultiPolygon`` for polygons, ``Point``, or ``Unknown`` for a mix) and the CRS
+(in GeoJSON, one without an EPSG code as WKT in the ``crs`` member). In raw sensor geometry
+there is no CRS: the layer gets none (GDAL's "undefined" SRS in a GeoPackage, no ``crs`` member
+in GeoJSON) and its description says so.
 """
 
 from __future__ import annotations
