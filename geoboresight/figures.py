@@ -1,4 +1,4 @@
-"""Figures (PNG) shared by every application: one place for the style and the atomic save.
+"""Figures shared by every application: one place for their style.
 
 Only matplotlib's object-oriented API is used: a :class:`matplotlib.figure.Figure` drawn by its
 own Agg canvas. Matplotlib's state-machine interface and backend switch are never used: they
@@ -12,8 +12,6 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
-
-from .io.write import atomic_output
 
 #: Resolution of the project's figures (dots per inch).
 DPI = 110
@@ -49,13 +47,6 @@ def new_figure(width: float = 6.4, height: float = 4.2):
     return fig, ax
 
 
-def save_figure(fig: Figure, path: str, overwrite: bool = True) -> str:
-    """Save ``fig`` as PNG atomically (temporary file, then rename); ``path``."""
-    with atomic_output(path, overwrite=overwrite) as tmp:
-        fig.savefig(tmp, format="png")
-    return path
-
-
 def histogram_figure(counts, edges, title: str, xlabel: str, mean=None, std=None) -> Figure:
     """Figure 3 of the paper: the distribution of boresight values, with mean and ±3σ."""
     fig, ax = new_figure()
@@ -82,4 +73,4 @@ def histogram_figure(counts, edges, title: str, xlabel: str, mean=None, std=None
     return fig
 
 
-__all__ = ["DPI", "blank_figure", "histogram_figure", "new_figure", "save_figure"]
+__all__ = ["DPI", "blank_figure", "histogram_figure", "new_figure"]

@@ -1,4 +1,4 @@
-"""Progress and cancellation, passed down as one small object (DESIGN.md, "Shape").
+"""Progress and cancellation, passed down as one small object (docs/DEVELOPING.md, "Layers, one direction").
 
 The CLI draws a click progress bar from it, QGIS maps it to ``QgsProcessingFeedback``, a script
 may pass nothing. Kernels call :meth:`Progress.update` once per block; ``update`` raises

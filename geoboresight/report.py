@@ -24,8 +24,9 @@ import numpy as np
 
 from . import __version__
 from .errors import Cancelled, GeoboresightError
-from .figures import new_figure, save_figure
+from .figures import new_figure
 from .html import macro, png_data_uri, render
+from .io.write import save_figure
 from .progress import Progress
 
 #: The parameters of the ratio's two bands, as the report passes them to its operations.

@@ -30,8 +30,8 @@ import numpy as np
 from geoboresight.anomaly import indicator, roc, svdd
 from geoboresight.anomaly import rx as rxmod
 from geoboresight.anomaly.bands import select_bands
-from geoboresight.figures import save_figure
 from geoboresight.io.wavelengths import nearest_band
+from geoboresight.io.write import save_figure
 from geoboresight.ratio import boresight_ratio
 from geoboresight.simulate import simulate_scene
 

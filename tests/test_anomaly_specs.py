@@ -50,7 +50,8 @@ def _scene(tmp_path, interleave="bil", nodata=None):
 def test_cube_reader_fast_path_equals_rasterio(tmp_path, interleave):
     path, cube = _scene(tmp_path, interleave)
     with open_cube(path) as c:
-        assert c._parts[0].raw is not None  # the raw ENVI path is used
+        assert c.raw_parts() is not None  # the raw ENVI path is used
+        assert c.raw_parts()[0].layout.interleave == interleave
         data, valid = c.read(7, 30, np.array([0, 5, 23]), "float64")
     with rasterio.open(path) as src:
         ref = src.read([1, 6, 24], window=((7, 30), (0, 36)))

@@ -1,4 +1,4 @@
-"""The house rules (DESIGN.md "Shape"), checked over the whole package so they cannot drift:
+"""The house rules (docs/DEVELOPING.md, "Layers, one direction"), checked over the whole package so they cannot drift:
 one public API, specs that are declarations of file-level operations, one name per concept,
 kernels free of files, no pyplot."""
 
@@ -146,6 +146,93 @@ def _imports(tree):
             yield ("." * n.level) + (n.module or "")
 
 
+def _module_name(path: pathlib.Path) -> str:
+    parts = list(path.relative_to(PKG.parent).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _import_graph() -> dict[str, set[str]]:
+    """Package module -> the package modules it imports (at the top or inside a function)."""
+    paths = {_module_name(p): p for p in PKG.rglob("*.py")}
+    graph = {}
+    for name, path in paths.items():
+        package = name if path.name == "__init__.py" else name.rsplit(".", 1)[0]
+        deps = set()
+        for n in ast.walk(ast.parse(path.read_text())):
+            if isinstance(n, ast.ImportFrom):
+                if n.level:
+                    base = package.split(".")[: len(package.split(".")) - (n.level - 1)]
+                    target = ".".join(base + ([n.module] if n.module else []))
+                else:
+                    target = n.module
+                # "from . import presets" depends on the submodule, not on the package.
+                subs = [f"{target}.{a.name}" for a in n.names if f"{target}.{a.name}" in paths]
+                deps.update(subs if len(subs) == len(n.names) else [target, *subs])
+            elif isinstance(n, ast.Import):
+                deps.update(a.name for a in n.names)
+        graph[name] = {d for d in deps if d in paths and d != name}
+    return graph
+
+
+def _cycle(graph: dict[str, set[str]]) -> list[str] | None:
+    """One import cycle of ``graph`` (a list of modules, the first repeated last), or None."""
+    state: dict[str, int] = {}  # 1: on the current path, 2: done
+    path: list[str] = []
+
+    def visit(v):
+        state[v] = 1
+        path.append(v)
+        for w in sorted(graph[v]):
+            if state.get(w) == 1:
+                return path[path.index(w) :] + [w]
+            if w not in state and (found := visit(w)):
+                return found
+        path.pop()
+        state[v] = 2
+        return None
+
+    for v in sorted(graph):
+        if v not in state and (found := visit(v)):
+            return found
+    return None
+
+
+def test_the_cycle_finder_finds_a_cycle():
+    assert _cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
+    assert _cycle({"a": {"b"}, "b": set(), "c": {"a", "b"}}) is None
+
+
+def test_no_import_cycle_in_the_package():
+    """Every module import, even one deferred into a function, points one way: io/cube.py and
+    io/raster.py both read ENVI headers through io/envi.py instead of through each other."""
+    graph = _import_graph()
+    assert "geoboresight.io.envi" in graph["geoboresight.io.raster"]
+    assert _cycle(graph) is None, " -> ".join(_cycle(graph))
+
+
+def test_the_bottom_layer_imports_nothing_above_it():
+    """Kernels and the figure module sit below the I/O layer: no import of io, the file-level
+    operations, the specs or a face (figures render; io.write.save_figure writes the PNG)."""
+    above = ("geoboresight.io", "geoboresight.operations", "geoboresight.algorithms")
+    faces = {"geoboresight.cli", "geoboresight.rio", "geoboresight.batch", "geoboresight.engine"}
+    graph = _import_graph()
+    for path in [*KERNEL_FILES, PKG / "figures.py"]:
+        deps = graph[_module_name(path)]
+        up = {d for d in deps if d.startswith(above) or d in faces}
+        assert not up, f"{path.name} imports {sorted(up)}"
+
+
+def test_io_modules_use_no_private_part_of_a_cube():
+    for path in (PKG / "io").glob("*.py"):
+        if path.name == "cube.py":
+            continue
+        tree = ast.parse(path.read_text())
+        private = [
+            n.lineno for n in ast.walk(tree) if isinstance(n, ast.Attribute) and n.attr == "_parts"
+        ]
+        assert not private, f"{path.name}: Cube._parts at lines {private}"
+
+
 def test_kernels_do_not_touch_files():
     for path in KERNEL_FILES:
         tree = ast.parse(path.read_text())
@@ -192,6 +279,35 @@ def test_import_is_lazy_and_the_api_resolves():
     assert heavy == ""
     assert missing == "[]"
     assert set(gb.__all__) <= set(dir(gb))
+
+
+def test_the_stub_declares_exactly_the_lazy_api():
+    """geoboresight/__init__.pyi (what type checkers and IDEs read) names every entry of
+    ``__all__``, each imported under its own name from the module the lazy table gives."""
+    stub = ast.parse((PKG / "__init__.pyi").read_text())
+    declared = {}
+    annotated = set()
+    for node in stub.body:
+        if isinstance(node, ast.ImportFrom):
+            assert node.level == 1, ast.unparse(node)
+            for alias in node.names:
+                assert alias.asname == alias.name, f"{alias.name}: re-export as itself"
+                assert alias.name not in declared, f"{alias.name} declared twice"
+                declared[alias.name] = f"geoboresight.{node.module}"
+        elif isinstance(node, ast.AnnAssign):
+            annotated.add(node.target.id)
+    assert sorted(declared) == gb.__all__
+    assert declared == {n: gb._API[n] for n in gb.__all__}
+    assert {"__version__", "__all__", "KERNELS", "OPERATIONS", "IO"} <= annotated
+
+
+def test_the_stub_ships_in_the_wheel():
+    import tomllib
+
+    config = tomllib.loads((PKG.parent / "pyproject.toml").read_text())
+    data = config["tool"]["setuptools"]["package-data"]["geoboresight"]
+    assert "__init__.pyi" in data and "py.typed" in data
+    assert (PKG / "py.typed").is_file()
 
 
 def test_kernels_share_one_calling_convention():

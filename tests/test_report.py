@@ -256,7 +256,8 @@ def test_figures_do_not_load_pyplot_or_switch_the_backend(tmp_path):
     """Figures are plain objects with their own Agg canvas: QGIS keeps its backend."""
     code = (
         "import sys, matplotlib; before = matplotlib.get_backend(); "
-        "from geoboresight.figures import histogram_figure, save_figure; "
+        "from geoboresight.figures import histogram_figure; "
+        "from geoboresight.io.write import save_figure; "
         f"save_figure(histogram_figure([1, 3, 2], [0, 1, 2, 3], 't', 'x', 1.5, 0.2), {str(tmp_path / 'h.png')!r}); "
         "print('matplotlib.pyplot' in sys.modules, matplotlib.get_backend() == before)"
     )
@@ -271,11 +272,33 @@ def test_figures_do_not_load_pyplot_or_switch_the_backend(tmp_path):
     assert (tmp_path / "h.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_a_figure_that_fails_to_render_leaves_the_old_png_and_no_litter(tmp_path):
+    from geoboresight.figures import histogram_figure
+    from geoboresight.io.write import save_figure
+
+    path = tmp_path / "h.png"
+    path.write_bytes(b"old")
+
+    class Broken:
+        def savefig(self, target, format):
+            with open(target, "wb") as f:
+                f.write(b"half a PNG")
+            raise RuntimeError("renderer died")
+
+    with pytest.raises(RuntimeError, match="renderer died"):
+        save_figure(Broken(), str(path))
+    assert path.read_bytes() == b"old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["h.png"]
+    assert save_figure(histogram_figure([1, 2], [0, 1, 2], "t", "x"), path) == str(path)
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
 def test_figures_drawn_in_threads_equal_figures_drawn_one_by_one(tmp_path):
     """Processing runs algorithms in worker threads: concurrent figures do not mix."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from geoboresight.figures import histogram_figure, save_figure
+    from geoboresight.figures import histogram_figure
+    from geoboresight.io.write import save_figure
 
     def draw(i):
         rng = np.random.default_rng(i)

@@ -1,7 +1,7 @@
 """The I/O layer: files, bands, wavelengths, nodata and masks, CRS and transform, windows and
 atomic writes.
 
-Core kernels never see a file; everything about files lives here (DESIGN.md).
+Core kernels never see a file; everything about files lives here (docs/DEVELOPING.md).
 """
 
 from .cube import Cube, open_cube
@@ -30,7 +30,14 @@ from .windows import (
     row_windows,
     sample_windows,
 )
-from .write import atomic_output, check_output_path, split_paths, write_json, write_text
+from .write import (
+    atomic_output,
+    check_output_path,
+    save_figure,
+    split_paths,
+    write_json,
+    write_text,
+)
 
 __all__ = [
     "DEFAULT_BLOCK_ROWS",
@@ -66,6 +73,7 @@ __all__ = [
     "require_same_grid",
     "row_windows",
     "sample_windows",
+    "save_figure",
     "split_paths",
     "wavelengths_of",
     "write_envi",

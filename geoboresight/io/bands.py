@@ -24,7 +24,7 @@ from ..dem.bands import (
 )
 from ..errors import InputError, ParameterError
 from ..progress import Progress
-from .cube import open_cube
+from .cube import RawPart, open_cube
 from .dual import SWIR_NM, TOLERANCE_NM, VNIR_NM, DualSensor, SensorFile
 from .grid import Grid
 from .raster import open_raster
@@ -197,16 +197,16 @@ def _raw_cube_reader(dual: DualSensor, vbs, sbs):
     through :class:`~geoboresight.io.cube.Cube` (one read per band; the whole strip)."""
     same = dual.vnir.reads == dual.swir.reads
     cube = open_cube([dual.vnir.reads] if same else [dual.vnir.reads, dual.swir.reads])
-    if any(part.raw is None for part in cube._parts):
+    raw = cube.raw_parts()
+    if raw is None:
         cube.close()
         return None, None
-    parts = [cube._parts[0], cube._parts[0] if same else cube._parts[1]]
+    parts = [raw[0], raw[0] if same else raw[1]]
     picks = [np.asarray(vbs) - 1, np.asarray(sbs) - 1]
 
     def one(part, idx, row0, row1):
-        if part.raw["interleave"] != "bil":
-            start = 0 if part is cube._parts[0] else cube._parts[0].count
-            return cube.read(row0, row1, idx + start, "float32")
+        if part.layout.interleave != "bil":
+            return cube.read(row0, row1, idx + part.start, "float32")
         return _bil_bands(part, idx, row0, row1, cube.width)
 
     def read(row0: int, row1: int):
@@ -215,17 +215,17 @@ def _raw_cube_reader(dual: DualSensor, vbs, sbs):
     return read, cube
 
 
-def _bil_bands(part, idx, row0: int, row1: int, width: int):
+def _bil_bands(part: RawPart, idx, row0: int, row1: int, width: int):
     """Bands ``idx`` (0-based) of lines ``row0:row1`` of a raw BIL file, through a memory map
     of the strip (closed before returning): (float32 (bands, lines, columns), valid)."""
     import mmap
 
-    raw = part.raw
-    dt = raw["dtype"]
+    raw = part.layout
+    dt = raw.dtype
     line = part.count * width * dt.itemsize
-    start = raw["offset"] + row0 * line
+    start = raw.offset + row0 * line
     skip = start % mmap.ALLOCATIONGRANULARITY
-    with open(raw["file"], "rb") as f:
+    with open(raw.file, "rb") as f:
         mm = mmap.mmap(
             f.fileno(), skip + (row1 - row0) * line, access=mmap.ACCESS_READ, offset=start - skip
         )

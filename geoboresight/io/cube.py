@@ -13,18 +13,15 @@ flight line's length.
 from __future__ import annotations
 
 import os
-import re
 import threading
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from .envi import RawLayout, raw_layout
 from .grid import Grid
 from .raster import open_raster
 from .wavelengths import good_bands, read_wavelengths
-
-#: NumPy types of ENVI's "data type" codes.
-ENVI_DTYPES = {1: "u1", 2: "i2", 3: "i4", 4: "f4", 5: "f8", 12: "u2", 13: "u4", 14: "i8", 15: "u8"}
 
 
 @dataclass
@@ -33,54 +30,22 @@ class _Part:
     count: int
     dtype: np.dtype
     nodata: float | None
-    raw: dict | None  # {"file", "offset", "interleave", "dtype"} for the fast ENVI path
+    raw: RawLayout | None  # for the fast ENVI path
     _fh: object = field(default=None, repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
 
-def envi_header(data_path: str) -> dict | None:
-    """The keys of the ENVI header beside ``data_path`` (lower-case names, raw text values),
-    or None when there is none."""
-    stem = os.path.splitext(data_path)[0]
-    for hdr in (data_path + ".hdr", stem + ".hdr"):
-        if os.path.isfile(hdr):
-            break
-    else:
-        return None
-    with open(hdr, encoding="utf-8", errors="replace") as f:
-        text = f.read()
-    if not text.lstrip().upper().startswith("ENVI"):
-        return None
-    text = re.sub(r"\{[^}]*\}", lambda m: m.group(0).replace("\n", " "), text)
-    keys = {}
-    for line in text.splitlines():
-        if "=" in line:
-            k, v = line.split("=", 1)
-            keys[k.strip().lower()] = v.strip()
-    return keys
+@dataclass(frozen=True)
+class RawPart:
+    """One file of a :class:`Cube` read straight from disk (:meth:`Cube.raw_parts`): the
+    cube's bands ``start:start + count`` (0-based), laid out as ``layout`` says, with the
+    file's ``nodata`` value (None when it has none)."""
 
-
-def _raw_layout(src, data_path: str) -> dict | None:
-    """The byte layout of an uncompressed ENVI file, or None (read through GDAL then)."""
-    if src.driver != "ENVI":
-        return None
-    keys = envi_header(data_path)
-    if keys is None or keys.get("file compression", "0").strip() not in ("", "0"):
-        return None
-    try:
-        code = int(keys["data type"])
-        interleave = keys.get("interleave", "bsq").strip().lower()
-        offset = int(keys.get("header offset", "0"))
-        big = int(keys.get("byte order", "0")) == 1
-    except (KeyError, ValueError):
-        return None
-    if code not in ENVI_DTYPES or interleave not in ("bsq", "bil", "bip"):
-        return None
-    dtype = np.dtype(ENVI_DTYPES[code]).newbyteorder(">" if big else "<")
-    expected = offset + src.count * src.height * src.width * dtype.itemsize
-    if os.path.getsize(data_path) < expected:
-        return None
-    return {"file": data_path, "offset": offset, "interleave": interleave, "dtype": dtype}
+    path: str
+    start: int
+    count: int
+    nodata: float | None
+    layout: RawLayout
 
 
 class Cube:
@@ -115,6 +80,18 @@ class Cube:
 
     def __exit__(self, *exc):
         self.close()
+
+    def raw_parts(self) -> tuple[RawPart, ...] | None:
+        """The byte layout of each file, in band order, when every file is uncompressed ENVI
+        (what a reader that maps the files itself needs); None when any file is read through
+        GDAL."""
+        if any(p.raw is None for p in self._parts):
+            return None
+        starts = np.cumsum([0] + [p.count for p in self._parts])
+        return tuple(
+            RawPart(p.path, int(s), p.count, p.nodata, p.raw)
+            for p, s in zip(self._parts, starts, strict=False)
+        )
 
     @property
     def dtype(self) -> np.dtype:
@@ -160,7 +137,7 @@ class Cube:
         n = int(np.prod(shape))
         buf = bufs.get(id(part))
         if buf is None or buf.size < n:
-            buf = bufs[id(part)] = np.empty(n, dtype=part.raw["dtype"])
+            buf = bufs[id(part)] = np.empty(n, dtype=part.raw.dtype)
         return buf[:n].reshape(shape)
 
     def _read_part(self, part, row0, row1, local, data, sel):
@@ -175,27 +152,27 @@ class Cube:
                 data[j] = block[i]
             return
         raw = part.raw
-        dt = raw["dtype"]
+        dt = raw.dtype
         rows, width, count = row1 - row0, self.width, part.count
 
         def read_at(pos, buf):
             # One shared handle per file; seek + read under its lock (threads call read()).
             with part._lock:
                 if part._fh is None:
-                    part._fh = open(raw["file"], "rb", buffering=0)
+                    part._fh = open(raw.file, "rb", buffering=0)
                 part._fh.seek(pos)
                 part._fh.readinto(memoryview(buf).cast("B"))
 
-        if raw["interleave"] == "bsq":
+        if raw.interleave == "bsq":
             buf = self._raw_buffer(part, (rows, width))
             for b, j in zip(local, sel, strict=True):
-                read_at(raw["offset"] + ((int(b) * self.height + row0) * width) * dt.itemsize, buf)
+                read_at(raw.offset + ((int(b) * self.height + row0) * width) * dt.itemsize, buf)
                 data[j] = buf
             return
         line = count * width
         buf = self._raw_buffer(part, (rows, line))
-        read_at(raw["offset"] + row0 * line * dt.itemsize, buf)
-        if raw["interleave"] == "bil":
+        read_at(raw.offset + row0 * line * dt.itemsize, buf)
+        if raw.interleave == "bil":
             buf = buf.reshape(rows, count, width)
             if len(local) == count and np.array_equal(local, np.arange(count)):
                 np.copyto(data[sel[0] : sel[0] + count], buf.transpose(1, 0, 2), casting="unsafe")
@@ -252,7 +229,9 @@ def open_cube(paths, label: str = "image") -> Cube:
                     src.count,
                     np.dtype(src.dtypes[0]),
                     src.nodata,
-                    _raw_layout(src, data_path),
+                    raw_layout(data_path, src.count, src.height, src.width)
+                    if src.driver == "ENVI"
+                    else None,
                 )
             )
     wavelengths = None if any(w is None for w in wls) else np.concatenate(wls)

@@ -14,10 +14,8 @@ otherwise.
 
 from __future__ import annotations
 
-import json
 import os
 import re
-import sqlite3
 from dataclasses import dataclass
 from xml.etree import ElementTree
 
@@ -982,62 +980,33 @@ def reproject_onto(product: str, reference: str, output: str, *, resampling: str
 
 # ---------------------------------------------------------------------------------- vectors
 def read_vector(path: str):
-    """``(geoms, fields, crs, layer)`` of a GeoPackage (first feature layer) or GeoJSON file."""
+    """``(geoms, fields, crs, layer)`` of a GeoPackage (first layer with geometries) or GeoJSON
+    file, read through pyogrio; ``crs`` is None for a layer without one (raw sensor geometry:
+    GeoPackage's "undefined" SRSs)."""
+    import pyogrio
     import shapely
+    from pyogrio.errors import DataLayerError, DataSourceError
 
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise InputError(f"vector {path} does not exist: check the path")
     ext = os.path.splitext(path)[1].lower()
-    if ext in (".geojson", ".json"):
-        try:
-            with open(path, encoding="utf-8") as f:
-                doc = json.load(f)
-        except (OSError, ValueError) as exc:
-            raise InputError(f"vector {path} is not GeoJSON ({exc})") from None
-        feats = doc.get("features", [])
-        geoms = [shapely.from_geojson(json.dumps(ft["geometry"])) for ft in feats]
-        names = sorted({k for ft in feats for k in (ft.get("properties") or {})})
-        fields = {k: [(ft.get("properties") or {}).get(k) for ft in feats] for k in names}
-        crs_name = ((doc.get("crs") or {}).get("properties") or {}).get("name")
-        crs = (
-            parse_crs(crs_name, f"vector {path}: its crs member")
-            if crs_name
-            else parse_crs("EPSG:4326")
-        )
-        return geoms, fields, crs, doc.get("name") or "features"
-    if ext != ".gpkg":
+    if ext not in (".gpkg", ".geojson", ".json"):
         raise InputError(f"vector {path}: use a GeoPackage (.gpkg) or GeoJSON (.geojson) file")
+    kind = "GeoPackage" if ext == ".gpkg" else "GeoJSON"
     try:
-        con = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
-        layer, col, srs_id = con.execute(
-            "SELECT table_name, column_name, srs_id FROM gpkg_geometry_columns LIMIT 1"
-        ).fetchone()
-        row = con.execute(
-            "SELECT definition FROM gpkg_spatial_ref_sys WHERE srs_id = ?", (srs_id,)
-        ).fetchone()
-        cur = con.execute(f'SELECT * FROM "{layer}"')
-        names = [d[0] for d in cur.description]
-        records = cur.fetchall()
-    except (sqlite3.Error, TypeError) as exc:
-        raise InputError(f"vector {path} is not a readable GeoPackage ({exc})") from None
-    finally:
-        con.close()
-    gi = names.index(col)
-    geoms = [shapely.from_wkb(_strip_gpkg_header(r[gi])) for r in records]
-    fields = {n: [r[i] for r in records] for i, n in enumerate(names) if i != gi and n != "fid"}
-    crs = (
-        None
-        if srs_id in (-1, 0) or row is None or row[0] == "undefined"
-        else parse_crs(row[0], f"vector {path}")
-    )
-    return geoms, fields, crs, layer
-
-
-def _strip_gpkg_header(blob: bytes) -> bytes:
-    flags = blob[3]
-    envelope = {0: 0, 1: 32, 2: 48, 3: 48, 4: 64}[(flags >> 1) & 0b111]
-    return bytes(blob[8 + envelope :])
+        layers = [name for name, gtype in pyogrio.list_layers(path) if gtype is not None]
+        if not layers:
+            raise InputError(f"vector {path} has no layer with geometries")
+        meta, _, wkb, columns = pyogrio.raw.read(path, layer=layers[0])
+    except (DataSourceError, DataLayerError) as exc:
+        raise InputError(f"vector {path} is not a readable {kind} ({exc})") from None
+    geoms = list(shapely.from_wkb(wkb))
+    fields = {str(n): list(v) for n, v in zip(meta["fields"], columns, strict=True)}
+    text = meta["crs"]
+    undefined = text is None or (text.startswith("LOCAL_CS") and "Undefined" in text)
+    crs = None if undefined else parse_crs(text, f"vector {path}")
+    return geoms, fields, crs, layers[0]
 
 
 def reproject_geoms(geoms, src_crs, dst_crs):

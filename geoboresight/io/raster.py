@@ -24,6 +24,7 @@ from rasterio.windows import Window
 
 from .. import __version__
 from ..errors import InputError, OutputError, ParameterError
+from .envi import ENVI_DTYPES, data_for_header, envi_header, is_compressed
 from .grid import FLOAT_NODATA, TILE, Grid
 from .wavelengths import format_wavelengths, unit_scale
 from .write import atomic_output, output_error, scrub, temp_name
@@ -214,7 +215,7 @@ def open_raster(path: str | os.PathLike, label: str = "raster"):
         raise InputError(f"{label} {path} does not exist: check the path")
     if path.lower().endswith(".hdr"):
         # ENVI: GDAL opens the data file, not the header.
-        data = _envi_data_for_header(path)
+        data = data_for_header(path)
         if data is None:
             raise InputError(
                 f"{label} {path} is an ENVI header but no data file sits beside it "
@@ -248,11 +249,9 @@ def check_raw_size(src, label: str = "raster") -> None:
     header's size or type is wrong: both give silently wrong numbers)."""
     if src.driver != "ENVI" or not src.files:
         return
-    from .cube import ENVI_DTYPES, envi_header
-
     data = src.files[0]
     keys = envi_header(data)
-    if keys is None or keys.get("file compression", "0").strip() not in ("", "0"):
+    if keys is None or is_compressed(keys):
         return
     hdr = next((f for f in src.files[1:] if f.lower().endswith(".hdr")), "its header")
     try:
@@ -278,14 +277,6 @@ def check_raw_size(src, label: str = "raster") -> None:
         f"{label} {data} is {actual} bytes, longer than the {layout} that {hdr} describes: "
         "check 'lines', 'samples', 'bands', 'data type' and 'header offset' in the header"
     )
-
-
-def _envi_data_for_header(hdr: str) -> str | None:
-    stem = hdr[:-4]
-    for ext in ("", ".img", ".dat", ".raw", ".bsq", ".bil", ".bip"):
-        if os.path.isfile(stem + ext):
-            return stem + ext
-    return None
 
 
 def band_count(path: str) -> int:

@@ -12,7 +12,7 @@ import os
 import numpy as np
 
 from ..errors import InputError
-from .cube import ENVI_DTYPES, envi_header
+from .envi import ENVI_DTYPES, envi_header
 from .wavelengths import parse_list, unit_scale
 
 #: CSV columns holding the library's band widths, not a material.

@@ -23,7 +23,6 @@ import re
 import secrets
 import shutil
 import socket
-import sqlite3
 import stat
 import time
 from collections.abc import Collection, Iterable, Iterator
@@ -342,12 +341,6 @@ def atomic_output(
             if err is None:
                 raise
             raise err from exc
-        except sqlite3.Error as exc:
-            # GeoPackage outputs: SQLite's own errors ("database or disk is full").
-            raise (
-                output_error(OSError(str(exc)), path, tmp, mine=True)
-                or OutputError(f"output {path} could not be written ({scrub(str(exc), tmp, path)})")
-            ) from exc
     finally:
         for leftover in (tmp, *(s for s, _ in sidecars)):
             with contextlib.suppress(OSError):
@@ -387,6 +380,16 @@ def write_json(path: str | os.PathLike, data, overwrite: bool = True) -> str:
     import json
 
     return write_text(path, json.dumps(data, indent=2, default=float), overwrite=overwrite)
+
+
+def save_figure(fig, path: str | os.PathLike, overwrite: bool = True) -> str:
+    """Save the matplotlib figure ``fig`` (:mod:`geoboresight.figures` draws them) as PNG,
+    atomically (temporary file, then rename); ``path``. ``fig`` is only asked to
+    ``savefig``: this module does not import matplotlib."""
+    path = os.fspath(path)
+    with atomic_output(path, overwrite=overwrite) as tmp:
+        fig.savefig(tmp, format="png")
+    return path
 
 
 def split_paths(value) -> list[str]:

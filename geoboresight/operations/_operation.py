@@ -3,7 +3,7 @@ failure, and progress optional.
 
 A file-level operation is a plain function a rasterio script calls (``ratio_file(vnir, swir,
 output="ratio.tif")``); the specs declare the same function as their ``run``. Decorating it with
-:func:`operation` makes the promises of DESIGN.md hold for scripts and faces alike:
+:func:`operation` makes the promises of docs/DEVELOPING.md hold for scripts and faces alike:
 
 - an output may not be an input, nor one of an input's sidecar files (ENVI header, .aux.xml);
 - an existing output is replaced only with ``overwrite=True``;

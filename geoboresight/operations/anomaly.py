@@ -659,8 +659,8 @@ def roc_file(
     """
     from ..anomaly import roc
     from ..errors import InputError, ParameterError
-    from ..figures import save_figure
     from ..io.anomaly import write_roc_csv
+    from ..io.write import save_figure
 
     paths = io.split_paths(scores)
     labels = [n.strip() for n in (names or "").split(",") if n.strip()]

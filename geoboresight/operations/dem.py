@@ -559,7 +559,8 @@ def view_3d_file(
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.2, Figure 9E).
     """
-    from ..figures import decimated_shape, save_figure
+    from ..figures import decimated_shape
+    from ..io.write import save_figure
 
     dual = io.as_dual(vnir, swir, layout)
     # The view draws at most MAX_FACETS facets per side: the DEM and the RGB are read at that

@@ -208,7 +208,7 @@ def boresight_offset_file(
                 f"{result['drift_along_px']:.3f} px along, {result['drift_across_px']:.3f} px across"
             )
         if plot:
-            from ..figures import save_figure
+            from ..io.write import save_figure
 
             save_figure(profile_figure(prof), plot)
     io.write_json(output, result)

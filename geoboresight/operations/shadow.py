@@ -340,7 +340,7 @@ def shadow_cluster_file(
                 if pdst is not None:
                     pdst.write(np.where(np.isfinite(p), p, io.FLOAT_NODATA), 1, window=win)
             if plot:
-                from ..figures import save_figure
+                from ..io.write import save_figure
                 from ..shadow.plots import cluster_figure
 
                 keep = np.flatnonzero(good)[:PLOT_POINTS]
@@ -463,7 +463,7 @@ def shadow_fraction_fit_file(
     if report:
         io.write_json(report, {**model.as_dict(), "ratio": ratio, "truth": truth, "mask": mask})
     if plot:
-        from ..figures import save_figure
+        from ..io.write import save_figure
         from ..shadow.plots import regression_figure
 
         x = np.concatenate(keep_x) if keep_x else np.zeros(0)

@@ -97,7 +97,8 @@ def stats_file(
     result = {"output": output}
     payload = {"input": input, "band": band, "band_description": desc_name, **d.to_dict()}
     if histogram:
-        from ..figures import histogram_figure, save_figure  # matplotlib only when asked
+        from ..figures import histogram_figure  # matplotlib only when asked
+        from ..io.write import save_figure
 
         fig = histogram_figure(
             d.histogram_counts,

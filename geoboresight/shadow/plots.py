@@ -2,7 +2,7 @@
 Figure 5(B) (shadow fraction vs boresight ratio with the fitted line).
 
 Drawn with matplotlib's object-oriented API only, on :func:`geoboresight.figures.new_figure`
-(a Figure with its own Agg canvas; no pyplot); saved by :func:`geoboresight.figures.save_figure`.
+(a Figure with its own Agg canvas; no pyplot); saved by :func:`geoboresight.io.write.save_figure`.
 """
 
 from __future__ import annotations

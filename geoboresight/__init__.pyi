@@ -1,0 +1,87 @@
+"""Type stub of geoboresight's flat API, for type checkers and IDEs.
+
+geoboresight/__init__.py loads these names lazily (a module ``__getattr__`` over its
+``KERNELS``, ``OPERATIONS`` and ``IO`` tables), which static tools cannot follow: this stub
+says where each name comes from. The idea is lazy_loader's ``attach_stub`` (a .pyi as the
+lazy table) without the dependency: here the tables are the source, and tests/test_house.py
+checks that this stub names exactly ``geoboresight.__all__``, each from its table's module.
+"""
+
+from .anomaly.indicator import boresight_indicator as boresight_indicator
+from .anomaly.polygons import label_anomalies as label_anomalies
+from .anomaly.roc import roc_curve as roc_curve
+from .anomaly.rx import local_rx as local_rx
+from .anomaly.rx import rx as rx
+from .anomaly.svdd import fit_svdd as fit_svdd
+from .anomaly.unmix import unmix as unmix
+from .anomaly.unmix import unmix_cube as unmix_cube
+from .dem.bands import band_mean as band_mean
+from .dem.coregister import coregister as coregister
+from .dem.disparity import disparity_map as disparity_map
+from .dem.offset import estimate_offset as estimate_offset
+from .dem.offset import offset_profile as offset_profile
+from .dem.relative import relative_dem as relative_dem
+from .errors import GeoboresightError as GeoboresightError
+from .georef.geoloc import clean_igm as clean_igm
+from .georef.geoloc import corner_geoloc as corner_geoloc
+from .georef.geoloc import glt_indices as glt_indices
+from .georef.tiepoints import match_tie_points as match_tie_points
+from .georef.tiepoints import place_reference as place_reference
+from .georef.transforms import fit_transform as fit_transform
+from .io.cube import open_cube as open_cube
+from .io.dual import open_dual as open_dual
+from .io.grid import Grid as Grid
+from .io.scene import write_scene as write_scene
+from .io.windows import map_windows as map_windows
+from .io.windows import reduce_windows as reduce_windows
+from .operations.anomaly import anomaly_polygons_file as anomaly_polygons_file
+from .operations.anomaly import boresight_indicator_file as boresight_indicator_file
+from .operations.anomaly import roc_file as roc_file
+from .operations.anomaly import rx_file as rx_file
+from .operations.anomaly import svdd_file as svdd_file
+from .operations.anomaly import unmix_file as unmix_file
+from .operations.dem import disparity_file as disparity_file
+from .operations.dem import relative_dem_file as relative_dem_file
+from .operations.dem import view_3d_file as view_3d_file
+from .operations.georef import auto_georeference_file as auto_georeference_file
+from .operations.georef import geolocate_file as geolocate_file
+from .operations.georef import georeference_file as georeference_file
+from .operations.georef import reproject_to_file as reproject_to_file
+from .operations.georef import simulate_ortho_file as simulate_ortho_file
+from .operations.offset import boresight_offset_file as boresight_offset_file
+from .operations.offset import coregister_file as coregister_file
+from .operations.ratio import ratio_file as ratio_file
+from .operations.report import report_file as report_file
+from .operations.shadow import shadow_classes_file as shadow_classes_file
+from .operations.shadow import shadow_cluster_file as shadow_cluster_file
+from .operations.shadow import shadow_fraction_apply_file as shadow_fraction_apply_file
+from .operations.shadow import shadow_fraction_fit_file as shadow_fraction_fit_file
+from .operations.shadow import shadow_polygons_file as shadow_polygons_file
+from .operations.shadow_map import shadow_map_file as shadow_map_file
+from .operations.shadow_truth import dark_pixel_shadow_file as dark_pixel_shadow_file
+from .operations.shadow_truth import sun_shadow_file as sun_shadow_file
+from .operations.simulate import simulate_file as simulate_file
+from .operations.stats import stats_file as stats_file
+from .progress import Progress as Progress
+from .ratio import boresight_ratio as boresight_ratio
+from .shadow.cluster import fit_shadow_cluster as fit_shadow_cluster
+from .shadow.darkpixel import fit_dark_pixel as fit_dark_pixel
+from .shadow.fraction import fit_fraction_model as fit_fraction_model
+from .shadow.illumination import cast_shadow as cast_shadow
+from .shadow.illumination import hillshade as hillshade
+from .shadow.illumination import shadow_fraction as shadow_fraction
+from .shadow.map import calibrate_shadow_map as calibrate_shadow_map
+from .shadow.map import dark_level as dark_level
+from .shadow.map import shadow_fraction_estimate as shadow_fraction_estimate
+from .shadow.surface import choose_surface as choose_surface
+from .simulate.ortho import attitude_jitter as attitude_jitter
+from .simulate.ortho import simulate_ortho as simulate_ortho
+from .stats import describe as describe
+
+__version__: str
+__all__: list[str]
+
+#: name -> module of the kernels, the file-level operations and the I/O entry points.
+KERNELS: dict[str, str]
+OPERATIONS: dict[str, str]
+IO: dict[str, str]
