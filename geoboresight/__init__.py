@@ -112,9 +112,7 @@ def __getattr__(name: str):
     if name in OPERATIONS:
         # Its spec, which the operation checks a Python caller's arguments against (as the
         # CLI, QGIS, the engine and batch are checked): imported with the operation.
-        from .algorithms import spec_of_operation
-
-        spec_of_operation(name)
+        importlib.import_module("geoboresight.algorithms").spec_of_operation(name)
     globals()[name] = value  # later look-ups skip this function
     return value
 

@@ -29,8 +29,11 @@ from .georef.tiepoints import match_tie_points as match_tie_points
 from .georef.tiepoints import place_reference as place_reference
 from .georef.transforms import fit_transform as fit_transform
 from .io.cube import open_cube as open_cube
+from .io.dual import BandChoice as BandChoice
+from .io.dual import DualLayout as DualLayout
 from .io.dual import open_dual as open_dual
 from .io.grid import Grid as Grid
+from .io.raster import writer_options as writer_options
 from .io.scene import write_scene as write_scene
 from .io.windows import map_windows as map_windows
 from .io.windows import reduce_windows as reduce_windows

@@ -284,7 +284,11 @@ def test_import_is_lazy_and_the_api_resolves():
 def test_the_stub_declares_exactly_the_lazy_api():
     """geoboresight/__init__.pyi (what type checkers and IDEs read) names every entry of
     ``__all__``, each imported under its own name from the module the lazy table gives."""
-    stub = ast.parse((PKG / "__init__.pyi").read_text())
+    from geoboresight import _stub
+
+    text = (PKG / "__init__.pyi").read_text()
+    assert text == _stub.render(text), "run python -m geoboresight._stub --update"
+    stub = ast.parse(text)
     declared = {}
     annotated = set()
     for node in stub.body:

@@ -31,7 +31,7 @@ from xml.etree import ElementTree
 import numpy as np
 
 from ...errors import InputError
-from . import Product, SensorImage
+from .base import Product, SensorImage
 
 KIND = "EnMAP L1B"
 UNITS = "radiance (W m-2 sr-1 nm-1)"

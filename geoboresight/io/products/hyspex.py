@@ -63,8 +63,8 @@ import numpy as np
 
 from ...errors import InputError
 from ..wavelengths import unit_scale
-from . import Product, SensorImage
 from ._raw import RawCube, raw_vrt
+from .base import Product, SensorImage
 from .specim import image_name
 
 KIND = "HySpex"

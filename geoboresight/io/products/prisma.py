@@ -26,7 +26,7 @@ import os
 import numpy as np
 
 from ...errors import InputError
-from . import Geolocation, Product, SensorImage
+from .base import Geolocation, Product, SensorImage
 
 KIND = "PRISMA L1"
 UNITS = "radiance (W m-2 sr-1 um-1)"

@@ -40,11 +40,11 @@ import os
 import numpy as np
 
 from ...errors import InputError
-from ..cube import ENVI_DTYPES, envi_header
-from ..raster import _envi_data_for_header, open_raster
+from ..envi import ENVI_DTYPES, data_for_header, envi_header
+from ..raster import open_raster
 from ..wavelengths import good_bands, parse_list, read_wavelengths, unit_scale
-from . import Product, SensorImage
 from ._raw import RawCube, raw_vrt
+from .base import Product, SensorImage
 
 KIND = "Specim raw ENVI"
 #: Header keys Specim's acquisition software writes (any one marks a Specim header).
@@ -72,7 +72,7 @@ def _paths(path: str) -> tuple[str, str] | None:
     if path.lower().endswith(".hdr"):
         if not os.path.isfile(path):
             return None
-        data = _envi_data_for_header(path)
+        data = data_for_header(path)
         return (path, data) if data else None
     if not os.path.isfile(path):
         return None
@@ -170,7 +170,7 @@ def _darkref(hdr: str, cube: RawCube) -> tuple[np.ndarray, str] | None:
     ref_hdr = os.path.join(folder, "DARKREF_" + os.path.splitext(base)[0] + ".hdr")
     if not os.path.isfile(ref_hdr):
         return None
-    ref_data = _envi_data_for_header(ref_hdr)
+    ref_data = data_for_header(ref_hdr)
     keys = envi_header(ref_data) if ref_data else None
     if keys is None:
         raise InputError(
