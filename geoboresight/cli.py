@@ -322,13 +322,15 @@ def _batch(operation, jobs, scheduler, workers, overwrite):
     """Run OPERATION once per job listed in JOBS (a JSON list of objects, or a CSV whose header
     names the parameters, e.g. vnir,swir,output), in parallel on Dask.
     """
-    from .batch import read_jobs, run_batch
+    from .batch import read_labelled_jobs, run_batch
 
     bar = _Bar(f"batch {operation}", quiet=False)
     try:
+        values, labels = read_labelled_jobs(jobs)
         results = run_batch(
             operation,
-            read_jobs(jobs),
+            values,
+            labels=labels,
             scheduler=scheduler,
             n_workers=workers,
             overwrite=overwrite,
@@ -341,7 +343,7 @@ def _batch(operation, jobs, scheduler, workers, overwrite):
     failed = [r for r in results if not r.ok]
     for r in results:
         click.echo(
-            f"job {r.index + 1}: "
+            f"{r.label or f'job {r.index + 1}'}: "
             + ("ok " + json.dumps(r.result, default=str) if r.ok else f"FAILED: {r.error}")
         )
     if failed:

@@ -1,6 +1,7 @@
 """Many flight lines on a dask.distributed LocalCluster: same outputs as serial runs."""
 
 import json
+import os
 
 import numpy as np
 import rasterio
@@ -49,3 +50,41 @@ def test_local_workers_keep_glibcs_dynamic_mmap_threshold():
     assert "MALLOC_TRIM_THRESHOLD_" not in env
     default = dask.config.get("distributed.nanny.pre-spawn-environ")
     assert env == {k: v for k, v in default.items() if k != "MALLOC_TRIM_THRESHOLD_"}
+
+
+def test_a_jobs_file_is_checked_whole_and_bad_rows_named_while_good_rows_run(tmp_path):
+    """A spreadsheet's jobs CSV: a row with a wrong type and a row with a missing file are
+    reported by their line before any job starts; the good rows run; Dask leaves nothing."""
+    import glob
+    import tempfile
+
+    v = write_envi(tmp_path / "v.img", cube(len(VNIR_WL), seed=1), VNIR_WL)
+    s = write_envi(tmp_path / "s.img", cube(len(SWIR_WL), seed=2), SWIR_WL)
+    rows = [
+        "vnir;swir;output;tolerance_nm",
+        f"{v};{s};{tmp_path / 'a.tif'};10",
+        f"{v};{s};{tmp_path / 'b.tif'};ten",
+        f"{tmp_path / 'nope.img'};{s};{tmp_path / 'c.tif'};10",
+        f"{v};{s};{tmp_path / 'd.tif'};5",
+    ]
+    (tmp_path / "jobs.csv").write_text("\ufeff" + "\n".join(rows) + "\n", encoding="utf-8")
+    before = set(glob.glob(os.path.join(tempfile.gettempdir(), "geoboresight-dask-*")))
+    r = CliRunner().invoke(main, ["batch", "ratio", str(tmp_path / "jobs.csv"), "--workers", "1"])
+    assert r.exit_code == 1, r.output
+    assert "line 3: FAILED" in r.output and "'tolerance_nm'" in r.output
+    assert "line 4: FAILED" in r.output and "nope.img does not exist" in r.output
+    assert "line 2: ok" in r.output and "line 5: ok" in r.output
+    assert (tmp_path / "a.tif").exists() and (tmp_path / "d.tif").exists()
+    assert not (tmp_path / "b.tif").exists() and not (tmp_path / "c.tif").exists()
+    assert "2 of 4 jobs failed" in r.output
+    after = set(glob.glob(os.path.join(tempfile.gettempdir(), "geoboresight-dask-*")))
+    assert after == before
+
+
+def test_an_empty_jobs_file_is_refused(tmp_path):
+    (tmp_path / "jobs.csv").write_text("vnir,swir,output\n")
+    r = CliRunner().invoke(main, ["batch", "ratio", str(tmp_path / "jobs.csv")])
+    assert r.exit_code == 1 and "lists no job" in r.output
+    (tmp_path / "jobs.json").write_text("[]")
+    r = CliRunner().invoke(main, ["batch", "ratio", str(tmp_path / "jobs.json")])
+    assert r.exit_code == 1 and "lists no job" in r.output
