@@ -199,9 +199,33 @@ def _command_line(name: str, values: dict) -> str:
     return " ".join(parts)
 
 
+#: The file that marks a folder as the demo's own output: only such a folder is replaced.
+MARKER = ".geoboresight-demo"
+
+
+def prepare_folder(out_dir: Path) -> None:
+    """An empty ``out_dir`` for the demo. A folder the demo wrote before (it holds
+    :data:`MARKER`) is replaced; any other folder that is not empty is refused, as every
+    operation refuses to overwrite: the demo never deletes what it did not write."""
+    if out_dir.exists() and not out_dir.is_dir():
+        raise click.ClickException(f"--out {out_dir} is a file: give a folder")
+    if out_dir.is_dir() and any(out_dir.iterdir()):
+        if not (out_dir / MARKER).is_file():
+            raise click.ClickException(
+                f"--out {out_dir} is not empty and is not an earlier demo output: give a new "
+                "or empty folder (nothing was deleted)"
+            )
+        shutil.rmtree(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / MARKER).write_text("written by python -m geoboresight.demo\n")
+
+
 @click.command()
 @click.option(
-    "--out", default="out", show_default=True, help="Folder for the demo's outputs (replaced)."
+    "--out",
+    default="out",
+    show_default=True,
+    help="Folder for the demo's outputs: new, empty, or an earlier demo output (replaced).",
 )
 @click.option(
     "--scene",
@@ -211,9 +235,11 @@ def _command_line(name: str, values: dict) -> str:
 def main(out: str, scene: str | None) -> None:
     """Run the boresight products on the sample scene and list what was written."""
     out_dir = Path(out)
-    if out_dir.exists():
-        shutil.rmtree(out_dir)
-    out_dir.mkdir(parents=True)
+    if scene and not (Path(scene) / "vnir.hdr").exists():
+        raise click.ClickException(
+            f"scene {scene} has no vnir.hdr: give a folder written by 'geoboresight simulate'"
+        )
+    prepare_folder(out_dir)
     scene_dir = _scene(out_dir, scene)
     click.echo(f"scene: {scene_dir}")
     algs = registry()

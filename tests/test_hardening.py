@@ -478,3 +478,25 @@ def test_batch_with_a_garbled_jobs_file_is_one_line(tmp_path):
     assert error_line(result) == f"Error: jobs file {jobs} is not valid JSON " + (
         "(Expecting property name enclosed in double quotes: line 1 column 3 (char 2))"
     )
+
+
+def test_the_demo_never_deletes_a_folder_it_did_not_write(tmp_path):
+    """`make demo OUT=folder` on a folder of the user's: refused, the user's files intact,
+    even when the scene is missing; its own earlier output is replaced."""
+    from click.testing import CliRunner
+
+    from geoboresight import demo
+
+    user = tmp_path / "mine"
+    user.mkdir()
+    (user / "notes.txt").write_text("mine")
+    for args in (["--out", str(user)], ["--out", str(user), "--scene", str(tmp_path / "none")]):
+        r = CliRunner().invoke(demo.main, args)
+        assert r.exit_code == 1
+        assert "nothing was deleted" in r.output or "no vnir.hdr" in r.output
+        assert (user / "notes.txt").read_text() == "mine"
+    own = tmp_path / "own"
+    demo.prepare_folder(own)
+    (own / "ratio.tif").write_text("old product")
+    demo.prepare_folder(own)
+    assert sorted(p.name for p in own.iterdir()) == [demo.MARKER]
