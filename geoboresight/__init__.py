@@ -99,6 +99,11 @@ IO = {
     "open_dual": "geoboresight.io.dual",
     "DualLayout": "geoboresight.io.dual",
     "BandChoice": "geoboresight.io.dual",
+    # Frozen option values of the operations (a spec's parameter groups).
+    "BandSelection": "geoboresight.anomaly.bands",
+    "RXBackground": "geoboresight.anomaly.rx",
+    "OutputGrid": "geoboresight.io.grid",
+    "TieMatching": "geoboresight.georef.tiepoints",
     "writer_options": "geoboresight.io.raster",
     "open_cube": "geoboresight.io.cube",
     "map_windows": "geoboresight.io.windows",
