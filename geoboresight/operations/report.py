@@ -5,11 +5,25 @@ from __future__ import annotations
 import dataclasses
 import os
 import shutil
+from dataclasses import dataclass
 
 from .. import io
 from ..io.dual import BandChoice, DualLayout
 from ..io.write import temp_name
 from ._operation import operation
+
+
+@dataclass(frozen=True)
+class DemGeometry:
+    """What the report's relative DEM needs of the flight: the height-to-disparity factor
+    ``height_factor`` (tan θ / GSD, px per metre), or the squint (degrees), flying height (m)
+    and IFOV (mrad) it follows from. None: not given (the DEM section then says why it is
+    missing). The ``relative-dem`` operation takes them with more (its own flight geometry)."""
+
+    height_factor: float | None = None
+    squint_deg: float | None = None
+    flying_height: float | None = None
+    ifov_mrad: float | None = None
 
 
 @operation(
@@ -26,26 +40,25 @@ def report_file(
     shadow_truth=None,
     target_truth=None,
     cloud_mask=None,
-    height_factor=None,
-    squint_deg=None,
-    flying_height=None,
-    ifov_mrad=None,
+    geometry=DemGeometry(),
     svdd=True,
     products=None,
     progress=None,
 ) -> dict:
     """Write an HTML report of one scene: ratio statistics, shadow, relative DEM, anomalies.
 
-    Runs the registered operations (``ratio``, ``stats``, ``shadow-classes``,
-    ``shadow-cluster``, ``shadow-fraction-fit``, ``relative-dem``, ``view-3d``,
-    ``boresight-indicator``, ``rx``, ``svdd``, ``roc``) through the registry, as any face
-    would, and lays out their figures and numbers (see :mod:`geoboresight.report`). A step
-    that cannot run becomes a note in its section.
+    Runs the operations (``ratio``, ``stats``, ``shadow-classes``, ``shadow-cluster``,
+    ``shadow-fraction-fit``, ``relative-dem``, ``view-3d``, ``boresight-indicator``, ``rx``,
+    ``svdd``, ``roc``) through their specs, as any face would, and lays out their figures and
+    numbers (see :mod:`geoboresight.operations._report_page`). A step that cannot run becomes
+    a note in its section.
 
     Parameters
     ----------
-    vnir : path
-        VNIR file (ENVI or GeoTIFF), or a merged VNIR+SWIR cube when ``swir`` is None.
+    vnir : path or DualSensor
+        VNIR file (ENVI or GeoTIFF), a merged VNIR+SWIR cube or a sensor product when ``swir``
+        is None, or a dataset opened with :func:`geoboresight.open_dual` (its files are read
+        again by each step, with ``layout``).
     swir : path, optional
         SWIR file on the same pixel grid.
     output : path
@@ -60,11 +73,10 @@ def report_file(
         Target mask or abundance on the VNIR grid, for the ROC curves (Figure 12).
     cloud_mask : path, optional
         Cloud mask on the VNIR grid (non-zero = cloud), left out of the relative DEM.
-    height_factor : float, optional
-        Relative DEM: height-to-disparity factor tan θ / GSD (px per metre); or give
-        ``squint_deg``, ``flying_height`` (m) and ``ifov_mrad``.
-    squint_deg, flying_height, ifov_mrad : float, optional
-        The flight geometry, for the relative DEM when ``height_factor`` is not given.
+    geometry : DemGeometry
+        Relative DEM: the height-to-disparity factor tan θ / GSD (px per metre), or the
+        squint (degrees), flying height (m) and IFOV (mrad); without them the DEM section
+        says what is missing.
     svdd : bool
         Include the SVDD detector (slower) among the anomaly scores.
     products : path, optional
@@ -83,8 +95,15 @@ def report_file(
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (Eq. 3, Table 1 and
     Figure 3; §3.1, Table 2, Figures 4 and 5; §3.2, Figure 9; §3.3, Figure 12).
     """
-    from ..report import build_report  # matplotlib and jinja2: loaded only for a report
+    from ._report_page import build_report  # matplotlib and jinja2: loaded only for a report
 
+    # The primary input must open (and carry wavelengths): a report of notes saying that
+    # nothing could run would be a success in name only. Optional inputs given must open too
+    # and lie on its grid.
+    dual = io.as_dual(vnir, swir, layout)
+    if isinstance(vnir, io.DualSensor):  # each step opens the files again, by path
+        vnir, swir = dual.files[0], (dual.files[1] if len(dual.files) > 1 else None)
+    # The steps run through their specs with flat values (the faces' names).
     values = {
         "vnir": vnir,
         "swir": swir,
@@ -93,16 +112,9 @@ def report_file(
         "shadow_truth": shadow_truth,
         "target_truth": target_truth,
         "cloud_mask": cloud_mask,
-        "height_factor": height_factor,
-        "squint_deg": squint_deg,
-        "flying_height": flying_height,
-        "ifov_mrad": ifov_mrad,
+        **dataclasses.asdict(geometry),
         "svdd": svdd,
     }
-    # The primary input must open (and carry wavelengths): a report of notes saying that
-    # nothing could run would be a success in name only. Optional inputs given must open too
-    # and lie on its grid.
-    dual = io.as_dual(vnir, swir, layout)
     for label, path in (
         ("shadow_truth", shadow_truth),
         ("target_truth", target_truth),

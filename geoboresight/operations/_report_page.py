@@ -1,13 +1,15 @@
 """A self-contained HTML report of one scene: every application of the paper in one page.
 
-The report does no science of its own: it runs the registered operations (``ratio``, ``stats``,
+The report does no science of its own: it runs the operations (``ratio``, ``stats``,
 ``shadow-classes``, ``shadow-cluster``, ``shadow-fraction-fit``, ``relative-dem``, ``view-3d``,
-``rx``, ``svdd``, ``boresight-indicator``, ``roc``) through
-:func:`geoboresight.algorithms.execute` and lays out their figures and numbers, with the
-parameters each step used. Figures are embedded as base64 PNG, so the page is one file that
-opens anywhere, offline. A step that cannot run (an operation missing from this version, a
-missing input such as the sensor geometry for the DEM, a missing optional package) becomes a
-note in its section; the other sections are still written.
+``rx``, ``svdd``, ``boresight-indicator``, ``roc``) through their specs, with flat values, as
+any face would (:func:`geoboresight.algorithms.execute`: the values are validated and grouped
+for the operation, whatever its grouping), and lays out their figures and numbers, with the
+parameters each step set beside the operation's defaults. A key an operation does not know is
+a bug of the report and raises. Figures are embedded as base64 PNG, so the page is one file
+that opens anywhere, offline. A step that cannot run (a missing input such as the sensor
+geometry for the DEM, a missing optional package) becomes a note in its section; the other
+sections are still written.
 
 The page is the ``report.html`` template (:mod:`geoboresight.html`, autoescaped); the file-level
 operation that writes it is :func:`geoboresight.operations.report.report_file`.
@@ -22,20 +24,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import __version__
-from .errors import Cancelled, GeoboresightError
-from .figures import new_figure, save_figure
-from .html import macro, png_data_uri, render
-from .progress import Progress
-
-#: The parameters of the ratio's two bands, as the report passes them to its operations.
-BAND_KEYS = ("band_mode", "vnir_nm", "swir_nm", "tolerance_nm")
-DUAL_KEYS = ("vnir", "swir", "seam_nm", "vnir_wavelengths", "swir_wavelengths")
+from .. import __version__
+from ..algorithms import execute, get
+from ..errors import Cancelled, GeoboresightError
+from ..figures import new_figure, save_figure
+from ..html import macro, png_data_uri, render
+from ..progress import Progress
 
 
 @dataclass
 class Step:
-    """One operation run for the report: what ran, with which values, and what came out."""
+    """One operation run for the report: what ran, with the values the report set (beside
+    the operation's defaults), and what came out."""
 
     name: str
     values: dict
@@ -114,24 +114,22 @@ class Runner:
         return os.path.join(self.work_dir, name)
 
     def run(self, section: Section, name: str, values: dict) -> Step:
-        import inspect
-
-        step = Step(name, {k: v for k, v in values.items() if v is not None})
+        """Run the operation ``name`` with the flat ``values`` (its spec's parameter names)."""
+        alg = get(name)  # every operation the report runs is part of geoboresight
+        unknown = sorted(set(values) - {p.name for p in alg.params})
+        if unknown:
+            raise TypeError(f"report: '{name}' has no parameter(s) {', '.join(unknown)}")
+        shown = {k: v for k, v in values.items() if v is not None and v != alg.param(k).default}
+        step = Step(name, shown)
         sub = self.progress.sub(self.done / self.n_steps, (self.done + 1) / self.n_steps)
         self.done = min(self.done + 1, self.n_steps)
-        operation = _operation(name)
-        if operation is None:
-            step.error = f"the '{name}' operation is not available in this version of geoboresight"
-        else:
-            known = inspect.signature(operation).parameters
-            step.values = {k: v for k, v in step.values.items() if k in known}
-            sub.info(f"report: running {name}")
-            try:
-                step.result = operation(**step.values, progress=sub, overwrite=True)
-            except Cancelled:
-                raise
-            except (GeoboresightError, ImportError) as exc:
-                step.error = f"'{name}' could not run: {exc}"
+        sub.info(f"report: running {name}")
+        try:
+            step.result = execute(alg, values, progress=sub, overwrite=True)
+        except Cancelled:
+            raise
+        except (GeoboresightError, ImportError) as exc:
+            step.error = f"'{name}' could not run: {exc}"
         section.steps.append(step)
         if step.error:
             section.note(step.error)
@@ -147,8 +145,8 @@ def raster_figure(path: str, title: str, label: str, out_png: str) -> str:
     """A quick look of band 1: classes in their own colour table, values on a 2–98 % stretch."""
     from matplotlib.colors import BoundaryNorm, ListedColormap
 
-    from .figures import decimated_shape
-    from .io import open_raster, read_masked
+    from ..figures import decimated_shape
+    from ..io import open_raster, read_masked
 
     with open_raster(path) as src:
         height, width = src.height, src.width
@@ -196,9 +194,12 @@ def raster_figure(path: str, title: str, label: str, out_png: str) -> str:
 
 def build_report(values: dict, work_dir: str, progress: Progress) -> str:
     """Run the operations for the scene described by ``values`` (the ``report`` operation's
-    parameters) with their products in ``work_dir``; the whole HTML page."""
-    dual = {k: values.get(k) for k in DUAL_KEYS}
-    bands = {k: values.get(k) for k in BAND_KEYS}
+    flat parameters: vnir, swir, the layout's, the bands', the truths, the flight geometry's,
+    svdd) with their products in ``work_dir``; the whole HTML page."""
+    wavelengths = {k: values[k] for k in ("vnir_wavelengths", "swir_wavelengths")}
+    files = {"vnir": values["vnir"], "swir": values["swir"]}
+    dual = {**files, "seam_nm": values["seam_nm"], **wavelengths}
+    bands = {k: values[k] for k in ("band_mode", "vnir_nm", "swir_nm", "tolerance_nm")}
     anomaly_detectors = ["rx", "svdd"] if values.get("svdd") else ["rx"]
     run = Runner(work_dir, progress, n_steps=10 + len(anomaly_detectors))
     sections = []
@@ -258,6 +259,7 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
             {
                 "ratio": ratio_path,
                 "vnir": values["vnir"],
+                "vnir_wavelengths": values["vnir_wavelengths"],
                 "output": run.path("shadow_cluster.tif"),
                 "plot": run.path("scatter.png"),
             },
@@ -299,11 +301,8 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
     sections.append(s)
     dem_values = {
         **dual,
-        "cloud_mask": values.get("cloud_mask"),
-        "height_factor": values.get("height_factor"),
-        "squint_deg": values.get("squint_deg"),
-        "flying_height": values.get("flying_height"),
-        "ifov_mrad": values.get("ifov_mrad"),
+        "cloud_mask": values["cloud_mask"],
+        **{k: values[k] for k in ("height_factor", "squint_deg", "flying_height", "ifov_mrad")},
         "output": run.path("relative_dem.tif"),
         "report": run.path("dem.json"),
     }
@@ -339,11 +338,7 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
             scores.append(ind.result["output"])
             names.append("boresight ratio")
     for det in anomaly_detectors:
-        r = run.run(
-            s,
-            det,
-            {"vnir": values["vnir"], "swir": values.get("swir"), "output": run.path(f"{det}.tif")},
-        )
+        r = run.run(s, det, {**files, **wavelengths, "output": run.path(f"{det}.tif")})
         if r.result:
             scores.append(r.result["output"])
             names.append(det.upper())
@@ -395,22 +390,4 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
     )
 
 
-def _operation(name: str):
-    """The file-level operation of the operation called ``name`` (e.g. 'shadow-classes'), or
-    None when this installation lacks it."""
-    import geoboresight
-
-    try:
-        return getattr(geoboresight, name.replace("-", "_") + "_file")
-    except (AttributeError, ImportError):
-        return None
-
-
-def sections_available() -> dict[str, bool]:
-    """Which operations the report uses are present in this installation."""
-    names = ["ratio", "stats", "shadow-classes", "shadow-cluster", "shadow-fraction-fit"]
-    names += ["relative-dem", "view-3d", "boresight-indicator", "rx", "svdd", "roc"]
-    return {n: _operation(n) is not None for n in names}
-
-
-__all__ = ["Runner", "Section", "Step", "build_report", "raster_figure", "sections_available"]
+__all__ = ["Runner", "Section", "Step", "build_report", "raster_figure"]
