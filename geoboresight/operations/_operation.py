@@ -16,6 +16,7 @@ output="ratio.tif")``); the specs declare the same function as their ``run``. De
 
 from __future__ import annotations
 
+import dataclasses
 import errno
 import functools
 import inspect
@@ -109,6 +110,10 @@ def check_finite(values: dict) -> None:
     """Raise :class:`ParameterError` naming the first numeric argument that is NaN or
     infinite (``nan < minimum`` is False: NaN would pass every range check)."""
     for name, value in values.items():
+        if dataclasses.is_dataclass(value) and not isinstance(value, type):
+            # A group's value (BandChoice, OutputGrid, ...): its fields are parameters too.
+            check_finite({f.name: getattr(value, f.name) for f in dataclasses.fields(value)})
+            continue
         if (
             isinstance(value, numbers.Real)
             and not isinstance(value, bool | numbers.Integral)
