@@ -7,9 +7,11 @@ lazy table) without the dependency: here the tables are the source, and tests/te
 checks that this stub names exactly ``geoboresight.__all__``, each from its table's module.
 """
 
+from .anomaly.bands import BandSelection as BandSelection
 from .anomaly.indicator import boresight_indicator as boresight_indicator
 from .anomaly.polygons import label_anomalies as label_anomalies
 from .anomaly.roc import roc_curve as roc_curve
+from .anomaly.rx import RXBackground as RXBackground
 from .anomaly.rx import local_rx as local_rx
 from .anomaly.rx import rx as rx
 from .anomaly.svdd import fit_svdd as fit_svdd
@@ -25,6 +27,7 @@ from .errors import GeoboresightError as GeoboresightError
 from .georef.geoloc import clean_igm as clean_igm
 from .georef.geoloc import corner_geoloc as corner_geoloc
 from .georef.geoloc import glt_indices as glt_indices
+from .georef.tiepoints import TieMatching as TieMatching
 from .georef.tiepoints import match_tie_points as match_tie_points
 from .georef.tiepoints import place_reference as place_reference
 from .georef.transforms import fit_transform as fit_transform
@@ -33,6 +36,7 @@ from .io.dual import BandChoice as BandChoice
 from .io.dual import DualLayout as DualLayout
 from .io.dual import open_dual as open_dual
 from .io.grid import Grid as Grid
+from .io.grid import OutputGrid as OutputGrid
 from .io.raster import writer_options as writer_options
 from .io.scene import write_scene as write_scene
 from .io.windows import map_windows as map_windows
@@ -79,6 +83,9 @@ from .shadow.map import shadow_fraction_estimate as shadow_fraction_estimate
 from .shadow.surface import choose_surface as choose_surface
 from .simulate.ortho import attitude_jitter as attitude_jitter
 from .simulate.ortho import simulate_ortho as simulate_ortho
+from .simulate.scene import SensorOptions as SensorOptions
+from .simulate.scene import SimulatedFlight as SimulatedFlight
+from .simulate.scene import Sky as Sky
 from .stats import describe as describe
 
 __version__: str

@@ -84,8 +84,8 @@ def run(lines, out):
                 flying_height=H,
                 nominal_altitude=nominal_for(off),
             )
-            clean = simulate_scene(preset, noise=False, **kw)
-            noisy = simulate_scene(preset, noise=True, **kw)
+            clean = simulate_scene(preset, noise_free=True, **kw)
+            noisy = simulate_scene(preset, noise_free=False, **kw)
             measured = noisy.truth["offset_px"]["along"]
             wl = np.concatenate([noisy.vnir_wavelengths, noisy.swir_wavelengths])
             c0 = np.concatenate([clean.vnir, clean.swir]).astype(np.float64)

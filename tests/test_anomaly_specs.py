@@ -253,12 +253,13 @@ def test_svdd_sample_is_what_sklearn_scores(tmp_path):
 
 
 def test_operations_are_the_specs_and_the_former_image_name_still_works(tmp_path):
+    from geoboresight.anomaly.bands import BandSelection
     from geoboresight.operations.anomaly import rx_file
 
     path, cube = _scene(tmp_path)
     a, b, c = (str(tmp_path / f"{n}.tif") for n in "abc")
     assert get("rx").run is rx_file
-    rx_file(path, output=a, exclude_nm="", block_rows=5)
+    rx_file(path, output=a, spectral=BandSelection(exclude_nm=""), block_rows=5)
     get("rx")(image=path, exclude_nm="", output=b)  # the former parameter name
     get("rx")(vnir=path, exclude_nm="", output=c, block_rows=48)
     with rasterio.open(a) as ra, rasterio.open(b) as rb, rasterio.open(c) as rc:

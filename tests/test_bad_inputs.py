@@ -352,7 +352,10 @@ def _specific_cases() -> list[Case]:
     c.append(Case("rx-include-garbled", "rx", {"include_nm": "400-9x0"}, ("include_nm",)))
     c.append(
         Case(
-            "simulate-boresight-nan", "simulate", {"boresight_vnir": "nan,0,0"}, ("boresight_vnir",)
+            "simulate-boresight-nan",
+            "simulate",
+            {"boresight_vnir_deg": "nan,0,0"},
+            ("boresight_vnir_deg",),
         )
     )
     c.append(Case("stats-band-beyond", "stats", {"band": "7"}, ("'band'", "ratio.tif")))

@@ -206,7 +206,12 @@ def test_georeferenced_gcps_corners_and_interior_land_within_the_reported_residu
     gcps = _write_csv(tmp_path / "g.csv", pl, xy)
     out = tmp_path / "geo.tif"
     r = gb.georeference_file(
-        src, gcps, output=str(out), report=str(tmp_path / "r.json"), order=2, resolution=0.5
+        src,
+        gcps,
+        output=str(out),
+        report=str(tmp_path / "r.json"),
+        order=2,
+        grid=gb.OutputGrid(resolution=0.5),
     )
     rep = json.loads((tmp_path / "r.json").read_text())
     assert rep["gcps"] == 12 and rep["order"] == 2 and rep["rmse"] == pytest.approx(r["rmse"])
@@ -259,8 +264,10 @@ def test_classes_survive_nearest_resampling_exactly(tmp_path):
     pl, xy = _gcp_rows(n=10)
     gcps = _write_csv(tmp_path / "g.csv", pl, xy)
     out, where = str(tmp_path / "c_map.tif"), str(tmp_path / "i_map.tif")
-    r = gb.georeference_file(path, gcps, output=out, order=1, resolution=0.7)
-    gb.georeference_file(idx, gcps, output=where, order=1, resolution=0.7, resampling="nearest")
+    r = gb.georeference_file(path, gcps, output=out, order=1, grid=gb.OutputGrid(resolution=0.7))
+    gb.georeference_file(
+        idx, gcps, output=where, order=1, grid=gb.OutputGrid(resolution=0.7, resampling="nearest")
+    )
     assert r["resampling"] == "nearest"  # chosen from the colour table
     with rasterio.open(out) as c, rasterio.open(where) as i:
         got = c.read(1, masked=True)
@@ -314,7 +321,7 @@ def test_gcp_files_that_cannot_georeference_give_one_line_and_leave_nothing(tmp_
             src,
             _write_csv(tmp_path / "ok.csv", pl, xy),
             output=str(tmp_path / "o.tif"),
-            crs="EPSG:99999999",
+            grid=gb.OutputGrid(crs="EPSG:99999999"),
         )
     assert not (tmp_path / "o.tif").exists()
 
@@ -326,7 +333,7 @@ def test_igm_round_trip_puts_raw_pixels_within_one_pixel_of_their_igm_position(t
     x, y = _centres(lambda p, ln: _rotation_model(p, ln, wobble=3.0))
     igm = _igm(tmp_path / "igm.img", x, y)
     out = str(tmp_path / "map.tif")
-    r = gb.geolocate_file(src, igm, output=out, resolution=0.5)
+    r = gb.geolocate_file(src, igm, output=out, grid=gb.OutputGrid(resolution=0.5))
     assert r["masked_nan"] == 0 and r["masked_non_monotonic"] == 0
     got = _sample(out, x, y)  # (column, line) found at every raw pixel's IGM position
     jj, ii = np.meshgrid(np.arange(W), np.arange(H))
@@ -410,7 +417,9 @@ def test_an_igm_of_another_size_or_without_crs_is_refused_and_nothing_left(tmp_p
     with pytest.raises(ParameterError, match="parameter 'igm_crs': unknown CRS 'UTM 36'"):
         gb.geolocate_file(src, bare, output=str(tmp_path / "o.tif"), igm_crs="UTM 36")
     assert _leftovers(tmp_path) == before
-    r = gb.geolocate_file(src, bare, output=str(tmp_path / "o.tif"), igm_crs=CRS, crs="EPSG:4326")
+    r = gb.geolocate_file(
+        src, bare, output=str(tmp_path / "o.tif"), igm_crs=CRS, grid=gb.OutputGrid(crs="EPSG:4326")
+    )
     assert r["crs"] == "EPSG:4326" and r["resolution"] < 1e-3  # degrees
 
 
@@ -444,7 +453,9 @@ def test_gdal_geolocation_arrays_carried_by_a_vrt(tmp_path):
         )
         assert s.count == 2
     out = str(tmp_path / "map.tif")
-    gb.geolocate_file(str(vrt), output=out, resolution=0.5)  # the product's own arrays
+    gb.geolocate_file(
+        str(vrt), output=out, grid=gb.OutputGrid(resolution=0.5)
+    )  # the product's own arrays
     x, y = _centres(_rotation_model)
     got = _sample(out, x, y)[0]
     jcol = np.meshgrid(np.arange(W), np.arange(H))[0]
@@ -513,7 +524,9 @@ def test_reproject_to_takes_the_reference_grid_exactly(tmp_path):
     src = _index_raster(tmp_path / "idx.tif")
     x, y = _centres(_rotation_model)
     geo = str(tmp_path / "geo.tif")
-    gb.geolocate_file(src, _igm(tmp_path / "igm.img", x, y), output=geo, resolution=0.5)
+    gb.geolocate_file(
+        src, _igm(tmp_path / "igm.img", x, y), output=geo, grid=gb.OutputGrid(resolution=0.5)
+    )
     ref = str(tmp_path / "ortho.tif")
     write_raster(
         ref,

@@ -408,7 +408,7 @@ def test_a_real_process_prints_no_traceback(tmp_path):
 
 
 def test_report_never_touches_a_folder_named_like_its_work_folder(tmp_path, monkeypatch):
-    import geoboresight.report as report
+    import geoboresight.operations._report_page as report
 
     d = make_inputs(tmp_path / "in")
     out = tmp_path / "r.html"

@@ -71,7 +71,15 @@ EXCEPTIONS = {
     **{(op, "block_rows"): "strips of all bands" for op in ("rx", "svdd", "unmix")},
 }
 #: Spellings retired for one name per concept (kept only as hidden aliases).
-RETIRED = {"numerator_nm", "denominator_nm", "image", "wavelengths"}
+RETIRED = {
+    "numerator_nm",
+    "denominator_nm",
+    "image",
+    "wavelengths",
+    "boresight_vnir",
+    "boresight_swir",
+    "block_lines",
+}
 
 
 def _ops():

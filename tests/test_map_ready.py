@@ -133,7 +133,7 @@ def test_envi_bad_band_list_is_never_picked_nor_used(tmp_path):
     np.testing.assert_allclose(r.compressed(), want[~r.mask].astype("float32"), rtol=1e-6)
     # The anomaly detectors' band selection drops them too.
     rx = tmp_path / "rx.tif"
-    gb.rx_file(v, s, output=str(rx), exclude_nm="")
+    gb.rx_file(v, s, output=str(rx), spectral=gb.BandSelection(exclude_nm=""))
     with rasterio.open(rx) as src:
         used = [int(b) for b in src.tags()["BANDS_USED"].split(",")]
     assert 12 not in used and 13 not in used and len(used) == 11 + 49

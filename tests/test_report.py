@@ -17,7 +17,7 @@ import rasterio
 
 from geoboresight.algorithms import registry
 from geoboresight.algorithms.report import REPORT
-from geoboresight.errors import Cancelled
+from geoboresight.errors import Cancelled, ParameterError
 from geoboresight.io import quiet_georef
 from geoboresight.operations.report import report_file
 from geoboresight.progress import Progress
@@ -100,13 +100,20 @@ def test_missing_inputs_become_notes(scene, tmp_path):
     assert not (tmp_path / "r.html.work").exists()  # intermediate products cleaned up
 
 
-def test_unknown_operation_is_a_note(tmp_path):
-    from geoboresight.report import Runner, Section
+def test_a_key_an_operation_does_not_know_is_a_bug_that_raises(tmp_path):
+    """The report passes each operation its values explicitly: a misspelt or retired key
+    raises instead of being dropped (the run's own failures still become notes)."""
+    from geoboresight.operations._report_page import Runner, Section
 
     section = Section("x", "y")
-    step = Runner(str(tmp_path), Progress(), 1).run(section, "no-such-operation", {"a": 1})
-    assert step.result is None and "not available" in step.error
-    assert "not available" in section.html()
+    run = Runner(str(tmp_path), Progress(), 2)
+    with pytest.raises(TypeError, match="'stats' has no parameter.*numerator_nm"):
+        run.run(section, "stats", {"input": "r.tif", "numerator_nm": 1010.0})
+    with pytest.raises(ParameterError, match="unknown operation 'no-such-operation'"):
+        run.run(section, "no-such-operation", {})
+    step = run.run(section, "stats", {"input": str(tmp_path / "none.tif"), "output": "s.json"})
+    assert step.result is None and "could not run" in step.error
+    assert "could not run" in section.html() and section.steps[0].rows
 
 
 def test_cancel_leaves_nothing(scene, tmp_path):
@@ -216,7 +223,7 @@ def test_report_spec_runs_report_file():
 # ------------------------------------------------------------------ HTML templates
 def test_pages_escape_text_and_values():
     from geoboresight.html import page, table
-    from geoboresight.report import Section, Step
+    from geoboresight.operations._report_page import Section, Step
 
     evil = "<script>alert('x')</script>"
     html = page(evil, table([(evil, evil), ("n", 12345), ("x", float("nan"))], caption=evil))

@@ -111,7 +111,7 @@ def measured_offset(scene, vnir_nm=920.0, swir_nm=1010.0) -> tuple[float, float]
 def flat_realistic():
     # Noise-free: this checks the geometry; noise is added in the next test.
     return simulate_scene(
-        "urban", lines=96, seed=2, surface=textured_flat(), targets=0, noise=False
+        "urban", lines=96, seed=2, surface=textured_flat(), targets=0, noise_free=True
     )
 
 
@@ -148,7 +148,7 @@ def test_shift_changes_by_disparity_per_metre_on_raised_ground():
         geometry="large-squint",
         nominal_altitude=NOMINAL_ALTITUDE_M,
         targets=0,
-        noise=False,
+        noise_free=True,
     )
     low = simulate_scene("urban", surface=textured_flat(0.0), **kw)
     high = simulate_scene("urban", surface=textured_flat(40.0), **kw)
@@ -180,7 +180,7 @@ def test_relief_parallax_on_a_raised_block_moves_roof_not_street():
         geometry="large-squint",
         targets=0,
         sun_zenith=0.0,
-        noise=False,
+        noise_free=True,
     )
     t = sc.truth
     v = sc.vnir[np.argmin(np.abs(sc.vnir_wavelengths - 920.0))]
@@ -270,7 +270,7 @@ def test_scene_shadow_truth_has_length_h_tan_zenith():
         sun_zenith=45.0,
         sun_azimuth=180.0,
         targets=0,
-        noise=False,
+        noise_free=True,
     )
     col = 143
     roof = np.nonzero(sc.dsm[:, col] > h / 2)[0]
@@ -359,7 +359,7 @@ def test_same_seed_same_scene_other_seed_other_scene():
     assert np.array_equal(a.vnir, b.vnir) and np.array_equal(a.swir, b.swir)
     assert np.array_equal(a.dsm, b.dsm) and a.truth == b.truth
     assert not np.array_equal(a.vnir, c.vnir)
-    assert 20 < float(np.ptp(simulate_scene("dunes", lines=160, seed=7, noise=False).dsm)) < 32
+    assert 20 < float(np.ptp(simulate_scene("dunes", lines=160, seed=7, noise_free=True).dsm)) < 32
 
 
 # ------------------------------------------------------------------ sub-material texture
@@ -385,7 +385,7 @@ def test_texture_is_a_spectrally_flat_reflectance_factor():
     nx, ny = ext[1] - ext[0] + 1, ext[3] - ext[2] + 1
     plain = Surface(ext[0], ext[2], 1.0, np.zeros((ny, nx)), {"soil": np.ones((ny, nx))})
     factor = brightness_field(np.random.default_rng(3), (ny, nx), [(6.0, 0.08)])
-    kw = dict(lines=48, seed=1, targets=0, noise=False, sun_zenith=30.0)
+    kw = dict(lines=48, seed=1, targets=0, noise_free=True, sun_zenith=30.0)
     a = simulate_scene("urban", surface=replace(plain, brightness={"soil": factor}), **kw)
     b = simulate_scene("urban", surface=plain, **kw)
     assert np.array_equal(a.abundances, b.abundances) and np.array_equal(a.dsm, b.dsm)
@@ -426,7 +426,7 @@ def test_texture_is_a_spectrally_flat_reflectance_factor():
 
 
 def test_presets_have_texture_in_open_ground_and_same_layout():
-    kw = dict(lines=64, seed=0, geometry="large-squint", noise=False)
+    kw = dict(lines=64, seed=0, geometry="large-squint", noise_free=True)
     a = simulate_scene("mixed", **kw)
     b = simulate_scene("mixed", texture=False, **kw)
     assert np.array_equal(a.dsm, b.dsm) and np.array_equal(a.abundances, b.abundances)

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 import rasterio
 
+import geoboresight as gb
 from geoboresight.algorithms.simulate import SIMULATE
 from geoboresight.errors import OutputError, ParameterError
 from geoboresight.io import open_dual, quiet_georef
@@ -50,7 +51,7 @@ def test_envi_cubes_carry_wavelengths_and_stay_raw(folder, small):
     assert np.allclose(dual.swir.wavelengths, small.swir_wavelengths, atol=1e-3)
     assert np.allclose(dual.vnir.fwhm, small.vnir_fwhm, atol=1e-3)
     assert len(dual.vnir.bands) + len(dual.swir.bands) == 198
-    bands = dual.ratio_bands(920.0, 1010.0, "wavelength", 10.0)
+    bands = dual.ratio_bands(gb.BandChoice(vnir_nm=920.0, swir_nm=1010.0, tolerance_nm=10.0))
     assert (
         abs(dual.swir.wavelength_of(bands.swir_band) - 1010) < 2
         and abs(dual.vnir.wavelength_of(bands.vnir_band) - 920) < 3
@@ -149,8 +150,8 @@ def test_spec_runs_and_reports_the_offset(tmp_path):
         alg(preset="dunes", lines=16, seed=1, output=str(out))
     with pytest.raises(ParameterError, match="lines"):
         alg(preset="dunes", lines=2, output=str(tmp_path / "x"))
-    with pytest.raises(ParameterError, match="boresight_swir"):
-        alg(preset="dunes", lines=16, output=str(tmp_path / "x"), boresight_swir="0,1")
+    with pytest.raises(ParameterError, match="boresight_swir_deg"):
+        alg(preset="dunes", lines=16, output=str(tmp_path / "x"), boresight_swir_deg="0,1")
     assert not (tmp_path / "x").exists()
 
 
@@ -158,7 +159,7 @@ def test_boresight_angles_from_the_spec(tmp_path):
     out = tmp_path / "angles"
     SIMULATE(
         preset="urban", lines=12, seed=1, output=str(out), supersample=1,
-        boresight_vnir="0.1,0.2,0", boresight_swir="0.1,1.2,0",
+        boresight_vnir_deg="0.1,0.2,0", boresight_swir="0.1,1.2,0",  # the former SWIR name
     )  # fmt: skip
     truth = json.loads((out / "truth.json").read_text())
     assert truth["boresight_deg"] == {"vnir": [0.1, 0.2, 0.0], "swir": [0.1, 1.2, 0.0]}
@@ -181,7 +182,9 @@ def test_operation_is_the_spec_run(tmp_path):
     """A script calling the file-level function gets the spec's files, and the same refusals."""
     assert SIMULATE.run is simulate_file
     a, b = tmp_path / "a", tmp_path / "b"
-    res = simulate_file(output=str(a), preset="dunes", lines=12, seed=2, supersample=1)
+    res = simulate_file(
+        output=str(a), preset="dunes", lines=12, seed=2, sensor=gb.SensorOptions(supersample=1)
+    )
     SIMULATE(output=str(b), preset="dunes", lines=12, seed=2, supersample=1)
     names = sorted(os.listdir(a))
     assert names == sorted(os.listdir(b)) and set(SCENE_FILES) <= set(names)
@@ -192,8 +195,12 @@ def test_operation_is_the_spec_run(tmp_path):
         simulate_file(output=str(a), preset="dunes", lines=12)
     res = simulate_file(output=str(a), preset="dunes", lines=12, seed=3, overwrite=True)
     assert json.loads((a / "truth.json").read_text())["seed"] == 3
-    with pytest.raises(ParameterError, match="boresight_vnir"):
-        simulate_file(output=str(tmp_path / "c"), lines=12, boresight_vnir="0,20,0")
+    with pytest.raises(ParameterError, match="boresight_vnir_deg"):
+        simulate_file(
+            output=str(tmp_path / "c"),
+            lines=12,
+            flight=gb.SimulatedFlight(boresight_vnir_deg="0,20,0"),
+        )
     assert not (tmp_path / "c").exists()
 
 
@@ -212,7 +219,12 @@ def test_sample_scene_regenerates_from_its_recipe(tmp_path):
     truth.json and endmembers.csv byte for byte, the truth rasters' values and tags."""
     out = tmp_path / "scene"
     simulate_file(
-        output=str(out), preset="mixed", lines=192, seed=4, geometry="large-squint", clouds=1
+        output=str(out),
+        preset="mixed",
+        lines=192,
+        seed=4,
+        flight=gb.SimulatedFlight(geometry="large-squint"),
+        clouds=1,
     )
     exact = ["vnir.img", "vnir.hdr", "swir.img", "swir.hdr", "truth.json", "endmembers.csv"]
     match, mismatch, errors = filecmp.cmpfiles(SAMPLE, out, exact, shallow=False)

@@ -6,13 +6,14 @@ Declarations only; the work is done by :mod:`geoboresight.operations.anomaly`.
 
 from __future__ import annotations
 
-from ..anomaly.bands import WATER_BANDS_NM
+from ..anomaly.bands import WATER_BANDS_NM, BandSelection
 from ..anomaly.indicator import TAILS, THRESHOLD
 from ..anomaly.polygons import GEOMETRIES
 from ..anomaly.roc import PFA, TITLE
-from ..anomaly.rx import INNER, MODES, OUTER, PRECISIONS
+from ..anomaly.rx import INNER, MODES, OUTER, PRECISIONS, RXBackground
 from ..anomaly.svdd import NU, SAMPLE_SIZE
 from ..anomaly.unmix import METHODS
+from ..io.dual import DualLayout
 from ..operations.anomaly import (
     CUBE_BLOCK_ROWS,
     anomaly_polygons_file,
@@ -22,12 +23,13 @@ from ..operations.anomaly import (
     svdd_file,
     unmix_file,
 )
-from ._common import BLOCK_ROWS, block_rows, sample_size, seed
+from ._common import BLOCK_ROWS, LAYOUT, block_rows, sample_size, seed
 from .spec import (
     Algorithm,
     Enum,
     FileIn,
     FileOut,
+    Group,
     MultiRaster,
     Number,
     RasterIn,
@@ -37,10 +39,33 @@ from .spec import (
     VectorOut,
 )
 
+#: The bands per-pixel spectral work uses, by wavelength (anomaly.bands.BandSelection).
+SPECTRAL = Group(
+    name="spectral",
+    value=BandSelection,
+    params=(
+        Text(
+            name="include_nm",
+            description="Use only bands in these wavelength ranges, e.g. '400-900,1000-1300' (empty: all)",
+            default="",
+            optional=True,
+        ),
+        Text(
+            name="exclude_nm",
+            description="Leave out bands in these wavelength ranges (default: water-vapour absorption)",
+            default=WATER_BANDS_NM,
+            optional=True,
+        ),
+    ),
+)
+
 IMAGE_PARAMS = (
     RasterIn(
         name="vnir",
-        description="Hyperspectral image (ENVI .hdr/.img or GeoTIFF): the merged VNIR+SWIR cube, or the VNIR file",
+        description=(
+            "Hyperspectral image (ENVI .hdr/.img or GeoTIFF): the merged VNIR+SWIR cube, the "
+            "VNIR file, or a sensor product holding both (EnMAP L1B, PRISMA L1)"
+        ),
         aliases=("image",),
     ),
     RasterIn(
@@ -48,18 +73,13 @@ IMAGE_PARAMS = (
         description="SWIR file on the same pixel grid, stacked after the VNIR bands (optional)",
         optional=True,
     ),
-    Text(
-        name="include_nm",
-        description="Use only bands in these wavelength ranges, e.g. '400-900,1000-1300' (empty: all)",
-        default="",
-        optional=True,
+    # VNIR and SWIR are stacked whole: a seam is never needed, band centres may be.
+    Group(
+        name="layout",
+        value=DualLayout,
+        params=tuple(p for p in LAYOUT.params if p.name != "seam_nm"),
     ),
-    Text(
-        name="exclude_nm",
-        description="Leave out bands in these wavelength ranges (default: water-vapour absorption)",
-        default=WATER_BANDS_NM,
-        optional=True,
-    ),
+    SPECTRAL,
 )
 
 #: Per-pixel spectral work reads every band of a strip: few lines at a time.
@@ -90,29 +110,35 @@ RX = Algorithm(
     ),
     params=(
         *IMAGE_PARAMS,
-        Enum(
-            name="mode",
-            description="Global (scene mean) or local (windowed mean) RX",
-            choices=MODES,
-            default="global",
-        ),
-        Number(
-            name="inner",
-            description="Local RX: inner guard window size (odd, pixels)",
-            default=INNER,
-            minimum=1,
-            maximum=99,
-            integer=True,
-            advanced=True,
-        ),
-        Number(
-            name="outer",
-            description="Local RX: outer window size (odd, pixels)",
-            default=OUTER,
-            minimum=3,
-            maximum=301,
-            integer=True,
-            advanced=True,
+        Group(
+            name="background",
+            value=RXBackground,
+            params=(
+                Enum(
+                    name="mode",
+                    description="Global (scene mean) or local (windowed mean) RX",
+                    choices=MODES,
+                    default="global",
+                ),
+                Number(
+                    name="inner",
+                    description="Local RX: inner guard window size (odd, pixels)",
+                    default=INNER,
+                    minimum=1,
+                    maximum=99,
+                    integer=True,
+                    advanced=True,
+                ),
+                Number(
+                    name="outer",
+                    description="Local RX: outer window size (odd, pixels)",
+                    default=OUTER,
+                    minimum=3,
+                    maximum=301,
+                    integer=True,
+                    advanced=True,
+                ),
+            ),
         ),
         Number(
             name="regularize",

@@ -3,11 +3,19 @@ reference raster's grid, and simulate a jittered line with its orthophoto."""
 
 from __future__ import annotations
 
-from ..georef.tiepoints import BLOCK_LINES, DETECTORS, MAX_SHIFT_PX, MIN_INLIERS, MODELS
+from ..georef.tiepoints import (
+    DETECTORS,
+    MAX_RMSE_PX,
+    MAX_SHIFT_PX,
+    MIN_INLIERS,
+    MODEL_BLOCK_LINES,
+    MODELS,
+    TieMatching,
+)
 from ..georef.transforms import METHODS
 from ..io.georef import RESAMPLINGS
+from ..io.grid import OutputGrid
 from ..operations.georef import (
-    MAX_RMSE_PX,
     auto_georeference_file,
     geolocate_file,
     georeference_file,
@@ -24,6 +32,7 @@ from .spec import (
     FileIn,
     FileOut,
     FolderOut,
+    Group,
     Number,
     RasterIn,
     RasterOut,
@@ -55,6 +64,8 @@ RESAMPLING = Enum(
     choices=RESAMPLINGS,
     default="auto",
 )
+#: The map grid a raw product is warped onto (io.grid.OutputGrid), the operations' ``grid``.
+GRID = Group(name="grid", value=OutputGrid, params=(CRS, RESOLUTION, RESAMPLING))
 GCP_CRS = Text(
     name="gcp_crs",
     description="CRS of the GCPs' map coordinates, when the GCP file names none (or to override it)",
@@ -118,9 +129,7 @@ GEOLOCATE = Algorithm(
             description="CRS of the IGM or GLT when its header carries none (e.g. EPSG:32636)",
             optional=True,
         ),
-        CRS,
-        RESOLUTION,
-        RESAMPLING,
+        GRID,
         RasterOut(name="output", description="The product on a map grid (GeoTIFF)"),
     ),
     run=geolocate_file,
@@ -173,9 +182,7 @@ GEOREFERENCE = Algorithm(
             maximum=3,
             integer=True,
         ),
-        CRS,
-        RESOLUTION,
-        RESAMPLING,
+        GRID,
         RasterOut(name="output", description="The product on a map grid (GeoTIFF)"),
         REPORT,
         IGM_OUTPUT,
@@ -237,57 +244,62 @@ AUTO = Algorithm(
             default=1,
             raster="reference",
         ),
-        Enum(
-            name="detector",
-            description="Feature detector (scikit-image)",
-            choices=DETECTORS,
-            default="sift",
+        Group(
+            name="matching",
+            value=TieMatching,
+            params=(
+                Enum(
+                    name="detector",
+                    description="Feature detector (scikit-image)",
+                    choices=DETECTORS,
+                    default="sift",
+                ),
+                Enum(
+                    name="model",
+                    description="Wobble model: affine per block of lines (blended) or thin-plate spline on the inliers",
+                    choices=MODELS,
+                    default="blocks",
+                ),
+                Number(
+                    name="model_block_lines",
+                    description="Lines per block of the wobble model and of RANSAC (its resolution along the track)",
+                    default=MODEL_BLOCK_LINES,
+                    minimum=8,
+                    maximum=10000,
+                    integer=True,
+                    advanced=True,
+                    aliases=("block_lines",),
+                ),
+                Number(
+                    name="max_shift_px",
+                    description="Largest error of the rough placement (product pixels)",
+                    default=MAX_SHIFT_PX,
+                    minimum=1.0,
+                    maximum=500.0,
+                    unit="px",
+                    advanced=True,
+                ),
+                Number(
+                    name="min_inliers",
+                    description="Fewest tie points accepted",
+                    default=MIN_INLIERS,
+                    minimum=6,
+                    maximum=100000,
+                    integer=True,
+                    advanced=True,
+                ),
+                Number(
+                    name="max_rmse_px",
+                    description="Largest cross-validated RMSE of the tie points accepted (product pixels)",
+                    default=MAX_RMSE_PX,
+                    minimum=0.01,
+                    maximum=100.0,
+                    unit="px",
+                ),
+                seed("RANSAC's random seed (same seed, same result)"),
+            ),
         ),
-        Enum(
-            name="model",
-            description="Wobble model: affine per block of lines (blended) or thin-plate spline on the inliers",
-            choices=MODELS,
-            default="blocks",
-        ),
-        Number(
-            name="block_lines",
-            description="Lines per block (RANSAC and the block model)",
-            default=BLOCK_LINES,
-            minimum=8,
-            maximum=10000,
-            integer=True,
-            advanced=True,
-        ),
-        Number(
-            name="max_shift_px",
-            description="Largest error of the rough placement (product pixels)",
-            default=MAX_SHIFT_PX,
-            minimum=1.0,
-            maximum=500.0,
-            unit="px",
-            advanced=True,
-        ),
-        Number(
-            name="min_inliers",
-            description="Fewest tie points accepted",
-            default=MIN_INLIERS,
-            minimum=6,
-            maximum=100000,
-            integer=True,
-            advanced=True,
-        ),
-        Number(
-            name="max_rmse_px",
-            description="Largest cross-validated RMSE of the tie points accepted (product pixels)",
-            default=MAX_RMSE_PX,
-            minimum=0.01,
-            maximum=100.0,
-            unit="px",
-        ),
-        CRS,
-        RESOLUTION,
-        RESAMPLING,
-        seed(),
+        GRID,
         RasterOut(name="output", description="The product on a map grid (GeoTIFF)"),
         REPORT,
         IGM_OUTPUT,

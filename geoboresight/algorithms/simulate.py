@@ -5,9 +5,18 @@ from __future__ import annotations
 from ..operations.simulate import MAX_BORESIGHT_DEG, simulate_file
 from ..simulate.atmosphere import AOT550, WATER_VAPOUR_CM
 from ..simulate.presets import GEOMETRIES, SCENES
-from ..simulate.scene import GEOMETRY, LINES, MIN_LINES, PRESET, SUPERSAMPLE
+from ..simulate.scene import (
+    GEOMETRY,
+    LINES,
+    MIN_LINES,
+    PRESET,
+    SUPERSAMPLE,
+    SensorOptions,
+    SimulatedFlight,
+    Sky,
+)
 from ._common import seed
-from .spec import Algorithm, Enum, Flag, FolderOut, Number, Result, Text
+from .spec import Algorithm, Enum, Flag, FolderOut, Group, Number, Result, Text
 
 HELP = """\
 Simulates a raw-geometry AISA-Dual scene (VNIR 400–970 nm and SWIR 980–2,450 nm, 198 bands,
@@ -63,51 +72,94 @@ SIMULATE = Algorithm(
             "Random seed: the same seed gives the same scene, byte for byte",
             advanced=False,
         ),
-        Enum(
-            name="geometry",
-            description="Viewing geometry: realistic (0.3° squint, the paper's regime) or large-squint (3°, relief measurable)",
-            choices=tuple(GEOMETRIES),
-            default=GEOMETRY,
+        Group(
+            name="flight",
+            value=SimulatedFlight,
+            params=(
+                Enum(
+                    name="geometry",
+                    description="Viewing geometry: realistic (0.3° squint, the paper's regime) or large-squint (3°, relief measurable)",
+                    choices=tuple(GEOMETRIES),
+                    default=GEOMETRY,
+                ),
+                Number(
+                    name="squint_deg",
+                    description="Along-track squint between the VNIR and SWIR lines of sight (degrees; default from the geometry)",
+                    optional=True,
+                    minimum=-10.0,
+                    maximum=10.0,
+                    unit="°",
+                ),
+                Number(
+                    name="flying_height",
+                    description="Flying height above the lowest ground (m; default 1,500 m = 1.5 m pixels)",
+                    optional=True,
+                    minimum=100.0,
+                    maximum=10000.0,
+                    unit="m",
+                ),
+                Number(
+                    name="nominal_altitude",
+                    description="Altitude for which the vendor co-registered SWIR to VNIR (m; default 1,828.8 m = 6,000 ft, or the flying height for large-squint)",
+                    optional=True,
+                    minimum=100.0,
+                    maximum=10000.0,
+                    unit="m",
+                ),
+                Text(
+                    name="boresight_vnir_deg",
+                    description=f"VNIR boresight angles roll,pitch,yaw in degrees, each within ±{MAX_BORESIGHT_DEG:g} (default 0,0,0)",
+                    optional=True,
+                    advanced=True,
+                    aliases=("boresight_vnir",),
+                ),
+                Text(
+                    name="boresight_swir_deg",
+                    description=f"SWIR boresight angles roll,pitch,yaw in degrees, each within ±{MAX_BORESIGHT_DEG:g} (default 0,<squint>,0; overrides the squint)",
+                    optional=True,
+                    advanced=True,
+                    aliases=("boresight_swir",),
+                ),
+            ),
         ),
-        Number(
-            name="squint_deg",
-            description="Along-track squint between the VNIR and SWIR lines of sight (degrees; default from the geometry)",
-            optional=True,
-            minimum=-10.0,
-            maximum=10.0,
-            unit="°",
-        ),
-        Number(
-            name="flying_height",
-            description="Flying height above the lowest ground (m; default 1,500 m = 1.5 m pixels)",
-            optional=True,
-            minimum=100.0,
-            maximum=10000.0,
-            unit="m",
-        ),
-        Number(
-            name="nominal_altitude",
-            description="Altitude for which the vendor co-registered SWIR to VNIR (m; default 1,828.8 m = 6,000 ft, or the flying height for large-squint)",
-            optional=True,
-            minimum=100.0,
-            maximum=10000.0,
-            unit="m",
-        ),
-        Number(
-            name="sun_zenith",
-            description="Sun zenith angle (degrees; default from the paper's scene for the preset)",
-            optional=True,
-            minimum=0.0,
-            maximum=85.0,
-            unit="°",
-        ),
-        Number(
-            name="sun_azimuth",
-            description="Sun azimuth, clockwise from the flight direction (degrees; default from the paper)",
-            optional=True,
-            minimum=0.0,
-            maximum=360.0,
-            unit="°",
+        Group(
+            name="sky",
+            value=Sky,
+            params=(
+                Number(
+                    name="sun_zenith",
+                    description="Sun zenith angle (degrees; default from the paper's scene for the preset)",
+                    optional=True,
+                    minimum=0.0,
+                    maximum=85.0,
+                    unit="°",
+                ),
+                Number(
+                    name="sun_azimuth",
+                    description="Sun azimuth, clockwise from the flight direction (degrees; default from the paper)",
+                    optional=True,
+                    minimum=0.0,
+                    maximum=360.0,
+                    unit="°",
+                ),
+                Number(
+                    name="aot550",
+                    description="Aerosol optical depth at 550 nm",
+                    default=AOT550,
+                    minimum=0.0,
+                    maximum=2.0,
+                    advanced=True,
+                ),
+                Number(
+                    name="water_vapour_cm",
+                    description="Water vapour column (cm)",
+                    default=WATER_VAPOUR_CM,
+                    minimum=0.0,
+                    maximum=8.0,
+                    unit="cm",
+                    advanced=True,
+                ),
+            ),
         ),
         Number(
             name="targets",
@@ -125,22 +177,6 @@ SIMULATE = Algorithm(
             maximum=50,
             integer=True,
         ),
-        Flag(
-            name="merged",
-            description="Also write merged.img/.hdr with all 198 bands",
-        ),
-        Text(
-            name="boresight_vnir",
-            description=f"VNIR boresight angles roll,pitch,yaw in degrees, each within ±{MAX_BORESIGHT_DEG:g} (default 0,0,0)",
-            optional=True,
-            advanced=True,
-        ),
-        Text(
-            name="boresight_swir",
-            description=f"SWIR boresight angles roll,pitch,yaw in degrees, each within ±{MAX_BORESIGHT_DEG:g} (default 0,<squint>,0; overrides the squint)",
-            optional=True,
-            advanced=True,
-        ),
         Number(
             name="cloud_height",
             description="Cloud height above the ground (m; default 40 % of the flying height)",
@@ -150,36 +186,29 @@ SIMULATE = Algorithm(
             unit="m",
             advanced=True,
         ),
-        Number(
-            name="aot550",
-            description="Aerosol optical depth at 550 nm",
-            default=AOT550,
-            minimum=0.0,
-            maximum=2.0,
-            advanced=True,
-        ),
-        Number(
-            name="water_vapour_cm",
-            description="Water vapour column (cm)",
-            default=WATER_VAPOUR_CM,
-            minimum=0.0,
-            maximum=8.0,
-            unit="cm",
-            advanced=True,
+        Group(
+            name="sensor",
+            value=SensorOptions,
+            params=(
+                Flag(
+                    name="noise_free",
+                    description="Write noise-free DN (no shot/read noise); still rounded to 12 bits",
+                    advanced=True,
+                ),
+                Number(
+                    name="supersample",
+                    description="Rays per pixel side (footprint integration, sub-pixel shadow fraction)",
+                    default=SUPERSAMPLE,
+                    minimum=1,
+                    maximum=8,
+                    integer=True,
+                    advanced=True,
+                ),
+            ),
         ),
         Flag(
-            name="noise_free",
-            description="Write noise-free DN (no shot/read noise); still rounded to 12 bits",
-            advanced=True,
-        ),
-        Number(
-            name="supersample",
-            description="Rays per pixel side (footprint integration, sub-pixel shadow fraction)",
-            default=SUPERSAMPLE,
-            minimum=1,
-            maximum=8,
-            integer=True,
-            advanced=True,
+            name="merged",
+            description="Also write merged.img/.hdr with all 198 bands",
         ),
         FolderOut(
             name="output",

@@ -8,6 +8,7 @@ excluded by wavelength range, so the same setting works for any sensor's band se
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -15,6 +16,16 @@ from ..errors import ParameterError
 
 #: Default exclusion: the 1.4 µm and 1.9 µm water-vapour absorption bands, and beyond 2,450 nm.
 WATER_BANDS_NM = "1340-1460,1790-1980,2450-2600"
+
+
+@dataclass(frozen=True)
+class BandSelection:
+    """Which bands per-pixel spectral work (RX, SVDD, unmixing) uses, by wavelength: those in
+    the ``include_nm`` ranges (every band when empty), less those in the ``exclude_nm`` ranges
+    (default: the water-vapour absorption bands), e.g. ``include_nm="400-900,1000-1300"``."""
+
+    include_nm: str = ""
+    exclude_nm: str = WATER_BANDS_NM
 
 
 def parse_ranges(text: str | None, name: str = "ranges") -> list[tuple[float, float]]:

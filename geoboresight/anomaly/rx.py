@@ -32,6 +32,21 @@ OUTER = 17
 
 
 @dataclass(frozen=True)
+class RXBackground:
+    """What an RX score measures a pixel against: the scene mean (``mode="global"``), or the
+    mean of an ``outer`` window minus an ``inner`` guard window around the pixel
+    (``"local"``; odd sizes in pixels, inner < outer). The covariance is the scene's either way."""
+
+    mode: str = "global"
+    inner: int = INNER
+    outer: int = OUTER
+
+    @property
+    def local(self) -> bool:
+        return self.mode == "local"
+
+
+@dataclass(frozen=True)
 class GaussianStats:
     """Background mean (k,), covariance (k, k) and number of pixels."""
 

@@ -32,19 +32,40 @@ from scipy import ndimage
 DETECTORS = ("sift", "orb")
 MODELS = ("blocks", "tps")
 #: Lines per block of the piecewise model and of RANSAC (the wobble's shortest period to
-#: follow is about two blocks).
-BLOCK_LINES = 16
+#: follow is about two blocks). A model's resolution along the track, not how many lines are
+#: read at a time (``block_rows`` elsewhere): it changes the result.
+MODEL_BLOCK_LINES = 16
 #: Largest displacement (product pixels) between the product and the placed reference.
 MAX_SHIFT_PX = 30.0
 #: RANSAC inlier threshold (product pixels).
 RANSAC_PX = 1.5
 #: Fewest inliers accepted.
 MIN_INLIERS = 12
+#: Largest cross-validated RMSE of the tie points accepted by default (product pixels).
+MAX_RMSE_PX = 1.0
 #: Thin-plate spline smoothing (pixels²): tie points carry sub-pixel matching noise.
 TPS_SMOOTHING = 10.0
 #: Lowe's ratio test for descriptor matches.
 MAX_RATIO = 0.8
 FOLDS = 5
+
+
+@dataclass(frozen=True)
+class TieMatching:
+    """How automatic tie points are found and accepted: scikit-image's ``detector``
+    ("sift", "orb"), the wobble ``model`` ("blocks": affine per block of
+    ``model_block_lines`` lines, blended; "tps": thin-plate spline), the largest error of
+    the rough placement ``max_shift_px``, and the acceptance test (at least ``min_inliers``
+    tie points, cross-validated RMSE at most ``max_rmse_px``, both in product pixels);
+    ``seed`` is RANSAC's."""
+
+    detector: str = "sift"
+    model: str = "blocks"
+    model_block_lines: int = MODEL_BLOCK_LINES
+    max_shift_px: float = MAX_SHIFT_PX
+    min_inliers: int = MIN_INLIERS
+    max_rmse_px: float = MAX_RMSE_PX
+    seed: int = 0
 
 
 @dataclass(frozen=True)
@@ -309,7 +330,7 @@ def match_tie_points(
     ref_valid: np.ndarray | None = None,
     detector: str = "sift",
     model: str = "blocks",
-    block_lines: int = BLOCK_LINES,
+    model_block_lines: int = MODEL_BLOCK_LINES,
     max_shift_px: float = MAX_SHIFT_PX,
     ransac_px: float = RANSAC_PX,
     smoothing: float = TPS_SMOOTHING,
@@ -337,7 +358,7 @@ def match_tie_points(
     model : {"blocks", "tps"}
         Displacement model: affine per block of lines, blended between blocks, or a smoothed
         thin-plate spline on the inliers.
-    block_lines : int
+    model_block_lines : int
         Lines per block (RANSAC and the ``blocks`` model).
     max_shift_px : float
         Largest displacement between the product and the placed reference (pixels).
@@ -371,7 +392,7 @@ def match_tie_points(
         _normalise(img, ok), _normalise(chip, chip_ok), ok, chip_ok, detector, max_shift_px, seed
     )
     inlier = (
-        _ransac_blocks(src, dst, lines, block_lines, ransac_px, seed)
+        _ransac_blocks(src, dst, lines, model_block_lines, ransac_px, seed)
         if len(src) >= 6
         else np.zeros(len(src), bool)
     )
@@ -384,10 +405,10 @@ def match_tie_points(
         folds = np.random.default_rng(seed).permutation(len(pin)) % FOLDS
         for f in range(FOLDS):
             test = folds == f
-            disp = _fit(model, pin[~test], d[~test], lines, block_lines, smoothing)
+            disp = _fit(model, pin[~test], d[~test], lines, model_block_lines, smoothing)
             pred = np.column_stack(disp(pin[test, 0], pin[test, 1]))
             residuals[test] = d[test] - pred
-        displacement = _fit(model, pin, d, lines, block_lines, smoothing)
+        displacement = _fit(model, pin, d, lines, model_block_lines, smoothing)
     else:
 
         def displacement(pixel, line):

@@ -4,7 +4,7 @@ atomic writes.
 Core kernels never see a file; everything about files lives here (docs/DEVELOPING.md).
 """
 
-from .cube import Cube, open_cube
+from .cube import Cube, open_cube, open_sensors
 from .dual import BandChoice, DualLayout, DualSensor, RatioBands, SensorFile, as_dual, open_dual
 from .grid import FLOAT_NODATA, Grid, is_georeferenced, require_same_grid
 from .raster import (
@@ -65,6 +65,7 @@ __all__ = [
     "open_cube",
     "open_dual",
     "open_raster",
+    "open_sensors",
     "quiet_georef",
     "read_masked",
     "read_pixels",

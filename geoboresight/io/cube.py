@@ -237,3 +237,24 @@ def open_cube(paths, label: str = "image") -> Cube:
     wavelengths = None if any(w is None for w in wls) else np.concatenate(wls)
     fwhm = None if any(f is None for f in fws) else np.concatenate(fws)
     return Cube(parts, grid, wavelengths, fwhm, np.concatenate(goods))
+
+
+def open_sensors(sensors, label: str = "image"):
+    """``(cube, bands, wavelengths, fwhm)`` of the sensors of a dual dataset
+    (:class:`~geoboresight.io.dual.SensorFile` values, VNIR first): one cube over what GDAL
+    opens for them (their ``reads``; each file once, so a merged cube's two sensors share
+    one), the 0-based cube bands of the sensors' (good) bands in the cube's order, and their
+    centres and FWHM in nm as the dataset describes them (FWHM None unless every sensor has
+    them)."""
+    reads = list(dict.fromkeys(s.reads for s in sensors))
+    cube = open_cube(reads, label)
+    starts = np.cumsum([0] + [p.count for p in cube._parts])[:-1]
+    index = np.concatenate(
+        [starts[reads.index(s.reads)] + np.asarray(s.bands, int) - 1 for s in sensors]
+    )
+    wl = np.concatenate([np.asarray(s.wavelengths, float) for s in sensors])
+    fw = None
+    if all(s.fwhm is not None for s in sensors):
+        fw = np.concatenate([np.asarray(s.fwhm, float) for s in sensors])
+    order = np.argsort(index, kind="stable")
+    return cube, index[order], wl[order], None if fw is None else fw[order]

@@ -35,6 +35,18 @@ def is_georeferenced(src) -> bool:
 
 
 @dataclass(frozen=True)
+class OutputGrid:
+    """The map grid a raw-geometry product is warped onto: its ``crs`` (None: that of the
+    coordinates), cell size ``resolution`` in the CRS's units (0: the product's median pixel
+    spacing) and the ``resampling`` ("auto": nearest for class rasters, bilinear otherwise;
+    "nearest", "bilinear", "cubic")."""
+
+    crs: str | None = None
+    resolution: float = 0.0
+    resampling: str = "auto"
+
+
+@dataclass(frozen=True)
 class Grid:
     """Size, CRS and geotransform of a raster; ``transform`` is None in raw sensor geometry."""
 

@@ -15,13 +15,14 @@ import numpy as np
 
 from .. import io
 from ..anomaly import indicator as ind
-from ..anomaly.bands import WATER_BANDS_NM, select_bands
+from ..anomaly.bands import BandSelection, select_bands
 from ..anomaly.indicator import THRESHOLD
 from ..anomaly.polygons import FIELDS
 from ..anomaly.roc import PFA, TITLE
-from ..anomaly.rx import INNER, OUTER
+from ..anomaly.rx import RXBackground
 from ..anomaly.svdd import NU, SAMPLE_SIZE
 from ..errors import InputError
+from ..io.dual import DualLayout
 from ._operation import operation
 
 #: Lines per strip of a cube: 16 lines of a 286-sample AISA line = 4,576 pixels, so a strip's
@@ -29,19 +30,41 @@ from ._operation import operation
 CUBE_BLOCK_ROWS = 16
 
 
-def open_image(vnir, swir=None, include_nm="", exclude_nm=WATER_BANDS_NM):
-    """``(cube, bands, wavelengths)``: the image (VNIR and SWIR stacked band-wise when
-    ``swir`` is given), the 0-based bands chosen by wavelength and their centres (nm, or None)."""
-    cube = io.open_cube([vnir] + ([swir] if swir else []))
-    bands = select_bands(cube.wavelengths, cube.count, include_nm, exclude_nm)
-    bands = bands[cube.good[bands]]  # bands an ENVI 'bbl' marks bad are never used
-    if bands.size < 2:
+def open_image(vnir, swir=None, layout=DualLayout(), spectral=BandSelection()):
+    """``(cube, bands, wavelengths, fwhm)``: the image, the 0-based cube bands ``spectral``
+    chooses among its good bands (an ENVI 'bbl' marks the others bad), and their centres and
+    FWHM (nm, or None).
+
+    A dual dataset (an opened :class:`~geoboresight.io.DualSensor`, VNIR and SWIR files, or a
+    sensor product holding both) is read through :func:`~geoboresight.io.as_dual` with
+    ``layout``: its sensors' bands, stacked VNIR then SWIR, from what GDAL opens for them. One
+    plain file (a merged cube, or a VNIR or SWIR cube alone) is read whole, wavelengths or not.
+    """
+    from ..io.products import recognise
+
+    if isinstance(vnir, io.DualSensor) or swir or recognise(vnir) is not None:
+        dual = io.as_dual(vnir, swir, layout)
+        cube, good, wl, fwhm = io.open_sensors((dual.vnir, dual.swir))
+        label = ", ".join(dual.files)
+    else:
+        cube = io.open_cube([vnir])
+        good = np.flatnonzero(cube.good)  # bands an ENVI 'bbl' marks bad are never used
+        wl = None if cube.wavelengths is None else cube.wavelengths[good]
+        fwhm = None if cube.fwhm is None else cube.fwhm[good]
+        label = vnir
+    pick = select_bands(wl, good.size, spectral.include_nm, spectral.exclude_nm)
+    if pick.size < 2:
+        cube.close()
         raise InputError(
-            f"{vnir}: once the bands its ENVI 'bbl' marks bad are left out, {bands.size} band(s) "
+            f"{label}: once the bands its ENVI 'bbl' marks bad are left out, {pick.size} band(s) "
             "remain: a detector needs at least 2 (check the header's 'bbl' and include_nm)"
         )
-    wl = None if cube.wavelengths is None else cube.wavelengths[bands]
-    return cube, bands, wl
+    return (
+        cube,
+        good[pick],
+        None if wl is None else wl[pick],
+        None if fwhm is None else fwhm[pick],
+    )
 
 
 def band_tags(wl, bands) -> dict:
@@ -63,11 +86,9 @@ def rx_file(
     swir=None,
     *,
     output,
-    include_nm="",
-    exclude_nm=WATER_BANDS_NM,
-    mode="global",
-    inner=INNER,
-    outer=OUTER,
+    layout=DualLayout(),
+    spectral=BandSelection(),
+    background=RXBackground(),
     regularize=0.0,
     precision="float64",
     block_rows=CUBE_BLOCK_ROWS,
@@ -82,19 +103,21 @@ def rx_file(
 
     Parameters
     ----------
-    vnir : path
-        Hyperspectral image (ENVI or GeoTIFF): a merged cube, or the VNIR file.
+    vnir : path or DualSensor
+        Hyperspectral image (ENVI or GeoTIFF): a merged cube, the VNIR file, a sensor
+        product, or a dataset opened with :func:`geoboresight.open_dual`.
     swir : path, optional
         SWIR file on the same pixel grid, stacked after the VNIR bands.
     output : path
         float32 score GeoTIFF on the image's grid, nodata -9999.
-    include_nm, exclude_nm : str
-        Wavelength ranges to use / leave out, e.g. "400-900,1000-1300" (default: leave out
-        the water-vapour absorption bands).
-    mode : {"global", "local"}
-        Scene mean, or a windowed mean (the covariance stays the scene's).
-    inner, outer : int
-        Local RX: guard and outer window sizes (odd pixels, inner < outer).
+    layout : DualLayout
+        How to read VNIR and SWIR files that do not say it all (band centres).
+    spectral : BandSelection
+        Wavelength ranges to use / leave out, e.g. ``include_nm="400-900,1000-1300"``
+        (default: leave out the water-vapour absorption bands).
+    background : RXBackground
+        Scene mean (``mode="global"``), or a windowed mean (``"local"``, ``inner`` and
+        ``outer`` window sizes); the covariance stays the scene's.
     regularize : float
         Ridge added to the covariance diagonal, as a fraction of the mean band variance.
     precision : {"float64", "float32"}
@@ -117,9 +140,10 @@ def rx_file(
     """
     from ..anomaly import rx
 
-    cube, bands, wl = open_image(vnir, swir, include_nm, exclude_nm)
+    cube, bands, wl, _ = open_image(vnir, swir, layout, spectral)
+    inner, outer = background.inner, background.outer
     with cube:
-        local = mode == "local"
+        local = background.local
         if local:
             rx.check_windows(inner, outer, cube.height, cube.width)
         strips = {
@@ -197,8 +221,8 @@ def svdd_file(
     swir=None,
     *,
     output,
-    include_nm="",
-    exclude_nm=WATER_BANDS_NM,
+    layout=DualLayout(),
+    spectral=BandSelection(),
     sigma=0.0,
     nu=NU,
     sample_size=SAMPLE_SIZE,
@@ -214,14 +238,17 @@ def svdd_file(
 
     Parameters
     ----------
-    vnir : path
-        Hyperspectral image (ENVI or GeoTIFF): a merged cube, or the VNIR file.
+    vnir : path or DualSensor
+        Hyperspectral image (ENVI or GeoTIFF): a merged cube, the VNIR file, a sensor
+        product, or a dataset opened with :func:`geoboresight.open_dual`.
     swir : path, optional
         SWIR file on the same pixel grid, stacked after the VNIR bands.
     output : path
         float32 score GeoTIFF on the image's grid (positive outside the description), nodata
         -9999.
-    include_nm, exclude_nm : str
+    layout : DualLayout
+        How to read VNIR and SWIR files that do not say it all (band centres).
+    spectral : BandSelection
         Wavelength ranges to use / leave out.
     sigma : float
         Kernel width in image units; 0: the median pairwise distance of the sample.
@@ -248,7 +275,7 @@ def svdd_file(
     """
     from ..anomaly import svdd
 
-    cube, bands, wl = open_image(vnir, swir, include_nm, exclude_nm)
+    cube, bands, wl, _ = open_image(vnir, swir, layout, spectral)
     with cube:
         strips = {"height": cube.height, "width": cube.width, "block_rows": block_rows}
         rng = np.random.default_rng(seed)
@@ -513,8 +540,8 @@ def unmix_file(
     swir=None,
     *,
     output,
-    include_nm="",
-    exclude_nm=WATER_BANDS_NM,
+    layout=DualLayout(),
+    spectral=BandSelection(),
     names="",
     method="fcls",
     image_scale=1.0,
@@ -528,8 +555,9 @@ def unmix_file(
 
     Parameters
     ----------
-    vnir : path
-        Hyperspectral image with wavelength metadata: a merged cube, or the VNIR file.
+    vnir : path or DualSensor
+        Hyperspectral image with wavelength metadata: a merged cube, the VNIR file, a sensor
+        product, or a dataset opened with :func:`geoboresight.open_dual`.
     endmembers : path
         Endmember spectra: CSV (wavelength in nm first, one column per material) or an ENVI
         spectral library (.sli + .hdr).
@@ -538,7 +566,9 @@ def unmix_file(
     output : path
         float32 GeoTIFF: one abundance band per endmember, then the residual RMS over bands;
         nodata -9999.
-    include_nm, exclude_nm : str
+    layout : DualLayout
+        How to read VNIR and SWIR files that do not say it all (band centres).
+    spectral : BandSelection
         Wavelength ranges to use / leave out.
     names : str
         Endmembers to use, comma-separated (empty: all in the library).
@@ -574,13 +604,12 @@ def unmix_file(
         )
     except InputError as exc:
         raise InputError(f"{endmembers}: {exc}") from None
-    cube, bands, wl = open_image(vnir, swir, include_nm, exclude_nm)
+    cube, bands, wl, fwhm = open_image(vnir, swir, layout, spectral)
     with cube:
         if wl is None:
             raise InputError(
                 f"{vnir} has no wavelength metadata: endmembers cannot be resampled to its bands"
             )
-        fwhm = None if cube.fwhm is None else cube.fwhm[bands]
         E = unmix.resample(wl_lib, spectra, wl, fwhm, chosen)
         unmix.check_endmembers(E, chosen)
         tags = {

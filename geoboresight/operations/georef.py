@@ -15,15 +15,10 @@ import numpy as np
 
 from ..errors import InputError, ParameterError
 from ..georef.geoloc import clean_igm, corner_geoloc, glt_indices
-from ..georef.tiepoints import (
-    BLOCK_LINES,
-    MAX_SHIFT_PX,
-    MIN_INLIERS,
-    corrected,
-    match_tie_points,
-)
+from ..georef.tiepoints import TieMatching, corrected, match_tie_points
 from ..georef.transforms import fit_transform, outside_image
 from ..io import georef as gio
+from ..io.grid import OutputGrid
 from ..io.raster import open_raster
 from ..io.write import write_json
 from ..simulate.ortho import HEADING_DEG, JITTER_DEG, JITTER_LINES, ORTHO_CELL
@@ -36,9 +31,6 @@ REFERENCES = """
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (section 2: raw AISA-Dual
     lines "geo-rectified by conventional methods"; Figure 10: overlay on a topographic map and
     the national orthophoto)."""
-
-#: Largest RMSE of the automatic tie points accepted by default (product pixels).
-MAX_RMSE_PX = 1.0
 
 
 def _docstring(func):
@@ -64,21 +56,19 @@ def _model_geoloc(model, width: int, height: int, src_crs, dst_crs):
     return cx, cy, np.stack([gx, gy])
 
 
-def _warp_model(
-    input, output, model, src_crs, crs, resolution, resampling, tags, progress, igm_output
-):
+def _warp_model(input, output, model, src_crs, to: OutputGrid, tags, progress, igm_output):
     width, height = _product_size(input)
-    dst_crs = gio.output_crs(crs, src_crs, *model(np.array([width / 2]), np.array([height / 2])))
+    dst_crs = gio.output_crs(to.crs, src_crs, *model(np.array([width / 2]), np.array([height / 2])))
     cx, cy, geoloc = _model_geoloc(model, width, height, src_crs, dst_crs)
     ok = np.isfinite(cx) & np.isfinite(cy)
-    grid = gio.map_grid(cx, cy, ok, dst_crs, resolution)
+    grid = gio.map_grid(cx, cy, ok, dst_crs, to.resolution)
     done = gio.warp_geoloc(
         input,
         output,
         geoloc,
         grid,
         source_valid=None,
-        resampling=resampling,
+        resampling=to.resampling,
         tags=tags,
         progress=progress,
     )
@@ -106,9 +96,7 @@ def geolocate_file(
     *,
     output,
     igm_crs=None,
-    crs=None,
-    resolution=0.0,
-    resampling="auto",
+    grid=OutputGrid(),
     progress=None,
 ) -> dict:
     """Put a raw-geometry product on a map grid with the per-pixel coordinates a processing
@@ -128,13 +116,11 @@ def geolocate_file(
         GeoTIFF on a north-up grid in ``crs``; nodata outside the footprint.
     igm_crs : str, optional
         CRS of the IGM or GLT when its header carries none (or to override it).
-    crs : str, optional
-        Output CRS (the IGM's by default; its UTM zone when it is in degrees); the
-        coordinates are transformed with pyproj.
-    resolution : float
-        Output cell size in the output CRS's units; 0 takes the median pixel spacing.
-    resampling : {"auto", "nearest", "bilinear", "cubic"}
-        ``auto``: nearest for class rasters (colour table, categories), bilinear otherwise.
+    grid : OutputGrid
+        The output's CRS (the IGM's by default, its UTM zone when it is in degrees; coordinates transformed with pyproj), cell
+        size (0: the median pixel spacing) and resampling (``auto``: nearest for class
+        rasters, bilinear otherwise). A GLT fixes the map grid (give no CRS nor cell size)
+        and is looked up nearest.
     progress : Progress, optional
 
     Returns
@@ -156,7 +142,7 @@ def geolocate_file(
                 f"GLT {glt}: {outside} cell(s) point outside input {input} ({width} × {height}, "
                 "columns × lines): the GLT belongs to another product"
             )
-        if crs or resolution:
+        if grid.crs or grid.resolution:
             raise ParameterError(
                 "--crs and --resolution do not apply to a GLT (its map grid is fixed): use "
                 "reproject-to afterwards"
@@ -179,7 +165,7 @@ def geolocate_file(
             f"IGM {coords.path} is {coords.x.shape[1]} × {coords.x.shape[0]} (columns × lines) but "
             f"input {input} is {width} × {height}: the IGM must belong to this product"
         )
-    dst_crs = gio.output_crs(crs, coords.crs, coords.x, coords.y)
+    dst_crs = gio.output_crs(grid.crs, coords.crs, coords.x, coords.y)
     x, y = gio.transform_xy(coords.x, coords.y, coords.crs, dst_crs)
     try:
         clean = clean_igm(x, y)
@@ -190,20 +176,20 @@ def geolocate_file(
             f"IGM {coords.path}: {clean.nan} pixel(s) without coordinates (NaN or nodata) and "
             f"{clean.non_monotonic} non-monotonic pixel(s) masked (left as nodata)"
         )
-    grid = gio.map_grid(clean.x, clean.y, clean.valid, dst_crs, resolution)
+    on = gio.map_grid(clean.x, clean.y, clean.valid, dst_crs, grid.resolution)
     done = gio.warp_geoloc(
         input,
         output,
         corner_geoloc(clean.x, clean.y),
-        grid,
+        on,
         source_valid=clean.valid,
-        resampling=resampling,
+        resampling=grid.resampling,
         tags={"GEOREFERENCE": coords.source},
         progress=progress,
     )
     return {
         "output": output,
-        **_grid_result(grid, done),
+        **_grid_result(on, done),
         "masked_nan": clean.nan,
         "masked_non_monotonic": clean.non_monotonic,
     }
@@ -236,9 +222,7 @@ def georeference_file(
     gcp_crs=None,
     method="polynomial",
     order=1,
-    crs=None,
-    resolution=0.0,
-    resampling="auto",
+    grid=OutputGrid(),
     progress=None,
 ) -> dict:
     """Georeference a raw-geometry product from ground control points (no navigation data).
@@ -262,12 +246,9 @@ def georeference_file(
         cross-validated residuals).
     order : {1, 2, 3}
         Polynomial order: needs 3, 6 or 10 GCPs.
-    crs : str, optional
-        Output CRS (the GCPs' by default).
-    resolution : float
-        Output cell size; 0 takes the median pixel spacing of the model.
-    resampling : {"auto", "nearest", "bilinear", "cubic"}
-        ``auto``: nearest for class rasters, bilinear otherwise.
+    grid : OutputGrid
+        The output's CRS (the GCPs' by default), cell size (0: the median pixel spacing of
+        the model) and resampling (``auto``: nearest for class rasters, bilinear otherwise).
     progress : Progress, optional
 
     Returns
@@ -290,9 +271,7 @@ def georeference_file(
         f"{what} on {int(table.enabled.sum())} GCPs: RMSE {fit.rmse:.3f} ({fit.rmse_px:.2f} px)"
     )
     tags = {"GEOREFERENCE": f"GCPs {gcps}: {what}, RMSE {fit.rmse:.4g} ({fit.rmse_px:.3f} px)"}
-    grid, done = _warp_model(
-        input, output, fit, table.crs, crs, resolution, resampling, tags, progress, igm_output
-    )
+    on, done = _warp_model(input, output, fit, table.crs, grid, tags, progress, igm_output)
     if report:
         write_json(
             report,
@@ -309,7 +288,7 @@ def georeference_file(
         "igm_output": igm_output,
         "rmse": fit.rmse,
         "rmse_px": fit.rmse_px,
-        **_grid_result(grid, done),
+        **_grid_result(on, done),
     }
 
 
@@ -391,16 +370,8 @@ def auto_georeference_file(
     gcp_crs=None,
     band=1,
     reference_band=1,
-    detector="sift",
-    model="blocks",
-    block_lines=BLOCK_LINES,
-    max_shift_px=MAX_SHIFT_PX,
-    min_inliers=MIN_INLIERS,
-    max_rmse_px=MAX_RMSE_PX,
-    crs=None,
-    resolution=0.0,
-    resampling="auto",
-    seed=0,
+    matching=TieMatching(),
+    grid=OutputGrid(),
     progress=None,
 ) -> dict:
     """Georeference a raw-geometry product on a reference orthophoto by automatic tie points.
@@ -410,8 +381,8 @@ def auto_georeference_file(
     product band and one orthophoto band, RANSAC per block of lines keeps the consistent
     ones, and a piecewise model (affine per block of lines, blended, or a thin-plate spline)
     follows the line's attitude wobble (:mod:`geoboresight.georef.tiepoints`). The run is
-    refused, writing nothing, when fewer than ``min_inliers`` tie points survive or their
-    cross-validated RMSE exceeds ``max_rmse_px``.
+    refused, writing nothing, when fewer than ``matching.min_inliers`` tie points survive or
+    their cross-validated RMSE exceeds ``matching.max_rmse_px``.
 
     Parameters
     ----------
@@ -429,10 +400,6 @@ def auto_georeference_file(
         other products.
     report : path, optional
         JSON report: matches, inliers, each tie point's cross-validated residual, RMSE.
-    igm_output : path, optional
-        The fitted model's IGM: a float64 GeoTIFF with the map x and y of every raw pixel's
-        centre (raw geometry, the CRS in its header), for ``geolocate --igm`` on the line's
-        other products.
     corners : str, optional
         Rough placement from the corners: ``x,y`` of the top-left, top-right, bottom-right
         and bottom-left image corners (8 numbers, in ``gcp_crs`` or the reference's CRS).
@@ -440,22 +407,13 @@ def auto_georeference_file(
         CRS of the GCPs or corners (default: the GCP file's, else the reference's).
     band, reference_band : int
         The product band and orthophoto band to match (similar wavelengths, e.g. NIR).
-    detector : {"sift", "orb"}
-        scikit-image's feature detector.
-    model : {"blocks", "tps"}
-        Piecewise model of the wobble.
-    block_lines : int
-        Lines per block.
-    max_shift_px : float
-        Largest error of the rough placement (product pixels).
-    min_inliers : int
-        Fewest tie points accepted.
-    max_rmse_px : float
-        Largest cross-validated RMSE accepted (product pixels).
-    crs, resolution, resampling
-        As :func:`georeference_file`.
-    seed : int
-        RANSAC's random seed.
+    matching : TieMatching
+        The feature detector (``sift``, ``orb``), the wobble model (``blocks`` of
+        ``model_block_lines`` lines, ``tps``), the largest error of the rough placement
+        (``max_shift_px``), the acceptance test (``min_inliers``, ``max_rmse_px``, product
+        pixels) and RANSAC's ``seed``.
+    grid : OutputGrid
+        As :func:`georeference_file` (the reference's CRS by default).
     progress : Progress, optional
 
     Returns
@@ -477,8 +435,9 @@ def auto_georeference_file(
             f"reference {reference} has no CRS: give an orthophoto with its CRS (e.g. a GeoTIFF)"
         )
     placement = _placement(input, gcps, corners, gcp_crs, ref_crs, width, height)
+    m = matching
     ref_data, ref_ok, ref_tr, _ = _reference_window(
-        reference, reference_band, placement, width, height, max_shift_px
+        reference, reference_band, placement, width, height, m.max_shift_px
     )
     progress.update(0.1, "tie points")
     tie = match_tie_points(
@@ -488,35 +447,33 @@ def auto_georeference_file(
         ref_transform=ref_tr,
         placement=placement,
         ref_valid=ref_ok,
-        detector=detector,
-        model=model,
-        block_lines=int(block_lines),
-        max_shift_px=float(max_shift_px),
-        seed=int(seed),
+        detector=m.detector,
+        model=m.model,
+        model_block_lines=int(m.model_block_lines),
+        max_shift_px=float(m.max_shift_px),
+        seed=int(m.seed),
     )
     progress.info(
         f"{tie.matches} matches, {tie.inliers} inliers, cross-validated RMSE {tie.rmse_px:.2f} px"
     )
-    if tie.inliers < min_inliers:
+    if tie.inliers < m.min_inliers:
         raise InputError(
             f"automatic tie points: only {tie.inliers} inlier(s) of {tie.matches} matches between "
             f"band {band} of {input} and band {reference_band} of {reference} (at least "
-            f"{min_inliers} needed): give a closer rough placement, another band pair, or GCPs"
+            f"{m.min_inliers} needed): give a closer rough placement, another band pair, or GCPs"
         )
-    if tie.rmse_px > max_rmse_px:
+    if tie.rmse_px > m.max_rmse_px:
         raise InputError(
             f"automatic tie points: cross-validated RMSE {tie.rmse_px:.2f} px on {tie.inliers} "
-            f"inliers exceeds --max-rmse-px {max_rmse_px:g}: the model does not follow this "
-            "line well enough (try --model tps, smaller --block-lines, or GCPs)"
+            f"inliers exceeds --max-rmse-px {m.max_rmse_px:g}: the model does not follow this "
+            "line well enough (try --model tps, smaller --model-block-lines, or GCPs)"
         )
     tags = {
         "GEOREFERENCE": f"automatic tie points to {reference}: {tie.inliers} inliers, "
-        f"{model} model, cross-validated RMSE {tie.rmse_px:.3f} px"
+        f"{m.model} model, cross-validated RMSE {tie.rmse_px:.3f} px"
     }
     final = corrected(placement, tie.displacement)
-    grid, done = _warp_model(
-        input, output, final, ref_crs, crs, resolution, resampling, tags, progress, igm_output
-    )
+    on, done = _warp_model(input, output, final, ref_crs, grid, tags, progress, igm_output)
     if report:
         write_json(
             report,
@@ -537,7 +494,7 @@ def auto_georeference_file(
         "matches": tie.matches,
         "inliers": tie.inliers,
         "rmse_px": tie.rmse_px,
-        **_grid_result(grid, done),
+        **_grid_result(on, done),
     }
 
 

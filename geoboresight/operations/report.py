@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import shutil
 
 from .. import io
+from ..dem.height import FlightGeometry
 from ..io.dual import BandChoice, DualLayout
 from ..io.write import temp_name
 from ._operation import operation
@@ -26,26 +26,25 @@ def report_file(
     shadow_truth=None,
     target_truth=None,
     cloud_mask=None,
-    height_factor=None,
-    squint_deg=None,
-    flying_height=None,
-    ifov_mrad=None,
+    geometry=FlightGeometry(),
     svdd=True,
     products=None,
     progress=None,
 ) -> dict:
     """Write an HTML report of one scene: ratio statistics, shadow, relative DEM, anomalies.
 
-    Runs the registered operations (``ratio``, ``stats``, ``shadow-classes``,
-    ``shadow-cluster``, ``shadow-fraction-fit``, ``relative-dem``, ``view-3d``,
-    ``boresight-indicator``, ``rx``, ``svdd``, ``roc``) through the registry, as any face
-    would, and lays out their figures and numbers (see :mod:`geoboresight.report`). A step
-    that cannot run becomes a note in its section.
+    Runs the operations (``ratio``, ``stats``, ``shadow-classes``, ``shadow-cluster``,
+    ``shadow-fraction-fit``, ``relative-dem``, ``view-3d``, ``boresight-indicator``, ``rx``,
+    ``svdd``, ``roc``) through their specs, as any face would, and lays out their figures and
+    numbers (see :mod:`geoboresight.operations._report_page`). A step that cannot run becomes
+    a note in its section.
 
     Parameters
     ----------
-    vnir : path
-        VNIR file (ENVI or GeoTIFF), or a merged VNIR+SWIR cube when ``swir`` is None.
+    vnir : path or DualSensor
+        VNIR file (ENVI or GeoTIFF), a merged VNIR+SWIR cube or a sensor product when ``swir``
+        is None, or a dataset opened with :func:`geoboresight.open_dual` (its files are read
+        again by each step, with ``layout``).
     swir : path, optional
         SWIR file on the same pixel grid.
     output : path
@@ -60,11 +59,10 @@ def report_file(
         Target mask or abundance on the VNIR grid, for the ROC curves (Figure 12).
     cloud_mask : path, optional
         Cloud mask on the VNIR grid (non-zero = cloud), left out of the relative DEM.
-    height_factor : float, optional
-        Relative DEM: height-to-disparity factor tan θ / GSD (px per metre); or give
-        ``squint_deg``, ``flying_height`` (m) and ``ifov_mrad``.
-    squint_deg, flying_height, ifov_mrad : float, optional
-        The flight geometry, for the relative DEM when ``height_factor`` is not given.
+    geometry : FlightGeometry
+        Relative DEM: the height-to-disparity factor tan θ / GSD (px per metre), or the
+        squint (degrees), flying height (m) and IFOV (mrad); without them the DEM section
+        says what is missing.
     svdd : bool
         Include the SVDD detector (slower) among the anomaly scores.
     products : path, optional
@@ -83,26 +81,24 @@ def report_file(
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (Eq. 3, Table 1 and
     Figure 3; §3.1, Table 2, Figures 4 and 5; §3.2, Figure 9; §3.3, Figure 12).
     """
-    from ..report import build_report  # matplotlib and jinja2: loaded only for a report
+    from ._report_page import build_report  # matplotlib and jinja2: loaded only for a report
 
-    values = {
-        "vnir": vnir,
-        "swir": swir,
-        **dataclasses.asdict(layout),
-        **dataclasses.asdict(bands),
-        "shadow_truth": shadow_truth,
-        "target_truth": target_truth,
-        "cloud_mask": cloud_mask,
-        "height_factor": height_factor,
-        "squint_deg": squint_deg,
-        "flying_height": flying_height,
-        "ifov_mrad": ifov_mrad,
-        "svdd": svdd,
-    }
     # The primary input must open (and carry wavelengths): a report of notes saying that
     # nothing could run would be a success in name only. Optional inputs given must open too
     # and lie on its grid.
     dual = io.as_dual(vnir, swir, layout)
+    # The steps take the opened dataset and these values as they are (one opening, one
+    # band choice and one geometry for every step).
+    values = {
+        "dual": dual,
+        "layout": layout,
+        "bands": bands,
+        "geometry": geometry,
+        "shadow_truth": shadow_truth,
+        "target_truth": target_truth,
+        "cloud_mask": cloud_mask,
+        "svdd": svdd,
+    }
     for label, path in (
         ("shadow_truth", shadow_truth),
         ("target_truth", target_truth),
@@ -110,7 +106,7 @@ def report_file(
     ):
         if path:
             with io.open_raster(path, label) as src:
-                dual.grid.require_same(io.Grid.of(src), f"VNIR {vnir}", f"{label} {path}")
+                dual.grid.require_same(io.Grid.of(src), f"VNIR {dual.vnir.path}", f"{label} {path}")
     if products:
         os.makedirs(products, exist_ok=True)
         work = products

@@ -6,8 +6,14 @@ import math
 
 from ..errors import ParameterError
 from ..io.scene import check_scene_folder, write_scene
-from ..simulate.atmosphere import AOT550, WATER_VAPOUR_CM
-from ..simulate.scene import GEOMETRY, LINES, PRESET, SUPERSAMPLE, simulate_scene
+from ..simulate.scene import (
+    LINES,
+    PRESET,
+    SensorOptions,
+    SimulatedFlight,
+    Sky,
+    simulate_scene,
+)
 from ._operation import operation
 
 #: Largest boresight angle (degrees) accepted for each of roll, pitch and yaw.
@@ -43,22 +49,13 @@ def simulate_file(
     preset=PRESET,
     lines=LINES,
     seed=0,
-    geometry=GEOMETRY,
-    squint_deg=None,
-    flying_height=None,
-    nominal_altitude=None,
-    sun_zenith=None,
-    sun_azimuth=None,
+    flight=SimulatedFlight(),
+    sky=Sky(),
     targets=None,
     clouds=0,
-    merged=False,
-    boresight_vnir=None,
-    boresight_swir=None,
     cloud_height=None,
-    aot550=AOT550,
-    water_vapour_cm=WATER_VAPOUR_CM,
-    noise_free=False,
-    supersample=SUPERSAMPLE,
+    sensor=SensorOptions(),
+    merged=False,
     progress=None,
 ) -> dict:
     """Simulate a raw-geometry AISA-Dual scene (VNIR + SWIR) with its ground truth, into a folder.
@@ -75,30 +72,24 @@ def simulate_file(
         Along-track lines (286 pixels each).
     seed : int
         Seed of every random choice: the same seed gives the same files, byte for byte.
-    geometry : {"realistic", "large-squint"}
-        Flight and squint defaults: the paper's regime (0.3°) or a 3° squint (relief measurable).
-    squint_deg, flying_height, nominal_altitude : float, optional
-        Override the geometry's squint (degrees), flying height (m) and the altitude (m) for
-        which the vendor co-registered SWIR to VNIR.
-    sun_zenith, sun_azimuth : float, optional
-        Degrees; azimuth clockwise from the flight direction (default: the paper's scenes).
+    flight : SimulatedFlight
+        The geometry preset (``"realistic"``: the paper's 0.3° squint; ``"large-squint"``: 3°,
+        relief measurable) and any override of its squint (degrees), flying height and
+        co-registration altitude (m), or each instrument's boresight angles
+        ``"roll,pitch,yaw"`` in degrees (SWIR's override the squint).
+    sky : Sky
+        Sun zenith and azimuth (degrees, azimuth clockwise from the flight direction; default:
+        the paper's scenes), aerosol optical depth at 550 nm and water-vapour column (cm).
     targets : int, optional
         Number of sub-pixel gray plastic bags (default from the preset).
     clouds : int
         Number of small clouds.
-    merged : bool
-        Also write ``merged.img/.hdr`` with all 198 bands.
-    boresight_vnir, boresight_swir : str, optional
-        Each instrument's boresight angles ``"roll,pitch,yaw"`` in degrees (SWIR overrides the
-        squint).
     cloud_height : float, optional
         Cloud height above the ground (m; default 40 % of the flying height).
-    aot550, water_vapour_cm : float
-        Aerosol optical depth at 550 nm and water-vapour column (cm).
-    noise_free : bool
-        Noise-free DN (still rounded to 12 bits).
-    supersample : int
-        Rays per pixel side.
+    sensor : SensorOptions
+        Noise-free DN (still rounded to 12 bits) and the rays per pixel side.
+    merged : bool
+        Also write ``merged.img/.hdr`` with all 198 bands.
     progress : Progress, optional
 
     Returns
@@ -122,21 +113,21 @@ def simulate_file(
         preset,
         lines=lines,
         seed=seed,
-        geometry=geometry,
-        squint_deg=squint_deg,
-        flying_height=flying_height,
-        nominal_altitude=nominal_altitude,
-        sun_zenith=sun_zenith,
-        sun_azimuth=sun_azimuth,
+        geometry=flight.geometry,
+        squint_deg=flight.squint_deg,
+        flying_height=flight.flying_height,
+        nominal_altitude=flight.nominal_altitude,
+        boresight_vnir_deg=parse_angles(flight.boresight_vnir_deg, "boresight_vnir_deg"),
+        boresight_swir_deg=parse_angles(flight.boresight_swir_deg, "boresight_swir_deg"),
+        sun_zenith=sky.sun_zenith,
+        sun_azimuth=sky.sun_azimuth,
+        aot550=sky.aot550,
+        water_vapour_cm=sky.water_vapour_cm,
         targets=targets,
         clouds=clouds,
         cloud_height=cloud_height,
-        aot550=aot550,
-        water_vapour_cm=water_vapour_cm,
-        noise=not noise_free,
-        supersample=supersample,
-        boresight_vnir_deg=parse_angles(boresight_vnir, "boresight_vnir"),
-        boresight_swir_deg=parse_angles(boresight_swir, "boresight_swir"),
+        noise_free=sensor.noise_free,
+        supersample=sensor.supersample,
         progress=progress.sub(0.0, 0.9),
     )
     progress.update(0.92, "writing files")

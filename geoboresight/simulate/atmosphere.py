@@ -114,9 +114,9 @@ def illumination(
     centres,
     fwhm,
     sun_zenith_deg: float,
-    flying_height_m: float,
+    flying_height: float,
     aot550: float = AOT550,
-    water_cm: float = WATER_VAPOUR_CM,
+    water_vapour_cm: float = WATER_VAPOUR_CM,
 ) -> Illumination:
     """Direct, diffuse, path and up-transmittance terms for a band set (see module docstring)."""
     wl = FINE_NM
@@ -124,7 +124,7 @@ def illumination(
     e0 = solar_irradiance(wl)
     t_r = rayleigh_depth(wl)
     t_a = aerosol_depth(wl, aot550)
-    t_w = _bands(wl, WATER_BANDS, water_cm / 2.0)
+    t_w = _bands(wl, WATER_BANDS, water_vapour_cm / 2.0)
     t_m = _bands(wl, MIXED_GAS_BANDS)
     t_gas = t_w + t_m
 
@@ -137,7 +137,7 @@ def illumination(
         * (0.5 * -np.expm1(-t_r / mu) + AEROSOL_SSA * forward * -np.expm1(-t_a / mu))
     )
 
-    below = {k: -np.expm1(-flying_height_m / s) for k, s in SCALE_HEIGHT_M.items()}
+    below = {k: -np.expm1(-flying_height / s) for k, s in SCALE_HEIGHT_M.items()}
     tr_b, ta_b = t_r * below["rayleigh"], t_a * below["aerosol"]
     tg_b = t_w * below["water"] + t_m * below["mixed"]
     t_up = np.exp(-(tr_b + ta_b + tg_b))

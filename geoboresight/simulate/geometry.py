@@ -82,16 +82,16 @@ class Instrument:
 class Geometry:
     """The flight and the two instruments, plus the vendor's co-registration of SWIR to VNIR."""
 
-    flying_height_m: float
-    nominal_altitude_m: float
+    flying_height: float
+    nominal_altitude: float
     vnir: Instrument
     swir: Instrument
-    line_spacing_m: float
+    line_spacing: float
 
     @property
     def gsd_m(self) -> float:
         """Across-track ground sampling distance at nadir on the lowest ground."""
-        return self.flying_height_m * self.vnir.ifov_mrad * 1e-3
+        return self.flying_height * self.vnir.ifov_mrad * 1e-3
 
     @property
     def centre_col(self) -> float:
@@ -113,7 +113,7 @@ class Geometry:
             cs = cs - (u_s - u_v) / du
         k_across = float(cs - c0)
         _, v_s = self.swir.uv(cs)
-        k_along = float(self.nominal_altitude_m * (v_v - v_s) / self.line_spacing_m)
+        k_along = float(self.nominal_altitude * (v_v - v_s) / self.line_spacing)
         return k_along, k_across
 
     def rays(self, instrument: str, lines, cols, sub: int):
@@ -141,14 +141,14 @@ class Geometry:
         _, v_v = self.vnir.uv(c0)
         _, v_s = self.swir.uv(c0 + k_across)
         tan_theta = float(v_s - v_v)
-        along = (self.nominal_altitude_m - self.flying_height_m) * tan_theta / self.line_spacing_m
+        along = (self.nominal_altitude - self.flying_height) * tan_theta / self.line_spacing
         along = along + 0.0  # no negative zero in truth.json
-        per_m = tan_theta / self.line_spacing_m
+        per_m = tan_theta / self.line_spacing
         return {
             "offset_px": {"along": float(along), "across": 0.0},
             "disparity_px_per_m": {"along": float(per_m), "across": 0.0},
             "tan_squint": tan_theta,
-            "height_precision_m_per_px": float(self.line_spacing_m / abs(tan_theta))
+            "height_precision_m_per_px": float(self.line_spacing / abs(tan_theta))
             if tan_theta
             else None,
         }
@@ -192,8 +192,8 @@ def intersect(t, u, v, geometry: Geometry, heights: Heights, z_lo: float, z_hi: 
     ``t, u, v``: flat arrays of ray line times and directions; ``heights``: the surface
     (:class:`Heights`); ``z_lo``/``z_hi`` bound it. Returns (x, y, z) of the hits.
     """
-    H = geometry.flying_height_m
-    y0 = t * geometry.line_spacing_m
+    H = geometry.flying_height
+    y0 = t * geometry.line_spacing
     cell = heights.win.cell
     slope = float(np.max(np.hypot(u, v))) + 1e-9
     dz = max(min(cell / slope, 4.0), 0.05)  # never step over more than a cell sideways

@@ -230,13 +230,11 @@ def simulate_ortho(
     sun = _sun(preset, None, None)
     attitude = attitude_jitter(lines, jitter_deg, jitter_lines, rng)
     t1, u1, v1 = _line_rays(geo, attitude, lines, 1)
-    H = geo.flying_height_m
+    H = geo.flying_height
     # The layout: the ground every jittered ray can reach, plus the nominal layout's margins.
     extent, core = scene_extent(geo, lines, sun)
     xs = np.concatenate([((H - z) * u1).ravel() for z in (0.0, Z_BOUND_M)])
-    ys = np.concatenate(
-        [(t1 * geo.line_spacing_m + (H - z) * v1).ravel() for z in (0.0, Z_BOUND_M)]
-    )
+    ys = np.concatenate([(t1 * geo.line_spacing + (H - z) * v1).ravel() for z in (0.0, Z_BOUND_M)])
     core = (
         min(core[0], xs.min()),
         max(core[1], xs.max()),
@@ -320,7 +318,7 @@ def simulate_ortho(
         "heading_deg": heading_deg,
         "origin": list(origin),
         "gsd_m": geo.gsd_m,
-        "line_spacing_m": geo.line_spacing_m,
+        "line_spacing_m": geo.line_spacing,
         "flying_height_m": H,
         "jitter_deg": jitter_deg,
         "jitter_lines": jitter_lines,

@@ -68,6 +68,43 @@ MAX_SHADOW_REACH_M = 400.0
 
 
 @dataclass(frozen=True)
+class SimulatedFlight:
+    """The simulated flight and the two instruments' lines of sight: a ``geometry`` preset
+    (:data:`.presets.GEOMETRIES`) with any of its values overridden: the squint (degrees), the
+    flying height and the vendor's co-registration altitude (m), or each instrument's full
+    boresight angles ``"roll,pitch,yaw"`` (degrees; SWIR's override the squint). None keeps
+    the preset's value (see :func:`flight_geometry`)."""
+
+    geometry: str = GEOMETRY
+    squint_deg: float | None = None
+    flying_height: float | None = None
+    nominal_altitude: float | None = None
+    boresight_vnir_deg: str | tuple[float, float, float] | None = None
+    boresight_swir_deg: str | tuple[float, float, float] | None = None
+
+
+@dataclass(frozen=True)
+class Sky:
+    """The sun and the atmosphere of a simulated flight: sun zenith and azimuth (degrees,
+    azimuth clockwise from the flight direction; None: the paper's scene for the preset), the
+    aerosol optical depth at 550 nm and the water-vapour column (cm)."""
+
+    sun_zenith: float | None = None
+    sun_azimuth: float | None = None
+    aot550: float = AOT550
+    water_vapour_cm: float = WATER_VAPOUR_CM
+
+
+@dataclass(frozen=True)
+class SensorOptions:
+    """How the detectors are simulated: noise-free DN (still rounded to 12 bits when written)
+    and the rays per pixel side integrating each footprint."""
+
+    noise_free: bool = False
+    supersample: int = SUPERSAMPLE
+
+
+@dataclass(frozen=True)
 class Scene:
     """A simulated AISA-Dual scene in raw geometry, with its ground truth.
 
@@ -247,7 +284,7 @@ def simulate_scene(
     cloud_height: float | None = None,
     aot550: float = AOT550,
     water_vapour_cm: float = WATER_VAPOUR_CM,
-    noise: bool = True,
+    noise_free: bool = False,
     supersample: int = SUPERSAMPLE,
     surface: Surface | None = None,
     texture: bool = True,
@@ -278,8 +315,8 @@ def simulate_scene(
         height), seen with each instrument's parallax and casting shadows.
     aot550, water_vapour_cm : float
         Aerosol optical depth at 550 nm and water-vapour column.
-    noise : bool
-        False gives noise-free, unquantised DN (float32): for tests and planning.
+    noise_free : bool
+        True gives noise-free, unquantised DN (float32): for tests and planning.
     supersample : int
         Rays per pixel side (footprint integration and sub-pixel shadow fraction).
     surface : Surface
@@ -325,7 +362,7 @@ def simulate_scene(
     )
     sun = _sun(preset, sun_zenith, sun_azimuth)
     n_targets = _presets.DEFAULT_TARGETS[preset] if targets is None else int(targets)
-    H = geo.flying_height_m
+    H = geo.flying_height
     z_cloud = CLOUD_HEIGHT_FRACTION * H if cloud_height is None else float(cloud_height)
     rng = np.random.default_rng(seed)
 
@@ -343,7 +380,9 @@ def simulate_scene(
     vwl, vfw, swl, sfw = aisa_dual_bands()
     all_wl, all_fw = np.concatenate([vwl, swl]), np.concatenate([vfw, sfw])
     spectra = band_spectra([*names, "cloud"], all_wl, all_fw)
-    ill = illumination(all_wl, all_fw, sun.zenith_deg, H, aot550=aot550, water_cm=water_vapour_cm)
+    ill = illumination(
+        all_wl, all_fw, sun.zenith_deg, H, aot550=aot550, water_vapour_cm=water_vapour_cm
+    )
 
     # 2–4. Ray tracing, block by block; then the targets.
     footprints, truth = trace_footprints(
@@ -373,7 +412,7 @@ def simulate_scene(
             spectra["cloud"][sl],
             _band_slice(ill, sl),
             all_wl[sl],
-            np.random.default_rng([seed, 101 + n_inst]) if noise else None,
+            None if noise_free else np.random.default_rng([seed, 101 + n_inst]),
         )
     progress.update(0.95, "radiometry done")
 
@@ -387,7 +426,7 @@ def simulate_scene(
         sun.azimuth_deg,
         material_names,
         target_list,
-        noise,
+        not noise_free,
         aot550,
         water_vapour_cm,
         clouds,
@@ -445,11 +484,11 @@ def flight_geometry(
     bv = tuple(boresight_vnir_deg) if boresight_vnir_deg is not None else (0.0, 0.0, 0.0)
     bs = tuple(boresight_swir_deg) if boresight_swir_deg is not None else (0.0, bv[1] + squint, 0.0)
     return Geometry(
-        flying_height_m=H,
-        nominal_altitude_m=Hn,
+        flying_height=H,
+        nominal_altitude=Hn,
         vnir=Instrument(*bv),
         swir=Instrument(*bs),
-        line_spacing_m=spacing,
+        line_spacing=spacing,
     )
 
 
@@ -467,16 +506,16 @@ def scene_extent(geo: Geometry, lines: int, sun: Sun):
     ``core`` holds every ray's ground point for heights 0 to :data:`Z_BOUND_M`; ``extent``
     adds a margin and the reach of shadows cast from outside (any direction).
     """
-    H = geo.flying_height_m
+    H = geo.flying_height
     shadow_reach = min(Z_BOUND_M * sun.tan_zenith, MAX_SHADOW_REACH_M)
     ext = []
     for inst in INSTRUMENTS:
         t, u, v = geo.rays(inst, np.array([0, lines - 1]), np.array([0, COLS - 1]), 1)
         for z in (0.0, Z_BOUND_M):
-            ext.append(((H - z) * u, t * geo.line_spacing_m + (H - z) * v))
+            ext.append(((H - z) * u, t * geo.line_spacing + (H - z) * v))
     xs = np.concatenate([e[0].ravel() for e in ext])
     ys = np.concatenate([e[1].ravel() for e in ext])
-    pad = 10.0 + geo.line_spacing_m * 2
+    pad = 10.0 + geo.line_spacing * 2
     extent = (
         xs.min() - pad - shadow_reach,
         xs.max() + pad + shadow_reach,
@@ -502,7 +541,7 @@ def cloud_layer(
 ) -> Clouds:
     """Stage 1, the clouds: ``count`` blobs centred over the image as seen at the cloud
     layer (the swath narrows with height)."""
-    H = geo.flying_height_m
+    H = geo.flying_height
     shrink = (H - height_m) / H
     image_area = (core[0] * shrink, core[1] * shrink, core[2], core[3])
     window, opacity = _clouds(rng, extent, image_area, count)
@@ -593,13 +632,13 @@ def trace_footprints(
 def block_window(rays: dict, geo: Geometry, z_top: float, sun: Sun, cell: float) -> Window:
     """Stage 2, the fine grid of a block: every ray of the block at heights 0 to ``z_top``,
     extended towards the sun (objects there cast shadows into the block)."""
-    H = geo.flying_height_m
+    H = geo.flying_height
     s = sun.vector
     px, py = [], []
     for t, u, v in rays.values():
         for z in (0.0, z_top):
             px.append(((H - z) * u).ravel())
-            py.append((t * geo.line_spacing_m + (H - z) * v).ravel())
+            py.append((t * geo.line_spacing + (H - z) * v).ravel())
     px, py = np.concatenate(px), np.concatenate(py)
     reach = min(z_top * sun.tan_zenith, MAX_SHADOW_REACH_M)
     m = 3 * cell
@@ -663,7 +702,7 @@ def trace_block(
 
     Returns each instrument's block :class:`Footprints` and the block's VNIR truth.
     """
-    H = geo.flying_height_m
+    H = geo.flying_height
     cos_z = sun.cos_zenith
     out = {}
     truth = None
@@ -676,7 +715,7 @@ def trace_block(
         if clouds is not None:
             h = H - clouds.height_m
             c = _bilinear(
-                clouds.opacity[None], clouds.window, h * uu, tt * geo.line_spacing_m + h * vv
+                clouds.opacity[None], clouds.window, h * uu, tt * geo.line_spacing + h * vv
             )[0]
         else:
             c = np.zeros_like(di)
@@ -909,10 +948,10 @@ def _truth_dict(
         "cols": COLS,
         "bands": {"vnir": 96, "swir": 102},
         "gsd_m": geo.gsd_m,
-        "line_spacing_m": geo.line_spacing_m,
+        "line_spacing_m": geo.line_spacing,
         "ifov_mrad": geo.vnir.ifov_mrad,
-        "flying_height_m": geo.flying_height_m,
-        "nominal_altitude_m": geo.nominal_altitude_m,
+        "flying_height_m": geo.flying_height,
+        "nominal_altitude_m": geo.nominal_altitude,
         "squint_deg": squint,
         "boresight_deg": {
             "vnir": [geo.vnir.roll_deg, geo.vnir.pitch_deg, geo.vnir.yaw_deg],

@@ -1,13 +1,15 @@
 """A self-contained HTML report of one scene: every application of the paper in one page.
 
-The report does no science of its own: it runs the registered operations (``ratio``, ``stats``,
+The report does no science of its own: it runs the operations (``ratio``, ``stats``,
 ``shadow-classes``, ``shadow-cluster``, ``shadow-fraction-fit``, ``relative-dem``, ``view-3d``,
-``rx``, ``svdd``, ``boresight-indicator``, ``roc``) through
-:func:`geoboresight.algorithms.execute` and lays out their figures and numbers, with the
-parameters each step used. Figures are embedded as base64 PNG, so the page is one file that
-opens anywhere, offline. A step that cannot run (an operation missing from this version, a
-missing input such as the sensor geometry for the DEM, a missing optional package) becomes a
-note in its section; the other sections are still written.
+``rx``, ``svdd``, ``boresight-indicator``, ``roc``) through their specs, with flat values, as
+any face would (:func:`geoboresight.algorithms.execute`: the values are validated and grouped
+for the operation, whatever its grouping), and lays out their figures and numbers, with the
+parameters each step set beside the operation's defaults. A key an operation does not know is
+a bug of the report and raises. Figures are embedded as base64 PNG, so the page is one file
+that opens anywhere, offline. A step that cannot run (a missing input such as the sensor
+geometry for the DEM, a missing optional package) becomes a note in its section; the other
+sections are still written.
 
 The page is the ``report.html`` template (:mod:`geoboresight.html`, autoescaped); the file-level
 operation that writes it is :func:`geoboresight.operations.report.report_file`.
@@ -15,6 +17,8 @@ operation that writes it is :func:`geoboresight.operations.report.report_file`.
 
 from __future__ import annotations
 
+import dataclasses
+import inspect
 import json
 import os
 import platform
@@ -22,21 +26,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import __version__
-from .errors import Cancelled, GeoboresightError
-from .figures import new_figure
-from .html import macro, png_data_uri, render
-from .io.write import save_figure
-from .progress import Progress
-
-#: The parameters of the ratio's two bands, as the report passes them to its operations.
-BAND_KEYS = ("band_mode", "vnir_nm", "swir_nm", "tolerance_nm")
-DUAL_KEYS = ("vnir", "swir", "seam_nm", "vnir_wavelengths", "swir_wavelengths")
+from .. import __version__
+from ..errors import Cancelled, GeoboresightError
+from ..figures import new_figure
+from ..html import macro, png_data_uri, render
+from ..io.write import save_figure
+from ..progress import Progress
 
 
 @dataclass
 class Step:
-    """One operation run for the report: what ran, with which values, and what came out."""
+    """One operation run for the report: what ran, with the values the report set (beside
+    the operation's defaults), and what came out."""
 
     name: str
     values: dict
@@ -114,25 +115,36 @@ class Runner:
     def path(self, name: str) -> str:
         return os.path.join(self.work_dir, name)
 
-    def run(self, section: Section, name: str, values: dict) -> Step:
-        import inspect
-
-        step = Step(name, {k: v for k, v in values.items() if v is not None})
+    def run(self, section: Section, function, *args, **kwargs) -> Step:
+        """Run the file-level operation ``function`` (e.g. :func:`.ratio.ratio_file`) with
+        these arguments; the page shows the keyword arguments that differ from its defaults."""
+        name = function.__name__.removesuffix("_file").replace("_", "-")
+        defaults = {k: p.default for k, p in inspect.signature(function).parameters.items()}
+        shown = {}
+        for k, v in kwargs.items():
+            if v is None or v == defaults.get(k):
+                continue
+            if dataclasses.is_dataclass(v):  # a value: its members that differ
+                base = defaults.get(k)
+                shown.update(
+                    {
+                        f.name: getattr(v, f.name)
+                        for f in dataclasses.fields(v)
+                        if base is None or getattr(v, f.name) != getattr(base, f.name, None)
+                    }
+                )
+            else:
+                shown[k] = v
+        step = Step(name, shown)
         sub = self.progress.sub(self.done / self.n_steps, (self.done + 1) / self.n_steps)
         self.done = min(self.done + 1, self.n_steps)
-        operation = _operation(name)
-        if operation is None:
-            step.error = f"the '{name}' operation is not available in this version of geoboresight"
-        else:
-            known = inspect.signature(operation).parameters
-            step.values = {k: v for k, v in step.values.items() if k in known}
-            sub.info(f"report: running {name}")
-            try:
-                step.result = operation(**step.values, progress=sub, overwrite=True)
-            except Cancelled:
-                raise
-            except (GeoboresightError, ImportError) as exc:
-                step.error = f"'{name}' could not run: {exc}"
+        sub.info(f"report: running {name}")
+        try:
+            step.result = function(*args, **kwargs, progress=sub, overwrite=True)
+        except Cancelled:
+            raise
+        except (GeoboresightError, ImportError) as exc:
+            step.error = f"'{name}' could not run: {exc}"
         section.steps.append(step)
         if step.error:
             section.note(step.error)
@@ -148,8 +160,8 @@ def raster_figure(path: str, title: str, label: str, out_png: str) -> str:
     """A quick look of band 1: classes in their own colour table, values on a 2–98 % stretch."""
     from matplotlib.colors import BoundaryNorm, ListedColormap
 
-    from .figures import decimated_shape
-    from .io import open_raster, read_masked
+    from ..figures import decimated_shape
+    from ..io import open_raster, read_masked
 
     with open_raster(path) as src:
         height, width = src.height, src.width
@@ -197,11 +209,18 @@ def raster_figure(path: str, title: str, label: str, out_png: str) -> str:
 
 def build_report(values: dict, work_dir: str, progress: Progress) -> str:
     """Run the operations for the scene described by ``values`` (the ``report`` operation's
-    parameters) with their products in ``work_dir``; the whole HTML page."""
-    dual = {k: values.get(k) for k in DUAL_KEYS}
-    bands = {k: values.get(k) for k in BAND_KEYS}
-    anomaly_detectors = ["rx", "svdd"] if values.get("svdd") else ["rx"]
-    run = Runner(work_dir, progress, n_steps=10 + len(anomaly_detectors))
+    arguments: ``dual`` the opened dataset, ``layout``, ``bands``, ``geometry``, the truths,
+    the cloud mask, ``svdd``) with their products in ``work_dir``; the whole HTML page."""
+    from .anomaly import boresight_indicator_file, roc_file, rx_file, svdd_file
+    from .dem import relative_dem_file, view_3d_file
+    from .ratio import ratio_file
+    from .shadow import shadow_classes_file, shadow_cluster_file, shadow_fraction_fit_file
+    from .stats import stats_file
+
+    dual = values["dual"]
+    layout = values["layout"]
+    detectors = [rx_file, svdd_file] if values.get("svdd") else [rx_file]
+    run = Runner(work_dir, progress, n_steps=10 + len(detectors))
     sections = []
 
     # 1. Ratio and statistics (Eq. 3, Table 1, Figure 3)
@@ -211,7 +230,7 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
         "SPSS reports them (Table 1), with the histogram (Figure 3).",
     )
     sections.append(s)
-    ratio = run.run(s, "ratio", {**dual, **bands, "output": run.path("ratio.tif")})
+    ratio = run.run(s, ratio_file, dual, output=run.path("ratio.tif"), bands=values["bands"])
     ratio_path = ratio.result["output"] if ratio.result else None
     if ratio_path:
         s.figure(
@@ -220,13 +239,11 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
         )
         stats = run.run(
             s,
-            "stats",
-            {
-                "input": ratio_path,
-                "output": run.path("stats.json"),
-                "html": run.path("stats.html"),
-                "histogram": run.path("histogram.png"),
-            },
+            stats_file,
+            ratio_path,
+            output=run.path("stats.json"),
+            html=run.path("stats.html"),
+            histogram=run.path("histogram.png"),
         )
         if stats.result:
             with open(stats.result["output"], encoding="utf-8") as f:
@@ -240,9 +257,7 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
     )
     sections.append(s)
     if ratio_path:
-        classes = run.run(
-            s, "shadow-classes", {"ratio": ratio_path, "output": run.path("shadow_classes.tif")}
-        )
+        classes = run.run(s, shadow_classes_file, ratio_path, output=run.path("shadow_classes.tif"))
         if classes.result:
             s.figure(
                 raster_figure(
@@ -255,13 +270,12 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
             )
         cluster = run.run(
             s,
-            "shadow-cluster",
-            {
-                "ratio": ratio_path,
-                "vnir": values["vnir"],
-                "output": run.path("shadow_cluster.tif"),
-                "plot": run.path("scatter.png"),
-            },
+            shadow_cluster_file,
+            ratio_path,
+            dual.vnir.path,
+            output=run.path("shadow_cluster.tif"),
+            plot=run.path("scatter.png"),
+            vnir_wavelengths=layout.vnir_wavelengths,
         )
         if cluster.result:
             s.figure(
@@ -271,13 +285,11 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
         if values.get("shadow_truth"):
             fit = run.run(
                 s,
-                "shadow-fraction-fit",
-                {
-                    "ratio": ratio_path,
-                    "truth": values["shadow_truth"],
-                    "report": run.path("fit.json"),
-                    "plot": run.path("fit.png"),
-                },
+                shadow_fraction_fit_file,
+                ratio_path,
+                values["shadow_truth"],
+                report=run.path("fit.json"),
+                plot=run.path("fit.png"),
             )
             if fit.result:
                 s.figure(
@@ -298,17 +310,16 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
         "says so.",
     )
     sections.append(s)
-    dem_values = {
-        **dual,
-        "cloud_mask": values.get("cloud_mask"),
-        "height_factor": values.get("height_factor"),
-        "squint_deg": values.get("squint_deg"),
-        "flying_height": values.get("flying_height"),
-        "ifov_mrad": values.get("ifov_mrad"),
-        "output": run.path("relative_dem.tif"),
-        "report": run.path("dem.json"),
-    }
-    dem = run.run(s, "relative-dem", dem_values)
+    dem = run.run(
+        s,
+        relative_dem_file,
+        dual,
+        None,
+        values["cloud_mask"],
+        output=run.path("relative_dem.tif"),
+        report=run.path("dem.json"),
+        geometry=values["geometry"],
+    )
     if dem.result:
         rows = [
             (k, v)
@@ -317,9 +328,7 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
         ]
         if rows:
             s.table(rows, caption="Relative DEM")
-        view = run.run(
-            s, "view-3d", {**dual, "dem": dem.result["output"], "output": run.path("view3d.png")}
-        )
+        view = run.run(s, view_3d_file, dem.result["output"], dual, output=run.path("view3d.png"))
         if view.result:
             s.figure(view.result["output"], "The scene draped on the relative DEM (Figure 9).")
 
@@ -327,38 +336,31 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
     s = Section(
         "Anomaly detection",
         "The boresight ratio as a sub-pixel anomaly indicator, against global RX"
-        + (" and SVDD" if "svdd" in anomaly_detectors else "")
+        + (" and SVDD" if len(detectors) > 1 else "")
         + "; with a truth raster, ROC curves (probability of detection against false alarm, Figure 12).",
     )
     sections.append(s)
     scores, names = [], []
     if ratio_path:
-        ind = run.run(
-            s, "boresight-indicator", {"ratio": ratio_path, "output": run.path("indicator.tif")}
-        )
+        ind = run.run(s, boresight_indicator_file, ratio_path, output=run.path("indicator.tif"))
         if ind.result:
             scores.append(ind.result["output"])
             names.append("boresight ratio")
-    for det in anomaly_detectors:
-        r = run.run(
-            s,
-            det,
-            {"vnir": values["vnir"], "swir": values.get("swir"), "output": run.path(f"{det}.tif")},
-        )
+    for det in detectors:
+        label = det.__name__.removesuffix("_file")
+        r = run.run(s, det, dual, output=run.path(f"{label}.tif"))
         if r.result:
             scores.append(r.result["output"])
-            names.append(det.upper())
+            names.append(label.upper())
     if scores and values.get("target_truth"):
         roc = run.run(
             s,
-            "roc",
-            {
-                "scores": scores,
-                "names": ",".join(names),
-                "truth": values["target_truth"],
-                "output": run.path("roc.png"),
-                "csv": run.path("roc.csv"),
-            },
+            roc_file,
+            scores,
+            values["target_truth"],
+            output=run.path("roc.png"),
+            csv=run.path("roc.csv"),
+            names=",".join(names),
         )
         if roc.result:
             s.figure(roc.result["output"], "ROC curves of the detectors (Figure 12).")
@@ -396,22 +398,4 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
     )
 
 
-def _operation(name: str):
-    """The file-level operation of the operation called ``name`` (e.g. 'shadow-classes'), or
-    None when this installation lacks it."""
-    import geoboresight
-
-    try:
-        return getattr(geoboresight, name.replace("-", "_") + "_file")
-    except (AttributeError, ImportError):
-        return None
-
-
-def sections_available() -> dict[str, bool]:
-    """Which operations the report uses are present in this installation."""
-    names = ["ratio", "stats", "shadow-classes", "shadow-cluster", "shadow-fraction-fit"]
-    names += ["relative-dem", "view-3d", "boresight-indicator", "rx", "svdd", "roc"]
-    return {n: _operation(n) is not None for n in names}
-
-
-__all__ = ["Runner", "Section", "Step", "build_report", "raster_figure", "sections_available"]
+__all__ = ["Runner", "Section", "Step", "build_report", "raster_figure"]
