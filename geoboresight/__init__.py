@@ -91,6 +91,10 @@ IO = {
     "DualLayout": "geoboresight.io.dual",
     "BandChoice": "geoboresight.io.dual",
     # Frozen option values of the operations (a spec's parameter groups).
+    "MatchBands": "geoboresight.io.bands",
+    "FlightGeometry": "geoboresight.dem.height",
+    "Matching": "geoboresight.dem.disparity",
+    "Kriging": "geoboresight.dem.relative",
     "BandSelection": "geoboresight.anomaly.bands",
     "RXBackground": "geoboresight.anomaly.rx",
     "OutputGrid": "geoboresight.io.grid",

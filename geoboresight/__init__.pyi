@@ -19,9 +19,12 @@ from .anomaly.unmix import unmix as unmix
 from .anomaly.unmix import unmix_cube as unmix_cube
 from .dem.bands import band_mean as band_mean
 from .dem.coregister import coregister as coregister
+from .dem.disparity import Matching as Matching
 from .dem.disparity import disparity_map as disparity_map
+from .dem.height import FlightGeometry as FlightGeometry
 from .dem.offset import estimate_offset as estimate_offset
 from .dem.offset import offset_profile as offset_profile
+from .dem.relative import Kriging as Kriging
 from .dem.relative import relative_dem as relative_dem
 from .errors import GeoboresightError as GeoboresightError
 from .georef.geoloc import clean_igm as clean_igm
@@ -31,6 +34,7 @@ from .georef.tiepoints import TieMatching as TieMatching
 from .georef.tiepoints import match_tie_points as match_tie_points
 from .georef.tiepoints import place_reference as place_reference
 from .georef.transforms import fit_transform as fit_transform
+from .io.bands import MatchBands as MatchBands
 from .io.cube import open_cube as open_cube
 from .io.dual import BandChoice as BandChoice
 from .io.dual import DualLayout as DualLayout

@@ -104,14 +104,13 @@ def test_a_key_an_operation_does_not_know_is_a_bug_that_raises(tmp_path):
     """The report passes each operation its values explicitly: a misspelt or retired key
     raises instead of being dropped (the run's own failures still become notes)."""
     from geoboresight.operations._report_page import Runner, Section
+    from geoboresight.operations.stats import stats_file
 
     section = Section("x", "y")
     run = Runner(str(tmp_path), Progress(), 2)
-    with pytest.raises(TypeError, match="'stats' has no parameter.*numerator_nm"):
-        run.run(section, "stats", {"input": "r.tif", "numerator_nm": 1010.0})
-    with pytest.raises(ParameterError, match="unknown operation 'no-such-operation'"):
-        run.run(section, "no-such-operation", {})
-    step = run.run(section, "stats", {"input": str(tmp_path / "none.tif"), "output": "s.json"})
+    with pytest.raises(TypeError, match="numerator_nm"):
+        run.run(section, stats_file, "r.tif", output="s.json", numerator_nm=1010.0)
+    step = run.run(section, stats_file, str(tmp_path / "none.tif"), output="s.json")
     assert step.result is None and "could not run" in step.error
     assert "could not run" in section.html() and section.steps[0].rows
 
