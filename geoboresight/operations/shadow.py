@@ -15,6 +15,7 @@ import numpy as np
 from .. import io
 from ..errors import InputError, ParameterError
 from ..io.dual import TOLERANCE_NM
+from ..io.masks import mask_raster, masked_reader
 from ..io.shadow import class_polygons, class_table_csv, read_class_table, read_fraction_model
 from ..io.wavelengths import nearest_band, wavelengths_of
 from ..shadow import classes as cls
@@ -35,32 +36,9 @@ def no_valid_error(path: str, what: str = "ratio raster") -> InputError:
     )
 
 
-def mask_raster(path, grid: io.Grid, tags: dict, band_name: str):
-    """A binary shadow mask GeoTIFF (1 shadow, 0 not, 255 nodata), styled, written by strips."""
-    return io.create_class_raster(
-        path,
-        grid,
-        tags=tags,
-        band_name=band_name,
-        colormap=cls.MASK_COLORMAP,
-        category_names=cls.MASK_CATEGORIES,
-    )
-
-
 def class_table(path=None) -> cls.ClassTable:
     """The class table in ``path`` (CSV or JSON), or Table 2 when None."""
     return read_class_table(path) if path else cls.default_table()
-
-
-def masked_reader(sources):
-    """``read(row0, row1) -> (values, valid, values, valid, ...)``: each (dataset, band) of
-    ``sources`` with its own validity mask (unlike :func:`io.bands_reader`, which ands them)."""
-    readers = [io.band_reader(src, band) for src, band in sources]
-
-    def read(row0: int, row1: int):
-        return tuple(a for r in readers for a in r(row0, row1))
-
-    return read
 
 
 # ------------------------------------------------------------------------------ shadow-classes

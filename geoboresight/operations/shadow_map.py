@@ -17,12 +17,13 @@ from .. import io
 from ..errors import InputError, ParameterError
 from ..io.bands import band_range
 from ..io.dual import SWIR_NM, TOLERANCE_NM, VNIR_NM, BandChoice, DualLayout
+from ..io.masks import mask_raster
 from ..io.shadow import class_table_csv
 from ..io.wavelengths import parse_list
 from ..shadow import classes as cls
 from ..shadow import map as smap
 from ._operation import operation
-from .shadow import class_table, mask_raster, no_valid_error
+from .shadow import class_table, no_valid_error
 
 #: Pixels drawn at random to calibrate the map.
 SAMPLE_SIZE = 200_000

@@ -12,6 +12,7 @@ import numpy as np
 from .. import io
 from ..errors import ParameterError
 from ..io.dual import TOLERANCE_NM
+from ..io.masks import mask_raster
 from ..io.wavelengths import nearest_band, wavelengths_of
 from ..shadow import illumination as ill
 from ..shadow.classes import MASK_NODATA, MASK_SHADOW
@@ -24,7 +25,7 @@ from ..shadow.darkpixel import (
 )
 from ..shadow.surface import AUTO, choose_surface, surface_walls
 from ._operation import operation
-from .shadow import mask_raster, no_valid_error
+from .shadow import no_valid_error
 
 #: The dark-pixel bands as the text parameter gives them (nm, comma-separated).
 BANDS_NM = ",".join(f"{b:g}" for b in DEFAULT_BANDS_NM)
