@@ -16,10 +16,10 @@ import numpy as np
 from .. import io
 from ..errors import InputError, ParameterError
 from ..io.bands import band_range
+from ..io.dark import dark_level_of
 from ..io.dual import SWIR_NM, TOLERANCE_NM, VNIR_NM, BandChoice, DualLayout
 from ..io.masks import mask_raster
 from ..io.shadow import class_table_csv
-from ..io.wavelengths import parse_list
 from ..shadow import classes as cls
 from ..shadow import map as smap
 from ._operation import operation
@@ -33,38 +33,17 @@ DARK_BANDS = 16
 OFFSET_ROWS = 512
 
 
-def _dark_from_header(src, bands: list[int], path: str, label: str):
-    """The 'dark level' of an ENVI header: one value, or one per band of the file."""
-    text = src.tags(ns="ENVI").get("dark_level")
-    if not text:
-        return None
-    values = parse_list(text, f"{path}: ENVI header 'dark level'")
-    if values.size == 1:
-        return smap.DarkLevel(float(values[0]), f"header of {path}")
-    if values.size != src.count:
-        raise InputError(
-            f"{path}: its header's 'dark level' lists {values.size} values for {src.count} "
-            "bands; give one value, or one per band"
-        )
-    per_band = values[[b - 1 for b in bands]]
-    return smap.DarkLevel(float(per_band.mean()), f"header of {path}", per_band, 0)
-
-
 def _spread(bands: tuple[int, ...], n: int) -> list[int]:
     idx = np.unique(np.linspace(0, len(bands) - 1, min(n, len(bands))).round().astype(int))
     return [bands[i] for i in idx]
 
 
-def _dark_levels(label, given, header, sample, valid, progress):
-    if given is not None:
-        if not (isinstance(given, int | float) and math.isfinite(given)):
-            raise ParameterError(f"parameter '{label.lower()}_dark': {given!r} is not a number")
-        level = smap.DarkLevel(float(given), "given")
-    elif header is not None:
-        level = header
-    else:
+def _dark_level(sensor, src, bands, given, sample, valid, progress) -> smap.DarkLevel:
+    """Given, the product's dark reference or the header's (io.dark), else the dark object."""
+    level = dark_level_of(sensor, bands, src.tags(ns="ENVI"), src.count, given)
+    if level is None:
         level = smap.dark_level(sample, valid)
-    progress.info(level.describe(label))
+    progress.info(level.describe(sensor.name))
     return level
 
 
@@ -196,32 +175,11 @@ def shadow_map_file(
             raise no_valid_error(vnir, "VNIR/SWIR image")
         nv = len(v_dark_b)
         vs, ss = sample[:nv], sample[nv:]
-        v_dark = _dark_levels(
-            "VNIR",
-            vnir_dark,
-            _dark_from_header(v_src, v_dark_b, dual.vnir.path, "VNIR"),
-            vs,
-            ok,
-            progress,
-        )
-        s_dark = _dark_levels(
-            "SWIR",
-            swir_dark,
-            _dark_from_header(s_src, s_dark_b, dual.swir.path, "SWIR"),
-            ss,
-            ok,
-            progress,
-        )
-
-        def levels(dark: smap.DarkLevel, all_bands: list[int], wanted: list[int]):
-            """The level to subtract from the ``wanted`` bands: per band from a header."""
-            if dark.band_levels is not None and dark.source.startswith("header"):
-                return np.asarray(dark.band_levels)[[all_bands.index(b) for b in wanted]]
-            return dark.level
-
-        blue_lv = levels(v_dark, v_dark_b, blue_b)
-        nir_lv = levels(v_dark, v_dark_b, nir_b)
-        swir_lv = levels(s_dark, s_dark_b, swir_b)
+        v_dark = _dark_level(dual.vnir, v_src, v_dark_b, vnir_dark, vs, ok, progress)
+        s_dark = _dark_level(dual.swir, s_src, s_dark_b, swir_dark, ss, ok, progress)
+        blue_lv = v_dark.for_bands(v_dark_b, blue_b)
+        nir_lv = v_dark.for_bands(v_dark_b, nir_b)
+        swir_lv = s_dark.for_bands(s_dark_b, swir_b)
         blue_s = smap.signal(vs[[v_dark_b.index(b) for b in blue_b]], blue_lv)
         nir_s = smap.signal(vs[[v_dark_b.index(b) for b in nir_b]], nir_lv)
         swir_s = smap.signal(ss[[s_dark_b.index(b) for b in swir_b]], swir_lv)

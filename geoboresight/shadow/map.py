@@ -83,18 +83,35 @@ class DarkLevel:
     """The DN of zero signal of one instrument and how it was found."""
 
     level: float
-    source: str  # "estimated (dark object)", "given", "header"
-    band_levels: np.ndarray | None = None  # the dark object's mean DN per band (estimated)
+    source: str  # "estimated (dark object)", "given", "header of PATH", a product's dark source
+    #: The dark object's mean DN per band (estimated, ``n_pixels`` > 0), or the level of each
+    #: band from a header or a product's dark reference (``n_pixels`` 0).
+    band_levels: np.ndarray | None = None
     n_pixels: int = 0
 
     def describe(self, name: str) -> str:
         if self.band_levels is None:
             return f"{name} dark level {self.level:.1f} DN ({self.source})"
+        if self.n_pixels == 0:  # per band from a header or a product's dark reference
+            return (
+                f"{name} dark level {self.level:.1f} DN ({self.source}; per band "
+                f"{np.min(self.band_levels):.1f}–{np.max(self.band_levels):.1f} DN)"
+            )
         return (
             f"{name} dark level {self.level:.1f} DN ({self.source}: the {self.n_pixels} darkest "
             f"pixels, dimmest band; their band means span {np.min(self.band_levels):.1f}–"
             f"{np.max(self.band_levels):.1f} DN)"
         )
+
+    def for_bands(self, bands, wanted):
+        """The level to subtract from the ``wanted`` bands, ``band_levels`` being those of
+        ``bands``: one per band when measured per band (a header or a product's dark
+        reference: ``n_pixels`` 0), else the one level (given, or the dark object's dimmest
+        band)."""
+        if self.band_levels is not None and self.n_pixels == 0:
+            bands = list(bands)
+            return np.asarray(self.band_levels)[[bands.index(b) for b in wanted]]
+        return self.level
 
 
 def dark_level(
