@@ -3,13 +3,14 @@ four shadow-fraction classes out, calibrated to the scene (:mod:`geoboresight.sh
 
 Two passes over the flight line: a random sample calibrates the map (dark levels, sunlit
 modes, sunlit ratio, the scaled class table) and a central block of lines gives the boresight
-offset; then the map is written strip by strip.
+offset; then the map is written strip by strip, each strip by the kernel
+:func:`geoboresight.shadow.map.shadow_map_block`. The dark levels are found in
+:mod:`geoboresight.io.dark`.
 """
 
 from __future__ import annotations
 
 import contextlib
-import math
 
 import numpy as np
 
@@ -207,36 +208,28 @@ def shadow_map_file(
             f"{c.id}: {100 * c.fraction_min:g}–{100 * c.fraction_max:g} % shadow ({c.name})"
             for c in cal.table.classes
         )
-        # Pass 2: the map, strip by strip; the halo covers the SWIR shift and the edge search.
-        halo = math.ceil(abs(along)) + 3 + edge_pixels + smap.EDGE_WINDOW // 2
+        # Pass 2: the map, strip by strip (shadow.map.shadow_map_block); the halo covers the
+        # SWIR shift and the edge search.
         read = io.bands_reader(
             [(v_src, b) for b in blue_b]
             + [(v_src, b) for b in nir_b]
             + [(s_src, b) for b in swir_b]
-            + [(v_src, rb.vnir_band), (s_src, rb.swir_band)]
+            + [(v_src, rb.vnir_band), (s_src, rb.swir_band)]  # valid in the ratio's bands too
         )
-        n_blue, n_nir, n_swir = len(blue_b), len(nir_b), len(swir_b)
-        fill = math.exp(cal.swir_mode)
+        at_nir, at_swir = len(blue_b), len(blue_b) + len(nir_b)
+        at_end = at_swir + len(swir_b)
+        levels = (blue_lv, nir_lv, swir_lv)
 
         def kernel(values, valid):
-            from ..dem.coregister import coregister
-
-            i = n_blue + n_nir
-            blue = smap.signal(values[:n_blue], blue_lv)
-            nir = smap.signal(values[n_blue:i], nir_lv)
-            sw = smap.signal(values[i : i + n_swir], swir_lv)
-            sw, sw_ok = coregister(sw, along, across, valid, order=1, fill=fill)
-            good = valid & sw_ok
-            d = smap.darkness(nir, sw, cal, good)
-            f = smap.shadow_fraction_estimate(
-                d,
-                good,
-                core=cal.core,
+            c, m = smap.shadow_map_block(
+                values[:at_nir],
+                values[at_nir:at_swir],
+                values[at_swir:at_end],
+                valid,
+                calibration=cal,
+                dark_levels=levels,
                 edge_pixels=edge_pixels,
-                water=smap.too_blue(blue, nir, cal.blue_limit),
             )
-            m = smap.shadow_mask(f)
-            c = smap.shadow_classes(f, cal.table)
             return c, m, np.bincount(c.ravel(), minlength=256)
 
         tags = {
@@ -273,7 +266,7 @@ def shadow_map_file(
         for win, (c, m, n) in io.map_windows(
             read,
             kernel,
-            halo=(halo, halo),
+            halo=(smap.shadow_map_halo(cal, edge_pixels),) * 2,
             progress=progress.sub(0.3, 1.0),
             message="shadow map",
             **strips,
