@@ -16,6 +16,7 @@ output="ratio.tif")``); the specs declare the same function as their ``run``. De
 
 from __future__ import annotations
 
+import dataclasses
 import errno
 import functools
 import inspect
@@ -107,14 +108,21 @@ def check_paths(values: dict, inputs, outputs, overwrite: bool) -> list[str]:
 
 def check_finite(values: dict) -> None:
     """Raise :class:`ParameterError` naming the first numeric argument that is NaN or
-    infinite (``nan < minimum`` is False: NaN would pass every range check)."""
+    infinite (``nan < minimum`` is False: NaN would pass every range check), the members of a
+    parameter group's value (a dataclass: ``bands=BandChoice(vnir_nm=nan)``) included."""
     for name, value in values.items():
-        if (
-            isinstance(value, numbers.Real)
-            and not isinstance(value, bool | numbers.Integral)
-            and not math.isfinite(float(value))
-        ):
-            raise ParameterError(f"parameter '{name}': expected a finite number, got {value!r}")
+        members = {name: value}
+        if dataclasses.is_dataclass(value) and not isinstance(value, type):  # one level only
+            members = {f.name: getattr(value, f.name) for f in dataclasses.fields(value)}
+        for member, number in members.items():
+            if (
+                isinstance(number, numbers.Real)
+                and not isinstance(number, bool | numbers.Integral)
+                and not math.isfinite(float(number))
+            ):
+                raise ParameterError(
+                    f"parameter '{member}': expected a finite number, got {number!r}"
+                )
 
 
 def translate_error(exc: BaseException, inputs: list[str], outputs: list[str]) -> GeoboresightError:

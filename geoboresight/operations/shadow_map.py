@@ -11,16 +11,18 @@ offset; then the map is written strip by strip, each strip by the kernel
 from __future__ import annotations
 
 import contextlib
+from dataclasses import dataclass
 
 import numpy as np
 
 from .. import io
 from ..errors import InputError, ParameterError
 from ..io.bands import band_range
-from ..io.dark import dark_level_of
-from ..io.dual import SWIR_NM, TOLERANCE_NM, VNIR_NM, BandChoice, DualLayout
+from ..io.dark import DarkLevels, dark_level_of
+from ..io.dual import BandChoice, DualLayout
 from ..io.masks import mask_raster
 from ..io.shadow import class_table_csv
+from ..io.windows import Sample
 from ..shadow import classes as cls
 from ..shadow import map as smap
 from ._operation import operation
@@ -28,6 +30,26 @@ from .shadow import class_table, no_valid_error
 
 #: Pixels drawn at random to calibrate the map.
 SAMPLE_SIZE = 200_000
+
+
+@dataclass(frozen=True)
+class MapSample(Sample):
+    """The shadow map's calibration sample: :class:`~geoboresight.io.windows.Sample` with
+    :data:`SAMPLE_SIZE` pixels by default."""
+
+    sample_size: int = SAMPLE_SIZE
+
+
+@dataclass(frozen=True)
+class BoresightOffset:
+    """The boresight offset of the SWIR relative to the VNIR (px, SWIR minus VNIR position),
+    along- and across-track, when the user gives it; both None = measured on the data
+    (:func:`geoboresight.dem.offset.estimate_offset`), one None = 0."""
+
+    offset_along: float | None = None
+    offset_across: float | None = None
+
+
 #: Bands per instrument read for the dark level besides the signal bands (evenly spaced).
 DARK_BANDS = 16
 #: Lines of the central block the boresight offset is measured on.
@@ -48,9 +70,9 @@ def _dark_level(sensor, src, bands, given, sample, valid, progress) -> smap.Dark
     return level
 
 
-def _offset(dual, v_src, s_src, rb, given_along, given_across, progress):
-    if given_along is not None or given_across is not None:
-        return float(given_along or 0.0), float(given_across or 0.0), "given"
+def _offset(dual, v_src, s_src, rb, given: BoresightOffset, progress):
+    if given.offset_along is not None or given.offset_across is not None:
+        return float(given.offset_along or 0.0), float(given.offset_across or 0.0), "given"
     from ..dem.offset import estimate_offset
 
     r0 = max(0, dual.height // 2 - OFFSET_ROWS // 2)
@@ -74,17 +96,12 @@ def shadow_map_file(
     output,
     mask=None,
     layout=DualLayout(),
-    vnir_nm=VNIR_NM,
-    swir_nm=SWIR_NM,
-    tolerance_nm=TOLERANCE_NM,
-    vnir_dark=None,
-    swir_dark=None,
-    offset_along=None,
-    offset_across=None,
+    bands=BandChoice(),
+    dark=DarkLevels(),
+    offset=BoresightOffset(),
     core_darkness=smap.CORE_DARKNESS,
     edge_pixels=smap.EDGE_PIXELS,
-    sample_size=SAMPLE_SIZE,
-    seed=0,
+    sample=MapSample(),
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
 ) -> dict:
@@ -105,24 +122,26 @@ def shadow_map_file(
         Binary shadow mask (1 shadow, 0 not, 255 nodata).
     layout : DualLayout
         How to read files that do not say it all (a merged cube's seam, band centres).
-    vnir_nm, swir_nm : float
-        The bands of the boresight ratio (Eq. 3) the classes are read from.
-    tolerance_nm : float
-        Largest distance between a requested wavelength and a band centre.
-    vnir_dark, swir_dark : float, optional
-        Dark level (DN of zero signal) of each instrument; None = the header's 'dark level',
-        else estimated from the data (dark object). Give 0 for radiance.
-    offset_along, offset_across : float, optional
-        Boresight offset of the SWIR relative to the VNIR (px); None = measured.
+    bands : BandChoice
+        The bands of the boresight ratio (Eq. 3) the classes are scaled by, nearest 920 nm
+        (VNIR) and 1010 nm (SWIR) by default; its ``tolerance_nm`` also bounds the blue, NIR
+        and SWIR ranges. The faces always give ``band_mode="wavelength"``.
+    dark : DarkLevels
+        Dark level (DN of zero signal) of each instrument (``vnir_dark``, ``swir_dark``);
+        None = the sensor product's dark reference, else the header's 'dark level', else
+        estimated from the data (dark object): :func:`geoboresight.io.dark.dark_level_of`.
+        Give 0 for radiance.
+    offset : BoresightOffset
+        Boresight offset of the SWIR relative to the VNIR (px, ``offset_along``,
+        ``offset_across``); both None = measured on a central block of lines.
     core_darkness : float
         Core shadow: mean natural log of the NIR and SWIR signals over their sunlit modes at
         or below this (default ln 0.2).
     edge_pixels : int
         Partial shadow is looked for this many pixels around the core (0 = core only).
-    sample_size : int
-        Pixels drawn at random to calibrate.
-    seed : int
-        Random seed of the sample.
+    sample : MapSample
+        The random sample that calibrates the map: ``sample_size`` pixels (default 200,000),
+        ``seed``.
     block_rows : int
         Lines read at a time.
     progress : Progress, optional
@@ -145,7 +164,8 @@ def shadow_map_file(
     edge_pixels = int(edge_pixels)
     base_table = class_table(classes)
     dual = io.as_dual(vnir, swir, layout)
-    rb = dual.ratio_bands(BandChoice("wavelength", vnir_nm, swir_nm, tolerance_nm))
+    rb = dual.ratio_bands(bands)
+    tolerance_nm = bands.tolerance_nm
     blue_b = band_range(dual.vnir, *smap.BLUE_NM, tolerance_nm=tolerance_nm)
     nir_b = band_range(dual.vnir, *smap.NIR_NM, tolerance_nm=tolerance_nm)
     swir_b = band_range(dual.swir, *smap.SWIR_NM, tolerance_nm=tolerance_nm)
@@ -167,8 +187,8 @@ def shadow_map_file(
         sources = [(v_src, b) for b in v_dark_b] + [(s_src, b) for b in s_dark_b]
         sample, ok = io.sample_windows(
             io.bands_reader(sources),
-            size=sample_size,
-            seed=seed,
+            size=sample.sample_size,
+            seed=sample.seed,
             progress=progress.sub(0, 0.3),
             **strips,
         )
@@ -176,8 +196,8 @@ def shadow_map_file(
             raise no_valid_error(vnir, "VNIR/SWIR image")
         nv = len(v_dark_b)
         vs, ss = sample[:nv], sample[nv:]
-        v_dark = _dark_level(dual.vnir, v_src, v_dark_b, vnir_dark, vs, ok, progress)
-        s_dark = _dark_level(dual.swir, s_src, s_dark_b, swir_dark, ss, ok, progress)
+        v_dark = _dark_level(dual.vnir, v_src, v_dark_b, dark.vnir_dark, vs, ok, progress)
+        s_dark = _dark_level(dual.swir, s_src, s_dark_b, dark.swir_dark, ss, ok, progress)
         blue_lv = v_dark.for_bands(v_dark_b, blue_b)
         nir_lv = v_dark.for_bands(v_dark_b, nir_b)
         swir_lv = s_dark.for_bands(s_dark_b, swir_b)
@@ -186,7 +206,7 @@ def shadow_map_file(
         swir_s = smap.signal(ss[[s_dark_b.index(b) for b in swir_b]], swir_lv)
         with np.errstate(invalid="ignore", divide="ignore"):
             ratio_s = ss[s_dark_b.index(rb.swir_band)] / vs[v_dark_b.index(rb.vnir_band)]
-        along, across, how = _offset(dual, v_src, s_src, rb, offset_along, offset_across, progress)
+        along, across, how = _offset(dual, v_src, s_src, rb, offset, progress)
         progress.info(f"boresight offset {along:+.2f} px along, {across:+.2f} px across ({how})")
         cal = smap.calibrate_shadow_map(
             blue_s,
