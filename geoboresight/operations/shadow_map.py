@@ -185,7 +185,7 @@ def shadow_map_file(
         )
         # Pass 1: a random sample of the line for the dark levels and the sunlit modes.
         sources = [(v_src, b) for b in v_dark_b] + [(s_src, b) for b in s_dark_b]
-        sample, ok = io.sample_windows(
+        pixels, ok = io.sample_windows(
             io.bands_reader(sources),
             size=sample.sample_size,
             seed=sample.seed,
@@ -195,7 +195,7 @@ def shadow_map_file(
         if not ok.any():
             raise no_valid_error(vnir, "VNIR/SWIR image")
         nv = len(v_dark_b)
-        vs, ss = sample[:nv], sample[nv:]
+        vs, ss = pixels[:nv], pixels[nv:]
         v_dark = _dark_level(dual.vnir, v_src, v_dark_b, dark.vnir_dark, vs, ok, progress)
         s_dark = _dark_level(dual.swir, s_src, s_dark_b, dark.swir_dark, ss, ok, progress)
         blue_lv = v_dark.for_bands(v_dark_b, blue_b)
