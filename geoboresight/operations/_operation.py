@@ -110,19 +110,19 @@ def check_finite(values: dict) -> None:
     """Raise :class:`ParameterError` naming the first numeric argument that is NaN or
     infinite (``nan < minimum`` is False: NaN would pass every range check), the members of a
     parameter group's value (a dataclass: ``bands=BandChoice(vnir_nm=nan)``) included."""
-    for name, value in values.items():
-        members = {name: value}
-        if dataclasses.is_dataclass(value) and not isinstance(value, type):  # one level only
-            members = {f.name: getattr(value, f.name) for f in dataclasses.fields(value)}
-        for member, number in members.items():
-            if (
-                isinstance(number, numbers.Real)
-                and not isinstance(number, bool | numbers.Integral)
-                and not math.isfinite(float(number))
-            ):
-                raise ParameterError(
-                    f"parameter '{member}': expected a finite number, got {number!r}"
-                )
+    flat = {}
+    for key, arg in values.items():
+        if dataclasses.is_dataclass(arg) and not isinstance(arg, type):  # one level only
+            flat.update({f.name: getattr(arg, f.name) for f in dataclasses.fields(arg)})
+        else:
+            flat[key] = arg
+    for name, value in flat.items():
+        if (
+            isinstance(value, numbers.Real)
+            and not isinstance(value, bool | numbers.Integral)
+            and not math.isfinite(float(value))
+        ):
+            raise ParameterError(f"parameter '{name}': expected a finite number, got {value!r}")
 
 
 def translate_error(exc: BaseException, inputs: list[str], outputs: list[str]) -> GeoboresightError:
