@@ -300,7 +300,7 @@ def test_operations_refuse_nan_from_python_too(tmp_path):
             str(d / "v.img"),
             str(d / "s.img"),
             output=str(tmp_path / "r.tif"),
-            bands=gb.BandChoice(tolerance_nm=float("nan")),
+            bands=gb.BandChoice(tolerance_nm=float("nan")),  # inside a group's value too
         )
     assert not (tmp_path / "r.tif").exists()
 

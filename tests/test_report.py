@@ -17,7 +17,7 @@ import rasterio
 
 from geoboresight.algorithms import registry
 from geoboresight.algorithms.report import REPORT
-from geoboresight.errors import Cancelled, ParameterError
+from geoboresight.errors import Cancelled
 from geoboresight.io import quiet_georef
 from geoboresight.operations.report import report_file
 from geoboresight.progress import Progress

@@ -18,6 +18,7 @@ import rasterio
 
 from geoboresight.errors import InputError, ParameterError
 from geoboresight.io import quiet_georef
+from geoboresight.io.dark import DarkLevels
 from geoboresight.io.windows import map_windows
 from geoboresight.operations.shadow import shadow_classes_file, shadow_fraction_apply_file
 from geoboresight.operations.shadow_map import shadow_map_file
@@ -324,7 +325,7 @@ def test_shadow_map_dark_level_from_parameter_and_header(model2_scene, tmp_path)
     sc, folder = model2_scene
     j = lambda n: os.path.join(folder, n)  # noqa: E731
     res = shadow_map_file(
-        j("vnir.hdr"), j("swir.hdr"), output=str(tmp_path / "a.tif"), vnir_dark=100.0
+        j("vnir.hdr"), j("swir.hdr"), output=str(tmp_path / "a.tif"), dark=DarkLevels(100.0)
     )
     assert res["vnir_dark_dn"] == 100.0 and res["vnir_dark_source"] == "given"
     # A header that writes the dark level per band.

@@ -5,6 +5,7 @@ dark-pixel baseline are in :mod:`geoboresight.algorithms.shadow_truth`."""
 
 from __future__ import annotations
 
+from ..io.windows import Sample
 from ..operations.shadow import (
     shadow_classes_file,
     shadow_cluster_file,
@@ -23,6 +24,7 @@ from .spec import (
     FileIn,
     FileOut,
     Flag,
+    Group,
     Number,
     RasterIn,
     RasterOut,
@@ -145,8 +147,16 @@ CLUSTER = Algorithm(
             minimum=0.0,
             maximum=1.0,
         ),
-        sample_size("Pixels sampled at random to fit the mixture", SAMPLE_SIZE, 500, 5_000_000),
-        seed(),
+        Group(
+            name="sample",
+            value=Sample,
+            params=(
+                sample_size(
+                    "Pixels sampled at random to fit the mixture", SAMPLE_SIZE, 500, 5_000_000
+                ),
+                seed(),
+            ),
+        ),
         BLOCK_ROWS,
         RasterOut(name="output", description="Shadow mask (byte: 1 shadow, 0 not)"),
         RasterOut(name="probability_output", description="Shadow probability (0–1)", optional=True),

@@ -4,12 +4,71 @@ four shadow-fraction classes out. Declaration only: ``run`` is
 
 from __future__ import annotations
 
-from ..operations.shadow_map import SAMPLE_SIZE, shadow_map_file
+from ..io.dark import DarkLevels
+from ..io.dual import BandChoice
+from ..operations.shadow_map import SAMPLE_SIZE, BoresightOffset, MapSample, shadow_map_file
 from ..shadow.map import CORE_DARKNESS, EDGE_PIXELS
 from ._common import BLOCK_ROWS, DUAL_PARAMS, SWIR_BAND, TOLERANCE, VNIR_BAND, sample_size, seed
-from .spec import Algorithm, FileIn, Number, RasterOut, Result
+from .spec import Algorithm, FileIn, Group, Number, RasterOut, Result
 
 GROUP = "Shadow"
+
+#: The ratio's bands, always by wavelength here (no 'band_mode': BandChoice's default).
+RATIO_BANDS = Group(name="bands", value=BandChoice, params=(VNIR_BAND, SWIR_BAND, TOLERANCE))
+
+#: The dark levels the user gives (io.DarkLevels); empty = product, header or estimated.
+DARK = Group(
+    name="dark",
+    value=DarkLevels,
+    params=(
+        Number(
+            name="vnir_dark",
+            description="VNIR dark level (DN of zero signal; empty = from the header or estimated; 0 for radiance)",
+            optional=True,
+            unit="DN",
+            advanced=True,
+        ),
+        Number(
+            name="swir_dark",
+            description="SWIR dark level (DN of zero signal; empty = from the header or estimated; 0 for radiance)",
+            optional=True,
+            unit="DN",
+            advanced=True,
+        ),
+    ),
+)
+
+#: The boresight offset the user gives (BoresightOffset); empty = measured.
+OFFSET = Group(
+    name="offset",
+    value=BoresightOffset,
+    params=(
+        Number(
+            name="offset_along",
+            description="Boresight offset of the SWIR along-track (px; empty = measured)",
+            optional=True,
+            unit="px",
+            advanced=True,
+        ),
+        Number(
+            name="offset_across",
+            description="Boresight offset of the SWIR across-track (px; empty = measured)",
+            optional=True,
+            unit="px",
+            advanced=True,
+        ),
+    ),
+)
+
+#: The calibration sample (MapSample: 200,000 pixels by default).
+SAMPLE = Group(
+    name="sample",
+    value=MapSample,
+    params=(
+        sample_size("Pixels sampled at random to calibrate the map", SAMPLE_SIZE, 1000, 5_000_000),
+        seed(),
+    ),
+)
 
 SHADOW_MAP = Algorithm(
     name="shadow-map",
@@ -78,37 +137,9 @@ SHADOW_MAP = Algorithm(
             extensions=("csv", "json"),
             advanced=True,
         ),
-        VNIR_BAND,
-        SWIR_BAND,
-        TOLERANCE,
-        Number(
-            name="vnir_dark",
-            description="VNIR dark level (DN of zero signal; empty = from the header or estimated; 0 for radiance)",
-            optional=True,
-            unit="DN",
-            advanced=True,
-        ),
-        Number(
-            name="swir_dark",
-            description="SWIR dark level (DN of zero signal; empty = from the header or estimated; 0 for radiance)",
-            optional=True,
-            unit="DN",
-            advanced=True,
-        ),
-        Number(
-            name="offset_along",
-            description="Boresight offset of the SWIR along-track (px; empty = measured)",
-            optional=True,
-            unit="px",
-            advanced=True,
-        ),
-        Number(
-            name="offset_across",
-            description="Boresight offset of the SWIR across-track (px; empty = measured)",
-            optional=True,
-            unit="px",
-            advanced=True,
-        ),
+        RATIO_BANDS,
+        DARK,
+        OFFSET,
         Number(
             name="core_darkness",
             description="Core shadow: natural log of the SWIR signal over its sunlit mode at or below this (default ln 1/6)",
@@ -126,8 +157,7 @@ SHADOW_MAP = Algorithm(
             integer=True,
             advanced=True,
         ),
-        sample_size("Pixels sampled at random to calibrate the map", SAMPLE_SIZE, 1000, 5_000_000),
-        seed(),
+        SAMPLE,
         BLOCK_ROWS,
         RasterOut(name="output", description="Shadow-fraction classes (byte, colour table)"),
         RasterOut(name="mask", description="Shadow mask (1 shadow, 0 not)", optional=True),

@@ -4,12 +4,13 @@ only: each ``run`` is a file-level operation of :mod:`geoboresight.operations.sh
 
 from __future__ import annotations
 
+from ..io.windows import Sample
 from ..operations.shadow_truth import BANDS_NM, dark_pixel_shadow_file, sun_shadow_file
 from ..shadow.darkpixel import DARK_PERCENTILE, SAMPLE_SIZE, THRESHOLD
 from ..shadow.illumination import SUPERSAMPLE, SURFACES, Z_FACTOR
 from ..shadow.surface import AUTO
 from ._common import BLOCK_ROWS, TOLERANCE, sample_size, seed
-from .spec import Algorithm, Band, Enum, Number, RasterIn, RasterOut, Result, Text
+from .spec import Algorithm, Band, Enum, Group, Number, RasterIn, RasterOut, Result, Text
 
 GROUP = "Shadow"
 
@@ -152,8 +153,16 @@ DARK_PIXEL = Algorithm(
             minimum=0.0,
             maximum=2.0,
         ),
-        sample_size("Pixels sampled at random for the statistics", SAMPLE_SIZE, 500, 5_000_000),
-        seed(),
+        Group(
+            name="sample",
+            value=Sample,
+            params=(
+                sample_size(
+                    "Pixels sampled at random for the statistics", SAMPLE_SIZE, 500, 5_000_000
+                ),
+                seed(),
+            ),
+        ),
         BLOCK_ROWS,
         RasterOut(name="output", description="Dark-pixel shadow mask (byte: 1 shadow, 0 not)"),
         RasterOut(name="shadow_function", description="Shadow function Φ (float32)", optional=True),

@@ -333,6 +333,18 @@ def read_pixels(
     )
 
 
+@dataclass(frozen=True)
+class Sample:
+    """How a statistical fit draws its random sample of the whole flight line
+    (:func:`sample_windows`): about ``sample_size`` pixels, the same ones for the same
+    ``seed``. The default size is the shadow cluster's and the dark-pixel baseline's; an
+    operation with another default declares a subclass with it (e.g. the shadow map's
+    ``MapSample``)."""
+
+    sample_size: int = 50_000
+    seed: int = 0
+
+
 def sample_windows(
     read: Callable[[int, int], tuple[np.ndarray, np.ndarray]],
     *,

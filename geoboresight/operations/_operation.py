@@ -118,7 +118,8 @@ def check_paths(values: dict, inputs, outputs, overwrite: bool) -> list[str]:
 
 def check_finite(values: dict) -> None:
     """Raise :class:`ParameterError` naming the first numeric argument that is NaN or
-    infinite (``nan < minimum`` is False: NaN would pass every range check)."""
+    infinite (``nan < minimum`` is False: NaN would pass every range check), the members of a
+    parameter group's value (``bands=BandChoice(vnir_nm=nan)``) included."""
     for name, value in values.items():
         if hasattr(value, "files"):  # an opened dataset: its metadata is not an argument
             continue

@@ -15,10 +15,12 @@ import numpy as np
 from .. import io
 from ..errors import InputError, ParameterError
 from ..io.dual import TOLERANCE_NM
+from ..io.masks import mask_raster, masked_reader
 from ..io.shadow import class_polygons, class_table_csv, read_class_table, read_fraction_model
 from ..io.wavelengths import nearest_band, wavelengths_of
+from ..io.windows import Sample
 from ..shadow import classes as cls
-from ..shadow.cluster import NIR_NM, PROBABILITY, SAMPLE_SIZE, fit_shadow_cluster, shadow_mask
+from ..shadow.cluster import NIR_NM, PROBABILITY, fit_shadow_cluster, shadow_mask
 from ..shadow.fraction import PAPER_INTERCEPT, PAPER_SLOPE, FractionAccumulator, FractionModel
 from ..shadow.polygons import MIN_PIXELS
 from ._operation import operation
@@ -35,32 +37,9 @@ def no_valid_error(path: str, what: str = "ratio raster") -> InputError:
     )
 
 
-def mask_raster(path, grid: io.Grid, tags: dict, band_name: str):
-    """A binary shadow mask GeoTIFF (1 shadow, 0 not, 255 nodata), styled, written by strips."""
-    return io.create_class_raster(
-        path,
-        grid,
-        tags=tags,
-        band_name=band_name,
-        colormap=cls.MASK_COLORMAP,
-        category_names=cls.MASK_CATEGORIES,
-    )
-
-
 def class_table(path=None) -> cls.ClassTable:
     """The class table in ``path`` (CSV or JSON), or Table 2 when None."""
     return read_class_table(path) if path else cls.default_table()
-
-
-def masked_reader(sources):
-    """``read(row0, row1) -> (values, valid, values, valid, ...)``: each (dataset, band) of
-    ``sources`` with its own validity mask (unlike :func:`io.bands_reader`, which ands them)."""
-    readers = [io.band_reader(src, band) for src, band in sources]
-
-    def read(row0: int, row1: int):
-        return tuple(a for r in readers for a in r(row0, row1))
-
-    return read
 
 
 # ------------------------------------------------------------------------------ shadow-classes
@@ -213,8 +192,7 @@ def shadow_cluster_file(
     vnir_wavelengths=None,
     n_components=None,
     probability=PROBABILITY,
-    sample_size=SAMPLE_SIZE,
-    seed=0,
+    sample=Sample(),
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
 ) -> dict:
@@ -247,10 +225,9 @@ def shadow_cluster_file(
         Mixture components; None = chosen by BIC among 2–5.
     probability : float
         Posterior probability of the shadow component that makes a pixel shadow.
-    sample_size : int
-        Pixels drawn at random to fit the mixture.
-    seed : int
-        Random seed (same seed, same result).
+    sample : Sample
+        The random sample the mixture is fitted to: ``sample_size`` pixels (default 50,000)
+        and ``seed`` (same seed, same result; it also seeds the mixture).
     block_rows : int
         Lines read at a time.
     progress : Progress, optional
@@ -279,20 +256,20 @@ def shadow_cluster_file(
         nir_found = float(wl[nir_band - 1])
         progress.info(f"941 nm axis: band {nir_band} of {vnir} ({nir_found:.1f} nm)")
         read = io.bands_reader([(rsrc, band), (vsrc, nir_band)])
-        sample, ok = io.sample_windows(
+        pixels, ok = io.sample_windows(
             read,
             height=grid.height,
             width=grid.width,
-            size=sample_size,
-            seed=seed,
+            size=sample.sample_size,
+            seed=sample.seed,
             block_rows=block_rows,
             progress=progress.sub(0, 0.3),
         )
-        good = ok & np.isfinite(sample).all(axis=0)
+        good = ok & np.isfinite(pixels).all(axis=0)
         if not good.any():
             raise no_valid_error(ratio)
         cluster = fit_shadow_cluster(
-            sample[0], sample[1], good, n_components=n_components, seed=seed
+            pixels[0], pixels[1], good, n_components=n_components, seed=sample.seed
         )
         progress.info(
             f"Gaussian mixture: {cluster.n_components} components on {cluster.n_sample} pixels; "
@@ -344,10 +321,10 @@ def shadow_cluster_file(
                 from ..shadow.plots import cluster_figure
 
                 keep = np.flatnonzero(good)[:PLOT_POINTS]
-                pr = cluster.probability(sample[0, keep], sample[1, keep])
+                pr = cluster.probability(pixels[0, keep], pixels[1, keep])
                 save_figure(
                     cluster_figure(
-                        sample[0, keep], sample[1, keep], pr >= probability, cluster, nir_found
+                        pixels[0, keep], pixels[1, keep], pr >= probability, cluster, nir_found
                     ),
                     plot,
                 )

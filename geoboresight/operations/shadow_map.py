@@ -3,66 +3,57 @@ four shadow-fraction classes out, calibrated to the scene (:mod:`geoboresight.sh
 
 Two passes over the flight line: a random sample calibrates the map (dark levels, sunlit
 modes, sunlit ratio, the scaled class table) and a central block of lines gives the boresight
-offset; then the map is written strip by strip.
+offset; then the map is written strip by strip, each strip by the kernel
+:func:`geoboresight.shadow.map.shadow_map_block`. The dark levels are found in
+:mod:`geoboresight.io.dark`.
 """
 
 from __future__ import annotations
 
 import contextlib
-import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from .. import io
 from ..errors import InputError, ParameterError
 from ..io.bands import band_range
-from ..io.dual import SWIR_NM, TOLERANCE_NM, VNIR_NM, BandChoice, DualLayout
+from ..io.dark import DarkLevels, dark_level_of
+from ..io.dual import BandChoice, DualLayout
+from ..io.masks import mask_raster
 from ..io.shadow import class_table_csv
-from ..io.wavelengths import parse_list
+from ..io.windows import Sample
 from ..shadow import classes as cls
 from ..shadow import map as smap
 from ._operation import operation
-from .shadow import class_table, mask_raster, no_valid_error
+from .shadow import class_table, no_valid_error
 
 #: Pixels drawn at random to calibrate the map.
 SAMPLE_SIZE = 200_000
+
+
+@dataclass(frozen=True)
+class MapSample(Sample):
+    """The shadow map's calibration sample: :class:`~geoboresight.io.windows.Sample` with
+    :data:`SAMPLE_SIZE` pixels by default."""
+
+    sample_size: int = SAMPLE_SIZE
+
+
+@dataclass(frozen=True)
+class BoresightOffset:
+    """The boresight offset of the SWIR relative to the VNIR (px, SWIR minus VNIR position),
+    along- and across-track, when the user gives it; both None = measured on the data
+    (:func:`geoboresight.dem.offset.estimate_offset`), one None = 0."""
+
+    offset_along: float | None = None
+    offset_across: float | None = None
+
+
 #: Bands per instrument read for the dark level besides the signal bands (evenly spaced).
 DARK_BANDS = 16
 #: Lines of the central block the boresight offset is measured on.
 OFFSET_ROWS = 512
-
-
-def _dark_from_header(src, bands: list[int], path: str, label: str):
-    """The 'dark level' of an ENVI header: one value, or one per band of the file."""
-    text = src.tags(ns="ENVI").get("dark_level")
-    if not text:
-        return None
-    values = parse_list(text, f"{path}: ENVI header 'dark level'")
-    if values.size == 1:
-        return smap.DarkLevel(float(values[0]), f"header of {path}")
-    if values.size != src.count:
-        raise InputError(
-            f"{path}: its header's 'dark level' lists {values.size} values for {src.count} "
-            "bands; give one value, or one per band"
-        )
-    per_band = values[[b - 1 for b in bands]]
-    return smap.DarkLevel(float(per_band.mean()), f"header of {path}", per_band, 0)
-
-
-def _dark_from_product(sensor, bands: list[int]):
-    """The dark reference of a sensor product (Specim dark frames, a DARKREF file, HySpex's
-    background matrix: :attr:`SensorFile.dark`, per band and column), as one level per band of
-    ``bands``: the mean over the columns, since the map subtracts one level per band from a
-    random sample of pixels. None when the product carries none."""
-    if sensor.dark is None:
-        return None
-    dark = np.asarray(sensor.dark, np.float64)[[sensor.bands.index(b) for b in bands]]
-    # NaN marks columns that are not image (a Specim frame counter): left out of the mean.
-    count = np.isfinite(dark).sum(axis=1)
-    if (count == 0).any():
-        return None
-    per_band = np.where(np.isfinite(dark), dark, 0.0).sum(axis=1) / count
-    return smap.DarkLevel(float(per_band.mean()), sensor.dark_source or "product", per_band, 0)
 
 
 def _spread(bands: tuple[int, ...], n: int) -> list[int]:
@@ -70,22 +61,18 @@ def _spread(bands: tuple[int, ...], n: int) -> list[int]:
     return [bands[i] for i in idx]
 
 
-def _dark_levels(label, given, header, sample, valid, progress):
-    if given is not None:
-        if not (isinstance(given, int | float) and math.isfinite(given)):
-            raise ParameterError(f"parameter '{label.lower()}_dark': {given!r} is not a number")
-        level = smap.DarkLevel(float(given), "given")
-    elif header is not None:
-        level = header
-    else:
+def _dark_level(sensor, src, bands, given, sample, valid, progress) -> smap.DarkLevel:
+    """Given, the product's dark reference or the header's (io.dark), else the dark object."""
+    level = dark_level_of(sensor, bands, src.tags(ns="ENVI"), src.count, given)
+    if level is None:
         level = smap.dark_level(sample, valid)
-    progress.info(level.describe(label))
+    progress.info(level.describe(sensor.name))
     return level
 
 
-def _offset(dual, v_src, s_src, rb, given_along, given_across, progress):
-    if given_along is not None or given_across is not None:
-        return float(given_along or 0.0), float(given_across or 0.0), "given"
+def _offset(dual, v_src, s_src, rb, given: BoresightOffset, progress):
+    if given.offset_along is not None or given.offset_across is not None:
+        return float(given.offset_along or 0.0), float(given.offset_across or 0.0), "given"
     from ..dem.offset import estimate_offset
 
     r0 = max(0, dual.height // 2 - OFFSET_ROWS // 2)
@@ -109,17 +96,12 @@ def shadow_map_file(
     output,
     mask=None,
     layout=DualLayout(),
-    vnir_nm=VNIR_NM,
-    swir_nm=SWIR_NM,
-    tolerance_nm=TOLERANCE_NM,
-    vnir_dark=None,
-    swir_dark=None,
-    offset_along=None,
-    offset_across=None,
+    bands=BandChoice(),
+    dark=DarkLevels(),
+    offset=BoresightOffset(),
     core_darkness=smap.CORE_DARKNESS,
     edge_pixels=smap.EDGE_PIXELS,
-    sample_size=SAMPLE_SIZE,
-    seed=0,
+    sample=MapSample(),
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
 ) -> dict:
@@ -140,26 +122,26 @@ def shadow_map_file(
         Binary shadow mask (1 shadow, 0 not, 255 nodata).
     layout : DualLayout
         How to read files that do not say it all (a merged cube's seam, band centres).
-    vnir_nm, swir_nm : float
-        The bands of the boresight ratio (Eq. 3) the classes are read from.
-    tolerance_nm : float
-        Largest distance between a requested wavelength and a band centre.
-    vnir_dark, swir_dark : float, optional
-        Dark level (DN of zero signal) of each instrument; None = the sensor product's dark
-        reference (Specim dark frames or DARKREF file, HySpex background matrix: the mean over
-        the columns of each band; its source is reported as ``*_dark_source``), else the
-        header's 'dark level', else estimated from the data (dark object). Give 0 for radiance.
-    offset_along, offset_across : float, optional
-        Boresight offset of the SWIR relative to the VNIR (px); None = measured.
+    bands : BandChoice
+        The bands of the boresight ratio (Eq. 3) the classes are scaled by, nearest 920 nm
+        (VNIR) and 1010 nm (SWIR) by default; its ``tolerance_nm`` also bounds the blue, NIR
+        and SWIR ranges. The faces always give ``band_mode="wavelength"``.
+    dark : DarkLevels
+        Dark level (DN of zero signal) of each instrument (``vnir_dark``, ``swir_dark``);
+        None = the sensor product's dark reference, else the header's 'dark level', else
+        estimated from the data (dark object): :func:`geoboresight.io.dark.dark_level_of`.
+        Give 0 for radiance.
+    offset : BoresightOffset
+        Boresight offset of the SWIR relative to the VNIR (px, ``offset_along``,
+        ``offset_across``); both None = measured on a central block of lines.
     core_darkness : float
         Core shadow: mean natural log of the NIR and SWIR signals over their sunlit modes at
         or below this (default ln 0.2).
     edge_pixels : int
         Partial shadow is looked for this many pixels around the core (0 = core only).
-    sample_size : int
-        Pixels drawn at random to calibrate.
-    seed : int
-        Random seed of the sample.
+    sample : MapSample
+        The random sample that calibrates the map: ``sample_size`` pixels (default 200,000),
+        ``seed``.
     block_rows : int
         Lines read at a time.
     progress : Progress, optional
@@ -182,7 +164,8 @@ def shadow_map_file(
     edge_pixels = int(edge_pixels)
     base_table = class_table(classes)
     dual = io.as_dual(vnir, swir, layout)
-    rb = dual.ratio_bands(BandChoice("wavelength", vnir_nm, swir_nm, tolerance_nm))
+    rb = dual.ratio_bands(bands)
+    tolerance_nm = bands.tolerance_nm
     blue_b = band_range(dual.vnir, *smap.BLUE_NM, tolerance_nm=tolerance_nm)
     nir_b = band_range(dual.vnir, *smap.NIR_NM, tolerance_nm=tolerance_nm)
     swir_b = band_range(dual.swir, *smap.SWIR_NM, tolerance_nm=tolerance_nm)
@@ -202,52 +185,28 @@ def shadow_map_file(
         )
         # Pass 1: a random sample of the line for the dark levels and the sunlit modes.
         sources = [(v_src, b) for b in v_dark_b] + [(s_src, b) for b in s_dark_b]
-        sample, ok = io.sample_windows(
+        pixels, ok = io.sample_windows(
             io.bands_reader(sources),
-            size=sample_size,
-            seed=seed,
+            size=sample.sample_size,
+            seed=sample.seed,
             progress=progress.sub(0, 0.3),
             **strips,
         )
         if not ok.any():
             raise no_valid_error(vnir, "VNIR/SWIR image")
         nv = len(v_dark_b)
-        vs, ss = sample[:nv], sample[nv:]
-        v_dark = _dark_levels(
-            "VNIR",
-            vnir_dark,
-            _dark_from_product(dual.vnir, v_dark_b)
-            or _dark_from_header(v_src, v_dark_b, dual.vnir.path, "VNIR"),
-            vs,
-            ok,
-            progress,
-        )
-        s_dark = _dark_levels(
-            "SWIR",
-            swir_dark,
-            _dark_from_product(dual.swir, s_dark_b)
-            or _dark_from_header(s_src, s_dark_b, dual.swir.path, "SWIR"),
-            ss,
-            ok,
-            progress,
-        )
-
-        def levels(dark: smap.DarkLevel, all_bands: list[int], wanted: list[int]):
-            """The level to subtract from the ``wanted`` bands: per band from a header or a
-            product's dark reference."""
-            if dark.band_levels is not None and dark.n_pixels == 0:
-                return np.asarray(dark.band_levels)[[all_bands.index(b) for b in wanted]]
-            return dark.level
-
-        blue_lv = levels(v_dark, v_dark_b, blue_b)
-        nir_lv = levels(v_dark, v_dark_b, nir_b)
-        swir_lv = levels(s_dark, s_dark_b, swir_b)
+        vs, ss = pixels[:nv], pixels[nv:]
+        v_dark = _dark_level(dual.vnir, v_src, v_dark_b, dark.vnir_dark, vs, ok, progress)
+        s_dark = _dark_level(dual.swir, s_src, s_dark_b, dark.swir_dark, ss, ok, progress)
+        blue_lv = v_dark.for_bands(v_dark_b, blue_b)
+        nir_lv = v_dark.for_bands(v_dark_b, nir_b)
+        swir_lv = s_dark.for_bands(s_dark_b, swir_b)
         blue_s = smap.signal(vs[[v_dark_b.index(b) for b in blue_b]], blue_lv)
         nir_s = smap.signal(vs[[v_dark_b.index(b) for b in nir_b]], nir_lv)
         swir_s = smap.signal(ss[[s_dark_b.index(b) for b in swir_b]], swir_lv)
         with np.errstate(invalid="ignore", divide="ignore"):
             ratio_s = ss[s_dark_b.index(rb.swir_band)] / vs[v_dark_b.index(rb.vnir_band)]
-        along, across, how = _offset(dual, v_src, s_src, rb, offset_along, offset_across, progress)
+        along, across, how = _offset(dual, v_src, s_src, rb, offset, progress)
         progress.info(f"boresight offset {along:+.2f} px along, {across:+.2f} px across ({how})")
         cal = smap.calibrate_shadow_map(
             blue_s,
@@ -269,36 +228,28 @@ def shadow_map_file(
             f"{c.id}: {100 * c.fraction_min:g}–{100 * c.fraction_max:g} % shadow ({c.name})"
             for c in cal.table.classes
         )
-        # Pass 2: the map, strip by strip; the halo covers the SWIR shift and the edge search.
-        halo = math.ceil(abs(along)) + 3 + edge_pixels + smap.EDGE_WINDOW // 2
+        # Pass 2: the map, strip by strip (shadow.map.shadow_map_block); the halo covers the
+        # SWIR shift and the edge search.
         read = io.bands_reader(
             [(v_src, b) for b in blue_b]
             + [(v_src, b) for b in nir_b]
             + [(s_src, b) for b in swir_b]
-            + [(v_src, rb.vnir_band), (s_src, rb.swir_band)]
+            + [(v_src, rb.vnir_band), (s_src, rb.swir_band)]  # valid in the ratio's bands too
         )
-        n_blue, n_nir, n_swir = len(blue_b), len(nir_b), len(swir_b)
-        fill = math.exp(cal.swir_mode)
+        at_nir, at_swir = len(blue_b), len(blue_b) + len(nir_b)
+        at_end = at_swir + len(swir_b)
+        levels = (blue_lv, nir_lv, swir_lv)
 
         def kernel(values, valid):
-            from ..dem.coregister import coregister
-
-            i = n_blue + n_nir
-            blue = smap.signal(values[:n_blue], blue_lv)
-            nir = smap.signal(values[n_blue:i], nir_lv)
-            sw = smap.signal(values[i : i + n_swir], swir_lv)
-            sw, sw_ok = coregister(sw, along, across, valid, order=1, fill=fill)
-            good = valid & sw_ok
-            d = smap.darkness(nir, sw, cal, good)
-            f = smap.shadow_fraction_estimate(
-                d,
-                good,
-                core=cal.core,
+            c, m = smap.shadow_map_block(
+                values[:at_nir],
+                values[at_nir:at_swir],
+                values[at_swir:at_end],
+                valid,
+                calibration=cal,
+                dark_levels=levels,
                 edge_pixels=edge_pixels,
-                water=smap.too_blue(blue, nir, cal.blue_limit),
             )
-            m = smap.shadow_mask(f)
-            c = smap.shadow_classes(f, cal.table)
             return c, m, np.bincount(c.ravel(), minlength=256)
 
         tags = {
@@ -335,7 +286,7 @@ def shadow_map_file(
         for win, (c, m, n) in io.map_windows(
             read,
             kernel,
-            halo=(halo, halo),
+            halo=(smap.shadow_map_halo(cal, edge_pixels),) * 2,
             progress=progress.sub(0.3, 1.0),
             message="shadow map",
             **strips,

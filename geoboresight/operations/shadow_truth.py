@@ -12,19 +12,20 @@ import numpy as np
 from .. import io
 from ..errors import ParameterError
 from ..io.dual import TOLERANCE_NM
+from ..io.masks import mask_raster
 from ..io.wavelengths import nearest_band, wavelengths_of
+from ..io.windows import Sample
 from ..shadow import illumination as ill
 from ..shadow.classes import MASK_NODATA, MASK_SHADOW
 from ..shadow.darkpixel import (
     DARK_PERCENTILE,
     DEFAULT_BANDS_NM,
-    SAMPLE_SIZE,
     THRESHOLD,
     fit_dark_pixel,
 )
 from ..shadow.surface import AUTO, choose_surface, surface_walls
 from ._operation import operation
-from .shadow import mask_raster, no_valid_error
+from .shadow import no_valid_error
 
 #: The dark-pixel bands as the text parameter gives them (nm, comma-separated).
 BANDS_NM = ",".join(f"{b:g}" for b in DEFAULT_BANDS_NM)
@@ -254,8 +255,7 @@ def dark_pixel_shadow_file(
     tolerance_nm=TOLERANCE_NM,
     dark_percentile=DARK_PERCENTILE,
     threshold=THRESHOLD,
-    sample_size=SAMPLE_SIZE,
-    seed=0,
+    sample=Sample(),
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
 ) -> dict:
@@ -283,10 +283,9 @@ def dark_pixel_shadow_file(
         Candidates are darker than this percentile of the scene (NIR and visible).
     threshold : float
         Shadow where Φ reaches this value.
-    sample_size : int
-        Pixels drawn at random for the statistics.
-    seed : int
-        Random seed (same seed, same result).
+    sample : Sample
+        The random sample of the statistics: ``sample_size`` pixels (default 50,000) and
+        ``seed`` (same seed, same result).
     block_rows : int
         Lines read at a time.
     progress : Progress, optional
@@ -314,13 +313,17 @@ def dark_pixel_shadow_file(
         progress.info("dark-pixel bands: " + ", ".join(f"{b} ({wl[b - 1]:.0f} nm)" for b in bands))
         read = io.bands_reader([(src, b) for b in bands])
         strips = {"height": grid.height, "width": grid.width, "block_rows": block_rows}
-        sample, ok = io.sample_windows(
-            read, size=sample_size, seed=seed, progress=progress.sub(0, 0.3), **strips
+        pixels, ok = io.sample_windows(
+            read,
+            size=sample.sample_size,
+            seed=sample.seed,
+            progress=progress.sub(0, 0.3),
+            **strips,
         )
         if not ok.any():
             raise no_valid_error(vnir, "VNIR image")
         model = fit_dark_pixel(
-            sample,
+            pixels,
             ok,
             nir_index=nir_index,
             dark_percentile=dark_percentile,

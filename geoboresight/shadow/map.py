@@ -83,8 +83,10 @@ class DarkLevel:
     """The DN of zero signal of one instrument and how it was found."""
 
     level: float
-    source: str  # "estimated (dark object)", "given", "header"
-    band_levels: np.ndarray | None = None  # the dark object's mean DN per band (estimated)
+    source: str  # "estimated (dark object)", "given", "header of PATH", a product's dark source
+    #: The dark object's mean DN per band (estimated, ``n_pixels`` > 0), or the level of each
+    #: band from a header or a product's dark reference (``n_pixels`` 0).
+    band_levels: np.ndarray | None = None
     n_pixels: int = 0
 
     def describe(self, name: str) -> str:
@@ -100,6 +102,16 @@ class DarkLevel:
             f"pixels, dimmest band; their band means span {np.min(self.band_levels):.1f}–"
             f"{np.max(self.band_levels):.1f} DN)"
         )
+
+    def for_bands(self, bands, wanted):
+        """The level to subtract from the ``wanted`` bands, ``band_levels`` being those of
+        ``bands``: one per band when measured per band (a header or a product's dark
+        reference: ``n_pixels`` 0), else the one level (given, or the dark object's dimmest
+        band)."""
+        if self.band_levels is not None and self.n_pixels == 0:
+            bands = list(bands)
+            return np.asarray(self.band_levels)[[bands.index(b) for b in wanted]]
+        return self.level
 
 
 def dark_level(
@@ -453,3 +465,93 @@ def shadow_classes(fraction: np.ndarray, table: ClassTable) -> np.ndarray:
             out[inside & ok] = c.id
     out[~ok] = NODATA_CLASS
     return out
+
+
+def shadow_map_halo(calibration: SceneCalibration, edge_pixels: int = EDGE_PIXELS) -> int:
+    """Lines above and below a block that :func:`shadow_map_block` needs to give, on the
+    block, the values of the whole image: the SWIR's along-track shift and its bilinear
+    reach, and the edge search (``edge_pixels`` and half the unmixing window)."""
+    return math.ceil(abs(calibration.offset_along)) + 3 + int(edge_pixels) + EDGE_WINDOW // 2
+
+
+def shadow_map_block(
+    blue: np.ndarray,
+    nir: np.ndarray,
+    swir: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    calibration: SceneCalibration,
+    dark_levels: tuple = (0.0, 0.0, 0.0),
+    edge_pixels: int = EDGE_PIXELS,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Shadow classes and shadow mask of a block of lines: the shadow map's per-pixel pipeline.
+
+    1. **Signal**: DN minus the instrument's dark level, averaged over the bands of each range
+       (:func:`signal`; blue, NIR, SWIR).
+    2. **Co-registration**: the SWIR signal is resampled onto the VNIR grid by the boresight
+       offset of ``calibration`` (bilinear; invalid pixels filled with the sunlit SWIR signal,
+       so they carry no edge), so that shadow edges line up.
+    3. **Darkness** against the scene's sunlit modes (:func:`darkness`).
+    4. **Shadow fraction**: core shadow at or below ``calibration.core``, not water
+       (:func:`too_blue`), unmixed between sunlit and shadowed neighbours within
+       ``edge_pixels`` (:func:`shadow_fraction_estimate`).
+    5. **Mask**: fraction ≥ 50 % (:func:`shadow_mask`).
+    6. **Classes**: Table 2's shadow-fraction intervals (:func:`shadow_classes` with
+       ``calibration.table``).
+
+    A block read with :func:`shadow_map_halo` lines above and below gives, on its own lines,
+    what the whole image gives.
+
+    Parameters
+    ----------
+    blue, nir, swir : arrays (n_bands, lines, columns)
+        DN (or radiance) of the bands of :data:`BLUE_NM` and :data:`NIR_NM` (VNIR) and of
+        :data:`SWIR_NM` (SWIR, on its own grid: not yet shifted).
+    valid : bool array (lines, columns), optional
+        Pixels valid in every band read.
+    calibration : SceneCalibration
+        From :func:`calibrate_shadow_map` on a sample of the whole flight line.
+    dark_levels : (blue, nir, swir)
+        The dark level to subtract from each range: one number, or one per band
+        (:meth:`DarkLevel.for_bands`).
+    edge_pixels : int
+        Partial shadow is looked for this many pixels around the core (0 = core only).
+
+    Returns
+    -------
+    classes : uint8 array (lines, columns)
+        0 no shadow, the class ids of ``calibration.table``, 255 nodata.
+    mask : uint8 array (lines, columns)
+        1 shadow, 0 not, 255 nodata.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1, Table 2: the
+    shadow-fraction classes, 80–100, 50–80, 20–50 and 10–20 % shadow).
+    Chavez, P.S. Remote Sens. Environ. 1988, 24, 459–479 (dark-object subtraction).
+    """
+    from ..dem.coregister import coregister
+
+    blue_level, nir_level, swir_level = dark_levels
+    b = signal(blue, blue_level)
+    n = signal(nir, nir_level)
+    s = signal(swir, swir_level)
+    ok = np.ones(n.shape, bool) if valid is None else np.asarray(valid, bool)
+    s, s_ok = coregister(
+        s,
+        calibration.offset_along,
+        calibration.offset_across,
+        ok,
+        order=1,
+        fill=math.exp(calibration.swir_mode),
+    )
+    good = ok & s_ok
+    f = shadow_fraction_estimate(
+        darkness(n, s, calibration, good),
+        good,
+        core=calibration.core,
+        edge_pixels=edge_pixels,
+        water=too_blue(b, n, calibration.blue_limit),
+    )
+    return shadow_classes(f, calibration.table), shadow_mask(f)

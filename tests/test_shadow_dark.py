@@ -1,0 +1,64 @@
+"""io.dark: the one place an instrument's dark level is found (given > the sensor product's
+dark reference > the ENVI header > None, estimated from the data by the caller)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from geoboresight.errors import InputError, ParameterError
+from geoboresight.io.dark import DarkLevels, dark_level_of, header_dark, product_dark
+from geoboresight.io.dual import SensorFile
+
+
+def sensor(dark=None, source=""):
+    return SensorFile(
+        "v.hdr", "VNIR", (2, 3, 4), np.array([500.0, 600.0, 700.0]), dark=dark, dark_source=source
+    )
+
+
+def test_order_given_product_header_none():
+    header = {"dark_level": "{10, 20, 30, 40}"}
+    dark = np.array([[1.0, 3.0], [5.0, 7.0], [9.0, 11.0]])  # per band and column
+    given = dark_level_of(sensor(dark, "frames"), [2, 4], header, 4, given=0)
+    assert (given.level, given.source, given.band_levels) == (0.0, "given", None)
+    product = dark_level_of(sensor(dark, "frames"), [2, 4], header, 4)
+    assert product.source == "frames" and product.n_pixels == 0
+    np.testing.assert_array_equal(product.band_levels, [2.0, 10.0])  # mean over columns
+    assert product.level == 6.0
+    head = dark_level_of(sensor(), [2, 4], header, 4)
+    assert head.source == "header of v.hdr"
+    np.testing.assert_array_equal(head.band_levels, [20.0, 40.0])
+    assert head.for_bands([2, 4], [4]).tolist() == [40.0]
+    one = dark_level_of(sensor(), [2, 4], {"dark_level": "15"}, 4)
+    assert (one.level, one.band_levels, one.for_bands([2, 4], [4])) == (15.0, None, 15.0)
+    assert dark_level_of(sensor(), [2, 4], {}, 4) is None
+
+
+def test_product_dark_leaves_out_non_image_columns():
+    dark = np.array([[np.nan, 2.0, 4.0], [1.0, 1.0, 1.0], [np.nan, np.nan, np.nan]])
+    np.testing.assert_array_equal(product_dark(sensor(dark), [2, 3]), [3.0, 1.0])
+    assert product_dark(sensor(dark), [2, 4]) is None  # a band without any image column
+    assert product_dark(sensor(), [2]) is None
+
+
+def test_bad_levels_are_refused():
+    with pytest.raises(InputError, match="lists 2 values for 4 bands"):
+        header_dark({"dark_level": "{1, 2}"}, [1], 4, "v.hdr")
+    with pytest.raises(ParameterError, match="vnir_dark"):
+        dark_level_of(sensor(), [2], {}, 4, given=float("nan"))
+    assert DarkLevels() == DarkLevels(None, None)
+
+
+def test_a_non_finite_member_of_a_group_is_refused_before_any_work(tmp_path):
+    from geoboresight.operations.shadow_map import BoresightOffset, shadow_map_file
+
+    scene = "sample_data/scene"
+    out = tmp_path / "m.tif"
+    for kw, name in (
+        (dict(dark=DarkLevels(float("nan"))), "vnir_dark"),
+        (dict(offset=BoresightOffset(None, float("inf"))), "offset_across"),
+    ):
+        with pytest.raises(ParameterError, match=name):
+            shadow_map_file(f"{scene}/vnir.hdr", f"{scene}/swir.hdr", output=str(out), **kw)
+        assert not out.exists()
