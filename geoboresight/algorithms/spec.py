@@ -302,6 +302,12 @@ class Algorithm:
     run: Callable[[dict, Progress], dict] = field(repr=False)
     #: The values ``run`` returns beside its outputs (the engine's result schema).
     results: tuple[Result, ...] = ()
+    #: A result holding the whole result as text for a person (``info``'s description): the
+    #: command line prints it instead of one ``name: value`` line per result ("": none).
+    text: str = ""
+    #: Parameters the command line also takes as positional arguments, in this order
+    #: (``geoboresight info PATH``, as ``gdalinfo PATH``).
+    positional: tuple[str, ...] = ()
     #: The parameter groups among ``params`` (``params`` itself is flattened: what faces see).
     groups: tuple[Group, ...] = field(default=(), init=False, repr=False)
 
