@@ -67,6 +67,9 @@ class Param:
 class RasterIn(Param):
     """A raster file (anything GDAL reads: ENVI .hdr/.img, GeoTIFF, ...)."""
 
+    #: File types taken besides GDAL's rasters, as (label, "*.a *.b") pairs: the sensor
+    #: products of VNIR/SWIR inputs (a file dialog offers them).
+    formats: tuple[tuple[str, str], ...] = ()
     kind: ClassVar[str] = "raster"
 
     def coerce(self, value):
