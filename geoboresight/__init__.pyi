@@ -59,6 +59,7 @@ from .operations.georef import geolocate_file as geolocate_file
 from .operations.georef import georeference_file as georeference_file
 from .operations.georef import reproject_to_file as reproject_to_file
 from .operations.georef import simulate_ortho_file as simulate_ortho_file
+from .operations.info import info_file as info_file
 from .operations.offset import boresight_offset_file as boresight_offset_file
 from .operations.offset import coregister_file as coregister_file
 from .operations.ratio import ratio_file as ratio_file

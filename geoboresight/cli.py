@@ -136,6 +136,13 @@ def make_command(alg: Algorithm) -> click.Command:
         raw_gsd: float | None = None,
         **raw,
     ):
+        args = raw.pop("positional_args", ()) or ()
+        if len(args) > len(alg.positional):
+            raise click.UsageError(f"at most {len(alg.positional)} path(s) as arguments")
+        for name, value in zip(alg.positional, args, strict=False):
+            if raw.get(name) is not None:
+                raise click.UsageError(f"{name} given twice: as an argument and as --{name}")
+            raw[name] = value
         values = {}
         for p in alg.params:
             v = raw.get(p.name)
@@ -169,6 +176,8 @@ def make_command(alg: Algorithm) -> click.Command:
         bar.close()
         if as_json:
             click.echo(json.dumps(result, indent=2, default=str))
+        elif alg.text and isinstance(result.get(alg.text), str):
+            click.echo(result[alg.text])
         else:
             for k, v in result.items():
                 click.echo(f"{k}: {v}")
@@ -178,6 +187,19 @@ def make_command(alg: Algorithm) -> click.Command:
         return source.name.lower() if source is not None else None
 
     params = [_option(p) for p in alg.params]
+    if alg.positional:
+        for o in params:
+            if o.name in alg.positional:
+                o.required = False  # execute() names it when missing
+        params.insert(
+            0,
+            click.Argument(
+                ["positional_args"],
+                nargs=-1,
+                type=click.Path(),
+                metavar=" ".join(f"[{n.upper()}]" for n in alg.positional),
+            ),
+        )
     params += [o for p in alg.params for o in _alias_options(p)]
     params += [
         click.Option(

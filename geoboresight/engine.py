@@ -93,6 +93,8 @@ def describe_param(p) -> dict:
     for attr in ("choices", "extensions"):
         if hasattr(p, attr):
             out[attr] = list(getattr(p, attr))
+    if getattr(p, "formats", ()):
+        out["formats"] = [list(f) for f in p.formats]
     return out
 
 

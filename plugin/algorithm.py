@@ -39,6 +39,7 @@ from qgis.core import (
 from qgis.PyQt.QtGui import QIcon
 
 from . import compat, engine_client
+from .formats import is_product_path, product_filter
 from .styles import style_output
 
 PLUGIN_DIR = os.path.dirname(os.path.abspath(__file__))
@@ -77,12 +78,45 @@ def _range_text(p: dict) -> str:
     return f"{text} {unit}".strip()
 
 
+class ProductRasterParameter(QgsProcessingParameterRasterLayer):
+    """A raster input that also takes the sensor products the engine reads (Specim raw,
+    HySpex, EnMAP L1B folder/zip/METADATA.XML, PRISMA L1 .he5): its file dialog offers them
+    beside GDAL's rasters, and a product path is acceptable although QGIS cannot open it as a
+    layer (the engine checks it). QGIS clones parameters for its widgets: ``clone`` keeps the
+    class."""
+
+    def __init__(self, name, description="", default=None, optional=False, formats=()):
+        super().__init__(name, description, default, optional)
+        self.formats = [tuple(f) for f in formats or ()]
+
+    def clone(self):
+        copy = ProductRasterParameter(
+            self.name(), self.description(), self.defaultValue(), self.isOptional(), self.formats
+        )
+        copy.setFlags(self.flags())
+        copy.setHelp(self.help())
+        return copy
+
+    def isOptional(self):  # noqa: N802
+        return bool(self.flags() & compat.FLAG_OPTIONAL)
+
+    def createFileFilter(self):  # noqa: N802
+        return product_filter(self.formats, QgsProviderRegistry.instance().fileRasterFilters())
+
+    def checkValueIsAcceptable(self, value, context=None):  # noqa: N802
+        if is_product_path(value, self.formats):
+            return True
+        return super().checkValueIsAcceptable(value, context)
+
+
 def to_qgis_parameter(p: dict) -> QgsProcessingParameterDefinition:
     """The QGIS parameter for one described parameter (by its ``kind``)."""
     desc = _described(p)
     kind, name, default = p["kind"], p["name"], p.get("default")
     optional = not p["required"]
-    if kind == "raster":
+    if kind == "raster" and p.get("formats"):
+        q = ProductRasterParameter(name, desc, default, optional, p["formats"])
+    elif kind == "raster":
         q = QgsProcessingParameterRasterLayer(name, desc, default, optional)
     elif kind == "multiraster":
         q = QgsProcessingParameterMultipleLayers(name, desc, compat.TYPE_RASTER, default, optional)
@@ -287,7 +321,7 @@ class EngineAlgorithm(QgsProcessingAlgorithm):
                 message = self._range_error(p, value)
                 if message:
                     return False, message
-            if p["kind"] == "raster" and _is_header(value):
+            if p["kind"] == "raster" and _is_header(value) and not os.path.isdir(value):
                 if not os.path.exists(value):
                     return False, f"parameter '{name}': {value} does not exist: check the path"
                 data = _envi_data(value)
@@ -342,7 +376,7 @@ class EngineAlgorithm(QgsProcessingAlgorithm):
                 continue
             raw = parameters.get(name)
             if kind == "raster":
-                if _is_header(raw):
+                if _is_header(raw) or is_product_path(raw, p.get("formats")):
                     values[name] = raw  # the engine opens the data file beside the header
                 else:
                     layer = self.parameterAsRasterLayer(parameters, name, context)

@@ -55,6 +55,7 @@ BASE: dict[str, dict[str, str]] = {
     "georeference": {"input": "ratio.tif", "gcps": "gcps.csv", "output": "out.tif"},
     "reproject-to": {"input": "ratio_g.tif", "reference": "truth37.tif", "output": "out.tif"},
     "report": {"vnir": "v.img", "swir": "s.img", "output": "out.html"},
+    "info": {"vnir": "v.img", "output": "out.json"},
 }
 
 _FILE_KINDS = ("raster", "multiraster", "file")

@@ -107,3 +107,40 @@ def test_plugin_imports_only_pyqgis_and_the_standard_library():
                 continue
             for top in tops:
                 assert top in allowed, (path.name, top)
+
+
+def _plugin_formats():
+    """plugin/formats.py on its own (standard library only: no QGIS needed)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("plugin_formats", REPO / "plugin" / "formats.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_raster_inputs_offer_the_sensor_products_beside_gdal(tmp_path):
+    from geoboresight.engine import describe
+
+    formats = _plugin_formats()
+    ratio = next(a for a in describe()["algorithms"] if a["name"] == "ratio")
+    vnir = next(p for p in ratio["params"] if p["name"] == "vnir")
+    gdal = "All supported files (*.tif *.TIF *.vrt);;GeoTIFF (*.tif *.TIF);;All files (*)"
+    text = formats.product_filter(vnir["formats"], gdal)
+    entries = text.split(";;")
+    first = entries[0]
+    for pattern in ("*.hdr", "*.raw", "*.img", "*.bil", "*.dat", "*.hyspex", "*METADATA.XML"):
+        assert pattern in first, pattern
+    assert "*.zip" in first and "*.he5" in first and "*.h5" in first and "*.tif" in first
+    assert "GeoTIFF (*.tif *.TIF)" in entries and entries[-1] == formats.ALL_FILES
+    assert entries.count(formats.ALL_FILES) == 1
+    # Paths handed to the engine as they are: existing product files and folders only.
+    (tmp_path / "ENMAP01-X-METADATA.XML").write_text("<x/>")
+    (tmp_path / "line.he5").write_bytes(b"")
+    (tmp_path / "a.tif").write_bytes(b"")
+    assert formats.is_product_path(str(tmp_path / "ENMAP01-X-METADATA.XML"), vnir["formats"])
+    assert formats.is_product_path(str(tmp_path / "line.he5"), vnir["formats"])
+    assert formats.is_product_path(str(tmp_path), vnir["formats"])  # an EnMAP folder
+    assert not formats.is_product_path(str(tmp_path / "a.tif"), vnir["formats"])
+    assert not formats.is_product_path(str(tmp_path / "missing.he5"), vnir["formats"])
+    assert not formats.is_product_path(str(tmp_path / "line.he5"), [])  # no formats declared

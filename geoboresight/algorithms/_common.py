@@ -6,6 +6,7 @@ import dataclasses
 
 from .. import io
 from ..io.dual import SEAM_NM, SWIR_NM, TOLERANCE_NM, VNIR_NM, BandChoice, DualLayout
+from ..io.products import FILE_FORMATS
 from .spec import Enum, Group, Number, RasterIn, Text, Wavelength
 
 VNIR = RasterIn(
@@ -14,11 +15,13 @@ VNIR = RasterIn(
         "VNIR image (ENVI .hdr/.img or GeoTIFF), a merged VNIR+SWIR cube, or a sensor product "
         "holding both (EnMAP L1B, PRISMA L1)"
     ),
+    formats=FILE_FORMATS,
 )
 SWIR = RasterIn(
     name="swir",
     description="SWIR image on the same pixel grid (leave empty for a merged cube or a product)",
     optional=True,
+    formats=FILE_FORMATS,
 )
 
 #: How a dual-sensor dataset is read where its files do not say it all (io.DualLayout).

@@ -67,6 +67,9 @@ class Param:
 class RasterIn(Param):
     """A raster file (anything GDAL reads: ENVI .hdr/.img, GeoTIFF, ...)."""
 
+    #: File types taken besides GDAL's rasters, as (label, "*.a *.b") pairs: the sensor
+    #: products of VNIR/SWIR inputs (a file dialog offers them).
+    formats: tuple[tuple[str, str], ...] = ()
     kind: ClassVar[str] = "raster"
 
     def coerce(self, value):
@@ -327,6 +330,12 @@ class Algorithm:
     run: Callable[[dict, Progress], dict] = field(repr=False)
     #: The values ``run`` returns beside its outputs (the engine's result schema).
     results: tuple[Result, ...] = ()
+    #: A result holding the whole result as text for a person (``info``'s description): the
+    #: command line prints it instead of one ``name: value`` line per result ("": none).
+    text: str = ""
+    #: Parameters the command line also takes as positional arguments, in this order
+    #: (``geoboresight info PATH``, as ``gdalinfo PATH``).
+    positional: tuple[str, ...] = ()
     #: The parameter groups among ``params`` (``params`` itself is flattened: what faces see).
     groups: tuple[Group, ...] = field(default=(), init=False, repr=False)
 

@@ -57,7 +57,7 @@ def ratio_file(
     progress.info(
         f"boresight ratio: SWIR band {bands.swir_band} ({bands.swir_nm:.1f} nm) / VNIR band "
         f"{bands.vnir_band} ({bands.vnir_nm:.1f} nm); "
-        f"{'merged cube' if dual.merged else 'two files'}; "
+        f"{_layout(dual)}; "
         f"{'georeferenced' if dual.grid.georeferenced else 'raw sensor geometry'}"
     )
     tags = {
@@ -106,3 +106,11 @@ def ratio_file(
         "vnir_wavelength_nm": round(bands.vnir_nm, 3),
         "valid_pixels": n_valid,
     }
+
+
+def _layout(dual) -> str:
+    """How the line was given, for the log: the product recognised, a merged cube or two files."""
+    product = getattr(dual.product, "kind", None)
+    if product:
+        return f"{product} product" + (" (two files)" if len(dual.files) > 1 else "")
+    return "merged cube" if dual.merged else "two files"

@@ -18,6 +18,16 @@ import os
 
 from .base import Geolocation, Product, SensorImage
 
+#: The files a user gives for each product, as a file dialog filters them (label, patterns):
+#: offered beside GDAL's rasters by every VNIR/SWIR input (the QGIS plugin's file filter).
+FILE_FORMATS = (
+    ("ENVI header", "*.hdr"),
+    ("Raw ENVI data (Specim)", "*.raw *.img *.bil *.dat"),
+    ("HySpex", "*.hyspex"),
+    ("EnMAP L1B (METADATA.XML or zip)", "*METADATA.XML *.zip"),
+    ("PRISMA L1 (HDF5)", "*.he5 *.h5"),
+)
+
 
 def readers():
     """The product readers, most specific first: ``read(path) -> Product | None``."""
@@ -36,4 +46,4 @@ def recognise(path) -> Product | None:
     return None
 
 
-__all__ = ["Geolocation", "Product", "SensorImage", "readers", "recognise"]
+__all__ = ["FILE_FORMATS", "Geolocation", "Product", "SensorImage", "readers", "recognise"]

@@ -1,0 +1,77 @@
+"""Sensor products through real QGIS: the VNIR/SWIR inputs' file dialog offers the products
+beside GDAL's rasters, a product path QGIS cannot open as a layer (an EnMAP L1B folder, zip or
+METADATA.XML) is accepted and handed to the engine as it is, and the ratio it computes equals
+the library's."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import rasterio
+
+from geoboresight.io import quiet_georef
+
+pytestmark = pytest.mark.qgis
+
+
+@pytest.fixture(scope="module")
+def enmap(tmp_path_factory):
+    from products_space import write_enmap_l1b
+
+    folder = tmp_path_factory.mktemp("enmap_qgis")
+    product = write_enmap_l1b(folder / "folder")
+    zipped = write_enmap_l1b(folder / "zip", zip=True)
+    xml = next(str(p) for p in (folder / "folder").iterdir() if p.name.endswith("METADATA.XML"))
+    return {"folder": product.path, "zip": zipped.path, "xml": xml}
+
+
+def test_vnir_and_swir_offer_the_products_in_the_file_dialog(provider):
+    from qgis.core import QgsApplication
+
+    alg = QgsApplication.processingRegistry().algorithmById("geoboresight:ratio")
+    for name in ("vnir", "swir"):
+        param = alg.parameterDefinition(name)
+        for p in (param, param.clone()):  # QGIS's widgets work on a clone
+            text = p.createFileFilter()
+            for pattern in ("*.hdr", "*.raw", "*.hyspex", "*METADATA.XML", "*.zip", "*.he5"):
+                assert pattern in text, (name, pattern)
+            assert "*.tif" in text  # GDAL's rasters still offered
+    # Inputs that read no product keep QGIS's own raster parameter.
+    stats = QgsApplication.processingRegistry().algorithmById("geoboresight:stats")
+    assert "*.hyspex" not in stats.parameterDefinition("input").createFileFilter()
+
+
+@pytest.mark.parametrize("form", ["folder", "zip", "xml"])
+def test_ratio_on_an_enmap_product_through_qgis_equals_the_library(provider, enmap, form, tmp_path):
+    import processing
+
+    from geoboresight.algorithms import registry
+
+    out = str(tmp_path / "ratio.tif")
+    result = processing.run("geoboresight:ratio", {"vnir": enmap[form], "output": out})
+    ref = str(tmp_path / "ref.tif")
+    lib = registry()["ratio"](vnir=enmap[form], output=ref)
+    assert result["output"] == out
+    assert result["swir_band"] == lib["swir_band"] and result["vnir_band"] == lib["vnir_band"]
+    with quiet_georef(), rasterio.open(out) as a, rasterio.open(ref) as b:
+        np.testing.assert_array_equal(a.read(), b.read())
+
+
+def test_info_on_an_enmap_zip_through_qgis(provider, enmap, tmp_path):
+    import processing
+
+    out = str(tmp_path / "info.json")
+    result = processing.run("geoboresight:info", {"vnir": enmap["zip"], "output": out})
+    assert result["product"] == "EnMAP L1B" and result["output"] == out
+    assert result["summary"].startswith("Product: EnMAP L1B")
+
+
+def test_a_missing_product_path_is_refused_before_the_engine(provider, tmp_path):
+    import processing
+    from qgis.core import QgsProcessingException
+
+    with pytest.raises(QgsProcessingException):
+        processing.run(
+            "geoboresight:ratio",
+            {"vnir": str(tmp_path / "nowhere.he5"), "output": str(tmp_path / "r.tif")},
+        )
