@@ -1,6 +1,6 @@
 """Benchmark: the relative DEM of a 286 × 2,000 scene in bounded memory, beside PyKrige's default.
 
-    /work/.venv-dev/bin/python benchmarks/dem_kriging.py [--update benchmarks/RESULTS.md]
+    .venv/bin/python benchmarks/dem_kriging.py [--update benchmarks/RESULTS.md]
 
 Every case runs in a fresh subprocess. Peak memory is that process's peak resident set size
 (``ru_maxrss`` from ``os.wait4``, so it is known even for a killed process). A watchdog polls

@@ -1,6 +1,6 @@
 """Validate the relative DEM (paper §3.2) against the simulator's true DSM.
 
-    /work/.venv-dev/bin/python scripts/validate_dem.py [--lines 256] [--also dunes]
+    .venv/bin/python scripts/validate_dem.py [--lines 256] [--also dunes]
         [--vnir-nm 920 --vnir-to-nm 970 --swir-nm 980 --swir-to-nm 1100] [--markdown out.md]
 
 1. Large-squint geometry (3°, ~1 px of parallax per 30 m), "mixed" preset (~30 m of relief;

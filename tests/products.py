@@ -1,6 +1,6 @@
 """Sensor-product files written to their published layouts, for the product readers' tests.
 
-Nothing here is a real file: each writer follows the layout facts of ``/work/shared/SENSORS.md``
+Nothing here is a real file: each writer follows the published layout facts listed in ``docs/sensors.md``
 and cites, in its docstring, where each fact comes from. The images hold a known scene in DN
 (e.g. :func:`geoboresight.simulate.scene.simulate_scene`'s cubes, which already carry each
 detector's dark offset), so tests can check the physics as well as the bytes.

@@ -1,7 +1,7 @@
 """Geolocation as processing chains write it, and everyday files (issue 21).
 
 Every fixture is written to a published layout; each docstring names the source of the
-layout facts it relies on (see /work/shared/SENSORS.md, "Geolocation written by processing
+layout facts it relies on (see docs/sensors.md and docs/georef.md: "Geolocation written by processing
 chains" and "Everyday files"). The truth comes from the simulator's flight geometry
 (:func:`geoboresight.simulate.ortho.simulate_ortho`: the map position of every raw pixel).
 """

@@ -1,6 +1,6 @@
 """Specim raw ENVI (AISA Eagle, Hawk, Dual; Fenix): raw DN with dark frames at the end.
 
-What is read, and from where (sources in ``/work/shared/SENSORS.md`` and ``docs/sensors.md``):
+What is read, and from where (sources in ``docs/sensors.md``):
 
 * The ENVI header beside the data (``name.hdr`` for ``name.raw``/``name.img``/``name``, or the
   ``.hdr`` itself). A header is Specim's when it holds ``autodarkstartline``, or ``sensorid``,
