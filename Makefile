@@ -10,9 +10,9 @@ OUT ?= out
 # geoboresight_qgis (a folder named geoboresight would shadow the library on QGIS's sys.path).
 PLUGIN_ZIP ?= dist/geoboresight-plugin.zip
 PYTEST_ARGS ?=
-# The version lives in one place, geoboresight/__init__.py: pyproject.toml reads it
+# The version lives in one place, geoboresight/_version.py: pyproject.toml reads it
 # (dynamic version) and plugin-zip stamps it into the plugin's metadata.txt.
-VERSION := $(shell sed -n 's/^__version__ = "\(.*\)"/\1/p' geoboresight/__init__.py)
+VERSION := $(shell sed -n 's/^__version__ = "\(.*\)"/\1/p' geoboresight/_version.py)
 
 .PHONY: demo test test-main test-qgis lint plugin-zip dist bench clean
 

@@ -85,7 +85,7 @@ def test_zip_passes_the_repository_rules(plugin_zip):
 def test_wheel_version_comes_from_the_library():
     """pyproject.toml reads the version from geoboresight/__init__.py (no second copy)."""
     text = (REPO / "pyproject.toml").read_text()
-    assert 'dynamic = ["version"]' in text and 'attr = "geoboresight.__version__"' in text
+    assert 'dynamic = ["version"]' in text and 'attr = "geoboresight._version.__version__"' in text
     assert not re.search(r'^version\s*=\s*"', text, re.M)
     from importlib.metadata import version
 

@@ -22,7 +22,7 @@ from rasterio.errors import NotGeoreferencedWarning, RasterioIOError
 from rasterio.transform import Affine
 from rasterio.windows import Window
 
-from .. import __version__
+from .._version import __version__
 from ..errors import InputError, OutputError, ParameterError
 from .envi import ENVI_DTYPES, data_for_header, envi_header, is_compressed
 from .grid import FLOAT_NODATA, TILE, Grid

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import __version__
+from .._version import __version__
 from ..errors import Cancelled, GeoboresightError
 from ..figures import new_figure
 from ..html import macro, png_data_uri, render
