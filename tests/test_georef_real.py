@@ -123,7 +123,7 @@ def test_apl_lonlat_igm_goes_on_its_utm_zone_in_metres(line, tmp_path):
     with rasterio.open(line["igm"]) as src:
         assert src.crs is None and src.nodata == -9999  # what GDAL sees of APL's header
     out = str(tmp_path / "map.tif")
-    r = gb.geolocate_file(line["raw"], line["igm"], output=out, resolution=1.5)
+    r = gb.geolocate_file(line["raw"], line["igm"], output=out, grid=gb.OutputGrid(resolution=1.5))
     assert r["crs"] == "EPSG:32636" and r["resolution"] == 1.5
     assert r["masked_nan"] == 3
     with rasterio.open(out) as ds:
@@ -144,12 +144,21 @@ def test_no_run_makes_degree_sized_cells(line, tmp_path):
     for kw in ({"crs": "EPSG:4326"}, {"igm_crs": "EPSG:4326", "crs": "EPSG:4326"}):
         with pytest.raises(ParameterError, match=r"give --resolution \S+ or finer") as exc:
             gb.geolocate_file(
-                line["raw"], line["igm"], output=str(tmp_path / "o.tif"), resolution=1.5, **kw
+                line["raw"],
+                line["igm"],
+                output=str(tmp_path / "o.tif"),
+                grid=gb.OutputGrid(resolution=1.5),
+                **kw,
             )
         assert "degree" in str(exc.value) and "\n" not in str(exc.value)
         assert _leftovers(tmp_path) == before
     # Asked in degrees explicitly, at a sensible resolution: cells of about a metre.
-    r = gb.geolocate_file(line["raw"], line["igm"], output=str(tmp_path / "g.tif"), crs="EPSG:4326")
+    r = gb.geolocate_file(
+        line["raw"],
+        line["igm"],
+        output=str(tmp_path / "g.tif"),
+        grid=gb.OutputGrid(crs="EPSG:4326"),
+    )
     assert r["crs"] == "EPSG:4326" and r["resolution"] < 1e-4
     r = gb.geolocate_file(
         line["raw"], line["igm"], output=str(tmp_path / "m.tif"), igm_crs="EPSG:4326"
@@ -184,7 +193,7 @@ def test_geolocation_arrays_in_degrees_go_on_utm(line, tmp_path):
         "</SimpleSource></VRTRasterBand></VRTDataset>"
     )
     out = str(tmp_path / "map.tif")
-    r = gb.geolocate_file(str(vrt), output=out, resolution=1.5)
+    r = gb.geolocate_file(str(vrt), output=out, grid=gb.OutputGrid(resolution=1.5))
     assert r["crs"] == "EPSG:32636" and r["resolution"] == 1.5
     got = _sample_nearest(out, line["e"], line["n"])[0]
     jj = np.meshgrid(np.arange(line["w"]), np.arange(line["h"]))[0]
@@ -287,17 +296,19 @@ def test_too_coarse_and_too_large_grids_are_refused_before_any_work(line, tmp_pa
     out = str(tmp_path / "o.tif")
     before = _leftovers(tmp_path)
     with pytest.raises(ParameterError, match=r"at least 16 along each side.* give --resolution"):
-        gb.geolocate_file(line["raw"], line["igm"], output=out, resolution=40.0)
+        gb.geolocate_file(line["raw"], line["igm"], output=out, grid=gb.OutputGrid(resolution=40.0))
     # Memory: a machine with 6 MB to spare cannot hold a 0.1 m grid of this line.
     monkeypatch.setattr(gio, "available_memory", lambda: 6_000_000)
     with pytest.raises(ParameterError) as exc:
-        gb.geolocate_file(line["raw"], line["igm"], output=out, resolution=0.1)
+        gb.geolocate_file(line["raw"], line["igm"], output=out, grid=gb.OutputGrid(resolution=0.1))
     msg = str(exc.value)
     assert "whose warp needs" in msg and "at hand" in msg and "\n" not in msg
     assert _leftovers(tmp_path) == before
     fit = float(msg.split("give --resolution ")[1].split()[0])
     assert 0.1 < fit < 5.0
-    r = gb.geolocate_file(line["raw"], line["igm"], output=out, resolution=fit)  # it fits
+    r = gb.geolocate_file(
+        line["raw"], line["igm"], output=out, grid=gb.OutputGrid(resolution=fit)
+    )  # it fits
     assert r["resolution"] == fit
 
 
@@ -445,7 +456,9 @@ def test_georeference_from_qgis_points_in_wgs84_goes_on_utm(tmp_path):
         crs_wkt=PyCRS.from_epsg(4326).to_wkt(),
         enabled=enabled,
     )
-    r = gb.georeference_file(raw, f, output=str(tmp_path / "map.tif"), resolution=1.5)
+    r = gb.georeference_file(
+        raw, f, output=str(tmp_path / "map.tif"), grid=gb.OutputGrid(resolution=1.5)
+    )
     assert r["crs"] == "EPSG:32636" and r["resolution"] == 1.5 and r["rmse"] < 0.01
 
 
