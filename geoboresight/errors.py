@@ -30,6 +30,15 @@ class Cancelled(GeoboresightError):
     """The user cancelled the run (QGIS cancel button, Ctrl-C); partial outputs were removed."""
 
 
+def shown(value, limit: int = 80) -> str:
+    """``repr(value)`` cut to a readable length for an error line (a 200,000-character CRS
+    string is named by its start and its length, not echoed whole)."""
+    text = repr(value)
+    if len(text) <= limit:
+        return text
+    return f"{text[: limit - 1]}… ({len(str(value)):,} characters)"
+
+
 # --- The catalogue of messages (docs/troubleshooting.md is checked against it) ----------------
 
 #: Markers around the generated part of docs/troubleshooting.md.

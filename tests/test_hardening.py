@@ -337,8 +337,31 @@ def test_os_errors_escaping_an_operation_name_the_file():
     assert isinstance(err, InputError) and "/data/v.img" in str(err)
     err = translate_error(OSError(errno.ENOSPC, "No space left", "/out/r.tif"), [], ["/out/r.tif"])
     assert isinstance(err, OutputError) and "full" in str(err)
-    err = translate_error(MemoryError(), [], [])
-    assert isinstance(err, errors.ResourceError) and "block_rows" in str(err)
+    err = translate_error(MemoryError(), [], [], ["vnir", "block_rows", "output"])
+    assert isinstance(err, errors.ResourceError) and "lower block_rows" in str(err)
+    assert "sample_size" not in str(err)
+    err = translate_error(MemoryError(), [], [], ["input", "igm", "resolution", "output"])
+    assert "coarser resolution" in str(err) and "block_rows" not in str(err)
+    err = translate_error(MemoryError(), [], [], ["input", "output"])
+    assert "block_rows" not in str(err) and "memory" in str(err)
+
+
+def test_a_memory_refusal_names_only_the_operations_own_parameters(tmp_path, monkeypatch):
+    """geolocate has neither block_rows nor sample_size: its refusal names its resolution."""
+    from geoboresight.io import georef as gio
+    from geoboresight.operations.georef import geolocate_file
+
+    def no_memory(*args, **kwargs):
+        raise MemoryError()
+
+    monkeypatch.setattr(gio, "warp_geoloc", no_memory)
+    from hostile import UTM36, make_inputs
+
+    d = make_inputs(tmp_path / "in")
+    with pytest.raises(errors.ResourceError) as info:
+        geolocate_file(d / "ratio.tif", d / "igm.tif", igm_crs=UTM36, output=tmp_path / "o.tif")
+    assert "resolution" in str(info.value) and "block_rows" not in str(info.value)
+    assert not (tmp_path / "o.tif").exists()
 
 
 def test_unexpected_errors_are_one_line_with_exit_70_and_debug_shows_the_traceback(

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import ParameterError, shown
 
 #: GCPs a polynomial of each order needs: its number of terms, (n + 1)(n + 2) / 2.
 MIN_GCPS = {1: 3, 2: 6, 3: 10}
@@ -183,6 +183,64 @@ def _collinear(pl: np.ndarray) -> bool:
     return sv.size < 2 or sv[1] < RANK_TOLERANCE * max(sv[0], 1e-300) or sv[0] == 0
 
 
+def _same_rows(a: np.ndarray) -> list[np.ndarray]:
+    """Groups (indices) of rows of ``a`` equal to within a millionth of the points' spread."""
+    tol = 1e-6 * max(float(np.ptp(a, axis=0).max()) if len(a) else 0.0, 1e-12)
+    key = np.round(a / tol).astype("int64") if np.isfinite(a / tol).all() else a
+    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    inverse = np.asarray(inverse).reshape(-1)
+    return [np.flatnonzero(inverse == k) for k in np.flatnonzero(counts > 1)]
+
+
+def _numbers(idx) -> str:
+    n = [str(int(i)) for i in idx]
+    return " and ".join(n) if len(n) <= 2 else ", ".join(n[:-1]) + " and " + n[-1]
+
+
+def check_degenerate(pl, q, number, label: str = "GCPs") -> None:
+    """Refuse a GCP set no transform can be fitted to, naming the GCPs (by ``number``) and
+    what is wrong: a GCP repeated at one image position, GCPs on one line in the image, all
+    GCPs on one map point or on one line on the map, two image positions given one map
+    point."""
+    pl = np.asarray(pl, "float64").reshape(-1, 2)
+    q = np.asarray(q, "float64").reshape(-1, 2)
+    number = np.asarray(number).reshape(-1)
+    for group in _same_rows(pl):
+        p = pl[group[0]]
+        same_map = bool(np.all(np.ptp(q[group], axis=0) == 0))
+        raise ParameterError(
+            f"{label}: GCPs {_numbers(number[group])} are at the same image position (pixel "
+            f"{p[0]:g}, line {p[1]:g})"
+            + (
+                ": remove the repeated one"
+                if same_map
+                else " with different map points: one of them is wrong; remove it"
+            )
+        )
+    if _collinear(pl):
+        raise ParameterError(
+            f"{label}: the {len(pl)} GCPs lie on one line in the image: spread them over the "
+            "image, in both directions"
+        )
+    if np.all(np.ptp(q, axis=0) == 0):
+        raise ParameterError(
+            f"{label}: the {len(q)} GCPs share one map point ({q[0, 0]:.10g}, {q[0, 1]:.10g}): "
+            "give each GCP the map coordinates of its own place (a copied row or column?)"
+        )
+    for group in _same_rows(q):
+        m = q[group[0]]
+        raise ParameterError(
+            f"{label}: GCPs {_numbers(number[group])} lie at different image positions but "
+            f"share the map point ({m[0]:.10g}, {m[1]:.10g}): one of them is wrong; correct "
+            "or remove it"
+        )
+    if _collinear(q):
+        raise ParameterError(
+            f"{label}: the map points of the {len(q)} GCPs lie on one line: check their x and "
+            "y columns (a copied or swapped column?)"
+        )
+
+
 def fit_transform(
     pixel_line,
     xy,
@@ -230,11 +288,20 @@ def fit_transform(
     IEEE Trans. Pattern Anal. Mach. Intell. 1989, 11, 567–585. https://doi.org/10.1109/34.24792
     """
     if method not in METHODS:
-        raise ParameterError(f"parameter 'method': {method!r} is not one of {', '.join(METHODS)}")
+        raise ParameterError(
+            f"parameter 'method': {shown(method)} is not one of {', '.join(METHODS)}"
+        )
     pl, q = _check_points(pixel_line, xy, label)
+    number = np.arange(1, len(pl) + 1)  # each GCP's number in the caller's list (1-based)
     if valid is not None:
         keep = np.asarray(valid, bool).reshape(-1)
-        pl, q = pl[keep], q[keep]
+        if len(keep) != len(pl):
+            raise ParameterError(f"{label}: {len(keep)} enable flags for {len(pl)} GCPs")
+        if len(pl) and not keep.any():
+            raise ParameterError(
+                f"{label}: all {len(pl)} GCPs are disabled (enable = 0): enable the ones to use"
+            )
+        pl, q, number = pl[keep], q[keep], number[keep]
     need = MIN_GCPS.get(order) if method == "polynomial" else MIN_GCPS_TPS
     if method == "polynomial" and need is None:
         raise ParameterError(f"parameter 'order': {order} is not 1, 2 or 3")
@@ -244,17 +311,20 @@ def fit_transform(
             f"{label}: {len(pl)} GCP(s) given but {what} needs at least {need}: add GCPs"
             + (" or lower the order" if method == "polynomial" and order > 1 else "")
         )
-    if _collinear(pl):
-        raise ParameterError(
-            f"{label}: the {len(pl)} GCPs lie on one line in the image: spread them over the "
-            "image, in both directions"
-        )
+    check_degenerate(pl, q, number, label)
     if method == "polynomial":
         predict = _polynomial_predict(pl, q, order, label)
         residuals = q - predict(pl)
     else:
-        predict = _tps_predict(pl, q, smoothing)
-        residuals = _tps_cross_validated(pl, q, smoothing, predict)
+        try:
+            predict = _tps_predict(pl, q, smoothing)
+            residuals = _tps_cross_validated(pl, q, smoothing, predict)
+        except np.linalg.LinAlgError:
+            raise ParameterError(
+                f"{label}: the thin-plate spline through these {len(pl)} GCPs has no solution "
+                "(GCPs too close together for their map points): remove near-duplicate GCPs "
+                "or use --method polynomial"
+            ) from None
     rmse = float(np.sqrt(np.mean(np.sum(residuals**2, axis=1))))
     size = _pixel_size(predict, pl)
     rmse_px = float(np.sqrt(np.mean(np.sum(residuals**2, axis=1) / size**2)))

@@ -21,7 +21,7 @@ from xml.etree import ElementTree
 
 import numpy as np
 
-from ..errors import InputError, ParameterError
+from ..errors import InputError, ParameterError, shown
 from .grid import FLOAT_NODATA, Grid
 from .raster import create_raster, open_raster
 from .tables import parse_number, read_table
@@ -48,7 +48,7 @@ def parse_crs(value, label: str = "parameter 'crs'"):
         wkt = PyCRS.from_user_input(value.strip()).to_wkt()
     except CRSError:
         raise ParameterError(
-            f"{label}: unknown CRS {value!r}: give an EPSG code (e.g. EPSG:32636), a PROJ "
+            f"{label}: unknown CRS {shown(value)}: give an EPSG code (e.g. EPSG:32636), a PROJ "
             "string or WKT"
         ) from None
     return CRS.from_wkt(wkt)
@@ -206,6 +206,10 @@ def output_crs(crs, src_crs, x, y):
     return utm_crs(x, y, src_crs)
 
 
+#: Largest coordinate of any CRS, in its units (the Earth's circumference is 4e7 m, 1.3e8 US
+#: survey feet): beyond it the values are not coordinates.
+COORDINATE_LIMIT = 1e9
+
 #: Plausible ground distance between neighbouring pixels of an imaging spectrometer (m):
 #: from drone and lab-rail scanners (about a centimetre, 1 mm allowed) to spaceborne ones
 #: (30 m EnMAP/PRISMA, 60 m EMIT; 10 km allowed).
@@ -255,6 +259,13 @@ def check_coordinates(x, y, crs, *, what: str, fix: str, valid=None, spacing: bo
     )
     c = _pyproj(crs)
     name = crs_name(crs)
+    big = max(abs(mx), abs(my))
+    if big > COORDINATE_LIMIT:
+        raise InputError(
+            f"{what}: coordinates of {big:.3g} {crs_units(crs)} are outside any CRS's range "
+            f"({span}): the file holds other values than coordinates (a nodata value, an "
+            "offset or a scale factor not applied?)"
+        )
     if c.is_geographic:
         if abs(my) > 90 or abs(mx) > 360:
             raise InputError(
@@ -281,6 +292,10 @@ def check_coordinates(x, y, crs, *, what: str, fix: str, valid=None, spacing: bo
                         f"({aou.name.split('.')[0]}): the coordinates are in another CRS; {fix}"
                     )
     if spacing:
+        try:
+            pixel_spacing(x, y, ok)
+        except InputError as exc:
+            raise InputError(f"{what}: {exc}") from None
         step = _ground_spacing_m(x, y, ok, crs)
         lo, hi = GROUND_SPACING_M
         if step is not None and not lo <= step <= hi:
@@ -546,7 +561,7 @@ def read_gcps(path, *, crs=None) -> GCPs:
         except (ValueError, IndexError):
             raise InputError(
                 f"GCP file {path}, line {n}: expected numbers in {', '.join(cols)}, got "
-                f"{table.delimiter.join(row)!r}"
+                f"{shown(table.delimiter.join(row))}"
             ) from None
     if not values:
         raise InputError(f"GCP file {path} holds no GCPs")
@@ -579,10 +594,36 @@ def corner_gcps(corners: str, width: int, height: int) -> tuple[np.ndarray, np.n
     if len(v) != 8 or not np.all(np.isfinite(v)):
         raise ParameterError(
             "parameter 'corners': give 8 numbers, x,y of the top-left, top-right, bottom-right "
-            f"and bottom-left corners; got {corners!r}"
+            f"and bottom-left corners; got {shown(corners)}"
         )
     pl = np.array([[0, 0], [width, 0], [width, height], [0, height]], "float64")
     return pl, np.array(v, "float64").reshape(4, 2)
+
+
+def reference_window(ref, bounds, reference: str):
+    """The window of the open raster ``ref`` covering map ``bounds`` (left, bottom, right,
+    top, in its CRS), clipped to the raster; a placement that misses the raster is refused,
+    naming both extents."""
+    from rasterio.windows import Window, from_bounds
+
+    left, bottom, right, top = (float(b) for b in bounds)
+    win = None
+    if all(np.isfinite([left, bottom, right, top])):
+        win = from_bounds(left, bottom, right, top, ref.transform).round_offsets().round_lengths()
+        c0, r0 = max(win.col_off, 0), max(win.row_off, 0)
+        c1 = min(win.col_off + win.width, ref.width)
+        r1 = min(win.row_off + win.height, ref.height)
+        win = Window(c0, r0, c1 - c0, r1 - r0) if c1 > c0 and r1 > r0 else None
+    if win is None:
+        b = ref.bounds
+        raise InputError(
+            f"the rough placement (--gcps or --corners) puts the product at x {left:.10g} … "
+            f"{right:.10g}, y {bottom:.10g} … {top:.10g} ({crs_name(ref.crs)}), which does not "
+            f"overlap reference {reference} (x {b.left:.10g} … {b.right:.10g}, y "
+            f"{b.bottom:.10g} … {b.top:.10g}): check the placement's coordinates and their CRS "
+            "(--gcp-crs), or give the orthophoto that covers this line"
+        )
+    return win
 
 
 # --------------------------------------------------------------------------------- rasters
@@ -606,7 +647,7 @@ def choose_resampling(src, resampling: str) -> str:
     """``auto``: nearest for class rasters, bilinear for continuous data."""
     if resampling not in RESAMPLINGS:
         raise ParameterError(
-            f"parameter 'resampling': {resampling!r} is not one of {', '.join(RESAMPLINGS)}"
+            f"parameter 'resampling': {shown(resampling)} is not one of {', '.join(RESAMPLINGS)}"
         )
     if resampling != "auto":
         return resampling
@@ -686,8 +727,30 @@ def pixel_spacing(x: np.ndarray, y: np.ndarray, valid: np.ndarray) -> float:
         if ok.any():
             steps.append(np.median(d[ok]))
     if not steps or not np.isfinite(steps).all() or min(steps) <= 0:
-        raise InputError("the coordinates do not advance from pixel to pixel")
+        raise InputError(_no_advance(x, y, valid, steps))
     return float(np.sqrt(steps[0] * steps[-1]))
+
+
+def _no_advance(x, y, valid, steps) -> str:
+    """Why the pixel spacing cannot be told, in words."""
+    if not np.any(valid):
+        return "no pixel has coordinates (all NaN or nodata)"
+    xs, ys = np.asarray(x)[valid], np.asarray(y)[valid]
+    if not steps:
+        return "no two neighbouring pixels both have coordinates"
+    if np.ptp(xs) == 0 and np.ptp(ys) == 0:
+        return (
+            f"every pixel has the same coordinates ({xs[0]:.10g}, {ys[0]:.10g}): they do not "
+            "advance from pixel to pixel"
+        )
+    big = float(max(np.abs(xs).max(), np.abs(ys).max()))
+    if big > COORDINATE_LIMIT:
+        return (
+            f"coordinates of {big:.3g} do not advance from pixel to pixel (too large for the "
+            "precision of a number): they are outside any CRS's range"
+        )
+    which = "along the lines" if len(steps) > 1 and steps[1] <= 0 else "from line to line"
+    return f"the coordinates do not advance {which} (the median step between neighbours is 0)"
 
 
 #: Fewest output cells along each side of the grid (or the product's own pixels less one,
@@ -994,14 +1057,21 @@ def read_vector(path: str):
     if ext not in (".gpkg", ".geojson", ".json"):
         raise InputError(f"vector {path}: use a GeoPackage (.gpkg) or GeoJSON (.geojson) file")
     kind = "GeoPackage" if ext == ".gpkg" else "GeoJSON"
+    if os.path.getsize(path) == 0:
+        raise InputError(f"vector {path} is empty (0 bytes): give a {kind} file with features")
+    if kind == "GeoJSON":
+        _check_geojson(path)
     try:
         layers = [name for name, gtype in pyogrio.list_layers(path) if gtype is not None]
         if not layers:
             raise InputError(f"vector {path} has no layer with geometries")
         meta, _, wkb, columns = pyogrio.raw.read(path, layer=layers[0])
     except (DataSourceError, DataLayerError) as exc:
-        raise InputError(f"vector {path} is not a readable {kind} ({exc})") from None
-    geoms = list(shapely.from_wkb(wkb))
+        # GDAL's reason, without its advice on driver prefixes (which does not apply here).
+        reason = str(exc).split("; It might help")[0].replace(f"'{path}' ", "")[:300]
+        raise InputError(f"vector {path} is not a readable {kind} ({reason})") from None
+    # A feature without geometry (GeoJSON's "geometry": null) stays one, as ogr2ogr keeps it.
+    geoms = [None if g is None else shapely.from_wkb(g) for g in wkb]
     fields = {str(n): list(v) for n, v in zip(meta["fields"], columns, strict=True)}
     text = meta["crs"]
     undefined = text is None or (text.startswith("LOCAL_CS") and "Undefined" in text)
@@ -1009,13 +1079,71 @@ def read_vector(path: str):
     return geoms, fields, crs, layers[0]
 
 
+#: Largest GeoJSON file parsed with Python's json module to say what is wrong with it (a
+#: larger one goes to GDAL directly).
+GEOJSON_CHECK_BYTES = 64 << 20
+_GEOJSON_TYPES = {
+    "FeatureCollection",
+    "Feature",
+    "Point",
+    "MultiPoint",
+    "LineString",
+    "MultiLineString",
+    "Polygon",
+    "MultiPolygon",
+    "GeometryCollection",
+}
+
+
+def _check_geojson(path: str) -> None:
+    """Refuse, saying what is wrong, a GeoJSON file GDAL would reject with "not recognized as
+    being in a supported file format": not JSON, a bare array, an object of no GeoJSON type,
+    features that are not objects."""
+    import json
+
+    if os.path.getsize(path) > GEOJSON_CHECK_BYTES:
+        return
+    try:
+        with open(path, encoding="utf-8-sig") as f:
+            doc = json.load(f)
+    except UnicodeDecodeError:
+        raise InputError(f"vector {path} is not text (UTF-8): give a GeoJSON file") from None
+    except json.JSONDecodeError as exc:
+        raise InputError(
+            f"vector {path} is not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})"
+        ) from None
+    if isinstance(doc, list):
+        raise InputError(
+            f"vector {path} holds a JSON array of {len(doc)} item(s), not a GeoJSON object: wrap "
+            'the features as {"type": "FeatureCollection", "features": [...]}'
+        )
+    if not isinstance(doc, dict) or doc.get("type") not in _GEOJSON_TYPES:
+        got = doc.get("type") if isinstance(doc, dict) else type(doc).__name__
+        raise InputError(
+            f'vector {path} is not GeoJSON: its "type" is {shown(got)}, not '
+            "FeatureCollection, Feature or a geometry type"
+        )
+    if doc["type"] == "FeatureCollection":
+        features = doc.get("features")
+        if not isinstance(features, list):
+            raise InputError(f'vector {path}: its FeatureCollection has no "features" list')
+        for n, feature in enumerate(features, 1):
+            if not isinstance(feature, dict):
+                raise InputError(
+                    f"vector {path}: feature {n} is {shown(feature)}, not a GeoJSON Feature object"
+                )
+
+
 def reproject_geoms(geoms, src_crs, dst_crs):
-    """Shapely geometries transformed between CRSs with pyproj."""
+    """Shapely geometries transformed between CRSs with pyproj (None, a feature without
+    geometry, stays None)."""
     import shapely
     from pyproj import Transformer
 
     tr = Transformer.from_crs(src_crs.to_wkt(), dst_crs.to_wkt(), always_xy=True)
     return [
-        shapely.transform(g, lambda xy: np.column_stack(tr.transform(xy[:, 0], xy[:, 1])))
+        None
+        if g is None
+        else shapely.transform(g, lambda xy: np.column_stack(tr.transform(xy[:, 0], xy[:, 1])))
         for g in geoms
     ]

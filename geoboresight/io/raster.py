@@ -23,7 +23,7 @@ from rasterio.transform import Affine
 from rasterio.windows import Window
 
 from .._version import __version__
-from ..errors import InputError, OutputError, ParameterError
+from ..errors import InputError, OutputError, ParameterError, shown
 from .envi import ENVI_DTYPES, data_for_header, envi_header, is_compressed
 from .grid import FLOAT_NODATA, TILE, Grid
 from .wavelengths import format_wavelengths, unit_scale
@@ -80,7 +80,7 @@ def parse_creation_options(co, label: str = "co") -> dict:
         name, value = name.strip(), value.strip()
         if not sep or not _CO_NAME.match(name) or not value:
             raise ParameterError(
-                f"parameter '{label}': {item!r} is not NAME=VALUE (e.g. COMPRESS=LZW,"
+                f"parameter '{label}': {shown(item)} is not NAME=VALUE (e.g. COMPRESS=LZW,"
                 "BLOCKSIZE=512); see GDAL's GTiff and COG driver pages for the names"
             )
         out[name.upper()] = value
@@ -146,9 +146,12 @@ def check_creation_options(driver: str, options: dict, label: str = "co") -> Non
             with contextlib.suppress(Exception):
                 rasterio.shutil.delete(f)
     if complaints:
+        given = ", ".join(f"{k}={v}" for k, v in options.items())
+        given = given if len(given) <= 200 else given[:199] + "…"
+        said = "; ".join(complaints)
+        said = said if len(said) <= 300 else said[:299] + "…"
         raise ParameterError(
-            f"parameter '{label}': GDAL's {driver} driver refuses "
-            f"{', '.join(f'{k}={v}' for k, v in options.items())} ({'; '.join(complaints)}): "
+            f"parameter '{label}': GDAL's {driver} driver refuses {given} ({said}): "
             f"check the names and values on GDAL's {driver} driver page"
         )
 

@@ -109,7 +109,7 @@ def _column(v: np.ndarray) -> np.ndarray:
 
 
 def _geometry_type(geoms) -> str:
-    kinds = {g.geom_type for g in geoms}
+    kinds = {g.geom_type for g in geoms if g is not None}
     if kinds <= {"Point"} and kinds:
         return "Point"
     if kinds <= {"Polygon", "MultiPolygon"}:
@@ -123,7 +123,8 @@ def _write_ogr(path, fmt, geoms, cols, crs, layer, description) -> None:
     gtype = _geometry_type(geoms)
     # output_dimension=2: the layers are 2-D (shapely's default WKB would keep a stray z).
     wkb = np.array(
-        [shapely.to_wkb(g, byte_order=1, output_dimension=2) for g in geoms], dtype=object
+        [None if g is None else shapely.to_wkb(g, byte_order=1, output_dimension=2) for g in geoms],
+        dtype=object,
     )
     options = {"DESCRIPTION": description} if description else {}
     with warnings.catch_warnings():

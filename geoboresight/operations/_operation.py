@@ -27,7 +27,14 @@ import shutil
 from collections.abc import Callable
 
 from .._state import VALIDATED
-from ..errors import GeoboresightError, InputError, OutputError, ParameterError, ResourceError
+from ..errors import (
+    GeoboresightError,
+    InputError,
+    OutputError,
+    ParameterError,
+    ResourceError,
+    shown,
+)
 from ..io.write import check_output_path, output_error
 from ..progress import as_progress
 
@@ -74,7 +81,8 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
                 if isinstance(exc, GeoboresightError) or not isinstance(exc, OSError | MemoryError):
                     raise
                 ins = [p for name in inputs for p in _paths(values.get(name))]
-                raise translate_error(exc, ins, outs) from exc
+                names = [p.name for p in spec.params] if spec is not None else list(values)
+                raise translate_error(exc, ins, outs, names) from exc
             finally:
                 VALIDATED.reset(token)
 
@@ -132,17 +140,34 @@ def check_finite(values: dict) -> None:
             and not isinstance(value, bool | numbers.Integral)
             and not math.isfinite(float(value))
         ):
-            raise ParameterError(f"parameter '{name}': expected a finite number, got {value!r}")
+            raise ParameterError(
+                f"parameter '{name}': expected a finite number, got {shown(value)}"
+            )
 
 
-def translate_error(exc: BaseException, inputs: list[str], outputs: list[str]) -> GeoboresightError:
+#: What to do with each parameter that bounds an operation's memory, in the order offered.
+MEMORY_PARAMETERS = {
+    "block_rows": "lower block_rows",
+    "sample_size": "lower sample_size",
+    "resolution": "give a coarser resolution",
+    "lines": "simulate fewer lines",
+}
+
+
+def translate_error(
+    exc: BaseException, inputs: list[str], outputs: list[str], params=()
+) -> GeoboresightError:
     """The one-line error for an OS/GDAL/memory error that escaped an operation: it names the
-    input or output at fault when the error does, and says what to do."""
+    input or output at fault when the error does, and says what to do (for memory, with the
+    operation's own parameters among ``params`` that bound it)."""
     if isinstance(exc, MemoryError):
-        return ResourceError(
-            "not enough memory for this run: lower block_rows (or sample_size), or close other "
-            "programs"
+        do = [what for name, what in MEMORY_PARAMETERS.items() if name in params]
+        advice = (
+            " or ".join(do + ["close other programs"])
+            if do
+            else ("close other programs or use a machine with more memory")
         )
+        return ResourceError(f"not enough memory for this run: {advice}")
     text = " ".join(str(exc).split())
     name = getattr(exc, "filename", None)
     for out in outputs:

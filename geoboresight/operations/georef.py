@@ -317,8 +317,6 @@ def _placement(input, gcps, corners, gcp_crs, ref_crs, width, height):
 
 def _reference_window(reference, reference_band, placement, width, height, margin_px):
     """The reference band around the rough footprint (a large orthophoto is read in part)."""
-    from rasterio.windows import Window, from_bounds
-
     with open_raster(reference, "reference") as ref:
         if ref.crs is None or ref.transform.is_identity:
             raise InputError(
@@ -343,10 +341,8 @@ def _reference_window(reference, reference_band, placement, width, height, margi
         )
         # Room for the placement's error, plus a few reference cells for the interpolation.
         pad = 2 * margin_px * pixel + 4 * max(abs(ref.transform.a), abs(ref.transform.e))
-        win = from_bounds(
-            ex.min() - pad, ey.min() - pad, ex.max() + pad, ey.max() + pad, ref.transform
-        )
-        win = win.round_offsets().round_lengths().intersection(Window(0, 0, ref.width, ref.height))
+        bounds = (ex.min() - pad, ey.min() - pad, ex.max() + pad, ey.max() + pad)
+        win = gio.reference_window(ref, bounds, reference)
         data = ref.read(reference_band, window=win, masked=True)
         return (
             np.ma.getdata(data).astype("float64"),
