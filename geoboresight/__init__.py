@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import importlib
 
-from ._version import __version__
+from ._version import __version__ as __version__
 
 #: Kernels: arrays in, arrays (or small frozen dataclasses) out; ``f(data..., valid=None, *,
 #: options)``.

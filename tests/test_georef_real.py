@@ -141,13 +141,13 @@ def test_apl_lonlat_igm_goes_on_its_utm_zone_in_metres(line, tmp_path):
 def test_no_run_makes_degree_sized_cells(line, tmp_path):
     """The runs that made three 1.5-degree cells are refused or metric, naming the fix."""
     before = _leftovers(tmp_path)
-    for kw in ({"crs": "EPSG:4326"}, {"igm_crs": "EPSG:4326", "crs": "EPSG:4326"}):
+    for kw in ({}, {"igm_crs": "EPSG:4326"}):
         with pytest.raises(ParameterError, match=r"give --resolution \S+ or finer") as exc:
             gb.geolocate_file(
                 line["raw"],
                 line["igm"],
                 output=str(tmp_path / "o.tif"),
-                grid=gb.OutputGrid(resolution=1.5),
+                grid=gb.OutputGrid(crs="EPSG:4326", resolution=1.5),
                 **kw,
             )
         assert "degree" in str(exc.value) and "\n" not in str(exc.value)
