@@ -911,13 +911,6 @@ def _georef_cases() -> list[Case]:
         for op in ("ratio", "geolocate"):
             c.append(Case(f"{op}-writer-{cid}", op, {}, expect, extra=words))
     # shadow-map on cubes whose physics cannot be calibrated: the message must say so.
-    owned = pytest.mark.xfail(
-        strict=True,
-        reason="shadow-map's physics checks (operations/shadow_map.py, owned by another "
-        "developer) are not there yet: an all-zero cube says 'fewer than 10 sunlit pixels' "
-        "(no file, no cause) after a phase_cross_correlation warning on stderr; a saturated "
-        "cube exits 0 with shadow pixels",
-    )
     c.append(
         Case(
             "shadow-map-all-zero-cube",
@@ -925,7 +918,6 @@ def _georef_cases() -> list[Case]:
             {},
             ("v.img", "zero"),
             setup=_cube_filled(lambda dt: 0),
-            marks=(owned,),
         )
     )
     c.append(
@@ -935,7 +927,6 @@ def _georef_cases() -> list[Case]:
             {},
             ("v.img", "saturated"),
             setup=_cube_filled(_saturated),
-            marks=(owned,),
         )
     )
     return c

@@ -62,3 +62,29 @@ def test_a_non_finite_member_of_a_group_is_refused_before_any_work(tmp_path):
         with pytest.raises(ParameterError, match=name):
             shadow_map_file(f"{scene}/vnir.hdr", f"{scene}/swir.hdr", output=str(out), **kw)
         assert not out.exists()
+
+
+def test_calibration_sample_checks_refuse_what_the_physics_cannot_use():
+    """shadow-map's physics checks (issue 23): a saturated or signal-less sample, a dark level
+    below the data or above its signal, each refused naming the instrument; a sound sample
+    passes and counts its saturated pixels."""
+    import numpy as np
+    import pytest
+
+    from geoboresight.errors import InputError
+    from geoboresight.shadow.map import DarkLevel, check_sample
+
+    rng = np.random.default_rng(0)
+    values = rng.uniform(200, 3000, (4, 500))
+    values[:, :7] = 4095  # seven saturated pixels
+    ok = np.ones(500, bool)
+    c = check_sample(values, ok, DarkLevel(150.0, "given"), name="VNIR v.img", saturation=4095)
+    assert c.saturated == 7 and c.usable.sum() == 493 and c.above_dark == 493
+    with pytest.raises(InputError, match="VNIR v.img: 500 of 500 sampled pixels are saturated"):
+        check_sample(np.full((4, 500), 4095.0), ok, None, name="VNIR v.img", saturation=4095)
+    with pytest.raises(InputError, match="VNIR v.img: every sampled pixel reads 0"):
+        check_sample(np.zeros((4, 500)), ok, None, name="VNIR v.img")
+    with pytest.raises(InputError, match="above the signal"):
+        check_sample(values, ok, DarkLevel(5000.0, "given"), name="VNIR v.img", saturation=4095)
+    with pytest.raises(InputError, match="far below the darkest"):
+        check_sample(values, ok, DarkLevel(-400.0, "given"), name="VNIR v.img", saturation=4095)

@@ -70,6 +70,12 @@ def _dark_level(sensor, src, bands, given, sample, valid, progress) -> smap.Dark
     return level
 
 
+def _saturation(src) -> float | None:
+    """The value a saturated element reads: the integer data type's largest; None for floats."""
+    dtype = np.dtype(src.dtypes[0])
+    return float(np.iinfo(dtype).max) if dtype.kind in "iu" else None
+
+
 def _offset(dual, v_src, s_src, rb, given: BoresightOffset, progress):
     if given.offset_along is not None or given.offset_across is not None:
         return float(given.offset_along or 0.0), float(given.offset_across or 0.0), "given"
@@ -196,8 +202,25 @@ def shadow_map_file(
             raise no_valid_error(vnir, "VNIR/SWIR image")
         nv = len(v_dark_b)
         vs, ss = pixels[:nv], pixels[nv:]
+        # The physics the map needs, checked before calibrating: unsaturated pixels with
+        # signal, and dark levels within the data's range (else "no shadow" would be reported).
+        checks = {}
+        for sensor, values, src in ((dual.vnir, vs, v_src), (dual.swir, ss, s_src)):
+            label = f"{sensor.name} {sensor.path}"
+            checks[sensor.name] = smap.check_sample(
+                values, ok, None, name=label, saturation=_saturation(src)
+            )
+            if checks[sensor.name].saturated:
+                warnings.append(
+                    f"{sensor.name}: {checks[sensor.name].saturated} of {int(ok.sum())} sampled "
+                    "pixels are saturated and were left out of the calibration"
+                )
+                progress.info(warnings[-1])
+        ok = ok & checks["VNIR"].usable & checks["SWIR"].usable
         v_dark = _dark_level(dual.vnir, v_src, v_dark_b, dark.vnir_dark, vs, ok, progress)
         s_dark = _dark_level(dual.swir, s_src, s_dark_b, dark.swir_dark, ss, ok, progress)
+        for sensor, values, level in ((dual.vnir, vs, v_dark), (dual.swir, ss, s_dark)):
+            smap.check_sample(values, ok, level, name=f"{sensor.name} {sensor.path}")
         blue_lv = v_dark.for_bands(v_dark_b, blue_b)
         nir_lv = v_dark.for_bands(v_dark_b, nir_b)
         swir_lv = s_dark.for_bands(s_dark_b, swir_b)

@@ -114,6 +114,90 @@ class DarkLevel:
         return self.level
 
 
+@dataclass(frozen=True)
+class SampleCheck:
+    """What :func:`check_sample` found in one instrument's calibration sample."""
+
+    usable: np.ndarray  # bool (n_pixels,): valid, not saturated
+    saturated: int  # sampled pixels with a band at the saturation value
+    above_dark: int  # usable pixels with signal above the dark level in their brightest band
+
+
+def check_sample(
+    bands: np.ndarray,
+    valid: np.ndarray,
+    dark: DarkLevel | None,
+    *,
+    name: str,
+    saturation: float | None = None,
+    min_pixels: int = 10,
+) -> SampleCheck:
+    """Check that a calibration sample carries signal the shadow map can use (§3.1 needs sunlit
+    signal above the dark level): refuse a dark level outside the data's range, a saturated or
+    signal-less cube, instead of reporting "no shadow".
+
+    Parameters
+    ----------
+    bands : array (n_bands, n_pixels)
+        DN of the sampled pixels in the instrument's bands.
+    valid : bool array (n_pixels,)
+    dark : DarkLevel, optional
+        The dark level the map would subtract; None checks saturation and signal only.
+    name : str
+        The instrument and file, for the messages (e.g. "VNIR v.img").
+    saturation : float, optional
+        The value a saturated detector element reads (the integer data type's largest value);
+        pixels with any band at it are not used.
+    min_pixels : int
+        Fewest usable pixels (valid, not saturated, above the dark level) to calibrate.
+
+    Raises
+    ------
+    InputError
+        Naming the instrument and what is wrong: every pixel saturated, no signal at all, a
+        dark level below the data or above its signal.
+    """
+    values = np.asarray(bands, np.float64)
+    valid = np.asarray(valid, bool) & np.isfinite(values).all(axis=0)
+    n = int(valid.sum())
+    saturated = np.zeros(valid.shape, bool)
+    if saturation is not None:
+        saturated = (values >= saturation).any(axis=0) & valid
+    usable = valid & ~saturated
+    if n and int(usable.sum()) < min_pixels:
+        raise InputError(
+            f"{name}: {int(saturated.sum())} of {n} sampled pixels are saturated (a band at "
+            f"{saturation:g}): too few usable pixels to calibrate the shadow map; use an "
+            "acquisition with a shorter integration time, or mask the saturated lines"
+        )
+    data = values[:, usable]
+    if data.size and float(np.ptp(data)) == 0.0:
+        raise InputError(
+            f"{name}: every sampled pixel reads {float(data.flat[0]):g} in every band: the cube "
+            "holds no signal (an empty or zero-filled file?); check the file"
+        )
+    if dark is None:
+        return SampleCheck(usable, int(saturated.sum()), int(usable.sum()))
+    level = np.asarray(dark.level if dark.band_levels is None else dark.band_levels, float)
+    low = float(np.nanmin(data)) if data.size else 0.0
+    if data.size and float(np.min(level)) < low - max(1.0, 0.5 * abs(low)):
+        raise InputError(
+            f"{name}: the dark level {float(np.min(level)):g} ({dark.source}) is far below the "
+            f"darkest sampled value ({low:g}): a dark level is the DN of zero signal, within the "
+            "data's range; give the instrument's dark level, or leave it empty to estimate it"
+        )
+    brightest = data.max(axis=0) if data.size else np.zeros(0)
+    above = int((brightest > float(np.max(level))).sum())
+    if data.size and above < min_pixels:
+        raise InputError(
+            f"{name}: only {above} of {data.shape[1]} usable sampled pixels are brighter than the "
+            f"dark level {float(np.max(level)):g} ({dark.source}): the dark level is above the "
+            "signal; give the instrument's dark level (0 for radiance), or leave it empty to "
+            "estimate it"
+        )
+    return SampleCheck(usable, int(saturated.sum()), above)
+
+
 def dark_level(
     bands: np.ndarray,
     valid: np.ndarray | None = None,
