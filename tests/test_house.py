@@ -138,6 +138,38 @@ def test_one_name_per_concept_and_one_default_per_shared_parameter():
                 assert key == first, f"{p.name}: {first_alg} {first} vs {alg.name} {key}"
 
 
+def _meaning(description: str) -> str:
+    """A parameter's meaning: its description up to the first bracket, colon or semicolon
+    (what follows says how this operation uses it, or its default)."""
+    import re
+
+    return re.split(r" \(|: |; |, if ", description, maxsplit=1)[0].strip()
+
+
+def test_one_meaning_per_name():
+    """A shared name means one thing in every operation: the same meaning, and for the
+    parameter objects that define it, the same text."""
+    meanings: dict[str, tuple[str, str]] = {}
+    for alg in _ops():
+        for p in alg.params:
+            if p.name not in SHARED:
+                continue
+            first = meanings.setdefault(p.name, (alg.name, _meaning(p.description)))
+            assert _meaning(p.description) == first[1], (
+                f"{p.name}: '{first[1]}' in {first[0]} but '{_meaning(p.description)}' in "
+                f"{alg.name}"
+            )
+    # A description states no value of its own: defaults differ between operations (the DEM
+    # matches 980 nm where the ratio takes 1010 nm), and "the ratio's 1010 nm" beside a
+    # default of 980 nm once misled users.
+    import re
+
+    for alg in _ops():
+        for p in alg.params:
+            if p.name in ("vnir_nm", "swir_nm"):
+                assert not re.search(r"\d", p.description), (alg.name, p.name, p.description)
+
+
 def test_specs_are_declarations_no_loops_and_short():
     for path in SPEC_MODULES:
         tree = ast.parse(path.read_text())

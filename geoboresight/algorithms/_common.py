@@ -69,13 +69,13 @@ TOLERANCE = Number(
 #: ranges (from here). One name, one meaning; only the default differs (:func:`band_param`).
 VNIR_BAND = Wavelength(
     name="vnir_nm",
-    description="VNIR band, nearest this wavelength (nm; the ratio's denominator: 920 in the paper)",
+    description="VNIR band: the one nearest this wavelength (nm)",
     default=VNIR_NM,
     aliases=("denominator_nm",),
 )
 SWIR_BAND = Wavelength(
     name="swir_nm",
-    description="SWIR band, nearest this wavelength (nm; the ratio's numerator: 1010 in the paper)",
+    description="SWIR band: the one nearest this wavelength (nm)",
     default=SWIR_NM,
     aliases=("numerator_nm",),
 )

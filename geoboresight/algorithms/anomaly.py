@@ -63,14 +63,14 @@ IMAGE_PARAMS = (
     RasterIn(
         name="vnir",
         description=(
-            "Hyperspectral image (ENVI .hdr/.img or GeoTIFF): the merged VNIR+SWIR cube, the "
-            "VNIR file, or a sensor product holding both (EnMAP L1B, PRISMA L1)"
+            "VNIR image (ENVI .hdr/.img or GeoTIFF), a merged VNIR+SWIR cube, or a sensor "
+            "product holding both (EnMAP L1B, PRISMA L1): every good band is used"
         ),
         aliases=("image",),
     ),
     RasterIn(
         name="swir",
-        description="SWIR file on the same pixel grid, stacked after the VNIR bands (optional)",
+        description="SWIR image on the same pixel grid (its bands stacked after the VNIR bands; leave empty for a merged cube or a product)",
         optional=True,
     ),
     # VNIR and SWIR are stacked whole: a seam is never needed, band centres may be.
@@ -200,9 +200,13 @@ SVDD = Algorithm(
             maximum=1.0,
         ),
         sample_size(
-            "Background pixels drawn at random for training", SAMPLE_SIZE, 20, 20000, advanced=False
+            "Pixels sampled at random (the background SVDD trains on)",
+            SAMPLE_SIZE,
+            20,
+            20000,
+            advanced=False,
         ),
-        seed("Random seed for the background sample"),
+        seed("Random seed (of the background sample: same seed, same result)"),
         CUBE_BLOCK,
         RasterOut(name="output", description="SVDD score raster (GeoTIFF)"),
     ),

@@ -99,6 +99,43 @@ IFOV = Number(
     minimum=0.0,
     unit="mrad",
 )
+HEIGHT_FACTOR = Number(
+    name="height_factor",
+    description="Height-to-disparity factor k = tan θ / GSD (px per metre of height)",
+    optional=True,
+    unit="px/m",
+)
+SQUINT = Number(
+    name="squint_deg",
+    description="Angle between the VNIR and SWIR lines of sight (degrees), if k is not given",
+    optional=True,
+    minimum=0.0,
+    maximum=45.0,
+    unit="°",
+)
+#: The relative DEM's flight geometry (dem.height.FlightGeometry): k, or squint, flying
+#: height and IFOV; the parallax's axis and direction.
+FLIGHT_GEOMETRY = Group(
+    name="geometry",
+    value=FlightGeometry,
+    params=(
+        HEIGHT_FACTOR,
+        SQUINT,
+        FLYING_HEIGHT,
+        IFOV,
+        Enum(
+            name="parallax_axis",
+            description="Direction of the parallax (the squint plane)",
+            choices=("along", "across"),
+            default="along",
+        ),
+        Flag(
+            name="invert_parallax",
+            description="Elevated features appear at lower line (column) numbers in the SWIR image",
+        ),
+    ),
+)
+
 #: The flying height and IFOV alone (the offset's angles and metres): a FlightGeometry.
 GEOMETRY = Group(name="geometry", value=FlightGeometry, params=(FLYING_HEIGHT, IFOV))
 
@@ -253,38 +290,7 @@ DEM = Algorithm(
         *DUAL_PARAMS,
         DENSE_MATCH_BANDS,
         CLOUD,
-        Group(
-            name="geometry",
-            value=FlightGeometry,
-            params=(
-                Number(
-                    name="height_factor",
-                    description="Height-to-disparity factor k = tan θ / GSD (px per metre of height)",
-                    optional=True,
-                    unit="px/m",
-                ),
-                Number(
-                    name="squint_deg",
-                    description="Angle between the VNIR and SWIR lines of sight (degrees), if k is not given",
-                    optional=True,
-                    minimum=0.0,
-                    maximum=45.0,
-                    unit="°",
-                ),
-                FLYING_HEIGHT,
-                IFOV,
-                Enum(
-                    name="parallax_axis",
-                    description="Direction of the parallax (the squint plane)",
-                    choices=("along", "across"),
-                    default="along",
-                ),
-                Flag(
-                    name="invert_parallax",
-                    description="Elevated features appear at lower line (column) numbers in the SWIR image",
-                ),
-            ),
-        ),
+        FLIGHT_GEOMETRY,
         MATCHING,
         Group(
             name="kriging",

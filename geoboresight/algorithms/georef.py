@@ -296,7 +296,7 @@ AUTO = Algorithm(
                     maximum=100.0,
                     unit="px",
                 ),
-                seed("RANSAC's random seed (same seed, same result)"),
+                seed("Random seed (of RANSAC: same seed, same result)"),
             ),
         ),
         GRID,

@@ -5,7 +5,8 @@ from __future__ import annotations
 from ..dem.height import FlightGeometry
 from ..operations.report import report_file
 from ._common import BAND_PARAMS, DUAL_PARAMS
-from .spec import Algorithm, FileOut, Flag, FolderOut, Group, Number, RasterIn
+from .dem import CLOUD, FLYING_HEIGHT, HEIGHT_FACTOR, IFOV, SQUINT
+from .spec import Algorithm, FileOut, Flag, FolderOut, Group, RasterIn
 
 REPORT = Algorithm(
     name="report",
@@ -39,44 +40,13 @@ REPORT = Algorithm(
             description="Target mask or abundance on the VNIR grid, for the ROC curves",
             optional=True,
         ),
-        RasterIn(
-            name="cloud_mask",
-            description="Cloud mask on the VNIR grid (non-zero = cloud), left out of the DEM",
-            optional=True,
-        ),
+        CLOUD,
+        # The relative DEM's flight geometry, as 'relative-dem' takes it (the parallax's axis
+        # and direction at their defaults).
         Group(
             name="geometry",
             value=FlightGeometry,
-            params=(
-                Number(
-                    name="height_factor",
-                    description="Relative DEM: height-to-disparity factor tan θ / GSD (px per metre)",
-                    optional=True,
-                    minimum=0.0,
-                ),
-                Number(
-                    name="squint_deg",
-                    description="Relative DEM: angle between the VNIR and SWIR lines of sight (degrees), if no height factor",
-                    optional=True,
-                    minimum=0.0,
-                    maximum=45.0,
-                    unit="°",
-                ),
-                Number(
-                    name="flying_height",
-                    description="Relative DEM: flying height above the ground (m)",
-                    optional=True,
-                    minimum=0.0,
-                    unit="m",
-                ),
-                Number(
-                    name="ifov_mrad",
-                    description="Relative DEM: instantaneous field of view of one pixel (mrad; AISA-Dual ≈ 1)",
-                    optional=True,
-                    minimum=0.0,
-                    unit="mrad",
-                ),
-            ),
+            params=(HEIGHT_FACTOR, SQUINT, FLYING_HEIGHT, IFOV),
         ),
         Flag(
             name="svdd",

@@ -116,7 +116,7 @@ CLUSTER = Algorithm(
         RATIO_BAND,
         RasterIn(
             name="vnir",
-            description="VNIR image (or merged cube) on the ratio's grid, with wavelengths",
+            description="VNIR image (or a merged cube) on the ratio's grid, with wavelengths",
         ),
         Wavelength(
             name="nir_nm",
@@ -152,7 +152,7 @@ CLUSTER = Algorithm(
             value=Sample,
             params=(
                 sample_size(
-                    "Pixels sampled at random to fit the mixture", SAMPLE_SIZE, 500, 5_000_000
+                    "Pixels sampled at random (to fit the mixture)", SAMPLE_SIZE, 500, 5_000_000
                 ),
                 seed(),
             ),

@@ -65,7 +65,9 @@ SAMPLE = Group(
     name="sample",
     value=MapSample,
     params=(
-        sample_size("Pixels sampled at random to calibrate the map", SAMPLE_SIZE, 1000, 5_000_000),
+        sample_size(
+            "Pixels sampled at random (to calibrate the map)", SAMPLE_SIZE, 1000, 5_000_000
+        ),
         seed(),
     ),
 )

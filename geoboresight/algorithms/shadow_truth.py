@@ -55,7 +55,7 @@ SUN_SHADOW = Algorithm(
         ),
         Number(
             name="sun_azimuth",
-            description="Sun azimuth (degrees clockwise from north, 0–360)",
+            description="Sun azimuth (degrees clockwise from the grid's up: north on a map grid, the flight direction in raw sensor geometry; 0–360)",
             minimum=0.0,
             maximum=360.0,
             unit="°",
@@ -123,7 +123,7 @@ DARK_PIXEL = Algorithm(
     params=(
         RasterIn(
             name="vnir",
-            description="VNIR image or merged cube with wavelength metadata",
+            description="VNIR image (or a merged cube) with wavelength metadata",
             aliases=("image",),
         ),
         Text(
@@ -158,7 +158,7 @@ DARK_PIXEL = Algorithm(
             value=Sample,
             params=(
                 sample_size(
-                    "Pixels sampled at random for the statistics", SAMPLE_SIZE, 500, 5_000_000
+                    "Pixels sampled at random (for the statistics)", SAMPLE_SIZE, 500, 5_000_000
                 ),
                 seed(),
             ),

@@ -84,7 +84,7 @@ SIMULATE = Algorithm(
                 ),
                 Number(
                     name="squint_deg",
-                    description="Along-track squint between the VNIR and SWIR lines of sight (degrees; default from the geometry)",
+                    description="Angle between the VNIR and SWIR lines of sight (degrees, along-track and signed; default from the geometry)",
                     optional=True,
                     minimum=-10.0,
                     maximum=10.0,
@@ -92,7 +92,7 @@ SIMULATE = Algorithm(
                 ),
                 Number(
                     name="flying_height",
-                    description="Flying height above the lowest ground (m; default 1,500 m = 1.5 m pixels)",
+                    description="Flying height above the ground (m, above its lowest point; default 1,500 m = 1.5 m pixels)",
                     optional=True,
                     minimum=100.0,
                     maximum=10000.0,
@@ -136,7 +136,7 @@ SIMULATE = Algorithm(
                 ),
                 Number(
                     name="sun_azimuth",
-                    description="Sun azimuth, clockwise from the flight direction (degrees; default from the paper)",
+                    description="Sun azimuth (degrees clockwise from the grid's up: the flight direction in raw sensor geometry; default from the paper)",
                     optional=True,
                     minimum=0.0,
                     maximum=360.0,
