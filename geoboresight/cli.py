@@ -235,6 +235,7 @@ def make_command(alg: Algorithm) -> click.Command:
         params=params,
         help=f"{alg.display_name}.\n\n{alg.help}",
         short_help=alg.short_help,
+        epilog=f"\b\nExample:\n  {alg.example_command()}" if alg.example else None,
         context_settings={"max_content_width": 100},
     )
 

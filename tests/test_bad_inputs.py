@@ -21,44 +21,43 @@ from synth import write_gtiff
 
 from geoboresight.algorithms import registry
 
+#: The catalogue's inputs (hostile.make_inputs) for the file names of the specs' examples.
+FIXTURES = {
+    "vnir.hdr": "v.img",
+    "swir.hdr": "s.img",
+    "ratio.tif": "ratio.tif",
+    "truth_shadow_fraction.tif": "truth.tif",
+    "shadow_classes.tif": "classes.tif",
+    "dsm.tif": "dem_g.tif",
+    "dem.tif": "dem.tif",
+    "rx.tif": "score.tif",
+    "truth_target_abundance.tif": "target.tif",
+    "endmembers.csv": "em.csv",
+    "ortho.tif": "ratio_g.tif",
+    "igm.tif": "igm.tif",
+    "gcps.csv": "gcps.csv",
+    "ratio_map.tif": "ratio_g.tif",
+}
+#: Where the catalogue's inputs differ from the example's for one operation.
+OVERRIDES = {("reproject-to", "reference"): "truth37.tif", ("geolocate", "igm_crs"): UTM36}
+
+
+def _base(alg) -> dict[str, str]:
+    """Valid arguments of ``alg`` on the catalogue's inputs, derived from its spec's example
+    (an operation is registered by its spec alone): outputs become out.<extension>."""
+    base = {}
+    for name, value in alg.example.items():
+        p = alg.param(name)
+        if p.is_output:
+            base[name] = f"out.{p.extension}" if p.extension else "outdir"
+        else:
+            base[name] = OVERRIDES.get((alg.name, name), FIXTURES.get(value, value))
+    return base
+
+
 #: Valid arguments of every operation on the inputs of hostile.make_inputs ("{d}" is the
 #: case's folder). Outputs are named out.<extension>.
-BASE: dict[str, dict[str, str]] = {
-    "ratio": {"vnir": "v.img", "swir": "s.img", "output": "out.tif"},
-    "stats": {"input": "ratio.tif", "output": "out.json"},
-    "dark-pixel-shadow": {"vnir": "v.img", "output": "out.tif"},
-    "shadow-classes": {"ratio": "ratio.tif", "output": "out.tif"},
-    "shadow-cluster": {"ratio": "ratio.tif", "vnir": "v.img", "output": "out.tif"},
-    "shadow-fraction-apply": {"ratio": "ratio.tif", "output": "out.tif"},
-    "shadow-fraction-fit": {"ratio": "ratio.tif", "truth": "truth.tif", "report": "out.json"},
-    "shadow-map": {"vnir": "v.img", "swir": "s.img", "output": "out.tif"},
-    "shadow-polygons": {"classes_raster": "classes.tif", "output": "out.gpkg"},
-    "sun-shadow": {
-        "dsm": "dem_g.tif",
-        "sun_zenith": "40",
-        "sun_azimuth": "135",
-        "output": "out.tif",
-    },
-    "boresight-offset": {"vnir": "v.img", "swir": "s.img", "output": "out.json"},
-    "coregister": {"vnir": "v.img", "swir": "s.img", "output": "out.tif"},
-    "disparity": {"vnir": "v.img", "swir": "s.img", "output": "out.tif"},
-    "relative-dem": {"vnir": "v.img", "swir": "s.img", "height_factor": "0.1", "output": "out.tif"},
-    "view-3d": {"dem": "dem.tif", "vnir": "v.img", "swir": "s.img", "output": "out.png"},
-    "anomaly-polygons": {"score": "score.tif", "threshold": "5", "output": "out.gpkg"},
-    "boresight-indicator": {"ratio": "ratio.tif", "output": "out.tif"},
-    "roc": {"scores": "score.tif", "truth": "target.tif", "output": "out.png"},
-    "rx": {"vnir": "v.img", "swir": "s.img", "output": "out.tif"},
-    "svdd": {"vnir": "v.img", "swir": "s.img", "output": "out.tif"},
-    "unmix": {"vnir": "v.img", "swir": "s.img", "endmembers": "em.csv", "output": "out.tif"},
-    "simulate": {"output": "outdir", "lines": "16"},
-    "simulate-ortho": {"output": "outdir", "lines": "16"},
-    "auto-georeference": {"input": "ratio.tif", "reference": "ratio_g.tif", "output": "out.tif"},
-    "geolocate": {"input": "ratio.tif", "igm": "igm.tif", "igm_crs": UTM36, "output": "out.tif"},
-    "georeference": {"input": "ratio.tif", "gcps": "gcps.csv", "output": "out.tif"},
-    "reproject-to": {"input": "ratio_g.tif", "reference": "truth37.tif", "output": "out.tif"},
-    "report": {"vnir": "v.img", "swir": "s.img", "output": "out.html"},
-    "info": {"vnir": "v.img", "output": "out.json"},
-}
+BASE: dict[str, dict[str, str]] = {name: _base(alg) for name, alg in registry().items()}
 
 _FILE_KINDS = ("raster", "multiraster", "file")
 

@@ -87,6 +87,7 @@ CUBE_BLOCK = block_rows(CUBE_BLOCK_ROWS)
 
 RX = Algorithm(
     name="rx",
+    example={"vnir": "vnir.hdr", "swir": "swir.hdr", "output": "rx.tif"},
     results=(
         Result("bands", "number", "Bands used"),
         Result("background_pixels", "number", "Background pixels"),
@@ -164,6 +165,7 @@ RX = Algorithm(
 
 SVDD = Algorithm(
     name="svdd",
+    example={"vnir": "vnir.hdr", "swir": "swir.hdr", "output": "svdd.tif"},
     results=(
         Result("sigma", "number", "Kernel width used"),
         Result("support_vectors", "number", "Support vectors"),
@@ -216,6 +218,7 @@ SVDD = Algorithm(
 
 INDICATOR = Algorithm(
     name="boresight-indicator",
+    example={"ratio": "ratio.tif", "output": "indicator.tif"},
     results=(
         Result("count", "number", "Anomalous pixels"),
         Result("median", "number", "Median of the ratio"),
@@ -273,6 +276,12 @@ INDICATOR = Algorithm(
 
 UNMIX = Algorithm(
     name="unmix",
+    example={
+        "vnir": "vnir.hdr",
+        "swir": "swir.hdr",
+        "endmembers": "endmembers.csv",
+        "output": "abundances.tif",
+    },
     results=(Result("endmembers", "string", "Endmembers used (JSON)"),),
     display_name="Linear spectral unmixing",
     group="Anomaly",
@@ -324,6 +333,7 @@ UNMIX = Algorithm(
 
 ROC = Algorithm(
     name="roc",
+    example={"scores": "rx.tif", "truth": "truth_target_abundance.tif", "output": "roc.png"},
     display_name="ROC curves of anomaly detectors",
     group="Anomaly",
     short_help="Probability of detection vs false alarm, and AUC, for several score maps against a truth raster.",
@@ -392,6 +402,7 @@ ROC = Algorithm(
 
 POLYGONS = Algorithm(
     name="anomaly-polygons",
+    example={"score": "rx.tif", "threshold": "5", "output": "anomalies.gpkg"},
     results=(Result("features", "number", "Features written"),),
     display_name="Anomaly score to polygons",
     group="Anomaly",

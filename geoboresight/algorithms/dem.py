@@ -197,6 +197,7 @@ MATCHING = Group(
 
 DISPARITY = Algorithm(
     name="disparity",
+    example={"vnir": "vnir.hdr", "swir": "swir.hdr", "output": "disparity.tif"},
     results=(
         Result("reliable_pixels", "number", "Pixels with a reliable disparity"),
         Result("offset_along_px", "number", "Mean offset along track (pixels)"),
@@ -228,6 +229,14 @@ DISPARITY = Algorithm(
 
 DEM = Algorithm(
     name="relative-dem",
+    example={
+        "vnir": "vnir.hdr",
+        "swir": "swir.hdr",
+        "squint_deg": "3",
+        "flying_height": "1500",
+        "ifov_mrad": "1",
+        "output": "dem.tif",
+    },
     results=(
         Result("sigma_d_px", "number", "Disparity noise (pixels)"),
         Result("sigma_h_m", "number", "Height noise (m)"),
@@ -343,6 +352,7 @@ DEM = Algorithm(
 
 VIEW = Algorithm(
     name="view-3d",
+    example={"dem": "dem.tif", "vnir": "vnir.hdr", "swir": "swir.hdr", "output": "dem_3d.png"},
     display_name="3-D view (image draped on the DEM)",
     group=GROUP,
     short_help="PNG of an RGB of the image draped on the relative DEM with vertical exaggeration (Figure 9E).",

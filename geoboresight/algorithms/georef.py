@@ -86,6 +86,12 @@ IGM_OUTPUT = RasterOut(
 
 GEOLOCATE = Algorithm(
     name="geolocate",
+    example={
+        "input": "ratio.tif",
+        "igm": "igm.tif",
+        "igm_crs": "EPSG:32636",
+        "output": "ratio_map.tif",
+    },
     results=(
         Result("masked_nan", "number", "IGM pixels masked: NaN or nodata"),
         Result("masked_non_monotonic", "number", "IGM pixels masked: folded over"),
@@ -137,6 +143,7 @@ GEOLOCATE = Algorithm(
 
 GEOREFERENCE = Algorithm(
     name="georeference",
+    example={"input": "ratio.tif", "gcps": "gcps.csv", "output": "ratio_map.tif"},
     results=(
         Result("rmse", "number", "RMSE of the GCP residuals (map units)"),
         Result("rmse_px", "number", "RMSE of the GCP residuals (pixels)"),
@@ -192,6 +199,7 @@ GEOREFERENCE = Algorithm(
 
 AUTO = Algorithm(
     name="auto-georeference",
+    example={"input": "ratio.tif", "reference": "ortho.tif", "output": "ratio_map.tif"},
     results=(
         Result("matches", "number", "Feature matches"),
         Result("inliers", "number", "RANSAC inliers"),
@@ -309,6 +317,7 @@ AUTO = Algorithm(
 
 REPROJECT_TO = Algorithm(
     name="reproject-to",
+    example={"input": "ratio_map.tif", "reference": "ortho.tif", "output": "ratio_on_ortho.tif"},
     results=(
         Result("crs", "string", "CRS of the reference grid"),
         Result("width", "number", "Columns of the reference grid"),
@@ -342,6 +351,7 @@ REPROJECT_TO = Algorithm(
 
 SIMULATE_ORTHO = Algorithm(
     name="simulate-ortho",
+    example={"output": "line", "lines": "16"},
     results=(Result("files", "string", "Files written (JSON)"),),
     display_name="Simulate a jittered line with its orthophoto",
     group="Simulation",

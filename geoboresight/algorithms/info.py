@@ -8,6 +8,7 @@ from .spec import Algorithm, FileOut, Result
 
 INFO = Algorithm(
     name="info",
+    example={"vnir": "vnir.hdr", "output": "info.json"},
     results=(
         Result("product", "string", "Sensor product recognised ('GDAL raster' for a plain file)"),
         Result("lines", "number", "Image lines (along track)"),

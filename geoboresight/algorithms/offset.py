@@ -12,6 +12,7 @@ from .spec import Algorithm, Enum, FileOut, Flag, Number, RasterOut, Result
 
 OFFSET = Algorithm(
     name="boresight-offset",
+    example={"vnir": "vnir.hdr", "swir": "swir.hdr", "output": "offset.json"},
     results=(
         Result("along_px", "number", "Offset along track (pixels)"),
         Result("across_px", "number", "Offset across track (pixels)"),
@@ -65,6 +66,7 @@ OFFSET = Algorithm(
 
 COREGISTER = Algorithm(
     name="coregister",
+    example={"vnir": "vnir.hdr", "swir": "swir.hdr", "output": "swir_on_vnir.tif"},
     results=(
         Result("bands", "number", "Bands resampled"),
         Result("along_px", "number", "Offset along track applied (pixels)"),

@@ -8,6 +8,7 @@ from .spec import Algorithm, RasterOut, Result
 
 RATIO = Algorithm(
     name="ratio",
+    example={"vnir": "vnir.hdr", "swir": "swir.hdr", "output": "ratio.tif"},
     results=(
         Result("swir_band", "number", "SWIR band used (numerator, 1-based)"),
         Result("swir_wavelength_nm", "number", "Centre of the SWIR band used (nm)"),

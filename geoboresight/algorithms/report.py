@@ -10,6 +10,7 @@ from .spec import Algorithm, FileOut, Flag, FolderOut, Group, RasterIn
 
 REPORT = Algorithm(
     name="report",
+    example={"vnir": "vnir.hdr", "swir": "swir.hdr", "output": "report.html"},
     display_name="Scene report (HTML)",
     group="Report",
     short_help="One self-contained HTML page: ratio statistics, shadow, relative DEM, anomalies and ROC for a scene.",

@@ -42,6 +42,7 @@ RATIO_BAND = Band(name="band", description="Band of the ratio raster", default=1
 
 CLASSES = Algorithm(
     name="shadow-classes",
+    example={"ratio": "ratio.tif", "output": "shadow_classes.tif"},
     results=(
         Result("valid_pixels", "number", "Valid pixels"),
         Result("class_1_pixels", "number", "Pixels in class 1"),
@@ -91,6 +92,7 @@ CLASSES = Algorithm(
 
 CLUSTER = Algorithm(
     name="shadow-cluster",
+    example={"ratio": "ratio.tif", "vnir": "vnir.hdr", "output": "shadow_cluster.tif"},
     results=(
         Result("components", "number", "Mixture components"),
         Result("isolation", "number", "Isolation of the shadow cluster"),
@@ -172,6 +174,11 @@ CLUSTER = Algorithm(
 
 FRACTION_FIT = Algorithm(
     name="shadow-fraction-fit",
+    example={
+        "ratio": "ratio.tif",
+        "truth": "truth_shadow_fraction.tif",
+        "report": "fraction_fit.json",
+    },
     results=(
         Result("slope", "number", "Slope of the fraction model"),
         Result("intercept", "number", "Intercept of the fraction model"),
@@ -210,6 +217,7 @@ FRACTION_FIT = Algorithm(
 
 FRACTION_APPLY = Algorithm(
     name="shadow-fraction-apply",
+    example={"ratio": "ratio.tif", "output": "shadow_fraction.tif"},
     results=(
         Result("slope", "number", "Slope of the fraction model"),
         Result("intercept", "number", "Intercept of the fraction model"),
@@ -253,6 +261,7 @@ FRACTION_APPLY = Algorithm(
 
 POLYGONS = Algorithm(
     name="shadow-polygons",
+    example={"classes_raster": "shadow_classes.tif", "output": "shadow.gpkg"},
     results=(
         Result("polygons", "number", "Polygons written"),
         Result("geometry", "string", "Geometry of the polygons (map or raw sensor geometry)"),

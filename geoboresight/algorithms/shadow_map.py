@@ -74,6 +74,7 @@ SAMPLE = Group(
 
 SHADOW_MAP = Algorithm(
     name="shadow-map",
+    example={"vnir": "vnir.hdr", "swir": "swir.hdr", "output": "shadow_map.tif"},
     results=(
         Result("valid_pixels", "number", "Valid pixels"),
         Result("shadow_pixels", "number", "Shadow pixels"),

@@ -16,6 +16,12 @@ GROUP = "Shadow"
 
 SUN_SHADOW = Algorithm(
     name="sun-shadow",
+    example={
+        "dsm": "dsm.tif",
+        "sun_zenith": "40",
+        "sun_azimuth": "135",
+        "output": "sun_shadow.tif",
+    },
     results=(
         Result("shadow_pixels", "number", "Shadow pixels"),
         Result("valid_pixels", "number", "Valid pixels"),
@@ -102,6 +108,7 @@ SUN_SHADOW = Algorithm(
 
 DARK_PIXEL = Algorithm(
     name="dark-pixel-shadow",
+    example={"vnir": "vnir.hdr", "output": "dark_pixel_shadow.tif"},
     results=(
         Result("shadow_pixels", "number", "Shadow pixels"),
         Result("candidates", "number", "Candidate dark pixels"),

@@ -41,6 +41,7 @@ modelled.
 
 SIMULATE = Algorithm(
     name="simulate",
+    example={"output": "scene", "lines": "16"},
     results=(
         Result("offset_along_px", "number", "Simulated offset along track (pixels)"),
         Result("offset_across_px", "number", "Simulated offset across track (pixels)"),

@@ -330,6 +330,10 @@ class Algorithm:
     run: Callable[[dict, Progress], dict] = field(repr=False)
     #: The values ``run`` returns beside its outputs (the engine's result schema).
     results: tuple[Result, ...] = ()
+    #: A typical run, flat values by parameter name, files named as in the sample scene
+    #: (``vnir.hdr``, ``ratio.tif``, ...): shown in ``--help``, and the base of the project's
+    #: own hostile-input catalogue. Every required parameter is in it.
+    example: Mapping[str, str] = field(default_factory=dict)
     #: A result holding the whole result as text for a person (``info``'s description): the
     #: command line prints it instead of one ``name: value`` line per result ("": none).
     text: str = ""
@@ -353,6 +357,12 @@ class Algorithm:
             if isinstance(p, Band) and p.raster not in names:
                 raise ValueError(f"{self.name}: band {p.name} refers to unknown {p.raster}")
         _check_signature(self)
+        missing = sorted(p.name for p in flat if p.required and p.name not in self.example)
+        unknown = sorted(set(self.example) - {p.name for p in flat})
+        if missing or unknown:
+            raise ValueError(
+                f"{self.name}: example lacks required {missing} / names unknown {unknown}"
+            )
         # The operation checks a Python caller's arguments against this spec, as every face.
         if getattr(self.run, "spec", None) is None and hasattr(self.run, "outputs"):
             self.run.spec = self
@@ -415,6 +425,13 @@ class Algorithm:
             for p in g.params:
                 flat[p.name] = getattr(value, p.name)
         return flat, given
+
+    def example_command(self, program: str = "geoboresight") -> str:
+        """:attr:`example` as a command line."""
+        words = [program, self.name]
+        for name, value in self.example.items():
+            words += [f"--{name.replace('_', '-')}", value]
+        return " ".join(words)
 
     def bind(self, values: Mapping[str, Any], given: Mapping[str, Any] | None = None) -> dict:
         """The operation's keyword arguments from validated flat values: each group's members

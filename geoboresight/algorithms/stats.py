@@ -8,6 +8,7 @@ from .spec import Algorithm, Band, FileOut, Number, RasterIn, Result, Text
 
 STATS = Algorithm(
     name="stats",
+    example={"input": "ratio.tif", "output": "stats.json"},
     results=(
         Result("n", "number", "Valid pixels (N)"),
         Result("mean", "number", "Mean"),
