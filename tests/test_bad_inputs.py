@@ -18,6 +18,7 @@ import pytest
 from hostile import UTM36, cli, error_line, make_inputs, read_only_folder, snapshot
 
 from geoboresight.algorithms import registry
+from geoboresight.errors import cli_option
 
 #: Valid arguments of every operation on the inputs of hostile.make_inputs ("{d}" is the
 #: case's folder). Outputs are named out.<extension>.
@@ -99,10 +100,12 @@ def _generic_cases() -> list[Case]:
         base = BASE[op]
         floats = [p for p in alg.params if p.kind in ("number", "wavelength") and not p.integer]
         for p, bad in zip(floats[:1] + floats[-1:], ("nan", "inf"), strict=False):
-            cases.append(Case(f"{op}-{bad}-{p.name}", op, {p.name: bad}, (f"'{p.name}'", "finite")))
+            cases.append(
+                Case(f"{op}-{bad}-{p.name}", op, {p.name: bad}, (cli_option(p.name), "finite"))
+            )
         if len(floats) > 2:
             p = floats[len(floats) // 2]
-            cases.append(Case(f"{op}--inf-{p.name}", op, {p.name: "-inf"}, (f"'{p.name}'",)))
+            cases.append(Case(f"{op}--inf-{p.name}", op, {p.name: "-inf"}, (cli_option(p.name),)))
         ins = [n for n in base if alg.param(n).kind in _FILE_KINDS]
         for name in ins:
             cases.append(
@@ -124,7 +127,8 @@ def _generic_cases() -> list[Case]:
                     f"{op}-output-is-header-other-convention",
                     op,
                     {out.name: first + ".hdr"},
-                    (".hdr", "sidecar"),
+                    # A raster output is refused first for not being a .tif.
+                    (".hdr", ".tif" if out.kind == "raster_out" else "sidecar"),
                 )
             )
             if first.endswith(".img"):
@@ -359,7 +363,7 @@ def _specific_cases() -> list[Case]:
             ("boresight_vnir_deg",),
         )
     )
-    c.append(Case("stats-band-beyond", "stats", {"band": "7"}, ("'band'", "ratio.tif")))
+    c.append(Case("stats-band-beyond", "stats", {"band": "7"}, ("--band", "ratio.tif")))
     # CRS and grid mismatches in every operation that takes two rasters.
     pairs = {
         "ratio": ("vnir", "vg.img", "swir"),

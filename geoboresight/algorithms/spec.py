@@ -60,7 +60,7 @@ class Param:
         return value
 
     def _fail(self, what: str) -> ParameterError:
-        return ParameterError(f"parameter '{self.name}': {what}")
+        return ParameterError(f"parameter '{self.name}': {what}", params=(self.name,))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -241,10 +241,17 @@ class _Out(Param):
 
 @dataclass(frozen=True, kw_only=True)
 class RasterOut(_Out):
-    """A raster to write (GeoTIFF)."""
+    """A raster to write (GeoTIFF): a path ending .tif or .tiff (a GeoTIFF named .png
+    would open nowhere as a PNG)."""
 
     extension: str = "tif"
     kind: ClassVar[str] = "raster_out"
+
+    def coerce(self, value):
+        path = _path(self, value)
+        if path and os.path.splitext(str(path))[1].lower() not in (".tif", ".tiff"):
+            raise self._fail(f"{path} does not end in .tif or .tiff: the output is a GeoTIFF")
+        return path
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -379,7 +386,8 @@ class Algorithm:
         if unknown:
             raise ParameterError(
                 f"{self.name}: unknown parameter(s) {', '.join(unknown)}; "
-                f"known: {', '.join(sorted(known))}"
+                f"known: {', '.join(sorted(known))}",
+                params=tuple(unknown),
             )
         out = {}
         for p in self.params:
@@ -387,7 +395,8 @@ class Algorithm:
             if value is None or (isinstance(value, str) and value == "" and p.kind != "string"):
                 if p.required:
                     raise ParameterError(
-                        f"{self.name}: parameter '{p.name}' is required ({p.description})"
+                        f"{self.name}: parameter '{p.name}' is required ({p.description})",
+                        params=(p.name,),
                     )
                 out[p.name] = p.default
             else:
@@ -409,7 +418,8 @@ class Algorithm:
                 continue
             if not isinstance(value, g.value):
                 raise ParameterError(
-                    f"parameter '{g.name}': expected a {g.value.__name__}, got {_short(value)}"
+                    f"parameter '{g.name}': expected a {g.value.__name__}, got {_short(value)}",
+                    params=(g.name,),
                 )
             given[g.name] = value
             for p in g.params:
@@ -453,7 +463,8 @@ def _check_bands(alg: Algorithm, values: dict) -> None:
             if values[p.name] > count:
                 raise ParameterError(
                     f"parameter '{p.name}': band {values[p.name]} does not exist in "
-                    f"{values[p.raster]}, which has {count} band(s)"
+                    f"{values[p.raster]}, which has {count} band(s)",
+                    params=(p.name,),
                 )
 
 
@@ -467,7 +478,8 @@ def _resolve_aliases(alg: Algorithm, values: Mapping[str, Any]) -> dict:
         name = rename[key]
         if out.get(name) is not None:
             raise ParameterError(
-                f"{alg.name}: '{key}' is the former name of '{name}': give only one of them"
+                f"{alg.name}: '{key}' is the former name of '{name}': give only one of them",
+                params=(key, name),
             )
         out[name] = value
     return out

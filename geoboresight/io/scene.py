@@ -87,7 +87,8 @@ def write_scene(
     if os.path.lexists(folder) and not overwrite:
         raise OutputError(
             f"output folder {folder} already exists: choose another folder, or pass "
-            "--overwrite (overwrite=True) to replace it"
+            "overwrite=True to replace it",
+            params=("overwrite",),
         )
     parent = os.path.dirname(os.path.abspath(folder))
     if not os.path.isdir(parent):
