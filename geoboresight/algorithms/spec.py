@@ -245,12 +245,18 @@ class RasterOut(_Out):
     would open nowhere as a PNG)."""
 
     extension: str = "tif"
+    #: Other endings the operation writes by (reproject-to: a vector input gives a vector).
+    also: tuple[str, ...] = ()
     kind: ClassVar[str] = "raster_out"
 
     def coerce(self, value):
         path = _path(self, value)
-        if path and os.path.splitext(str(path))[1].lower() not in (".tif", ".tiff"):
-            raise self._fail(f"{path} does not end in .tif or .tiff: the output is a GeoTIFF")
+        ends = (".tif", ".tiff", *self.also)
+        if path and os.path.splitext(str(path))[1].lower() not in ends:
+            raise self._fail(
+                f"{path} does not end in {', '.join(ends)}: the output is a GeoTIFF"
+                + (" (or a vector layer for a vector input)" if self.also else "")
+            )
         return path
 
 
