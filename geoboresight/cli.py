@@ -17,7 +17,7 @@ import click
 from . import __version__
 from .algorithms import find, registry
 from .algorithms.spec import Algorithm, Param, execute
-from .errors import Cancelled, GeoboresightError
+from .errors import Cancelled, GeoboresightError, cli_option, worded
 from .progress import Progress
 
 _CLICK_TYPES = {
@@ -38,13 +38,19 @@ def option_name(p: Param) -> str:
     return "--" + p.name.replace("_", "-")
 
 
+def _number(v) -> str:
+    """A range end as people read it: 2147483647, 5000000, 0.5 (not 2.14748e+09)."""
+    return str(int(v)) if float(v).is_integer() and abs(v) < 1e15 else f"{v:g}"
+
+
 def _help_for(p: Param) -> str:
     text = p.description
     bits = []
     if p.kind in ("number", "wavelength"):
         lo, hi = p.minimum, p.maximum
-        if lo is not None and hi is not None:
-            bits.append(f"{lo:g}–{hi:g}{(' ' + p.unit) if p.unit else ''}")
+        span = f"{_number(lo)}–{_number(hi)}" if lo is not None and hi is not None else ""
+        if span and span not in text:  # "(0–1) [0–1]": the description says it already
+            bits.append(f"{span}{(' ' + p.unit) if p.unit else ''}")
     if p.kind == "band":
         bits.append(f"band of --{p.raster.replace('_', '-')}")
     if p.kind == "multiraster":
@@ -118,6 +124,13 @@ class _Bar:
             self.bar.update(step)
             self.done += step
 
+    def log(self, message: str) -> None:
+        """A log line on a line of its own: the bar (drawn without a newline) is ended first
+        and drawn again below on its next update."""
+        if self.bar is not None and not getattr(self.bar, "hidden", True) and self.done:
+            click.echo("", err=True)
+        click.echo(message, err=True)
+
     def close(self) -> None:
         if self.bar is not None:
             self.bar.__exit__(None, None, None)
@@ -158,7 +171,7 @@ def make_command(alg: Algorithm) -> click.Command:
                     v = raw[alias]
             values[p.name] = v
         bar = _Bar(alg.display_name, quiet)
-        log = None if quiet else (lambda m: click.echo(m, err=True))
+        log = None if quiet else bar.log
         progress = Progress(bar, log=log)
         try:
             result = execute(
@@ -266,7 +279,8 @@ def failure(exc: BaseException, debug: bool = False) -> BaseException:
     if isinstance(exc, click.ClickException | click.exceptions.Exit | click.Abort):
         return exc
     if isinstance(exc, GeoboresightError):
-        return click.ClickException(" ".join(str(exc).split()))
+        # The parameters in the command line's own words: --vnir, --overwrite.
+        return click.ClickException(worded(exc, cli_option))
     if not isinstance(exc, Exception):
         return exc  # SystemExit and the like pass through
     text = " ".join(str(exc).split()) or "no message"
@@ -357,7 +371,7 @@ def _batch(operation, jobs, scheduler, workers, overwrite):
             scheduler=scheduler,
             n_workers=workers,
             overwrite=overwrite,
-            progress=Progress(bar, log=lambda m: click.echo(m, err=True)),
+            progress=Progress(bar, log=bar.log),
         )
     except BaseException as exc:
         bar.close()

@@ -41,6 +41,7 @@ def _scene(out: Path, scene: str | None) -> Path:
                 "seed": 4,
                 "geometry": "large-squint",
                 "clouds": 1,
+                "navigation": True,
                 "output": str(target),
             },
             overwrite=True,
@@ -53,7 +54,9 @@ def steps(scene: Path, out: Path) -> list[tuple[str, dict]]:
 
     Flight parameters (squint, flying height, IFOV, sun) are read from the scene's truth.json,
     as a user would take them from the flight log; truth rasters serve only for validation
-    steps (fraction model fit, ROC).
+    steps (fraction model fit, ROC). With the scene's navigation (``igm.tif``, as a
+    processing chain gives it), the ratio, shadow map, DEM and anomaly products are put on
+    the map (``geolocate --igm``: the IGM's CRS, the orthophoto's).
     """
     truth = (
         json.loads((scene / "truth.json").read_text()) if (scene / "truth.json").exists() else {}
@@ -182,11 +185,46 @@ def steps(scene: Path, out: Path) -> list[tuple[str, dict]]:
                 },
             )
         )
-    todo.append(("report", {"vnir": v, "swir": s, "output": o("report.html")}))
+    igm = scene / "igm.tif"
+    if igm.exists():
+        for product in (
+            "boresight_ratio",
+            "shadow_map_classes",
+            "relative_dem",
+            "rx",
+            "boresight_indicator",
+        ):
+            if any(o(f"{product}.tif") in vals.values() for _, vals in todo):
+                todo.append(
+                    (
+                        "geolocate",
+                        {
+                            "input": o(f"{product}.tif"),
+                            "igm": str(igm),
+                            "output": o(f"{product}_map.tif"),
+                        },
+                    )
+                )
+    report = {"vnir": v, "swir": s, **cloud_arg}
+    if (scene / "truth_shadow_fraction.tif").exists():
+        report["shadow_truth"] = str(scene / "truth_shadow_fraction.tif")
+    if (scene / "truth_target_abundance.tif").exists():
+        report["target_truth"] = str(scene / "truth_target_abundance.tif")
+    if "squint_deg" in truth:
+        report.update(
+            squint_deg=truth["squint_deg"],
+            flying_height=truth["flying_height_m"],
+            ifov_mrad=truth["ifov_mrad"],
+        )
+    todo.append(("report", {**report, "output": o("report.html")}))
     return todo
 
 
 def _command_line(name: str, values: dict) -> str:
+    """The step as a ``geoboresight`` command that pastes into a shell as printed (it replaces
+    the demo's own outputs, as the demo does: ``--overwrite``)."""
+    import shlex
+
     parts = ["geoboresight", name]
     for k, val in values.items():
         if isinstance(val, bool):
@@ -196,7 +234,8 @@ def _command_line(name: str, values: dict) -> str:
                 parts += [f"--{k.replace('_', '-')}", str(item)]
         else:
             parts += [f"--{k.replace('_', '-')}", str(val)]
-    return " ".join(parts)
+    parts.append("--overwrite")
+    return " ".join(shlex.quote(p) for p in parts)
 
 
 #: The file that marks a folder as the demo's own output: only such a folder is replaced.
@@ -243,6 +282,7 @@ def main(out: str, scene: str | None) -> None:
     scene_dir = _scene(out_dir, scene)
     click.echo(f"scene: {scene_dir}")
     algs = registry()
+    t_start, ran = time.perf_counter(), 0
     for name, values in steps(scene_dir, out_dir):
         if name not in algs:
             click.echo(f"-- {name}: not available in this version, skipped")
@@ -262,9 +302,11 @@ def main(out: str, scene: str | None) -> None:
                 result = execute(algs[name], values, progress=Progress(cb), overwrite=True)
             except GeoboresightError as exc:
                 raise click.ClickException(f"{name}: {exc}") from None
+        ran += 1
         for k, val in result.items():
             click.echo(f"   {k}: {val}")
         click.echo(f"   ({time.perf_counter() - t0:.1f} s)")
+    click.echo(f"\n{ran} operations in {time.perf_counter() - t_start:.0f} s")
     click.echo(f"\nOutputs in {os.path.abspath(out_dir)}:")
     for p in sorted(out_dir.rglob("*")):
         if p.is_file() and not p.name.startswith("."):

@@ -175,6 +175,29 @@ def read_params(source: str) -> dict:
     return values
 
 
+def field_worded(exc, spec) -> str:
+    """``exc``'s message with its parameters named as the QGIS dialog shows them: each
+    field's label (the spec's description), e.g. 'VNIR image' for ``vnir``."""
+    from .errors import worded
+
+    def label(name: str) -> str:
+        if name == "overwrite":
+            return "the engine's overwrite option"
+        try:
+            text = spec.param(name).description if spec is not None else name
+        except KeyError:
+            text = name
+        return f"'{text}'"
+
+    text = worded(exc, label)
+    if spec is not None:  # "'VNIR image' is required (VNIR image)": the label says it once
+        for name in getattr(exc, "params", ()):
+            with contextlib.suppress(KeyError):
+                d = spec.param(name).description
+                text = text.replace(f"'{d}' is required ({d})", f"'{d}' is required")
+    return text
+
+
 def run(name: str, params_source: str, overwrite: bool = False, stdout=None) -> int:
     """Run operation ``name`` with the parameters in ``params_source``, speaking JSON lines;
     the exit code (0 done, 1 user error, 2 internal error, 3 cancelled)."""
@@ -187,14 +210,20 @@ def run(name: str, params_source: str, overwrite: bool = False, stdout=None) -> 
         from .errors import Cancelled, GeoboresightError
         from .progress import Progress
 
+        spec = None
         try:
             values = read_params(params_source)
             spec = get(name)
 
+            said = [None]
+
             def report(fraction, message=None):
+                # A stage's message once, when it starts (an operation repeats it with every
+                # block: "RX: scoring" twelve times would be twelve log lines in QGIS).
                 line = {"progress": float(fraction)}
-                if message:
+                if message and message != said[0]:
                     line["message"] = message
+                    said[0] = message
                 emit(line)
 
             progress = Progress(callback=report, log=lambda m: emit({"info": str(m)}))
@@ -211,7 +240,7 @@ def run(name: str, params_source: str, overwrite: bool = False, stdout=None) -> 
             emit({"error": "cancelled by the user: no output was written"})
             return 3
         except GeoboresightError as exc:
-            emit({"error": " ".join(str(exc).split())})
+            emit({"error": field_worded(exc, spec)})
             return 1
         emit({"result": _plain(result)})
         return 0

@@ -3,11 +3,23 @@
 Every failure that comes from the user's input (a file, a band, a parameter) is raised as a
 :class:`GeoboresightError` whose message names the thing at fault and says what to do. Faces
 (CLI, QGIS, rio) print the message alone, without a traceback.
+
+The message names parameters as Python does (``parameter 'vnir'``, ``overwrite=True``); an
+error that names parameters lists them in ``params``, and each face words them its own way
+(:func:`worded`): the CLI with its options (``--vnir``), the engine (QGIS) with each field's
+label.
 """
+
+from collections.abc import Callable
 
 
 class GeoboresightError(Exception):
-    """Base class: a problem the user can fix; the message says how."""
+    """Base class: a problem the user can fix; the message says how. ``params``: the
+    parameters the message names (Python names), for the faces to word (:func:`worded`)."""
+
+    def __init__(self, *args, params=()):
+        super().__init__(*args)
+        self.params = tuple(params)
 
 
 class InputError(GeoboresightError, ValueError):
@@ -37,6 +49,24 @@ def shown(value, limit: int = 80) -> str:
     if len(text) <= limit:
         return text
     return f"{text[: limit - 1]}… ({len(str(value)):,} characters)"
+
+
+def worded(exc: BaseException, name: Callable[[str], str]) -> str:
+    """``exc``'s message (on one line) with each parameter of its ``params`` named by
+    ``name(param)``, a face's word for it: ``parameter 'vnir'`` and ``'vnir'`` become
+    ``name('vnir')``, ``overwrite=True`` becomes ``name('overwrite')``."""
+    text = " ".join(str(exc).split())
+    for p in getattr(exc, "params", ()):
+        if p == "overwrite":
+            text = text.replace("overwrite=True", name(p))
+            continue
+        text = text.replace(f"parameter '{p}'", name(p)).replace(f"'{p}'", name(p))
+    return text
+
+
+def cli_option(param: str) -> str:
+    """A parameter as the command line spells it: ``--vnir``, ``--height-factor``."""
+    return "--" + param.replace("_", "-")
 
 
 # --- The catalogue of messages (docs/troubleshooting.md is checked against it) ----------------

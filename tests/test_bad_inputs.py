@@ -20,6 +20,7 @@ from hostile import COLS, ROWS, UTM36, cli, error_line, make_inputs, read_only_f
 from synth import write_gtiff
 
 from geoboresight.algorithms import registry
+from geoboresight.errors import cli_option
 
 #: The catalogue's inputs (hostile.make_inputs) for the file names of the specs' examples.
 FIXTURES = {
@@ -102,10 +103,12 @@ def _generic_cases() -> list[Case]:
         base = BASE[op]
         floats = [p for p in alg.params if p.kind in ("number", "wavelength") and not p.integer]
         for p, bad in zip(floats[:1] + floats[-1:], ("nan", "inf"), strict=False):
-            cases.append(Case(f"{op}-{bad}-{p.name}", op, {p.name: bad}, (f"'{p.name}'", "finite")))
+            cases.append(
+                Case(f"{op}-{bad}-{p.name}", op, {p.name: bad}, (cli_option(p.name), "finite"))
+            )
         if len(floats) > 2:
             p = floats[len(floats) // 2]
-            cases.append(Case(f"{op}--inf-{p.name}", op, {p.name: "-inf"}, (f"'{p.name}'",)))
+            cases.append(Case(f"{op}--inf-{p.name}", op, {p.name: "-inf"}, (cli_option(p.name),)))
         ins = [n for n in base if alg.param(n).kind in _FILE_KINDS]
         for name in ins:
             cases.append(
@@ -127,7 +130,8 @@ def _generic_cases() -> list[Case]:
                     f"{op}-output-is-header-other-convention",
                     op,
                     {out.name: first + ".hdr"},
-                    (".hdr", "sidecar"),
+                    # A raster output is refused first for not being a .tif.
+                    (".hdr", ".tif" if out.kind == "raster_out" else "sidecar"),
                 )
             )
             if first.endswith(".img"):
@@ -362,7 +366,7 @@ def _specific_cases() -> list[Case]:
             ("boresight_vnir_deg",),
         )
     )
-    c.append(Case("stats-band-beyond", "stats", {"band": "7"}, ("'band'", "ratio.tif")))
+    c.append(Case("stats-band-beyond", "stats", {"band": "7"}, ("--band", "ratio.tif")))
     # CRS and grid mismatches in every operation that takes two rasters.
     pairs = {
         "ratio": ("vnir", "vg.img", "swir"),

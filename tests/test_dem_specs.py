@@ -95,6 +95,17 @@ def test_relative_dem_georeferenced(scene, tmp_path):
     assert np.ma.median(along[h < 2]) == pytest.approx(0.7, abs=0.1)
 
 
+def test_view3d_draws_a_masked_area_flat_not_as_a_pit():
+    from geoboresight.dem.view3d import fill_holes
+
+    z = np.full((20, 20), 10.0)
+    z[:, 10:] = 20.0
+    z[5:15, 5:15] = np.nan  # a masked cloud
+    filled = fill_holes(z)
+    assert np.isfinite(filled).all() and filled.min() == 10.0
+    assert (filled[5:15, 5:10] == 10.0).all() and (filled[5:15, 10:15] == 20.0).all()
+
+
 def test_view3d_png(scene, tmp_path):
     d, p, h = scene
     dem = tmp_path / "dem.tif"

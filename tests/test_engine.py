@@ -125,7 +125,9 @@ def test_user_error_is_one_line_and_exit_1(pair, tmp_path):
     )
     assert done.returncode == 1
     last = _lines(done.stdout)[-1]
-    assert set(last) == {"error"} and "swir_nm" in last["error"] and "\n" not in last["error"]
+    # Named as the QGIS dialog labels the field (its description), not swir_nm.
+    assert set(last) == {"error"} and "SWIR band, nearest" in last["error"]
+    assert "\n" not in last["error"]
     assert not out.exists()
     bad = _engine("run", "no-such-operation", "--params-json", "-", input="{}")
     assert bad.returncode == 1 and "unknown operation" in _lines(bad.stdout)[-1]["error"]

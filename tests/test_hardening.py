@@ -423,7 +423,7 @@ def test_a_real_process_prints_no_traceback(tmp_path):
     )
     assert done.returncode == 1
     assert done.stderr.strip().splitlines() == [
-        "Error: parameter 'tolerance_nm': expected a finite number, got nan"
+        "Error: --tolerance-nm: expected a finite number, got nan"
     ]
 
 

@@ -72,6 +72,20 @@ def test_report_is_self_contained_with_every_section(full_report):
     assert "numerator_nm" not in text and "denominator_nm" not in text  # former names
 
 
+def test_report_shows_the_shadow_map_with_true_captions(full_report):
+    out, products, _ = full_report
+    text = out.read_text(encoding="utf-8")
+    assert (products / "shadow_map.tif").exists() and "Shadow map" in text
+    assert "class 1 (maroon) 80–100 %" in text  # class 1 is the deepest shadow
+    assert "higher classes are deeper shadow" not in text
+    assert "Figure 5B line" in text  # why the paper's line may slope otherwise
+    # No path of the report's work folder (a temporary name) in the page.
+    assert ".tmp" not in text and str(products) not in text
+    # The cluster is called isolated only when shadow-cluster does not warn it is not.
+    warned = "not a cluster of its own" in text
+    assert ("an isolated shadow cluster" in text) != warned
+
+
 def test_report_numbers_are_the_operations_own(full_report):
     """Table 1's N and mean in the page equal NumPy on the ratio raster the report made."""
     out, products, _ = full_report

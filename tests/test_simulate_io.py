@@ -20,7 +20,7 @@ import geoboresight as gb
 from geoboresight.algorithms.simulate import SIMULATE
 from geoboresight.errors import OutputError, ParameterError
 from geoboresight.io import open_dual, quiet_georef
-from geoboresight.io.scene import SCENE_FILES, write_scene
+from geoboresight.io.scene import NAVIGATION_FILES, SCENE_FILES, write_scene
 from geoboresight.operations.simulate import simulate_file
 from geoboresight.simulate import simulate_scene
 
@@ -216,7 +216,8 @@ SAMPLE = os.path.join(os.path.dirname(__file__), os.pardir, "sample_data", "scen
 )
 def test_sample_scene_regenerates_from_its_recipe(tmp_path):
     """sample_data/README.md's recipe gives the committed files: the ENVI cubes and headers,
-    truth.json and endmembers.csv byte for byte, the truth rasters' values and tags."""
+    truth.json and endmembers.csv byte for byte, the truth rasters' values and tags, the IGM's
+    values and the orthophoto's (JPEG: within a DN of the committed one)."""
     out = tmp_path / "scene"
     simulate_file(
         output=str(out),
@@ -225,6 +226,7 @@ def test_sample_scene_regenerates_from_its_recipe(tmp_path):
         seed=4,
         flight=gb.SimulatedFlight(geometry="large-squint"),
         clouds=1,
+        navigation=True,
     )
     exact = ["vnir.img", "vnir.hdr", "swir.img", "swir.hdr", "truth.json", "endmembers.csv"]
     match, mismatch, errors = filecmp.cmpfiles(SAMPLE, out, exact, shallow=False)
@@ -240,3 +242,9 @@ def test_sample_scene_regenerates_from_its_recipe(tmp_path):
             assert np.array_equal(a.read(), b.read()), name
             assert a.tags() == b.tags() and a.tags(1) == b.tags(1), name
             assert a.descriptions == b.descriptions and a.nodata == b.nodata, name
+    for name in NAVIGATION_FILES:
+        with rasterio.open(out / name) as a, rasterio.open(os.path.join(SAMPLE, name)) as b:
+            assert a.crs == b.crs and a.transform == b.transform and a.nodata == b.nodata, name
+            assert np.array_equal(a.dataset_mask(), b.dataset_mask()), name
+            diff = np.abs(a.read().astype("float64") - b.read())
+            assert diff.max() == 0 if name == "igm.tif" else diff.mean() < 1.0, name

@@ -344,7 +344,11 @@ REPROJECT_TO = Algorithm(
             description="Raster whose grid (or CRS, for a vector) the output takes",
         ),
         RESAMPLING,
-        RasterOut(name="output", description="The product on the reference's grid"),
+        RasterOut(
+            name="output",
+            description="The product on the reference's grid",
+            also=(".gpkg", ".geojson", ".json"),
+        ),
     ),
     run=reproject_to_file,
 )

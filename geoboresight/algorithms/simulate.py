@@ -29,7 +29,9 @@ The output folder holds vnir.img/.hdr and swir.img/.hdr (ENVI, 12-bit DN), optio
 merged.img/.hdr, truth rasters on the VNIR grid (truth_dsm.tif, truth_shadow_fraction.tif,
 truth_target_abundance.tif, truth_cloud_mask.tif, truth_material.tif), truth.json (offset in
 pixels, disparity per metre, height precision, sun, targets) and endmembers.csv (the material
-spectra, for unmixing).
+spectra, for unmixing). With --navigation, also igm.tif (the map coordinates of every VNIR
+pixel, for geolocate --igm) and ortho.tif (an RGB orthophoto of the ground, 1 m cells, in the
+same UTM CRS).
 
 Geometry "realistic" is the paper's regime (squint 0.3°, 1,500 m flying height against a
 6,000 ft nominal altitude: about one pixel of residual offset, relief not measurable);
@@ -210,6 +212,10 @@ SIMULATE = Algorithm(
         Flag(
             name="merged",
             description="Also write merged.img/.hdr with all 198 bands",
+        ),
+        Flag(
+            name="navigation",
+            description="Also place the scene on a map (UTM 36N) and write igm.tif (easting, northing of each VNIR pixel, for geolocate --igm) and ortho.tif (an RGB orthophoto of the ground)",
         ),
         FolderOut(
             name="output",

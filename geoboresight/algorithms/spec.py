@@ -60,7 +60,7 @@ class Param:
         return value
 
     def _fail(self, what: str) -> ParameterError:
-        return ParameterError(f"parameter '{self.name}': {what}")
+        return ParameterError(f"parameter '{self.name}': {what}", params=(self.name,))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -241,10 +241,23 @@ class _Out(Param):
 
 @dataclass(frozen=True, kw_only=True)
 class RasterOut(_Out):
-    """A raster to write (GeoTIFF)."""
+    """A raster to write (GeoTIFF): a path ending .tif or .tiff (a GeoTIFF named .png
+    would open nowhere as a PNG)."""
 
     extension: str = "tif"
+    #: Other endings the operation writes by (reproject-to: a vector input gives a vector).
+    also: tuple[str, ...] = ()
     kind: ClassVar[str] = "raster_out"
+
+    def coerce(self, value):
+        path = _path(self, value)
+        ends = (".tif", ".tiff", *self.also)
+        if path and os.path.splitext(str(path))[1].lower() not in ends:
+            raise self._fail(
+                f"{path} does not end in {', '.join(ends)}: the output is a GeoTIFF"
+                + (" (or a vector layer for a vector input)" if self.also else "")
+            )
+        return path
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -389,7 +402,8 @@ class Algorithm:
         if unknown:
             raise ParameterError(
                 f"{self.name}: unknown parameter(s) {', '.join(unknown)}; "
-                f"known: {', '.join(sorted(known))}"
+                f"known: {', '.join(sorted(known))}",
+                params=tuple(unknown),
             )
         out = {}
         for p in self.params:
@@ -397,7 +411,8 @@ class Algorithm:
             if value is None or (isinstance(value, str) and value == "" and p.kind != "string"):
                 if p.required:
                     raise ParameterError(
-                        f"{self.name}: parameter '{p.name}' is required ({p.description})"
+                        f"{self.name}: parameter '{p.name}' is required ({p.description})",
+                        params=(p.name,),
                     )
                 out[p.name] = p.default
             else:
@@ -419,7 +434,8 @@ class Algorithm:
                 continue
             if not isinstance(value, g.value):
                 raise ParameterError(
-                    f"parameter '{g.name}': expected a {g.value.__name__}, got {_short(value)}"
+                    f"parameter '{g.name}': expected a {g.value.__name__}, got {_short(value)}",
+                    params=(g.name,),
                 )
             given[g.name] = value
             for p in g.params:
@@ -470,7 +486,8 @@ def _check_bands(alg: Algorithm, values: dict) -> None:
             if values[p.name] > count:
                 raise ParameterError(
                     f"parameter '{p.name}': band {values[p.name]} does not exist in "
-                    f"{values[p.raster]}, which has {count} band(s)"
+                    f"{values[p.raster]}, which has {count} band(s)",
+                    params=(p.name,),
                 )
 
 
@@ -484,7 +501,8 @@ def _resolve_aliases(alg: Algorithm, values: Mapping[str, Any]) -> dict:
         name = rename[key]
         if out.get(name) is not None:
             raise ParameterError(
-                f"{alg.name}: '{key}' is the former name of '{name}': give only one of them"
+                f"{alg.name}: '{key}' is the former name of '{name}': give only one of them",
+                params=(key, name),
             )
         out[name] = value
     return out

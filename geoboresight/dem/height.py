@@ -126,13 +126,16 @@ def parallax_factor(
     if k is None:
         if squint_deg is None or flying_height is None or ifov_mrad is None:
             raise ParameterError(
-                "give the height-to-disparity factor ('height_factor', px per metre), or the "
-                "flying height, the IFOV and the squint angle between the two lines of sight"
+                "give the height-to-disparity factor 'height_factor' (px per metre), or the "
+                "squint angle between the two lines of sight 'squint_deg', the flying height "
+                "'flying_height' and the IFOV 'ifov_mrad'",
+                params=("height_factor", "squint_deg", "flying_height", "ifov_mrad"),
             )
         if not squint_deg > 0:
             raise ParameterError(
                 f"parameter 'squint_deg': must be > 0, got {squint_deg}; a zero squint makes no "
-                "parallax (use 'invert_parallax' for the direction)"
+                "parallax (use 'invert_parallax' for the direction)",
+                params=("squint_deg", "invert_parallax"),
             )
         k = _factor_from_geometry(flying_height, ifov_mrad, squint_deg).along
     if not (isinstance(k, int | float) and math.isfinite(k) and k > 0):

@@ -1,7 +1,8 @@
 """The image draped on the relative DEM, as Figure 9E of the paper (matplotlib ``plot_surface``).
 
-Pixels without a height (clouds, nodata) are drawn black at the lowest level, as the paper's
-black, cloud-masked border. The surface is decimated to at most ``max_facets`` facets per side:
+Pixels without a height (a masked cloud, nodata) are drawn black, as the paper's black,
+cloud-masked border, at the height of their nearest valid neighbours: dropped to the lowest
+level they would show as a crater with striped walls that is not in the ground. The surface is decimated to at most ``max_facets`` facets per side:
 a 3-D view is for looking, and matplotlib's 3-D renderer slows down with the facet count.
 """
 
@@ -38,6 +39,18 @@ def stretch_rgb(red: np.ndarray, green: np.ndarray, blue: np.ndarray, percent: f
     return np.dstack(out)
 
 
+def fill_holes(z: np.ndarray) -> np.ndarray:
+    """``z`` with each NaN replaced by the nearest finite value (all NaN: unchanged), so a
+    masked area is drawn flat at its surroundings' height, not as a pit."""
+    from scipy import ndimage
+
+    hole = ~np.isfinite(z)
+    if not hole.any() or hole.all():
+        return z
+    near = ndimage.distance_transform_edt(hole, return_distances=False, return_indices=True)
+    return z[tuple(near)]
+
+
 def drape_figure(
     dem: np.ndarray,
     rgb: np.ndarray,
@@ -54,7 +67,8 @@ def drape_figure(
 
     Parameters
     ----------
-    dem : 2-D array (rows, cols), metres; NaN = no height (drawn black).
+    dem : 2-D array (rows, cols), metres; NaN = no height (drawn black, flat at the height of
+        the nearest valid pixels).
     rgb : (rows, cols, 3) floats in 0–1 (see :func:`stretch_rgb`).
     exaggeration : float
         Vertical exaggeration (the paper's Figure 9E: 30 m of relief over 1,500 × 500 m).
@@ -79,7 +93,8 @@ def drape_figure(
     colours = rgb[::step, ::step].copy()
     hole = ~np.isfinite(z)
     zmin, zmax = float(np.nanmin(dem)), float(np.nanmax(dem))
-    z = np.where(hole, zmin, z)
+    z = fill_holes(z)
+    z = np.where(np.isfinite(z), z, zmin)
     colours[hole] = 0.0
     rows, cols = np.mgrid[0 : dem.shape[0] : step, 0 : dem.shape[1] : step]
     y = rows * pixel_size[0]

@@ -54,7 +54,10 @@ def write_ortho_scene(scene, folder, overwrite: bool = False) -> list[str]:
 
     folder = os.fspath(folder)
     if os.path.lexists(folder) and not overwrite:
-        raise OutputError(f"output folder {folder} already exists: pass --overwrite to replace it")
+        raise OutputError(
+            f"output folder {folder} already exists: pass overwrite=True to replace it",
+            params=("overwrite",),
+        )
     crs = CRS.from_user_input(scene.crs)
     # An existing folder is replaced only if it holds nothing but these files (never emptied).
     with (

@@ -6,7 +6,12 @@ nm, raw geometry), optionally ``merged.img/.hdr`` (all 198 bands), the truth ras
 grid as GeoTIFF (``truth_dsm.tif``, ``truth_shadow_fraction.tif``,
 ``truth_target_abundance.tif``, ``truth_cloud_mask.tif``, ``truth_material.tif`` with a colour
 table and class names in its tags), ``truth.json`` and ``endmembers.csv`` (``wavelength_nm``,
-``fwhm_nm`` + one reflectance column per material). The same scene always gives the same bytes.
+``fwhm_nm`` + one reflectance column per material). With the scene's navigation
+(:mod:`geoboresight.simulate.navigation`): ``igm.tif`` (float64 easting and northing of each
+VNIR pixel, to the centimetre, its CRS in the header, raw geometry) and ``ortho.tif`` (an RGB
+uint8 orthophoto, JPEG-compressed, north-up in that CRS, cells beyond the simulated ground in
+its internal mask). The same scene always gives
+the same bytes.
 """
 
 from __future__ import annotations
@@ -55,7 +60,9 @@ SCENE_FILES = (
     "endmembers.csv",
 )
 #: Every name a scene folder may hold: an existing folder with anything else is never replaced.
-SCENE_FOLDER_FILES = (*SCENE_FILES, "merged.img", "merged.hdr")
+#: The scene's navigation (``simulate --navigation``).
+NAVIGATION_FILES = ("igm.tif", "ortho.tif")
+SCENE_FOLDER_FILES = (*SCENE_FILES, "merged.img", "merged.hdr", *NAVIGATION_FILES)
 
 
 def check_scene_folder(folder) -> None:
@@ -64,11 +71,15 @@ def check_scene_folder(folder) -> None:
     check_folder_replaceable(os.fspath(folder), SCENE_FOLDER_FILES)
 
 
-def write_scene(scene, folder, merged: bool = False, overwrite: bool = False) -> str:
+def write_scene(
+    scene, folder, merged: bool = False, overwrite: bool = False, navigation=None
+) -> str:
     """Write ``scene`` to ``folder`` (created; written whole or not at all); ``folder``.
 
-    ``merged=True`` also writes ``merged.img/.hdr`` with all 198 bands. An existing folder is
-    replaced only with ``overwrite=True``.
+    ``merged=True`` also writes ``merged.img/.hdr`` with all 198 bands; ``navigation`` (a
+    :class:`geoboresight.simulate.navigation.Navigation`) writes ``igm.tif`` and ``ortho.tif``
+    and records the map placement in ``truth.json``. An existing folder is replaced only with
+    ``overwrite=True``.
     """
     import rasterio
 
@@ -76,7 +87,8 @@ def write_scene(scene, folder, merged: bool = False, overwrite: bool = False) ->
     if os.path.lexists(folder) and not overwrite:
         raise OutputError(
             f"output folder {folder} already exists: choose another folder, or pass "
-            "--overwrite (overwrite=True) to replace it"
+            "overwrite=True to replace it",
+            params=("overwrite",),
         )
     parent = os.path.dirname(os.path.abspath(folder))
     if not os.path.isdir(parent):
@@ -92,7 +104,11 @@ def write_scene(scene, folder, merged: bool = False, overwrite: bool = False) ->
         os.makedirs(tmp)
         write_cubes(scene, tmp, merged=merged)
         write_truth_rasters(scene, tmp)
-        write_truth_json(scene.truth, os.path.join(tmp, "truth.json"))
+        truth = scene.truth
+        if navigation is not None:
+            write_navigation(navigation, tmp)
+            truth = {**truth, "navigation": navigation.truth}
+        write_truth_json(truth, os.path.join(tmp, "truth.json"))
         write_endmembers(scene, os.path.join(tmp, "endmembers.csv"))
     return folder
 
@@ -157,6 +173,54 @@ def write_truth_rasters(scene, folder: str) -> None:
     )
 
 
+def write_navigation(nav, folder: str) -> None:
+    """``igm.tif`` and ``ortho.tif`` of a scene's navigation in ``folder``."""
+    import rasterio
+    from rasterio.crs import CRS
+    from rasterio.transform import Affine
+
+    from .georef import write_igm
+
+    crs = CRS.from_user_input(nav.crs)
+    igm = np.round(nav.igm, 2)  # centimetres: the rest is noise to the compressor
+    write_igm(
+        os.path.join(folder, "igm.tif"),
+        igm[0],
+        igm[1],
+        crs,
+        {"product": "simulated IGM: map coordinates of each VNIR pixel's mean ground point"},
+    )
+    bands, ny, nx = nav.ortho.shape
+    profile = {
+        "driver": "GTiff",
+        "width": nx,
+        "height": ny,
+        "count": bands,
+        "dtype": "uint8",
+        "crs": crs,
+        "transform": Affine(*nav.ortho_transform),
+        "tiled": True,
+        "blockxsize": 256,
+        "blockysize": 256,
+        # An orthophoto as agencies ship them: JPEG in YCbCr (a tenth of deflate's size).
+        "compress": "jpeg",
+        "photometric": "ycbcr",
+        "jpeg_quality": 90,
+        "interleave": "pixel",
+    }
+    # A JPEG's values are approximate: the cells beyond the ground are in a mask (deflated, exact),
+    # not a nodata value that dark shadows could decode to.
+    with (
+        rasterio.Env(GDAL_TIFF_INTERNAL_MASK=True),
+        rasterio.open(os.path.join(folder, "ortho.tif"), "w", **profile) as dst,
+    ):
+        dst.write(nav.ortho)
+        dst.write_mask(np.where(nav.ortho_valid, 255, 0).astype("uint8"))
+        dst.update_tags(product="simulated orthophoto (true ortho, no cloud)")
+        for b, name in enumerate(("red", "green", "blue"), start=1):
+            dst.set_band_description(b, name)
+
+
 def write_truth_json(truth: dict, path: str) -> None:
     """``truth.json``: indented, keys in the scene's order, ending with a newline."""
     with open(path, "w", encoding="utf-8") as f:
@@ -196,10 +260,12 @@ def as_dn(cube: np.ndarray) -> np.ndarray:
 
 __all__ = [
     "MATERIAL_COLOURS",
+    "NAVIGATION_FILES",
     "SCENE_FILES",
     "as_dn",
     "write_cubes",
     "write_endmembers",
+    "write_navigation",
     "write_scene",
     "write_truth_json",
     "write_truth_rasters",

@@ -189,8 +189,9 @@ def check_output_path(
             )
     if os.path.lexists(path) and not overwrite:
         raise OutputError(
-            f"{label} {path} already exists: choose another path, or pass --overwrite "
-            "(overwrite=True) to replace it"
+            f"{label} {path} already exists: choose another path, or pass overwrite=True to "
+            "replace it",
+            params=("overwrite",),
         )
     parent = os.path.dirname(real) or "."
     if not os.path.isdir(parent):
@@ -306,7 +307,10 @@ def atomic_output(
     """
     path = os.fspath(path)
     if os.path.lexists(path) and not overwrite:
-        raise OutputError(f"output {path} already exists: pass --overwrite to replace it")
+        raise OutputError(
+            f"output {path} already exists: pass overwrite=True to replace it",
+            params=("overwrite",),
+        )
     folder = os.path.dirname(os.path.abspath(path))
     sweep_stale(folder)
     if os.path.isdir(path) and not os.path.islink(path):

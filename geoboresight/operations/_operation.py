@@ -117,9 +117,15 @@ def check_paths(values: dict, inputs, outputs, overwrite: bool) -> list[str]:
         for path in _paths(values.get(name)):
             real = os.path.realpath(path)
             if real in seen:
-                raise OutputError(f"output '{name}' ({path}) is also given for another output")
+                raise OutputError(
+                    f"parameter '{name}' ({path}) is also given for another output",
+                    params=(name,),
+                )
             seen.add(real)
-            check_output_path(path, ins, overwrite=overwrite, label=f"output '{name}'")
+            try:
+                check_output_path(path, ins, overwrite=overwrite, label=f"parameter '{name}'")
+            except OutputError as exc:  # the faces name the parameter their own way
+                raise OutputError(str(exc), params=(*exc.params, name)) from None
             outs.append(path)
     return outs
 

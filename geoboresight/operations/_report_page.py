@@ -1,6 +1,6 @@
 """A self-contained HTML report of one scene: every application of the paper in one page.
 
-The report does no science of its own: it runs the operations (``ratio``, ``stats``,
+The report does no science of its own: it runs the operations (``ratio``, ``stats``, ``shadow-map``,
 ``shadow-classes``, ``shadow-cluster``, ``shadow-fraction-fit``, ``relative-dem``, ``view-3d``,
 ``rx``, ``svdd``, ``boresight-indicator``, ``roc``) through their specs, with flat values, as
 any face would (:func:`geoboresight.algorithms.execute`: the values are validated and grouped
@@ -70,6 +70,10 @@ class Section:
         """Why something is missing from the section."""
         self.parts.append({"kind": "note", "text": text})
 
+    def remark(self, text: str) -> None:
+        """What a step that ran warned about its result (a caveat, not a gap)."""
+        self.parts.append({"kind": "remark", "text": text})
+
     def table(self, rows, caption: str, header=("", "value")) -> None:
         """A two-column table of (label, value)."""
         self.parts.append(
@@ -83,7 +87,7 @@ class Section:
                 "kind": "descriptives",
                 "d": stats,
                 "title": stats["band_description"],
-                "source": f"{stats['input']}, band {stats['band']}",
+                "source": f"{os.path.basename(stats['input'])}, band {stats['band']}",
                 "histogram": png_data_uri(histogram)
                 if histogram and os.path.exists(histogram)
                 else None,
@@ -152,6 +156,13 @@ class Runner:
         return step
 
 
+#: Caption of a Table 2 class raster: class 1 is the deepest shadow (80–100 %).
+CLASS_CAPTION = (
+    "{what}, in Table 2's colours: class 1 (maroon) 80–100 % of the pixel in shadow, class 2 "
+    "(magenta) 50–80 %, class 3 (cyan) 20–50 %, class 4 (yellow) 10–20 %; class 0 no shadow. Lower class numbers are "
+    "deeper shadow."
+)
+
 #: Longest side (pixels) of the rasters drawn in the report's figures.
 QUICKLOOK_PX = 2000
 
@@ -215,12 +226,13 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
     from .dem import relative_dem_file, view_3d_file
     from .ratio import ratio_file
     from .shadow import shadow_classes_file, shadow_cluster_file, shadow_fraction_fit_file
+    from .shadow_map import shadow_map_file
     from .stats import stats_file
 
     dual = values["dual"]
     layout = values["layout"]
     detectors = [rx_file, svdd_file] if values.get("svdd") else [rx_file]
-    run = Runner(work_dir, progress, n_steps=10 + len(detectors))
+    run = Runner(work_dir, progress, n_steps=11 + len(detectors))
     sections = []
 
     # 1. Ratio and statistics (Eq. 3, Table 1, Figure 3)
@@ -252,21 +264,51 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
     # 2. Shadow (§3.1, Table 2, Figures 4 and 5)
     s = Section(
         "Shadow",
-        "Shadow classes from the ratio (Table 2), the shadow cluster in the ratio against 941 nm "
-        "scatter (Figure 4) and, with ground truth, the linear shadow-fraction model (Figure 5).",
+        "The shadow product (shadow-map): a shadow mask and Table 2's four shadow-fraction "
+        "classes, read relative to this scene's sunlit ratio. Table 2's fixed ratio thresholds "
+        "(shadow-classes) are shown only where they can mean what Table 2 says; the shadow "
+        "component in the ratio against 941 nm scatter (Figure 4) and, with ground truth, the "
+        "linear shadow-fraction model (Figure 5).",
     )
     sections.append(s)
+    smap = run.run(
+        s,
+        shadow_map_file,
+        dual,
+        output=run.path("shadow_map.tif"),
+        mask=run.path("shadow_map_mask.tif"),
+        layout=layout,
+        bands=values["bands"],
+    )
+    if smap.result:
+        s.figure(
+            raster_figure(
+                smap.result["output"],
+                "Shadow map (Table 2 classes on the scene's sunlit ratio)",
+                "class",
+                run.path("shadow_map.png"),
+            ),
+            CLASS_CAPTION.format(what="Shadow map"),
+        )
+        for w in smap.result.get("warnings", []):
+            s.remark(f"shadow-map: {w}")
     if ratio_path:
         classes = run.run(s, shadow_classes_file, ratio_path, output=run.path("shadow_classes.tif"))
-        if classes.result:
+        if classes.result and classes.result.get("warnings"):
+            s.remark(
+                "Table 2's fixed ratio thresholds are not shown: on this scene they cannot mean "
+                "what Table 2 says (" + "; ".join(classes.result["warnings"]) + "). The shadow "
+                "map above reads the same classes relative to the scene's sunlit ratio."
+            )
+        elif classes.result:
             s.figure(
                 raster_figure(
                     classes.result["output"],
-                    "Shadow classes (Table 2)",
+                    "Shadow classes, Table 2's fixed thresholds",
                     "class",
                     run.path("classes.png"),
                 ),
-                "Shadow classes in their colour table: higher classes are deeper shadow.",
+                CLASS_CAPTION.format(what="Table 2's fixed ratio thresholds"),
             )
         cluster = run.run(
             s,
@@ -278,10 +320,19 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
             vnir_wavelengths=layout.vnir_wavelengths,
         )
         if cluster.result:
+            warnings = cluster.result.get("warnings") or []
             s.figure(
                 cluster.result.get("plot"),
-                "Ratio against the 941 nm band: the isolated shadow cluster (Figure 4).",
+                "Ratio against the 941 nm band with the fitted shadow component (Figure 4)"
+                + (
+                    ": on this scene it is not a cluster of its own (see the note); the "
+                    "shadow map is the shadow product."
+                    if warnings
+                    else ": an isolated shadow cluster, as in the paper."
+                ),
             )
+            for w in warnings:
+                s.remark(f"shadow-cluster: {w}")
         if values.get("shadow_truth"):
             fit = run.run(
                 s,
@@ -294,12 +345,18 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
             if fit.result:
                 s.figure(
                     fit.result.get("plot"),
-                    "Shadow fraction against the ratio, with the fitted line (Figure 5).",
+                    "Boresight ratio against the true shadow fraction, with the line fitted on "
+                    "this scene (Figure 5). The paper's Figure 5B line (ratio = −0.74 · "
+                    "fraction + 1.31) is drawn for reference only: it was fitted on the ratio "
+                    "values of the paper's figure (0.57–1.31, falling with shadow), not on DN "
+                    "ratios like this scene's (about 2–4, rising with shadow), so its level and "
+                    "slope differ; what carries over is that the ratio is linear in the shadow "
+                    "fraction (compare the R²).",
                 )
         else:
             s.note("No ground-truth shadow fraction given: the Figure 5 model fit is left out.")
     else:
-        s.note("The shadow maps need the boresight ratio, which could not be computed.")
+        s.note("The shadow classes need the boresight ratio, which could not be computed.")
 
     # 3. Relative DEM (§3.2, Figure 9)
     s = Section(

@@ -33,7 +33,7 @@ def report_file(
 ) -> dict:
     """Write an HTML report of one scene: ratio statistics, shadow, relative DEM, anomalies.
 
-    Runs the operations (``ratio``, ``stats``, ``shadow-classes``, ``shadow-cluster``,
+    Runs the operations (``ratio``, ``stats``, ``shadow-map``, ``shadow-classes``, ``shadow-cluster``,
     ``shadow-fraction-fit``, ``relative-dem``, ``view-3d``, ``boresight-indicator``, ``rx``,
     ``svdd``, ``roc``) through their specs, as any face would, and lays out their figures and
     numbers (see :mod:`geoboresight.operations._report_page`). A step that cannot run becomes

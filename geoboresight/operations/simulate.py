@@ -56,6 +56,7 @@ def simulate_file(
     cloud_height=None,
     sensor=SensorOptions(),
     merged=False,
+    navigation=False,
     progress=None,
 ) -> dict:
     """Simulate a raw-geometry AISA-Dual scene (VNIR + SWIR) with its ground truth, into a folder.
@@ -90,6 +91,11 @@ def simulate_file(
         Noise-free DN (still rounded to 12 bits) and the rays per pixel side.
     merged : bool
         Also write ``merged.img/.hdr`` with all 198 bands.
+    navigation : bool
+        Also place the scene on a map (UTM 36N, heading 35°; see
+        :mod:`geoboresight.simulate.navigation`) and write ``igm.tif`` (easting and northing
+        of each VNIR pixel, for ``geolocate --igm``) and ``ortho.tif`` (an RGB orthophoto of
+        the ground, 1 m cells).
     progress : Progress, optional
 
     Returns
@@ -128,11 +134,17 @@ def simulate_file(
         cloud_height=cloud_height,
         noise_free=sensor.noise_free,
         supersample=sensor.supersample,
-        progress=progress.sub(0.0, 0.9),
+        progress=progress.sub(0.0, 0.8 if navigation else 0.9),
     )
-    progress.update(0.92, "writing files")
+    nav = None
+    if navigation:
+        from ..simulate.navigation import scene_navigation
+
+        progress.update(0.9, "orthophoto")
+        nav = scene_navigation(scene, seed=seed)
+    progress.update(0.95, "writing files")
     # The operation has refused an existing folder unless asked to overwrite it.
-    write_scene(scene, output, merged=merged, overwrite=True)
+    write_scene(scene, output, merged=merged, overwrite=True, navigation=nav)
     progress.update(1.0, "done")
     t = scene.truth
     sigma_h = t["height_precision_m_per_px"]  # None without squint: relief is invisible

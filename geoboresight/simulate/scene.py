@@ -116,7 +116,9 @@ class Scene:
     (dominant material id, names in ``material_names``), ``abundances`` (per material,
     ``abundance_names``; they sum to 1 with the target and cloud layers), and
     ``endmember_spectra`` (name → reflectance at the 198 band centres). ``truth`` is what
-    ``truth.json`` holds.
+    ``truth.json`` holds. ``ground_xy`` (2, lines, cols): each VNIR pixel's mean ground point
+    (m, track frame), ``surface`` and ``extent`` (x0, x1, y0, y1) the surface it was traced on:
+    what :func:`.navigation.scene_navigation` places on a map.
     """
 
     vnir: np.ndarray
@@ -135,6 +137,9 @@ class Scene:
     abundance_names: tuple
     endmember_spectra: dict
     truth: dict = field(repr=False)
+    ground_xy: np.ndarray | None = field(default=None, repr=False, compare=False)
+    surface: Surface | None = field(default=None, repr=False, compare=False)
+    extent: tuple | None = field(default=None, repr=False, compare=False)
 
     @property
     def wavelengths(self) -> np.ndarray:
@@ -453,6 +458,9 @@ def simulate_scene(
         abundance_names=ab_names,
         endmember_spectra={n: spectra[n].astype("float64") for n in ab_names},
         truth=truth_json,
+        ground_xy=np.stack([footprints["vnir"].x, footprints["vnir"].y]),
+        surface=surface,
+        extent=tuple(float(v) for v in extent),
     )
 
 
