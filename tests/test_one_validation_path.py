@@ -78,7 +78,12 @@ def _values(op: str, d: Path, **extra) -> dict:
 
 
 def _names(param: str) -> tuple[str, ...]:
-    return (f"'{param}'", "--" + param.replace("_", "-"), f" {param}")
+    """How each face names a parameter: Python 'name', the CLI --name, the engine (what QGIS
+    shows) the field's label, which is the spec's description."""
+    from geoboresight.algorithms import registry
+
+    labels = {p.description for a in registry().values() for p in a.params if p.name == param}
+    return (f"'{param}'", "--" + param.replace("_", "-"), f" {param}", *labels)
 
 
 def _refused(face: str, message: str, param: str) -> None:
