@@ -81,7 +81,9 @@ WHEELHOUSE ?= dist/wheelhouse
 ENGINE_PY ?= $(QGIS_PY)
 wheelhouse: $(VENV)/.installed
 	$(VENV)/bin/python -m build --wheel --outdir $(WHEELHOUSE) .
-	$(ENGINE_PY) -m pip download -q --only-binary :all: -d $(WHEELHOUSE) $(WHEELHOUSE)/geoboresight-$(VERSION)-py3-none-any.whl
+	$(VENV)/bin/pip download -q --only-binary :all: -d $(WHEELHOUSE) \
+	  --python-version $$($(ENGINE_PY) -c 'import sys; print("%d.%d" % sys.version_info[:2])') \
+	  $(WHEELHOUSE)/geoboresight-$(VERSION)-py3-none-any.whl
 
 # The library's wheel and sdist (what the plugin's setup tool installs), version from
 # geoboresight/__init__.py.
