@@ -257,7 +257,7 @@ def pip_failure(output: str, code: int, source: str, from_index: bool) -> str:
             "to the network (set a proxy with 'Extra pip options', e.g. --proxy "
             "http://host:port), or download the geoboresight wheel and its dependencies on "
             "another machine (pip download geoboresight -d <folder>) and choose that folder in "
-            f"'Or a folder of wheels' (pip: {tail})"
+            f"'Or a folder of wheels' (pip install --no-index --find-links <folder>) (pip: {tail})"
         )
     if from_index and _NOT_FOUND.search(output):
         return (
