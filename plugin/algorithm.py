@@ -40,7 +40,7 @@ from qgis.PyQt.QtGui import QIcon
 
 from . import compat, engine_client
 from .formats import is_product_path, product_filter
-from .styles import style_output
+from .styles import style_on_load, style_output
 
 PLUGIN_DIR = os.path.dirname(os.path.abspath(__file__))
 OUTPUT_KINDS = ("raster_out", "vector_out", "file_out", "folder_out")
@@ -488,7 +488,7 @@ class EngineAlgorithm(QgsProcessingAlgorithm):
     @staticmethod
     def _load_folder(folder: str, context, feedback) -> None:
         """An operation that writes a folder (simulate, simulate-ortho): its rasters are added
-        as layers, each named by its file and styled."""
+        as layers, each named by its file and styled (no sidecar written into the folder)."""
         from qgis.core import QgsProcessingContext
 
         if context is None or context.project() is None:
@@ -497,4 +497,4 @@ class EngineAlgorithm(QgsProcessingAlgorithm):
             details = QgsProcessingContext.LayerDetails(_stem(path), context.project(), "")
             details.forceName = True
             context.addLayerToLoadOnCompletion(path, details)
-            style_output(path, context, feedback)
+            style_on_load(path, context)  # no .qml written into the operation's folder

@@ -139,8 +139,35 @@ class LoadStyle(QgsProcessingLayerPostProcessorInterface):
             layer.triggerRepaint()
 
 
+def renderer_for(layer: QgsRasterLayer):
+    """The renderer :func:`write_style` would save, for a layer (None: keep QGIS's own)."""
+    if not layer.isValid() or layer.bandCount() < 1:
+        return None
+    return class_renderer(layer) if is_paletted(layer) else pseudocolor_renderer(layer)
+
+
+class StyleOnLoad(QgsProcessingLayerPostProcessorInterface):
+    """Style the layer Processing loads without writing a sidecar: for the rasters of a
+    folder output (simulate's files stay exactly as the library writes them)."""
+
+    def postProcessLayer(self, layer, context, feedback):  # noqa: N802 (QGIS's name)
+        if layer is not None and layer.isValid():
+            renderer = renderer_for(layer)
+            if renderer is not None:
+                layer.setRenderer(renderer)
+                layer.triggerRepaint()
+
+
+def style_on_load(path: str, context) -> None:
+    if context is not None and context.willLoadLayerOnCompletion(path):
+        post = StyleOnLoad()
+        _KEEP.append(post)
+        del _KEEP[:-64]
+        context.layerToLoadOnCompletionDetails(path).setPostProcessor(post)
+
+
 # Post-processors must outlive the algorithm run (QGIS holds only a C++ pointer to them).
-_KEEP: list[LoadStyle] = []
+_KEEP: list = []
 
 
 def style_output(path: str, context, feedback=None) -> str | None:

@@ -125,4 +125,5 @@ def test_layer_names_as_qgis_core_gives_them(provider, inputs, tmp_path):
     )
     names = sorted(lay.name() for lay in QgsProject.instance().mapLayers().values())
     assert names == ["igm", "orthophoto", "raw"], names
+    assert not list((tmp_path / "ortho").glob("*.qml"))  # the folder stays as the library wrote it
     QgsProject.instance().clear()
