@@ -14,7 +14,7 @@ PYTEST_ARGS ?=
 # (dynamic version) and plugin-zip stamps it into the plugin's metadata.txt.
 VERSION := $(shell sed -n 's/^__version__ = "\(.*\)"/\1/p' geoboresight/_version.py)
 
-.PHONY: demo test test-main test-qgis lint plugin-zip dist bench clean
+.PHONY: demo test test-main test-qgis lint plugin-zip wheelhouse dist bench clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -53,9 +53,11 @@ test-qgis: $(QVENV)/.installed $(VENV)/.installed  # the QGIS tests run .venv/bi
 lint: $(VENV)/.installed
 	$(VENV)/bin/ruff check . && $(VENV)/bin/ruff format --check .
 
-# The plugin zip: the plugin folder, LICENSE, metadata.txt with the library's version, and the
+# The plugin zip: the plugin folder, LICENSE, metadata.txt with the library's version, the
 # operation list (operations.json, from the engine's `engine describe`) so that the tools appear
-# before the user has set up an engine.
+# before the user has set up an engine, and the library's own wheel (wheels/, pure Python, a
+# few hundred kB) that "Set up the geoboresight engine" installs when no field is filled (its
+# dependencies then come from the package index). No tests, no sample data.
 plugin-zip: $(VENV)/.installed
 	@set -e; tmp=$$(mktemp -d); \
 	cp -R plugin $$tmp/geoboresight_qgis; \
@@ -63,10 +65,25 @@ plugin-zip: $(VENV)/.installed
 	cp LICENSE $$tmp/geoboresight_qgis/LICENSE; \
 	sed -i 's/^version=.*/version=$(VERSION)/' $$tmp/geoboresight_qgis/metadata.txt; \
 	$(VENV)/bin/geoboresight engine describe > $$tmp/geoboresight_qgis/operations.json; \
+	$(VENV)/bin/python -m build --wheel --outdir $$tmp/geoboresight_qgis/wheels . > $$tmp/build.log 2>&1 \
+	  || { cat $$tmp/build.log; exit 1; }; \
+	ls $$tmp/geoboresight_qgis/wheels/geoboresight-$(VERSION)-py3-none-any.whl > /dev/null; \
 	mkdir -p "$$(dirname $(PLUGIN_ZIP))"; rm -f $(PLUGIN_ZIP); \
 	zip="$$(cd "$$(dirname $(PLUGIN_ZIP))" && pwd)/$$(basename $(PLUGIN_ZIP))"; \
 	(cd $$tmp && $(PY) -m zipfile -c "$$zip" geoboresight_qgis); \
 	rm -rf $$tmp; echo "wrote $(PLUGIN_ZIP) (QGIS: Plugins > Manage and Install Plugins > Install from ZIP)"
+
+# A wheelhouse for installing the engine offline (or fast, in CI): the library's wheel and
+# every dependency's, for the Python that runs the engine (QGIS's on Windows/macOS,
+# /usr/bin/python3 here). Give the folder to the setup tool ("Or a folder of wheels") or in
+# GEOBORESIGHT_WHEELHOUSE.
+WHEELHOUSE ?= dist/wheelhouse
+ENGINE_PY ?= $(QGIS_PY)
+wheelhouse: $(VENV)/.installed
+	$(VENV)/bin/python -m build --wheel --outdir $(WHEELHOUSE) .
+	$(VENV)/bin/pip download -q --only-binary :all: -d $(WHEELHOUSE) \
+	  --python-version $$($(ENGINE_PY) -c 'import sys; print("%d.%d" % sys.version_info[:2])') \
+	  $(WHEELHOUSE)/geoboresight-$(VERSION)-py3-none-any.whl
 
 # The library's wheel and sdist (what the plugin's setup tool installs), version from
 # geoboresight/__init__.py.

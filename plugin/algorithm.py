@@ -40,7 +40,7 @@ from qgis.PyQt.QtGui import QIcon
 
 from . import compat, engine_client
 from .formats import is_product_path, product_filter
-from .styles import style_output
+from .styles import style_on_load, style_output
 
 PLUGIN_DIR = os.path.dirname(os.path.abspath(__file__))
 OUTPUT_KINDS = ("raster_out", "vector_out", "file_out", "folder_out")
@@ -245,6 +245,30 @@ def _stem(path: str) -> str:
     return os.path.splitext(os.path.basename(str(path)))[0]
 
 
+def _is_temporary_output(path: str) -> bool:
+    temp = os.path.abspath(QgsProcessingUtils.tempFolder())
+    return os.path.abspath(path).startswith(temp + os.sep)
+
+
+#: Files of a folder output added as layers: GeoTIFFs, and ENVI data files (``.img``) that
+#: have a header beside them.
+_FOLDER_RASTERS = (".tif", ".tiff", ".img")
+
+
+def folder_rasters(folder: str) -> list[str]:
+    """The rasters a folder output holds, in name order."""
+    found = []
+    for entry in sorted(os.listdir(folder)):
+        path = os.path.join(folder, entry)
+        stem, ext = os.path.splitext(entry)
+        if not os.path.isfile(path) or entry.startswith(".") or ext.lower() not in _FOLDER_RASTERS:
+            continue
+        if ext.lower() == ".img" and not os.path.isfile(os.path.join(folder, stem + ".hdr")):
+            continue
+        found.append(path)
+    return found
+
+
 def _warn_without_crs(path: str, feedback) -> None:
     """A raster in raw sensor geometry opens in a project that stays in EPSG:4326 (pixels read
     as degrees, the 3D view refuses it) and QGIS warns about nothing: say so once."""
@@ -435,7 +459,6 @@ class EngineAlgorithm(QgsProcessingAlgorithm):
             outputs[key] = value
             if key not in outputs_by_name:
                 feedback.pushInfo(f"{key}: {value}")
-        source = self._input_stem(values)
         for name, p in outputs_by_name.items():
             path = outputs.get(name)
             if not path:
@@ -443,27 +466,35 @@ class EngineAlgorithm(QgsProcessingAlgorithm):
             if p["kind"] == "raster_out":
                 style_output(path, context, feedback)
                 _warn_without_crs(path, feedback)
-            self._name_layer(path, p, source, context)
+                self._name_layer(path, p, context)
+            elif p["kind"] == "vector_out":
+                self._name_layer(path, p, context)
+            elif p["kind"] == "folder_out" and os.path.isdir(path):
+                self._load_folder(path, context, feedback)
         return outputs
 
-    def _input_stem(self, values: dict) -> str:
-        for p in self.spec["params"]:
-            if p["kind"] in ("raster", "multiraster", "file") and values.get(p["name"]):
-                value = values[p["name"]]
-                return _stem(value[0] if isinstance(value, list) else value)
-        return ""
-
-    def _name_layer(self, path: str, p: dict, source: str, context) -> None:
-        """Layer names from the output and the input ("Boresight band ratio (vnir)"), not the
-        output's description. A file the user named keeps QGIS's own rule (the file name,
-        by default); a temporary output always gets this name."""
+    @staticmethod
+    def _name_layer(path: str, p: dict, context) -> None:
+        """Layer names as QGIS core algorithms give them: a file the user named keeps its file
+        name (``dem.tif`` loads as "dem", so the outputs of a batch run stay distinct), a
+        temporary output gets the output's display name. QGIS alone would give a named file in
+        a temporary folder (``/tmp``) the output's display name too: the file name is forced."""
         if context is None or not context.willLoadLayerOnCompletion(path):
             return
-        label = self.displayName()
-        if p["name"] != "output":
-            label = f"{label} – {p['name'].replace('_', ' ')}"
         details = context.layerToLoadOnCompletionDetails(path)
-        details.name = f"{label} ({source})" if source else label
-        temp = QgsProcessingUtils.tempFolder()
-        if os.path.abspath(path).startswith(os.path.abspath(temp)):
+        details.name = p["description"] if _is_temporary_output(path) else _stem(path)
+        details.forceName = True
+
+    @staticmethod
+    def _load_folder(folder: str, context, feedback) -> None:
+        """An operation that writes a folder (simulate, simulate-ortho): its rasters are added
+        as layers, each named by its file and styled (no sidecar written into the folder)."""
+        from qgis.core import QgsProcessingContext
+
+        if context is None or context.project() is None:
+            return
+        for path in folder_rasters(folder):
+            details = QgsProcessingContext.LayerDetails(_stem(path), context.project(), "")
             details.forceName = True
+            context.addLayerToLoadOnCompletion(path, details)
+            style_on_load(path, context)  # no .qml written into the operation's folder

@@ -97,6 +97,21 @@ class GeoboresightProvider(QgsProcessingProvider):
             self.addAlgorithm(EngineAlgorithm(spec, self.problem))
         self.addAlgorithm(SetupEngineAlgorithm())
 
+    def use_new_engine(self) -> None:
+        """After the setup tool: take the new engine. When its operation list is the one
+        already shown (the usual case: the zip's list is the engine's), the algorithms are
+        updated in place, so the Processing Toolbox keeps its expanded groups (a full
+        refresh rebuilds and collapses the tree); otherwise the provider is refreshed."""
+        old = self.description
+        new = self.operation_list()
+        if old is None or old.get("algorithms") != new.get("algorithms"):
+            self.refreshAlgorithms()
+            return
+        self.description = new
+        for alg in self.algorithms():
+            if isinstance(alg, EngineAlgorithm):
+                alg.engine_note = self.problem
+
     # The engine writes GeoTIFF rasters and GeoPackage/GeoJSON vectors itself.
     def supportedOutputRasterLayerExtensions(self):  # noqa: N802
         return ["tif"]

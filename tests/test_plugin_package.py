@@ -68,6 +68,21 @@ def test_zip_passes_the_repository_rules(plugin_zip):
         general = dict(meta.items("general"))
         assert f"{package}/{general['icon']}" in names
         ops = json.loads(z.read(f"{package}/operations.json"))
+        # the engine's wheel, for a one-click setup; no tests, no sample data
+        wheels = [n for n in names if n.startswith(f"{package}/wheels/")]
+        assert wheels == [
+            f"{package}/wheels/",
+            f"{package}/wheels/geoboresight-{geoboresight.__version__}-py3-none-any.whl",
+        ] or wheels == [
+            f"{package}/wheels/geoboresight-{geoboresight.__version__}-py3-none-any.whl"
+        ]
+        wheel = z.read(wheels[-1])
+        assert not [n for n in names if "/tests/" in n or "sample_data" in n or n.endswith(".img")]
+    with zipfile.ZipFile(io.BytesIO(wheel)) as w:
+        inside = w.namelist()
+        assert "geoboresight/cli.py" in inside and "geoboresight/engine.py" in inside
+        assert not [n for n in inside if n.startswith(("tests/", "sample_data/"))]
+    assert plugin_zip.stat().st_size < 2_000_000  # small: the dependencies come from pip
     for key in REQUIRED:
         assert general.get(key, "").strip(), key
     for key in ("tracker", "repository", "homepage"):

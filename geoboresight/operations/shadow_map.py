@@ -247,10 +247,7 @@ def shadow_map_file(
             f"sunlit ratio {cal.ratio_mode:.3f}: Table 2's ratio bounds on this scene would be × "
             f"{cal.ratio_mode / smap.PAPER_SUNLIT_RATIO:.3f}: {cal.table.describe()}"
         )
-        fraction_classes = "; ".join(
-            f"{c.id}: {100 * c.fraction_min:g}–{100 * c.fraction_max:g} % shadow ({c.name})"
-            for c in cal.table.classes
-        )
+        fraction_classes = "; ".join(f"{c.id}: {cls.fraction_text(c)}" for c in cal.table.classes)
         # Pass 2: the map, strip by strip (shadow.map.shadow_map_block); the halo covers the
         # SWIR shift and the edge search.
         read = io.bands_reader(

@@ -127,10 +127,17 @@ class ClassTable:
     def describe(self) -> str:
         """One line per class, for logs and band metadata."""
         return "; ".join(
-            f"{c.id}: ratio {format_ratio(c.min)}–{format_ratio(c.max)} → {c.fraction_min * 100:g}–"
-            f"{c.fraction_max * 100:g} % shadow ({c.name})"
+            f"{c.id}: ratio {format_ratio(c.min)}–{format_ratio(c.max)} → {fraction_text(c)}"
             for c in self.classes
         )
+
+
+def fraction_text(c) -> str:
+    """ "80–100 % shadow", with the class's name after it only when the name says something
+    else (one name per class, not "80–100 % shadow (80-100 % shadow)")."""
+    text = f"{c.fraction_min * 100:g}–{c.fraction_max * 100:g} % shadow"
+    same = c.name.replace("–", "-").split() == text.replace("–", "-").split()
+    return text if same else f"{text} ({c.name})"
 
 
 def format_ratio(x: float) -> str:

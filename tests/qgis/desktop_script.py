@@ -124,6 +124,105 @@ def dialog_check(processing):
     iface.mainWindow().grab().save(JOB["screenshot"])
 
 
+def toolbox_node(text):
+    """The Processing Toolbox's tree view and the index of its top-level node ``text``."""
+    from qgis.PyQt.QtWidgets import QDockWidget, QTreeView
+
+    dock = iface.mainWindow().findChild(QDockWidget, "ProcessingToolbox")
+    view = dock.findChild(QTreeView) if dock is not None else None
+    if view is None:
+        return None, None
+    model = view.model()
+    for row in range(model.rowCount()):
+        index = model.index(row, 0)
+        if str(model.data(index)).startswith(text):
+            return view, index
+    return view, None
+
+
+def newcomer(processing):
+    """Setup with no field filled (the zip's wheel; dependencies from the package index, or
+    from $GEOBORESIGHT_WHEELHOUSE), the toolbox kept expanded, then Plugins > geoboresight >
+    Open the sample scene: its products on its orthophoto, and a screenshot of the map."""
+    import qgis.utils
+    from qgis.core import QgsProcessingFeedback
+
+    lines, texts = [], []
+
+    class Feedback(QgsProcessingFeedback):
+        def pushInfo(self, info):  # noqa: N802
+            lines.append(info)
+
+        def pushConsoleInfo(self, info):  # noqa: N802
+            lines.append(info)
+
+        def setProgressText(self, text):  # noqa: N802
+            texts.append(text)
+
+    view, node = toolbox_node("geoboresight")
+    if view is not None and node is not None:
+        view.expand(node)
+    start = time.monotonic()
+    try:
+        result = processing.run("geoboresight:setup-engine", {}, feedback=Feedback())
+        setup = {"ok": True, "result": {k: str(v) for k, v in result.items()}}
+    except Exception as exc:
+        setup = {"ok": False, "error": str(exc)}
+    setup.update(seconds=time.monotonic() - start, log=lines, progress_texts=texts)
+    spin(0.5)
+    view, node = toolbox_node("geoboresight")
+    setup["toolbox_expanded"] = bool(
+        view is not None and node is not None and view.isExpanded(node)
+    )
+    REPORT["setup"] = setup
+    step("setup")
+    if not setup["ok"]:
+        return
+    plugin = qgis.utils.plugins["geoboresight_qgis"]
+    REPORT["menu"] = [
+        sub.text()
+        for a in iface.pluginMenu().actions()
+        if a.menu() is not None and a.text() == "geoboresight"
+        for sub in a.menu().actions()
+    ]
+    QgsProject.instance().clear()
+    start = time.monotonic()
+    plugin.sample_action.trigger()  # Plugins > geoboresight > Open the sample scene
+    spin(900, lambda: plugin.task is None and hasattr(plugin, "last_tour"))
+    tour = getattr(plugin, "last_tour", None)
+    REPORT["tour"] = {
+        "seconds": time.monotonic() - start,
+        "error": None if tour is None else tour.error,
+        "files": None if tour is None else tour.files,
+    }
+    layers = list(QgsProject.instance().mapLayers().values())
+    REPORT["tour"]["layers"] = [
+        {
+            "name": lay.name(),
+            "crs": lay.crs().authid(),
+            "renderer": lay.renderer().type(),
+            "classes": [(c.value, c.label, c.color.alpha()) for c in lay.renderer().classes()]
+            if lay.renderer().type() == "paletted"
+            else None,
+        }
+        for lay in layers
+    ]
+    REPORT["tour"]["project_crs"] = QgsProject.instance().crs().authid()
+    canvas = iface.mapCanvas()
+    canvas.refresh()
+    spin(10.0, lambda: not canvas.isDrawing())
+    spin(1.0)
+    image = canvas.grab().toImage()
+    image.save(JOB["tour_shot"])
+    colours = {
+        image.pixel(x, y)
+        for x in range(0, image.width(), max(1, image.width() // 60))
+        for y in range(0, image.height(), max(1, image.height() // 60))
+    }
+    REPORT["tour"]["canvas_colours"] = len(colours)
+    step("tour")
+
+
 def main():
     import pyplugin_installer
 
@@ -147,6 +246,8 @@ def main():
     except Exception as exc:
         REPORT["no_engine_error"] = str(exc)
     step("no engine")
+
+    newcomer(processing)
 
     os.environ["GEOBORESIGHT_ENGINE"] = JOB["engine"]
     QgsApplication.processingRegistry().providerById("geoboresight").refreshAlgorithms()

@@ -3,7 +3,11 @@ HOME and --profiles-path), QGIS's own Python with no geoboresight and no PYTHONP
 
 In one QGIS process (desktop_script.py): install the zip as *Install from ZIP* does; the tools
 are listed at once (the operation list shipped in the zip) and running one without an engine
-says how to set it up; with the engine, every operation through ``processing.run``, compared
+says how to set it up; the newcomer's path: "Set up the geoboresight engine" with no field
+filled (the zip's wheel, its dependencies from the package index, or from the wheelhouse in
+$GEOBORESIGHT_WHEELHOUSE when set, e.g. CI's `make wheelhouse`), then *Plugins ▸ geoboresight
+▸ Open the sample scene*: the sample scene's products on its orthophoto, their layer names,
+a map canvas that is not blank; then, with the project's engine, every operation through ``processing.run``, compared
 here with the library's own outputs; the ratio dialog opens with its help, runs, and adds its
 layer styled; a screenshot that is not blank; and after all that, none of geoboresight,
 rasterio, shapely, pyproj, scikit-learn or matplotlib in QGIS's ``sys.modules`` and only the
@@ -14,6 +18,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import subprocess
 
@@ -68,6 +73,7 @@ def desktop(tmp_path_factory, inputs):
         "screenshot": str(root / "screen.png"),
         "dialog_shot": str(root / "dialog.png"),
         "canvas_shot": str(root / "canvas.png"),
+        "tour_shot": str(root / "tour.png"),
     }
     (root / "job.json").write_text(json.dumps(job))
     home = root / "home"
@@ -95,7 +101,7 @@ def desktop(tmp_path_factory, inputs):
         env=env,
         capture_output=True,
         text=True,
-        timeout=1200,
+        timeout=2400,
     )
     report_path = root / "report.json"
     assert report_path.exists(), (run.returncode, run.stderr[-3000:])
@@ -114,6 +120,43 @@ def test_install_from_zip_lists_the_tools_at_once(desktop):
     assert report["listed_with_engine"] == expected
     text = report["no_engine_error"]
     assert text and "not set up yet" in text and "Set up the geoboresight engine" in text
+
+
+def test_the_newcomers_path_setup_then_the_sample_scene_on_its_map(desktop):
+    """No field filled in the setup tool, then the tour; figures in docs/qgis.md."""
+    report, *_ = desktop
+    setup = report["setup"]
+    assert setup["ok"], (setup.get("error"), setup["log"][-20:])
+    log = "\n".join(setup["log"])
+    assert "installing the geoboresight wheel that came with the plugin" in log or (
+        os.environ.get("GEOBORESIGHT_WHEELHOUSE") and "installing offline from the wheels" in log
+    ), log[-3000:]
+    assert "Successfully installed" in log
+    assert re.search(r"engine: \d+ MB on disk", log), log[-2000:]
+    assert float(setup["result"]["SIZE_MB"]) > 50
+    texts = setup["progress_texts"]  # pip's stages, n of m where known
+    assert any(t.startswith("pip: collecting package") for t in texts), texts[:20]
+    assert any(re.match(r"pip: installing \d+ packages", t) for t in texts), texts
+    assert any(re.match(r"pip: installed \d+ of \d+ packages", t) for t in texts), texts
+    assert setup["toolbox_expanded"], "the setup collapsed the Processing Toolbox"
+    print(f"setup: {setup['seconds']:.0f} s, {setup['result']['SIZE_MB']} MB")
+    assert "Open the sample scene" in " ".join(report["menu"])
+    tour = report["tour"]
+    assert tour["error"] in (None, ""), tour["error"]
+    names = [lay["name"] for lay in tour["layers"]]
+    assert sorted(names) == ["boresight ratio", "orthophoto", "shadow classes"], names
+    crs = {lay["crs"] for lay in tour["layers"]}
+    assert len(crs) == 1 and crs.pop().startswith("EPSG:326"), tour["layers"]
+    assert tour["project_crs"] == tour["layers"][0]["crs"]
+    shadow = next(lay for lay in tour["layers"] if lay["name"] == "shadow classes")
+    background = [c for c in shadow["classes"] if c[0] == 0]
+    assert background and background[0][2] == 0, shadow["classes"]  # "no shadow" transparent
+    labels = [c[1] for c in shadow["classes"]]
+    assert all("(" not in label for label in labels), labels  # one name per class
+    ratio = next(lay for lay in tour["layers"] if lay["name"] == "boresight ratio")
+    assert ratio["renderer"] == "singlebandpseudocolor"
+    assert tour["canvas_colours"] > 20, tour  # the overlay is drawn: not a blank canvas
+    print(f"tour: {tour['seconds']:.0f} s")
 
 
 @pytest.mark.parametrize("name", list(registry()))

@@ -64,3 +64,66 @@ def test_classes_keep_their_colour_table(provider, tmp_path):
     shown = {c.value: c.color.getRgb() for c in layer.renderer().classes()}
     for value in (1, 2, 3, 4):
         assert shown[value] == colours[value]
+
+
+def test_background_class_is_transparent_and_each_class_has_one_name(provider, tmp_path):
+    """The shadow classes lie over a map: class 0 ("no shadow") is transparent, not white;
+    a label that repeats its own name in parentheses is said once."""
+    import geoboresight_qgis.styles as styles
+    from qgis.core import QgsRasterLayer
+
+    path = str(tmp_path / "shadow.tif")
+    colours = {0: (255, 255, 255, 255), 1: (128, 0, 0, 255), 2: (255, 0, 255, 255)}
+    classes = np.array([[0, 1, 2, 0]] * 4, dtype="uint8")
+    write_raster(path, classes, nodata=255, dtype="uint8", colormap=colours)
+    names = "".join(
+        f"<Category>{n}</Category>" for n in ("no shadow", "80-100 % shadow", "50-80 % shadow")
+    )
+    with open(path + ".aux.xml", "w") as f:  # category names, as the library writes them
+        f.write(
+            '<PAMDataset><PAMRasterBand band="1"><CategoryNames>'
+            f"{names}</CategoryNames></PAMRasterBand></PAMDataset>"
+        )
+    assert styles.style_output(path, None) is not None
+    layer = QgsRasterLayer(path, "classes", "gdal")
+    shown = {c.value: (c.label, c.color.alpha()) for c in layer.renderer().classes()}
+    assert shown == {0: ("no shadow", 0), 1: ("80-100 % shadow", 255), 2: ("50-80 % shadow", 255)}
+    assert styles.class_label("80–100 % shadow (80-100 % shadow)") == "80–100 % shadow"
+    assert styles.class_label("water (deep)") == "water (deep)"
+    assert styles.is_background(0, "background") and not styles.is_background(3, "no shadow")
+    assert not styles.is_background(0, "urban")
+
+
+def test_layer_names_as_qgis_core_gives_them(provider, inputs, tmp_path):
+    """A named output keeps its file name (two batch outputs, two names; also under /tmp,
+    which QGIS counts as temporary), a temporary output the output's display name, and a
+    folder output (simulate) adds its rasters as layers."""
+    import processing
+    from qgis.core import QgsProject
+
+    QgsProject.instance().clear()
+    for nm in (920, 900):
+        processing.runAndLoadResults(
+            "geoboresight:ratio",
+            {
+                "vnir": inputs.scene["vnir"],
+                "swir": inputs.scene["swir"],
+                "vnir_nm": nm,
+                "output": str(tmp_path / f"batch_ratio_{nm}.tif"),
+            },
+        )
+    processing.runAndLoadResults(
+        "geoboresight:ratio",
+        {"vnir": inputs.scene["vnir"], "swir": inputs.scene["swir"], "output": "TEMPORARY_OUTPUT"},
+    )
+    names = sorted(lay.name() for lay in QgsProject.instance().mapLayers().values())
+    assert names == ["Boresight ratio raster (GeoTIFF)", "batch_ratio_900", "batch_ratio_920"]
+    QgsProject.instance().clear()
+    processing.runAndLoadResults(
+        "geoboresight:simulate-ortho",
+        {"preset": 0, "lines": 16, "seed": 1, "output": str(tmp_path / "ortho")},
+    )
+    names = sorted(lay.name() for lay in QgsProject.instance().mapLayers().values())
+    assert names == ["igm", "orthophoto", "raw"], names
+    assert not list((tmp_path / "ortho").glob("*.qml"))  # the folder stays as the library wrote it
+    QgsProject.instance().clear()
