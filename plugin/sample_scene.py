@@ -6,11 +6,13 @@ wins, from:
 
 1. a ``geoboresight_sample/`` folder shipped with the engine (in its site-packages) or put in
    the profile (``<profile>/geoboresight/geoboresight_sample/``), holding ``vnir.hdr``,
-   ``swir.hdr`` and, when the scene has them, its IGM (``igm.hdr``) and ``orthophoto.tif``;
+   ``swir.hdr`` and, when the scene has them, its IGM (``igm.tif``) and orthophoto
+   (``ortho.tif``);
 2. the engine itself: ``simulate`` with the sample recipe (``--preset mixed --lines 192 --seed 4
-   --geometry large-squint --clouds 1``, the recipe of ``sample_data/scene``) into the profile
-   folder, and, for a scene without its own IGM and orthophoto, ``simulate-ortho`` (the same
-   preset, lines and seed) for a simulated IGM and orthophoto in UTM.
+   --geometry large-squint --clouds 1 --navigation``, the recipe of ``sample_data/scene``, which
+   writes the scene's own IGM and orthophoto) into the profile folder; for a scene without
+   them, ``simulate-ortho`` (the same preset, lines and seed) for a simulated IGM and
+   orthophoto in UTM.
 
 Then, through the engine: the boresight ratio and the shadow map of the raw line, each put on
 the map with ``geolocate`` and the IGM, and the orthophoto and both products are added as
@@ -31,7 +33,14 @@ from .styles import write_style
 
 FOLDER_NAME = "geoboresight_sample"
 #: The sample scene's recipe (sample_data/README.md).
-RECIPE = {"preset": "mixed", "lines": 192, "seed": 4, "geometry": "large-squint", "clouds": 1}
+RECIPE = {
+    "preset": "mixed",
+    "lines": 192,
+    "seed": 4,
+    "geometry": "large-squint",
+    "clouds": 1,
+    "navigation": True,  # igm.tif and ortho.tif: the scene's own map placement
+}
 #: A simulated IGM and orthophoto for a scene that comes without its own.
 ORTHO_RECIPE = {"preset": "mixed", "lines": 192, "seed": 4}
 #: The layers of the tour, bottom to top: (key, layer name, opacity).
@@ -104,7 +113,7 @@ def prepare(engine, feedback=None, folder: str | None = None) -> dict:
             os.path.join(scene, "vnir.hdr"),
         )
     igm = _first(scene, ("igm.hdr", "igm.tif"))
-    ortho = _first(scene, ("orthophoto.tif",))
+    ortho = _first(scene, ("ortho.tif", "orthophoto.tif"))
     own = igm is not None and ortho is not None
     if not own:
         place = os.path.join(folder, "ortho")
