@@ -258,8 +258,14 @@ def simulate2(
     swir_gain=1.0,
     adjacency=0.5,
     noise=True,
+    target_abundance=None,
+    target_reflectance=0.30,
 ) -> Scene2:
-    """One scene. Azimuth clockwise from north (row 0) towards the sun; offsets in pixels."""
+    """One scene. Azimuth clockwise from north (row 0) towards the sun; offsets in pixels.
+
+    ``target_abundance`` (rows, cols), optional: sub-pixel targets of flat reflectance
+    ``target_reflectance`` mixed linearly into each pixel's reflectance with that fill
+    fraction, before illumination and the sensors (the SWIR sees them through its offset)."""
     rng = np.random.default_rng(seed)
     dsm, mat, terrain = _layout(rng, rows, cols, relief_m, buildings, trees)
     spectra = material_spectra(rng)
@@ -268,6 +274,9 @@ def simulate2(
     for k, s in spectra.items():
         m = mat == k
         refl[:, m] = s[:, None] * bright[m][None, :]
+    if target_abundance is not None:
+        a = np.asarray(target_abundance, np.float32)[None]
+        refl = (1 - a) * refl + a * np.float32(target_reflectance)
     shadow = _cast(dsm, gsd, sun_zenith, sun_azimuth)
     svf = _sky_view(dsm, gsd)
     # self-shading of terrain slopes (cos i / cos z), roofs flat

@@ -5,9 +5,13 @@ from __future__ import annotations
 import dataclasses
 
 from .. import io
+from ..anomaly.bands import WATER_BANDS_NM, BandSelection
+from ..anomaly.physical import TARGET_CONTRAST, TARGET_FRACTION, Detectability
+from ..io.bands import BoresightOffset
+from ..io.dark import DarkLevels
 from ..io.dual import SEAM_NM, SWIR_NM, TOLERANCE_NM, VNIR_NM, BandChoice, DualLayout
 from ..io.products import FILE_FORMATS
-from .spec import Enum, Group, Number, RasterIn, Text, Wavelength
+from .spec import Enum, Flag, Group, Number, RasterIn, Result, Text, Wavelength
 
 VNIR = RasterIn(
     name="vnir",
@@ -151,3 +155,138 @@ def sample_size(
         integer=True,
         advanced=advanced,
     )
+
+
+#: The dark levels the user gives (io.DarkLevels); empty = product, header or estimated.
+DARK = Group(
+    name="dark",
+    value=DarkLevels,
+    params=(
+        Number(
+            name="vnir_dark",
+            description="VNIR dark level (DN of zero signal; empty = from the header or estimated; 0 for radiance)",
+            optional=True,
+            unit="DN",
+            advanced=True,
+        ),
+        Number(
+            name="swir_dark",
+            description="SWIR dark level (DN of zero signal; empty = from the header or estimated; 0 for radiance)",
+            optional=True,
+            unit="DN",
+            advanced=True,
+        ),
+    ),
+)
+
+#: The boresight offset the user gives (BoresightOffset); empty = measured.
+OFFSET = Group(
+    name="offset",
+    value=BoresightOffset,
+    params=(
+        Number(
+            name="offset_along",
+            description="Boresight offset of the SWIR along-track (px; empty = measured)",
+            optional=True,
+            unit="px",
+            advanced=True,
+        ),
+        Number(
+            name="offset_across",
+            description="Boresight offset of the SWIR across-track (px; empty = measured)",
+            optional=True,
+            unit="px",
+            advanced=True,
+        ),
+    ),
+)
+
+
+#: The target whose detectability (expected d′) each detector reports.
+DETECTABILITY = Group(
+    name="detectability",
+    value=Detectability,
+    params=(
+        Number(
+            name="target_fraction",
+            description="Detectability: the target's fill fraction of a pixel (0–1]",
+            default=TARGET_FRACTION,
+            minimum=1e-4,
+            maximum=1.0,
+            advanced=True,
+        ),
+        Number(
+            name="target_contrast",
+            description="Detectability: the target's contrast, signal above dark relative to the background's minus 1 (e.g. -0.3: 30 % darker)",
+            default=TARGET_CONTRAST,
+            minimum=-1.0,
+            maximum=100.0,
+            advanced=True,
+        ),
+    ),
+)
+
+COREGISTER = Flag(
+    name="coregister",
+    description="Shift the SWIR onto the VNIR grid by the boresight offset first (measured, or given)",
+    default=True,
+)
+
+#: Co-registration, dark levels and detectability: what RX and SVDD add to the image.
+CHAIN_PARAMS = (COREGISTER, OFFSET, DARK, DETECTABILITY)
+
+DPRIME_RESULTS = (
+    Result("coregistered", "boolean", "SWIR co-registered onto the VNIR grid"),
+    Result("offset_along_px", "number", "Boresight offset removed, along-track (px)"),
+    Result("offset_across_px", "number", "Boresight offset removed, across-track (px)"),
+    Result("dprime", "number", "Expected d′ of the given target (measured noise and clutter)"),
+    Result("dprime_low", "boolean", "d′ below 3: such targets are not detectable"),
+)
+
+GREY_RESULT = Result(
+    "dprime_grey", "number", "Expected d′ of a grey target (its change along brightness)"
+)
+
+
+#: The bands per-pixel spectral work uses, by wavelength (anomaly.bands.BandSelection).
+SPECTRAL = Group(
+    name="spectral",
+    value=BandSelection,
+    params=(
+        Text(
+            name="include_nm",
+            description="Use only bands in these wavelength ranges, e.g. '400-900,1000-1300' (empty: all)",
+            default="",
+            optional=True,
+        ),
+        Text(
+            name="exclude_nm",
+            description="Leave out bands in these wavelength ranges (default: water-vapour absorption)",
+            default=WATER_BANDS_NM,
+            optional=True,
+        ),
+    ),
+)
+
+IMAGE_PARAMS = (
+    RasterIn(
+        name="vnir",
+        description=(
+            "VNIR image (ENVI .hdr/.img or GeoTIFF), a merged VNIR+SWIR cube, or a sensor "
+            "product holding both (EnMAP L1B, PRISMA L1): every good band is used"
+        ),
+        aliases=("image",),
+    ),
+    RasterIn(
+        name="swir",
+        description="SWIR image on the same pixel grid (its bands stacked after the VNIR bands; leave empty for a merged cube or a product)",
+        optional=True,
+    ),
+    # VNIR and SWIR are stacked whole: a seam is never needed, band centres may be.
+    Group(
+        name="layout",
+        value=DualLayout,
+        params=tuple(p for p in LAYOUT.params if p.name != "seam_nm"),
+    ),
+    SPECTRAL,
+)

@@ -6,16 +6,17 @@ Declarations only; the work is done by :mod:`geoboresight.operations.anomaly`.
 
 from __future__ import annotations
 
-from ..anomaly.bands import WATER_BANDS_NM, BandSelection
 from ..anomaly.indicator import TAILS, THRESHOLD
+from ..anomaly.physical import SIGNS
+from ..anomaly.physical import WINDOW as DIPOLE_WINDOW
 from ..anomaly.polygons import GEOMETRIES
 from ..anomaly.roc import PFA, TITLE
 from ..anomaly.rx import INNER, MODES, OUTER, PRECISIONS, RXBackground
 from ..anomaly.svdd import NU, SAMPLE_SIZE
 from ..anomaly.unmix import METHODS
-from ..io.dual import DualLayout
 from ..operations.anomaly import (
     CUBE_BLOCK_ROWS,
+    INDICATOR_METHODS,
     anomaly_polygons_file,
     boresight_indicator_file,
     roc_file,
@@ -23,7 +24,20 @@ from ..operations.anomaly import (
     svdd_file,
     unmix_file,
 )
-from ._common import BLOCK_ROWS, LAYOUT, block_rows, sample_size, seed
+from ._common import (
+    BLOCK_ROWS,
+    CHAIN_PARAMS,
+    DARK,
+    DETECTABILITY,
+    DPRIME_RESULTS,
+    GREY_RESULT,
+    IMAGE_PARAMS,
+    LAYOUT,
+    OFFSET,
+    block_rows,
+    sample_size,
+    seed,
+)
 from .spec import (
     Algorithm,
     Enum,
@@ -39,49 +53,6 @@ from .spec import (
     VectorOut,
 )
 
-#: The bands per-pixel spectral work uses, by wavelength (anomaly.bands.BandSelection).
-SPECTRAL = Group(
-    name="spectral",
-    value=BandSelection,
-    params=(
-        Text(
-            name="include_nm",
-            description="Use only bands in these wavelength ranges, e.g. '400-900,1000-1300' (empty: all)",
-            default="",
-            optional=True,
-        ),
-        Text(
-            name="exclude_nm",
-            description="Leave out bands in these wavelength ranges (default: water-vapour absorption)",
-            default=WATER_BANDS_NM,
-            optional=True,
-        ),
-    ),
-)
-
-IMAGE_PARAMS = (
-    RasterIn(
-        name="vnir",
-        description=(
-            "VNIR image (ENVI .hdr/.img or GeoTIFF), a merged VNIR+SWIR cube, or a sensor "
-            "product holding both (EnMAP L1B, PRISMA L1): every good band is used"
-        ),
-        aliases=("image",),
-    ),
-    RasterIn(
-        name="swir",
-        description="SWIR image on the same pixel grid (its bands stacked after the VNIR bands; leave empty for a merged cube or a product)",
-        optional=True,
-    ),
-    # VNIR and SWIR are stacked whole: a seam is never needed, band centres may be.
-    Group(
-        name="layout",
-        value=DualLayout,
-        params=tuple(p for p in LAYOUT.params if p.name != "seam_nm"),
-    ),
-    SPECTRAL,
-)
-
 #: Per-pixel spectral work reads every band of a strip: few lines at a time.
 CUBE_BLOCK = block_rows(CUBE_BLOCK_ROWS)
 
@@ -91,6 +62,8 @@ RX = Algorithm(
     results=(
         Result("bands", "number", "Bands used"),
         Result("background_pixels", "number", "Background pixels"),
+        *DPRIME_RESULTS,
+        GREY_RESULT,
     ),
     display_name="RX anomaly detector",
     group="Anomaly",
@@ -107,6 +80,11 @@ RX = Algorithm(
         "guard window), the covariance is still the scene's.\n\n"
         "If the covariance is singular (constant or duplicated bands) the run stops and names the "
         "bands; exclude them, or set 'regularize' to add a small ridge (it changes the scores).\n\n"
+        "Co-registration (default on): with VNIR and SWIR files (or a product) the SWIR bands "
+        "are first shifted onto the VNIR grid by the boresight offset (measured, or given), so a "
+        "sub-pixel target's two signals fall in one pixel; --no-coregister keeps the raw "
+        "geometry. Detectability: the expected d′ of a target (target_fraction, "
+        "target_contrast) from the scene's statistics and dark levels; a warning below 3.\n\n"
         "Output: float32 GeoTIFF score map on the image grid, nodata -9999."
     ),
     params=(
@@ -156,6 +134,7 @@ RX = Algorithm(
             default="float64",
             advanced=True,
         ),
+        *CHAIN_PARAMS,
         CUBE_BLOCK,
         RasterOut(name="output", description="RX score raster (GeoTIFF)"),
     ),
@@ -169,6 +148,8 @@ SVDD = Algorithm(
     results=(
         Result("sigma", "number", "Kernel width used"),
         Result("support_vectors", "number", "Support vectors"),
+        *DPRIME_RESULTS,
+        GREY_RESULT,
     ),
     display_name="SVDD anomaly detector (RBF kernel)",
     group="Anomaly",
@@ -184,6 +165,8 @@ SVDD = Algorithm(
         "block with matrix products.\n\n"
         "sigma: kernel width in image units; 0 chooses it as the median distance between sample "
         "pixels. nu: the fraction of training pixels allowed outside the sphere.\n\n"
+        "Co-registration (default on) and detectability as for RX (d′ from the training "
+        "sample's mean and covariance).\n\n"
         "Output: float32 GeoTIFF score map on the image grid, nodata -9999."
     ),
     params=(
@@ -209,6 +192,7 @@ SVDD = Algorithm(
             advanced=False,
         ),
         seed("Random seed (of the background sample: same seed, same result)"),
+        *CHAIN_PARAMS,
         CUBE_BLOCK,
         RasterOut(name="output", description="SVDD score raster (GeoTIFF)"),
     ),
@@ -221,49 +205,80 @@ INDICATOR = Algorithm(
     example={"ratio": "ratio.tif", "output": "indicator.tif"},
     results=(
         Result("count", "number", "Anomalous pixels"),
-        Result("median", "number", "Median of the ratio"),
-        Result("robust_sigma", "number", "Robust standard deviation of the ratio"),
+        Result("method", "string", "Method used (eq3 or physical)"),
+        Result("median", "number", "Median of the reference (eq3: the ratio)"),
+        Result("robust_sigma", "number", "Robust standard deviation of the reference"),
+        *DPRIME_RESULTS[1:],
     ),
     display_name="Boresight anomaly indicator",
     group="Anomaly",
-    short_help="Pixels whose boresight ratio stands out: robust z-score (median/MAD) and a threshold.",
+    short_help="Sub-pixel targets from the boresight ratio: the paper's Eq. 3 z-score, or the dipole of the dark-corrected log ratio along the offset.",
     help=(
         "The paper's proposal (§3.3, Figure 11D): the boresight band ratio as a sub-pixel anomaly "
-        "indicator. A small target seen by the VNIR and SWIR optics at slightly different "
-        "positions, and with a spectrum unlike its surroundings, makes the ratio of its pixel "
-        "stand out. Input: the ratio raster (the 'ratio' operation).\n\n"
-        "Each pixel gets z = (ratio − median) / (1.4826 × MAD), a z-score that the anomalies "
-        "themselves cannot inflate. tail 'both' scores |z|, 'high' z, 'low' −z. Pixels above the "
-        "threshold (default 3, the paper's 3σ rule) are anomalies. With a window (e.g. 5), the "
-        "reference is the median ratio of each pixel's neighbours instead of the whole scene: "
-        "better for sub-pixel targets on a varied background.\n\n"
+        "indicator. Two methods:\n\n"
+        "eq3 (a reproduction of the paper): z = (ratio − median) / (1.4826 × MAD) of the ratio "
+        "raster (the 'ratio' operation), scene-wide or against a local median (window); tail "
+        "'both' scores |z|, 'high' z, 'low' −z. On raw DN with dark offsets in, brightness "
+        "texture leaks into the ratio and a grey target shows only as a dipole along the offset: "
+        "docs/anomaly.md measures AUC below 0.5 for it.\n\n"
+        "physical (needs vnir, swir): the log ratio of dark-corrected band means 1,000–1,100 over "
+        "900–975 nm, minus itself at the boresight offset (measured, or given): a grey target's "
+        "two lobes add up; scored against its dipole_window neighbourhood, one-sided when "
+        "target_sign is known. It reports the expected d′ of a target and warns below 3.\n\n"
+        "auto (default): physical with the cube, else eq3. Pixels above the threshold (default "
+        "3, the paper's 3σ rule) are anomalies.\n\n"
         "Outputs: the score (float32 GeoTIFF, nodata -9999) and optionally a 0/1 anomaly mask."
     ),
     params=(
-        RasterIn(
-            name="ratio", description="Boresight ratio raster (output of the 'ratio' operation)"
+        RasterIn(name="ratio", description="Boresight ratio raster (method eq3)", optional=True),
+        RasterIn(name="vnir", description="VNIR file, cube or product (physical)", optional=True),
+        RasterIn(name="swir", description="SWIR file (method physical)", optional=True),
+        Enum(
+            name="method",
+            description="eq3: the paper's z of the ratio; physical: dipole of the dark-corrected log ratio; auto: physical with the cube",
+            choices=INDICATOR_METHODS,
+            default="auto",
         ),
         Number(
             name="threshold",
-            description="Anomaly threshold on the robust z-score (σ units)",
+            description="Anomaly threshold on the score (σ units)",
             default=THRESHOLD,
             minimum=0.1,
             maximum=100.0,
         ),
         Enum(
             name="tail",
-            description="Which side stands out: both, high or low ratios",
+            description="eq3: which side stands out: both, high or low ratios",
             choices=TAILS,
             default="both",
         ),
         Number(
             name="window",
-            description="Local reference: median ratio in this odd window (pixels); 0 = whole scene",
+            description="eq3: local reference, median ratio in this odd window (pixels); 0 = whole scene",
             default=0,
             minimum=0,
             maximum=101,
             integer=True,
         ),
+        Enum(
+            name="target_sign",
+            description="physical: the targets against their ground at 900–1,100 nm (unknown: two-sided)",
+            choices=SIGNS,
+            default="unknown",
+        ),
+        Number(
+            name="dipole_window",
+            description="physical: odd window of the dipole's local median and spread (pixels)",
+            default=DIPOLE_WINDOW,
+            minimum=3,
+            maximum=101,
+            integer=True,
+            advanced=True,
+        ),
+        LAYOUT,
+        DARK,
+        OFFSET,
+        DETECTABILITY,
         BLOCK_ROWS,
         RasterOut(name="output", description="Indicator score raster (GeoTIFF)"),
         RasterOut(

@@ -4,61 +4,26 @@ four shadow-fraction classes out. Declaration only: ``run`` is
 
 from __future__ import annotations
 
-from ..io.dark import DarkLevels
 from ..io.dual import BandChoice
-from ..operations.shadow_map import SAMPLE_SIZE, BoresightOffset, MapSample, shadow_map_file
+from ..operations.shadow_map import SAMPLE_SIZE, MapSample, shadow_map_file
 from ..shadow.map import CORE_DARKNESS, EDGE_PIXELS
-from ._common import BLOCK_ROWS, DUAL_PARAMS, SWIR_BAND, TOLERANCE, VNIR_BAND, sample_size, seed
+from ._common import (
+    BLOCK_ROWS,
+    DARK,
+    DUAL_PARAMS,
+    OFFSET,
+    SWIR_BAND,
+    TOLERANCE,
+    VNIR_BAND,
+    sample_size,
+    seed,
+)
 from .spec import Algorithm, FileIn, Group, Number, RasterOut, Result
 
 GROUP = "Shadow"
 
 #: The ratio's bands, always by wavelength here (no 'band_mode': BandChoice's default).
 RATIO_BANDS = Group(name="bands", value=BandChoice, params=(VNIR_BAND, SWIR_BAND, TOLERANCE))
-
-#: The dark levels the user gives (io.DarkLevels); empty = product, header or estimated.
-DARK = Group(
-    name="dark",
-    value=DarkLevels,
-    params=(
-        Number(
-            name="vnir_dark",
-            description="VNIR dark level (DN of zero signal; empty = from the header or estimated; 0 for radiance)",
-            optional=True,
-            unit="DN",
-            advanced=True,
-        ),
-        Number(
-            name="swir_dark",
-            description="SWIR dark level (DN of zero signal; empty = from the header or estimated; 0 for radiance)",
-            optional=True,
-            unit="DN",
-            advanced=True,
-        ),
-    ),
-)
-
-#: The boresight offset the user gives (BoresightOffset); empty = measured.
-OFFSET = Group(
-    name="offset",
-    value=BoresightOffset,
-    params=(
-        Number(
-            name="offset_along",
-            description="Boresight offset of the SWIR along-track (px; empty = measured)",
-            optional=True,
-            unit="px",
-            advanced=True,
-        ),
-        Number(
-            name="offset_across",
-            description="Boresight offset of the SWIR across-track (px; empty = measured)",
-            optional=True,
-            unit="px",
-            advanced=True,
-        ),
-    ),
-)
 
 #: The calibration sample (MapSample: 200,000 pixels by default).
 SAMPLE = Group(

@@ -45,6 +45,16 @@ class MatchBands:
     tolerance_nm: float = TOLERANCE_NM
 
 
+@dataclass(frozen=True)
+class BoresightOffset:
+    """The boresight offset of the SWIR relative to the VNIR (px, SWIR minus VNIR position),
+    along- and across-track, when the user gives it; both None = measured on the data
+    (:func:`geoboresight.dem.offset.estimate_offset`), one None = 0."""
+
+    offset_along: float | None = None
+    offset_across: float | None = None
+
+
 #: Dense matching's images: band means 900–970 nm against 980–1,100 nm (the single 1,010 nm
 #: band is too weak to match pixel by pixel; docs/dem.md).
 DENSE_MATCH = MatchBands(MATCH_VNIR_NM, MATCH_SWIR_NM, MATCH_VNIR_TO_NM, MATCH_SWIR_TO_NM)

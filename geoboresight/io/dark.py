@@ -9,12 +9,15 @@ from __future__ import annotations
 import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import InputError, ParameterError
-from ..shadow.map import DarkLevel
 from .dual import SensorFile
+
+if TYPE_CHECKING:
+    from ..shadow.map import DarkLevel
 from .wavelengths import parse_list
 
 
@@ -106,6 +109,8 @@ def dark_level_of(
         product's dark source, "header of PATH") and, for per-band levels, ``band_levels`` in
         the order of ``bands`` with ``n_pixels`` 0.
     """
+    from ..shadow.map import DarkLevel
+
     if given is not None:
         if not (
             isinstance(given, numbers.Real)

@@ -17,13 +17,20 @@ from .. import io
 from ..anomaly import indicator as ind
 from ..anomaly.bands import BandSelection, select_bands
 from ..anomaly.indicator import THRESHOLD
+from ..anomaly.physical import WINDOW as DIPOLE_WINDOW
+from ..anomaly.physical import Detectability
 from ..anomaly.polygons import FIELDS
 from ..anomaly.roc import PFA, TITLE
 from ..anomaly.rx import RXBackground
 from ..anomaly.svdd import NU, SAMPLE_SIZE
 from ..errors import InputError
+from ..io.bands import BoresightOffset
+from ..io.dark import DarkLevels
 from ..io.dual import DualLayout
 from ._operation import operation
+
+#: Pixels drawn at random for the dark-object estimate of a detector's detectability.
+DARK_SAMPLE = 4000
 
 #: Lines per strip of a cube: 16 lines of a 286-sample AISA line = 4,576 pixels, so a strip's
 #: float buffers stay within a few MB (cache-friendly; memory is a few strips per worker).
@@ -80,6 +87,196 @@ def to_float32(score: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(score), score, io.FLOAT_NODATA).astype("float32")
 
 
+def _dual_of(vnir, swir, layout):
+    """The dual dataset of the inputs, or None for one plain file (a merged cube without a
+    seam, or one instrument alone)."""
+    from ..io.products import recognise
+
+    if isinstance(vnir, io.DualSensor) or swir or recognise(vnir) is not None:
+        return io.as_dual(vnir, swir, layout)
+    return None
+
+
+def _cube_index(dual, sensor):
+    """0-based cube bands of ``sensor``'s file bands, as :func:`io.open_sensors` stacks them."""
+    reads = list(dict.fromkeys(s.reads for s in (dual.vnir, dual.swir)))
+    counts = []
+    for path in reads:
+        with io.open_raster(path, "image") as src:
+            counts.append(src.count)
+    starts = np.cumsum([0, *counts])[:-1]
+    return starts[reads.index(sensor.reads)] + np.asarray(sensor.bands, int) - 1
+
+
+def measured_offset(dual, given: BoresightOffset, progress) -> tuple[float, float, str]:
+    """The boresight offset δ: given, else measured as ``boresight-offset`` measures it (the
+    ratio's bands, Fourier cross-correlation over the whole line)."""
+    if given.offset_along is not None or given.offset_across is not None:
+        return float(given.offset_along or 0.0), float(given.offset_across or 0.0), "given"
+    from ..io.bands import MatchBands, open_matching_pair
+    from .offset import line_offset
+
+    with open_matching_pair(dual, MatchBands()) as pair:
+        off, _ = line_offset(pair, 0, progress)
+    return off.along, off.across, "measured (boresight-offset)"
+
+
+def _sensor_dark(sensor, bands, given, sample, progress):
+    """One instrument's dark level for ``bands`` (1-based file bands): given, the product's
+    dark reference or the header (io.dark, as shadow-map), else the dark object of
+    ``sample()`` (n_bands, n_pixels). Returns (level per band, description)."""
+    from ..io.dark import dark_level_of
+    from ..shadow import map as smap
+
+    with io.open_raster(sensor.reads, sensor.name) as src:
+        level = dark_level_of(sensor, bands, src.tags(ns="ENVI"), src.count, given)
+    if level is None:
+        values, ok = sample()
+        level = smap.dark_level(values, ok)
+    progress.info(level.describe(sensor.name))
+    return np.broadcast_to(np.asarray(level.for_bands(bands, bands), float), (len(bands),)), level
+
+
+def _sample_reader(read, height, width, seed=0):
+    """A random sample of ≤ DARK_SAMPLE pixels of ``read``: ``() -> (values, ok)``."""
+    from ..anomaly import svdd
+
+    def sample():
+        rng = np.random.default_rng(seed)
+        pos = svdd.sample_positions(height * width, DARK_SAMPLE, rng)
+        return io.read_pixels(read, pos, height=height, width=width, message=None)
+
+    return sample
+
+
+def _detectability_result(name, dprime, target, progress, grey=None) -> dict:
+    from ..anomaly import physical
+
+    msg, low = physical.describe(name, dprime, target)
+    progress.info(msg)
+    if grey is not None:
+        progress.info(
+            f"{name}: expected d′ {grey:.2f} for a grey target of the same fill and contrast"
+        )
+    if low:
+        import warnings
+
+        warnings.warn(msg, stacklevel=3)
+    extra = {} if grey is None else {"dprime_grey": round(float(grey), 4)}
+    return {
+        "dprime": round(float(dprime), 4),
+        **extra,
+        "dprime_low": bool(low),
+        "target_fraction": target.target_fraction,
+        "target_contrast": target.target_contrast,
+    }
+
+
+class _Coregistered:
+    """The cube's strips with its SWIR bands resampled onto the VNIR grid (the boresight
+    offset removed: :func:`geoboresight.dem.coregister.coregister`, cubic), for RX and SVDD.
+
+    Each strip is read with the lines the shift and the spline reach
+    (:func:`~geoboresight.dem.coregister.coregister_halo`) and cropped: the strip's values are
+    the whole image's. Invalid pixels are filled with their band's mean over the first strip;
+    pixels whose interpolation reaches outside the image or an invalid pixel become invalid."""
+
+    def __init__(self, cube, bands, is_swir, along, across):
+        from ..dem.coregister import coregister_halo
+
+        self.cube, self.bands, self.is_swir = cube, bands, is_swir
+        self.along, self.across = along, across
+        self.halo = coregister_halo(along)
+        first, ok = cube.read(0, min(64, cube.height), bands, "float64")
+        self.fill = np.array(
+            [float(np.mean(b[ok])) if ok.any() else 0.0 for b in first], dtype=np.float64
+        )
+
+    def reader(self):
+        from ..dem.coregister import coregister
+
+        cube, h = self.cube, self.halo
+        swir = np.flatnonzero(self.is_swir)
+
+        def read(row0, row1):
+            r0, r1 = max(0, row0 - h), min(cube.height, row1 + h)
+            data, read_ok = cube.read(r0, r1, self.bands, "float64")
+            valid = read_ok.copy()
+            for i in swir:
+                band, ok = coregister(data[i], self.along, self.across, read_ok, fill=self.fill[i])
+                data[i] = band
+                valid &= ok
+            inner = slice(row0 - r0, row1 - r0)
+            data = np.where(valid[inner][None], data[:, inner], 0.0)
+            return np.ascontiguousarray(data), valid[inner]
+
+        return read
+
+
+def _prepare_image(vnir, swir, layout, spectral, dark, offset, coregistered, progress):
+    """``(cube, bands, wl, reader, info, dark per band)``: :func:`open_image`, and the strip
+    reader RX/SVDD use: the SWIR shifted onto the VNIR grid by the boresight offset (measured,
+    or given) when ``coregistered`` and the input is a dual dataset."""
+    cube, bands, wl, _ = open_image(vnir, swir, layout, spectral)
+    try:
+        dual = _dual_of(vnir, swir, layout)
+        info = {"coregistered": False, "offset_along_px": None, "offset_across_px": None}
+        is_swir = np.zeros(len(bands), bool)
+        if dual is not None:
+            is_swir = np.isin(bands, _cube_index(dual, dual.swir))
+        read = cube.reader(bands, None)
+        if coregistered and dual is not None and is_swir.any():
+            along, across, how = measured_offset(dual, offset, progress.sub(0.0, 0.1))
+            progress.info(
+                f"co-registering: SWIR shifted by {along:+.3f} px along-track, "
+                f"{across:+.3f} px across-track ({how})"
+            )
+            read = _Coregistered(cube, bands, is_swir, along, across).reader()
+            info = {
+                "coregistered": True,
+                "offset_along_px": round(along, 4),
+                "offset_across_px": round(across, 4),
+            }
+        elif coregistered:
+            progress.info(
+                "not co-registered: one file whose VNIR and SWIR bands cannot be told apart "
+                "(give the SWIR file, or a sensor product)"
+            )
+        dark_per_band = np.zeros(len(bands))
+        sample = _sample_reader(cube.reader(bands, "float64"), cube.height, cube.width)
+        if dual is not None:
+            cache = {}
+
+            def sampled():
+                if "s" not in cache:
+                    cache["s"] = sample()
+                return cache["s"]
+
+            for sensor, mask in ((dual.vnir, ~is_swir), (dual.swir, is_swir)):
+                if not mask.any():
+                    continue
+                index = _cube_index(dual, sensor)
+                file_bands = [int(sensor.bands[list(index).index(b)]) for b in bands[mask]]
+                given = dark.vnir_dark if sensor is dual.vnir else dark.swir_dark
+
+                def sub(mask=mask):
+                    v, ok = sampled()
+                    return v[mask], ok
+
+                dark_per_band[mask], _ = _sensor_dark(sensor, file_bands, given, sub, progress)
+        else:
+            from ..shadow import map as smap
+
+            v, ok = sample()
+            level = smap.dark_level(v, ok)
+            progress.info(level.describe("image"))
+            dark_per_band[:] = level.level
+    except BaseException:
+        cube.close()
+        raise
+    return cube, bands, wl, read, info, dark_per_band
+
+
 @operation(inputs=("vnir", "swir"), outputs=("output",))
 def rx_file(
     vnir,
@@ -91,6 +288,10 @@ def rx_file(
     background=RXBackground(),
     regularize=0.0,
     precision="float64",
+    coregister=True,
+    offset=BoresightOffset(),
+    dark=DarkLevels(),
+    detectability=Detectability(),
     block_rows=CUBE_BLOCK_ROWS,
     progress=None,
 ) -> dict:
@@ -122,6 +323,18 @@ def rx_file(
         Ridge added to the covariance diagonal, as a fraction of the mean band variance.
     precision : {"float64", "float32"}
         Arithmetic of the scoring pass.
+    coregister : bool
+        Shift the SWIR bands onto the VNIR grid by the boresight offset first (default): a
+        sub-pixel target's VNIR and SWIR signals then fall in one pixel. Needs a dual dataset
+        (VNIR and SWIR files, or a sensor product); one plain cube is used as it is.
+    offset : BoresightOffset
+        The offset to remove (px); empty: measured as ``boresight-offset`` measures it.
+    dark : DarkLevels
+        Dark levels for the detectability (given, else the product's, the header's, or the
+        dark object of a random sample), as ``shadow-map`` finds them.
+    detectability : Detectability
+        The target (fill fraction, contrast) whose expected d′ is reported
+        (:func:`geoboresight.anomaly.physical.spectral_dprime`); a warning below 3.
     block_rows : int
         Lines per strip.
     progress : Progress, optional
@@ -129,7 +342,9 @@ def rx_file(
     Returns
     -------
     dict
-        ``output``, the number of ``bands`` used and of ``background_pixels``.
+        ``output``, the number of ``bands`` used and of ``background_pixels``, whether the
+        SWIR was ``coregistered`` and by which offset (``offset_along_px``,
+        ``offset_across_px``), the expected ``dprime`` and ``dprime_low`` (below 3).
 
     References
     ----------
@@ -138,9 +353,14 @@ def rx_file(
     Reed, I.S.; Yu, X. Adaptive multiple-band CFAR detection of an optical pattern with unknown
     spectral distribution. IEEE Trans. Acoust. Speech Signal Process. 1990, 38, 1760–1770.
     """
-    from ..anomaly import rx
+    from ..anomaly import physical, rx
 
-    cube, bands, wl, _ = open_image(vnir, swir, layout, spectral)
+    physical.check_target(detectability)
+    cube, bands, wl, read, coreg, dark_dn = _prepare_image(
+        vnir, swir, layout, spectral, dark, offset, coregister, progress
+    )
+    progress = progress.sub(0.1 if coreg["coregistered"] else 0.0, 1.0)
+    read64 = read if coreg["coregistered"] else cube.reader(bands, "float64")
     inner, outer = background.inner, background.outer
     with cube:
         local = background.local
@@ -154,13 +374,13 @@ def rx_file(
         }
         # Pass 1: strips in the files' own type (no float copy); the shift comes from the
         # first strip so that the sums do not depend on thread timing.
-        first, first_valid = cube.read(0, min(block_rows, cube.height), bands, None)
+        first, first_valid = read(0, min(block_rows, cube.height))
         acc = rx.CovarianceAccumulator(
             len(bands), shift=rx.CovarianceAccumulator.strip_shift(first, first_valid)
         )
         del first, first_valid
         for _ in io.map_windows(
-            cube.reader(bands, None),
+            read,
             acc.add_cube,
             **strips,
             progress=progress.sub(0.0, 0.5),
@@ -170,9 +390,18 @@ def rx_file(
         stats = acc.stats()
         det = rx.RXDetector(stats, regularize, wavelengths=wl, band_numbers=bands + 1)
         progress.info(f"RX on {len(bands)} bands, {stats.n} background pixels")
+        dp = _detectability_result(
+            "RX",
+            physical.spectral_dprime(stats.mean, stats.cov, dark_dn, detectability),
+            detectability,
+            progress,
+            physical.spectral_dprime(stats.mean, stats.cov, dark_dn, detectability, shape="grey"),
+        )
         tags = {
             "product": "RX anomaly score (squared Mahalanobis distance; paper §3.3)",
             **band_tags(wl, bands),
+            **_coreg_tags(coreg),
+            "dprime": f"{dp['dprime']:.4g}",
         }
         if local:
             tags["window"] = f"inner {inner} px, outer {outer} px"
@@ -191,7 +420,7 @@ def rx_file(
                 )
 
             scored = io.map_windows(
-                cube.reader(bands, "float64"),
+                read64,
                 score,
                 **strips,
                 # Windows are shifted to stay inside the image (as Spectral Python's), so a
@@ -203,7 +432,7 @@ def rx_file(
             )
         else:
             scored = io.map_windows(
-                cube.reader(bands, None),
+                read,
                 lambda data, valid: det.score_cube(data, valid, precision),
                 **strips,
                 progress=progress.sub(0.5, 1.0),
@@ -212,7 +441,23 @@ def rx_file(
         with io.create_raster(output, cube.grid, tags=tags, band_names=["RX score"]) as dst:
             for win, s in scored:
                 dst.write(to_float32(s), 1, window=win)
-    return {"output": output, "bands": len(bands), "background_pixels": stats.n}
+    return {
+        "output": output,
+        "bands": len(bands),
+        "background_pixels": stats.n,
+        **coreg,
+        **dp,
+    }
+
+
+def _coreg_tags(coreg: dict) -> dict:
+    if not coreg["coregistered"]:
+        return {"coregistered": "no"}
+    return {
+        "coregistered": "yes: SWIR shifted onto the VNIR grid by the boresight offset",
+        "offset_along_px": f"{coreg['offset_along_px']:.4f}",
+        "offset_across_px": f"{coreg['offset_across_px']:.4f}",
+    }
 
 
 @operation(inputs=("vnir", "swir"), outputs=("output",))
@@ -227,6 +472,10 @@ def svdd_file(
     nu=NU,
     sample_size=SAMPLE_SIZE,
     seed=0,
+    coregister=True,
+    offset=BoresightOffset(),
+    dark=DarkLevels(),
+    detectability=Detectability(),
     block_rows=CUBE_BLOCK_ROWS,
     progress=None,
 ) -> dict:
@@ -258,6 +507,18 @@ def svdd_file(
         Background pixels drawn for training.
     seed : int
         Random seed of the sample (same seed, same result).
+    coregister : bool
+        Shift the SWIR bands onto the VNIR grid by the boresight offset first (default): a
+        sub-pixel target's VNIR and SWIR signals then fall in one pixel. Needs a dual dataset
+        (VNIR and SWIR files, or a sensor product); one plain cube is used as it is.
+    offset : BoresightOffset
+        The offset to remove (px); empty: measured as ``boresight-offset`` measures it.
+    dark : DarkLevels
+        Dark levels for the detectability (given, else the product's, the header's, or the
+        dark object of a random sample), as ``shadow-map`` finds them.
+    detectability : Detectability
+        The target (fill fraction, contrast) whose expected d′ is reported
+        (:func:`geoboresight.anomaly.physical.spectral_dprime` of the training sample); a warning below 3.
     block_rows : int
         Lines per strip.
     progress : Progress, optional
@@ -265,7 +526,9 @@ def svdd_file(
     Returns
     -------
     dict
-        ``output``, the kernel width ``sigma`` and the number of ``support_vectors``.
+        ``output``, the kernel width ``sigma``, the number of ``support_vectors``, whether
+        the SWIR was ``coregistered`` and by which offset, the expected ``dprime`` and
+        ``dprime_low``.
 
     References
     ----------
@@ -273,9 +536,13 @@ def svdd_file(
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.3, Eq. 7–9, Figure 11C).
     Tax, D.M.J.; Duin, R.P.W. Support vector data description. Mach. Learn. 2004, 54, 45–66.
     """
-    from ..anomaly import svdd
+    from ..anomaly import physical, svdd
 
-    cube, bands, wl, _ = open_image(vnir, swir, layout, spectral)
+    physical.check_target(detectability)
+    cube, bands, wl, read, coreg, dark_dn = _prepare_image(
+        vnir, swir, layout, spectral, dark, offset, coregister, progress
+    )
+    progress = progress.sub(0.1 if coreg["coregistered"] else 0.0, 1.0)
     with cube:
         strips = {"height": cube.height, "width": cube.width, "block_rows": block_rows}
         rng = np.random.default_rng(seed)
@@ -283,7 +550,7 @@ def svdd_file(
 
         # Only the lines holding drawn pixels are read (a thousand lines, not the line).
         values, ok = io.read_pixels(
-            cube.reader(bands, None),
+            read,
             positions,
             **strips,
             progress=progress.sub(0.0, 0.2),
@@ -303,11 +570,23 @@ def svdd_file(
             "nu": model.nu,
             "support_vectors": len(model.alpha),
             **band_tags(wl, bands),
+            **_coreg_tags(coreg),
         }
+        cov = np.cov(sample.T) if len(sample) > 2 else np.eye(len(bands))
+        dp = _detectability_result(
+            "SVDD",
+            physical.spectral_dprime(sample.mean(axis=0), cov, dark_dn, detectability),
+            detectability,
+            progress,
+            physical.spectral_dprime(
+                sample.mean(axis=0), cov, dark_dn, detectability, shape="grey"
+            ),
+        )
+        tags["dprime"] = f"{dp['dprime']:.4g}"
         with io.create_raster(output, cube.grid, tags=tags, band_names=["SVDD score"]) as dst:
             # Strips in the files' own type, scored in worker threads (thread-safe model).
             for win, s in io.map_windows(
-                cube.reader(bands, None),
+                read,
                 model.score_cube,
                 **strips,
                 workers=io.windows.default_workers(),
@@ -315,44 +594,92 @@ def svdd_file(
                 message="SVDD: scoring",
             ):
                 dst.write(to_float32(s), 1, window=win)
-    return {"output": output, "sigma": model.sigma, "support_vectors": len(model.alpha)}
+    return {
+        "output": output,
+        "sigma": model.sigma,
+        "support_vectors": len(model.alpha),
+        **coreg,
+        **dp,
+    }
 
 
-@operation(inputs=("ratio",), outputs=("output", "anomalies"))
+#: The indicator's methods: the paper's Eq. 3 z-score of the ratio raster, or the physical
+#: dipole indicator on the cube; "auto" is "physical" when the cube is given, else "eq3".
+INDICATOR_METHODS = ("auto", "eq3", "physical")
+
+
+@operation(inputs=("ratio", "vnir", "swir"), outputs=("output", "anomalies"))
 def boresight_indicator_file(
-    ratio,
+    ratio=None,
+    vnir=None,
+    swir=None,
     *,
     output,
     anomalies=None,
+    method="auto",
     threshold=THRESHOLD,
     tail="both",
     window=0,
+    target_sign="unknown",
+    dipole_window=DIPOLE_WINDOW,
+    layout=DualLayout(),
+    dark=DarkLevels(),
+    offset=BoresightOffset(),
+    detectability=Detectability(),
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
 ) -> dict:
-    """Write the boresight anomaly indicator: the robust z-score of the boresight ratio.
+    """Write the boresight anomaly indicator: the paper's Eq. 3 z-score of the boresight ratio,
+    or its physical variant, the dipole of the dark-corrected log ratio along the offset.
 
-    ``z = (r − median) / (1.4826 · MAD)`` over the scene (the exact median and MAD, in a few
-    passes over the strips: memory does not grow with the line); with ``window`` > 1, ``r`` is
-    first replaced by its difference to the median of its ``window`` × ``window`` neighbourhood
-    (strips read with ``window // 2`` lines of halo; the residuals are spilled once to a
-    temporary file beside ``output`` for their median and MAD). Pixels whose score exceeds
-    ``threshold`` are anomalies.
+    ``method="eq3"`` (a reproduction of the paper, §3.3): ``z = (r − median) / (1.4826 · MAD)``
+    of the ratio raster over the scene (the exact median and MAD, in a few passes over the
+    strips: memory does not grow with the line); with ``window`` > 1, ``r`` is first replaced
+    by its difference to the median of its ``window`` × ``window`` neighbourhood (strips read
+    with ``window // 2`` lines of halo; the residuals are spilled once to a temporary file
+    beside ``output`` for their median and MAD).
+
+    ``method="physical"`` (docs/anomaly.md, :mod:`geoboresight.anomaly.physical`): from the
+    cube, y = ln(S̄ − d_s) − ln(V̄ − d_v) of the band means 1,000–1,100 nm and 900–975 nm
+    minus their dark levels (found as ``shadow-map`` finds them), D = y − y(· + δ) along the
+    boresight offset δ (measured as ``boresight-offset`` measures it, or given), scored
+    against the median and spread of D in a ``dipole_window`` neighbourhood; one-sided when
+    ``target_sign`` is known. Strips read with the lines δ and the window reach.
+
+    ``"auto"`` (default): "physical" when ``vnir`` is given, else "eq3". Pixels whose score
+    exceeds ``threshold`` are anomalies.
 
     Parameters
     ----------
-    ratio : path
-        Boresight ratio raster (the ``ratio_file`` output).
+    ratio : path, optional
+        Boresight ratio raster (the ``ratio_file`` output); needed by "eq3".
+    vnir : path or DualSensor, optional
+        VNIR file, a merged cube or a sensor product; needed by "physical".
+    swir : path, optional
+        SWIR file on the same pixel grid.
     output : path
-        float32 score GeoTIFF (|z|, z or −z by ``tail``), nodata -9999.
+        float32 score GeoTIFF, nodata -9999.
     anomalies : path, optional
         uint8 GeoTIFF, 1 = anomaly, 0 = background, 255 = nodata.
+    method : {"auto", "eq3", "physical"}
     threshold : float
         Threshold on the score (σ units; the paper's 3σ rule).
     tail : {"both", "high", "low"}
-        Which side of the ratio's distribution stands out.
+        "eq3": which side of the ratio's distribution stands out.
     window : int
-        Odd window of the local median reference; 0 (or 1): the whole scene.
+        "eq3": odd window of the local median reference; 0 (or 1): the whole scene.
+    target_sign : {"unknown", "darker", "brighter"}
+        "physical": the targets' sign at 900–1,100 nm against their ground, when known.
+    dipole_window : int
+        "physical": odd window of D's local median and spread.
+    layout : DualLayout
+        How to read VNIR and SWIR files that do not say it all.
+    dark : DarkLevels
+        "physical": dark levels (given, else the product's, the header's, or estimated).
+    offset : BoresightOffset
+        "physical": the offset δ (px); empty: measured.
+    detectability : Detectability
+        The target whose expected d′ is reported (a warning below 3).
     block_rows : int
         Lines per strip.
     progress : Progress, optional
@@ -360,14 +687,191 @@ def boresight_indicator_file(
     Returns
     -------
     dict
-        ``output``, ``anomalies``, the anomaly ``count``, the reference ``median`` and
-        ``robust_sigma``.
+        ``output``, ``anomalies``, the anomaly ``count``, the ``method`` used, the reference
+        ``median`` and ``robust_sigma`` (eq3: of the ratio or its residual; physical: D's
+        median 0 and median local spread), and, with the cube, the expected ``dprime`` and
+        ``dprime_low`` (physical: also the offset used).
 
     References
     ----------
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.3, Figure 11D).
     """
+    from ..errors import ParameterError
+
+    if method not in INDICATOR_METHODS:
+        raise ParameterError(
+            f"parameter 'method' must be one of {', '.join(INDICATOR_METHODS)}, got {method!r}"
+        )
+    if method == "auto":
+        method = "physical" if vnir else "eq3"
+    if method == "physical":
+        if not vnir:
+            raise ParameterError(
+                "method 'physical' needs the cube: give 'vnir' (and 'swir'), or use method 'eq3' "
+                "with the ratio raster"
+            )
+        return _physical_indicator_file(
+            vnir,
+            swir,
+            output=output,
+            anomalies=anomalies,
+            threshold=threshold,
+            sign=target_sign,
+            window=dipole_window,
+            layout=layout,
+            dark=dark,
+            offset=offset,
+            target=detectability,
+            block_rows=block_rows,
+            progress=progress,
+        )
+    if not ratio:
+        raise ParameterError(
+            "method 'eq3' needs the boresight ratio raster: give 'ratio' (the 'ratio' operation's "
+            "output)"
+        )
+    progress.info(
+        "method eq3: the paper's robust z-score of the raw-DN ratio (a reproduction; "
+        "docs/anomaly.md explains why it scores grey sub-pixel targets below chance)"
+    )
+    return {
+        **_eq3_indicator_file(
+            ratio, output, anomalies, threshold, tail, window, block_rows, progress
+        ),
+        "method": "eq3",
+    }
+
+
+def _physical_indicator_file(
+    vnir,
+    swir,
+    *,
+    output,
+    anomalies,
+    threshold,
+    sign,
+    window,
+    layout,
+    dark,
+    offset,
+    target,
+    block_rows,
+    progress,
+) -> dict:
+    from ..anomaly import physical
+    from ..io.bands import MatchBands, open_matching_pair
+
+    physical.check_sign(sign)
+    physical.check_window(window)
+    physical.check_target(target)
+    dual = io.as_dual(vnir, swir, layout)
+    along, across, how = measured_offset(dual, offset, progress.sub(0.0, 0.3))
+    progress.info(
+        f"boresight offset δ: {along:+.3f} px along-track, {across:+.3f} px across ({how})"
+    )
+    means = MatchBands(
+        physical.VNIR_NM[0], physical.SWIR_NM[0], physical.VNIR_NM[1], physical.SWIR_NM[1]
+    )
+    with open_matching_pair(dual, means) as pair:
+
+        def read(row0, row1):
+            v, s, ok = pair.read(row0, row1)
+            return np.stack([v, s]), ok
+
+        sample = _sample_reader(read, dual.height, dual.width)
+        cache = {}
+
+        def part(i):
+            def get():
+                if "s" not in cache:
+                    cache["s"] = sample()
+                values, ok = cache["s"]
+                return values[i : i + 1], ok
+
+            return get
+
+        dv, _ = _sensor_dark(dual.vnir, pair.vnir_bands, dark.vnir_dark, part(0), progress)
+        ds, _ = _sensor_dark(dual.swir, pair.swir_bands, dark.swir_dark, part(1), progress)
+        vd, sd = float(np.mean(dv)), float(np.mean(ds))
+
+        def kernel(data, ok):
+            y, yok = physical.log_ratio(data[0], data[1], ok, vnir_dark=vd, swir_dark=sd)
+            d, dok = physical.dipole(y, yok, along=along, across=across)
+            z, sig = physical.local_z(d, dok, window=window)
+            score = physical.score_of(z, sign)
+            with np.errstate(invalid="ignore"):
+                return score, score > threshold, dok, sig
+
+        tags = {
+            "product": (
+                "boresight indicator (physical): local z of the dipole of the dark-corrected "
+                "log ratio along the boresight offset (docs/anomaly.md)"
+            ),
+            "method": "physical",
+            "bands_vnir_nm": f"{physical.VNIR_NM[0]:g}-{physical.VNIR_NM[1]:g}",
+            "bands_swir_nm": f"{physical.SWIR_NM[0]:g}-{physical.SWIR_NM[1]:g}",
+            "dark_vnir_dn": f"{vd:.6g}",
+            "dark_swir_dn": f"{sd:.6g}",
+            "offset_along_px": f"{along:.4f}",
+            "offset_across_px": f"{across:.4f}",
+            "target_sign": sign,
+            "window": window,
+            "threshold": threshold,
+        }
+        h = physical.halo(along, across, window)
+        count, spreads = 0, []
+        with (
+            io.create_raster(
+                output, dual.grid, tags=tags, band_names=["boresight dipole z"]
+            ) as dst,
+            _optional_mask(anomalies, dual.grid, tags) as mask,
+        ):
+            for win, (s, flags, ok, sig) in io.map_windows(
+                read,
+                kernel,
+                height=dual.height,
+                width=dual.width,
+                block_rows=block_rows,
+                halo=(h, h),
+                progress=progress.sub(0.3, 1.0),
+                message="indicator: dipole along the offset",
+            ):
+                dst.write(to_float32(s), 1, window=win)
+                if mask is not None:
+                    mask.write(np.where(ok, flags, 255).astype("uint8"), 1, window=win)
+                count += int(np.sum(flags & ok))
+                if ok.any():
+                    spreads.append((float(np.median(sig[ok])), int(ok.sum())))
+            if not spreads:
+                raise InputError(
+                    "no pixel of the line is above both dark levels with its offset partner "
+                    "inside the image: check the dark levels"
+                )
+            # The median local spread: strips' medians weighted by their pixels.
+            vals = np.array([v for v, _ in spreads])
+            wts = np.array([n for _, n in spreads], float)
+            order = np.argsort(vals)
+            cum = np.cumsum(wts[order])
+            sigma = float(vals[order][np.searchsorted(cum, cum[-1] / 2)])
+            dprime = physical.dipole_dprime(target, along, across, sigma)
+            dst.update_tags(DPRIME=f"{dprime:.4g}", MEDIAN_LOCAL_SIGMA=f"{sigma:.6g}")
+    progress.info(f"{count} pixel(s) beyond {threshold:g} σ")
+    dp = _detectability_result("boresight indicator (physical)", dprime, target, progress)
+    return {
+        "output": output,
+        "anomalies": anomalies,
+        "count": count,
+        "method": "physical",
+        "median": 0.0,
+        "robust_sigma": sigma,
+        "offset_along_px": round(along, 4),
+        "offset_across_px": round(across, 4),
+        **dp,
+    }
+
+
+def _eq3_indicator_file(ratio, output, anomalies, threshold, tail, window, block_rows, progress):
     ind.check_options(threshold, tail, window)
     local = bool(window and window > 1)
     passes = 3 if local else 2

@@ -17,7 +17,7 @@ import numpy as np
 
 from .. import io
 from ..errors import InputError, ParameterError
-from ..io.bands import band_range
+from ..io.bands import BoresightOffset, band_range
 from ..io.dark import DarkLevels, dark_level_of
 from ..io.dual import BandChoice, DualLayout
 from ..io.masks import mask_raster
@@ -38,16 +38,6 @@ class MapSample(Sample):
     :data:`SAMPLE_SIZE` pixels by default."""
 
     sample_size: int = SAMPLE_SIZE
-
-
-@dataclass(frozen=True)
-class BoresightOffset:
-    """The boresight offset of the SWIR relative to the VNIR (px, SWIR minus VNIR position),
-    along- and across-track, when the user gives it; both None = measured on the data
-    (:func:`geoboresight.dem.offset.estimate_offset`), one None = 0."""
-
-    offset_along: float | None = None
-    offset_across: float | None = None
 
 
 #: Bands per instrument read for the dark level besides the signal bands (evenly spaced).
