@@ -11,11 +11,13 @@ from rasterio.crs import CRS
 from rasterio.transform import from_origin
 from sklearn.svm import OneClassSVM
 
-from geoboresight.algorithms.anomaly import ALGORITHMS
+from geoboresight.algorithms.anomaly import ALGORITHMS as CUBE_ALGORITHMS
+from geoboresight.algorithms.roc import ALGORITHMS as MAP_ALGORITHMS
 from geoboresight.errors import InputError
 from geoboresight.io import write_envi
 from geoboresight.io.cube import open_cube
 
+ALGORITHMS = CUBE_ALGORITHMS + MAP_ALGORITHMS
 #: The anomaly specs (the same objects as ``geoboresight.algorithms.get(name)``).
 get = {alg.name: alg for alg in ALGORITHMS}.__getitem__
 

@@ -9,17 +9,13 @@ from __future__ import annotations
 from ..anomaly.indicator import TAILS, THRESHOLD
 from ..anomaly.physical import SIGNS
 from ..anomaly.physical import WINDOW as DIPOLE_WINDOW
-from ..anomaly.polygons import GEOMETRIES
-from ..anomaly.roc import PFA, TITLE
 from ..anomaly.rx import INNER, MODES, OUTER, PRECISIONS, RXBackground
 from ..anomaly.svdd import NU, SAMPLE_SIZE
 from ..anomaly.unmix import METHODS
 from ..operations.anomaly import (
     CUBE_BLOCK_ROWS,
     INDICATOR_METHODS,
-    anomaly_polygons_file,
     boresight_indicator_file,
-    roc_file,
     rx_file,
     svdd_file,
     unmix_file,
@@ -42,15 +38,12 @@ from .spec import (
     Algorithm,
     Enum,
     FileIn,
-    FileOut,
     Group,
-    MultiRaster,
     Number,
     RasterIn,
     RasterOut,
     Result,
     Text,
-    VectorOut,
 )
 
 #: Per-pixel spectral work reads every band of a strip: few lines at a time.
@@ -231,8 +224,12 @@ INDICATOR = Algorithm(
     ),
     params=(
         RasterIn(name="ratio", description="Boresight ratio raster (method eq3)", optional=True),
-        RasterIn(name="vnir", description="VNIR file, cube or product (physical)", optional=True),
-        RasterIn(name="swir", description="SWIR file (method physical)", optional=True),
+        RasterIn(name="vnir", description="VNIR image (method physical)", optional=True),
+        RasterIn(
+            name="swir",
+            description="SWIR image on the same pixel grid (method physical)",
+            optional=True,
+        ),
         Enum(
             name="method",
             description="eq3: the paper's z of the ratio; physical: dipole of the dark-corrected log ratio; auto: physical with the cube",
@@ -346,110 +343,4 @@ UNMIX = Algorithm(
 )
 
 
-ROC = Algorithm(
-    name="roc",
-    example={"scores": "rx.tif", "truth": "truth_target_abundance.tif", "output": "roc.png"},
-    display_name="ROC curves of anomaly detectors",
-    group="Anomaly",
-    short_help="Probability of detection vs false alarm, and AUC, for several score maps against a truth raster.",
-    help=(
-        "ROC curves as in the paper's Figure 12: for each score map (RX, SVDD, boresight indicator, "
-        "…), every threshold gives a probability of detection (share of target pixels above it) and "
-        "of false alarm (share of background pixels above it). The area under the curve (AUC) and "
-        "Pd at a chosen Pfa summarise each detector.\n\n"
-        "Truth: a 0/1 mask, or an abundance raster (e.g. the simulator's truth_target_abundance.tif) "
-        "with a threshold (default: any abundance > 0 is a target). guard_px leaves pixels next to "
-        "targets out of the background, since a sub-pixel target spills into its neighbours.\n\n"
-        "Outputs: one PNG figure (linear and logarithmic Pfa) and optionally a CSV of the curves."
-    ),
-    params=(
-        MultiRaster(
-            name="scores",
-            description="Score rasters, higher = more anomalous (comma-separated paths)",
-        ),
-        Text(
-            name="names",
-            description="Detector names for the legend, comma-separated (default: file names)",
-            default="",
-            optional=True,
-        ),
-        RasterIn(
-            name="truth", description="Truth: 0/1 target mask or abundance raster, on the same grid"
-        ),
-        Number(
-            name="truth_threshold",
-            description="Abundance at or above which a pixel is a target (empty: > 0)",
-            optional=True,
-            minimum=0.0,
-        ),
-        Number(
-            name="guard_px",
-            description="Leave pixels within this distance of a target out of the background",
-            default=0,
-            minimum=0,
-            maximum=50,
-            integer=True,
-        ),
-        Number(
-            name="pfa",
-            description="False-alarm rate at which Pd is reported",
-            default=PFA,
-            minimum=1e-9,
-            maximum=1.0,
-        ),
-        Text(
-            name="title",
-            description="Figure title",
-            default=TITLE,
-            optional=True,
-        ),
-        FileOut(name="output", description="ROC figure (PNG)", extension="png"),
-        FileOut(
-            name="csv",
-            description="ROC curves (CSV: detector, pfa, pd, threshold)",
-            extension="csv",
-            optional=True,
-        ),
-    ),
-    run=roc_file,
-)
-
-
-POLYGONS = Algorithm(
-    name="anomaly-polygons",
-    example={"score": "rx.tif", "threshold": "5", "output": "anomalies.gpkg"},
-    results=(Result("features", "number", "Features written"),),
-    display_name="Anomaly score to polygons",
-    group="Anomaly",
-    short_help="Groups of pixels above a score threshold as GeoPackage polygons or points with score attributes.",
-    help=(
-        "Turns any anomaly score map (RX, SVDD, boresight indicator) into a vector layer: pixels "
-        "with a score at or above the threshold are grouped (8-connected); each group becomes a "
-        "polygon (its pixel outline) or a point (its highest-scoring pixel), with the number of "
-        "pixels, the maximum and mean score and the peak's row and column.\n\n"
-        "Coordinates follow the raster's CRS and geotransform; a raster in raw sensor geometry "
-        "gives pixel coordinates (column, row) with an undefined CRS.\n\n"
-        "Output: a GeoPackage layer 'anomalies'."
-    ),
-    params=(
-        RasterIn(name="score", description="Anomaly score raster"),
-        Number(name="threshold", description="Score at or above which a pixel is an anomaly"),
-        Enum(
-            name="geometry",
-            description="Polygons (pixel outlines) or points (peak pixel centres)",
-            choices=GEOMETRIES,
-            default="polygon",
-        ),
-        Number(
-            name="min_pixels",
-            description="Drop groups smaller than this many pixels",
-            default=1,
-            minimum=1,
-            integer=True,
-        ),
-        VectorOut(name="output", description="Anomaly layer (GeoPackage)", extension="gpkg"),
-    ),
-    run=anomaly_polygons_file,
-)
-
-ALGORITHMS = (RX, SVDD, INDICATOR, UNMIX, ROC, POLYGONS)
+ALGORITHMS = (RX, SVDD, INDICATOR, UNMIX)
