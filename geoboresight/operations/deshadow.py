@@ -24,9 +24,11 @@ from ._operation import operation
 from .shadow import no_valid_error
 from .shadow_map import DARK_BANDS, BoresightOffset, _dark_level, _offset, _spread
 
-#: Pixels sampled for the dark level estimate; most pairs kept per strip.
+#: Pixels sampled for the dark level estimate.
 DARK_SAMPLE = 100_000
-PAIRS_PER_STRIP = 5_000
+#: Pixels of a flight line whose pairs are looked for (a fixed share of a longer line, so
+#: that the pairs held stay bounded: about 1 % of pixels are at a shadow edge).
+PAIR_PIXELS = 250_000
 
 
 def _fraction_grid(f, along, across, ok):
@@ -151,6 +153,7 @@ def deshadow_file(
             return x, x_ok, np.where(f_ok, f, np.nan)
 
         shift_halo = math.ceil(abs(along)) + 2
+        keep_per_mille = max(1, min(1000, round(1000 * PAIR_PIXELS / (dual.height * dual.width))))
         lv = levels[:, None, None]
 
         # Pass 1: pairs across shadow edges, on the VNIR grid (the SWIR resampled onto it).
@@ -160,26 +163,32 @@ def deshadow_file(
                 sig[i], _ = coregister(sig[i], along, across, x_ok, order=1, fill=0.0)
             own = np.zeros(f.shape, bool)
             own[block.inner] = True
-            a, b = ds.shadow_pairs(sig, np.where(own | (f <= ds.LIT), f, np.nan), x_ok)
-            if a.shape[0] > PAIRS_PER_STRIP:
-                pick = np.random.default_rng(block.window.row_off).choice(
-                    a.shape[0], PAIRS_PER_STRIP, replace=False
-                )
-                a, b = a[pick], b[pick]
-            return a, b
+            # Shadowed pixels of the strip's own lines, a fixed share of them on a long line
+            # (chosen by their position, so strips give the pairs of the whole image).
+            rr, cc = np.mgrid[block.row0 : block.row0 + f.shape[0], 0 : f.shape[1]]
+            picked = (rr * 73856093 ^ cc * 19349663) % 1000 < keep_per_mille
+            shaded_ok = own & picked
+            a, b = ds.shadow_pairs(sig, f, x_ok, own=shaded_ok)
+            return a.astype(np.float32), b.astype(np.float32)
 
         a, b = io.reduce_windows(
             read,
             pairs,
             lambda u, v: (np.concatenate([u[0], v[0]]), np.concatenate([u[1], v[1]])),
-            (np.zeros((0, len(wl))), np.zeros((0, len(wl)))),
-            halo=(max(ds.DISTANCES) + shift_halo,) * 2,
+            (np.zeros((0, len(wl)), np.float32), np.zeros((0, len(wl)), np.float32)),
+            halo=(max(ds.DISTANCES) + 1 + shift_halo,) * 2,
             pass_block=True,
             progress=progress.sub(0.1, 0.4),
             message="shadow edges",
             **strips,
         )
         k, n_pairs, spread = ds.illumination_ratio(a, b)
+        # A band whose pairs do not say the sun brightens it (noise, absorption bands) is
+        # left as it is: ratio 1.
+        unchanged = int((~(np.isfinite(k) & (k >= 1.0))).sum())
+        k = np.where(np.isfinite(k) & (k >= 1.0), k, 1.0)
+        if unchanged:
+            progress.info(f"{unchanged} band(s) left unchanged (no ratio above 1 measured)")
         progress.info(
             f"illumination ratio (sunlit / shadow) from {n_pairs} of {a.shape[0]} pairs "
             f"across shadow edges: {np.nanmin(k):.2f}–{np.nanmax(k):.2f} over the bands "
@@ -198,8 +207,8 @@ def deshadow_file(
             out_v = ds.deshadow(x[:nv] - lv[:nv], f, x_ok, ratio=k[:nv]) + lv[:nv]
             out_s = ds.deshadow(x[nv:] - lv[nv:], fs, x_ok, ratio=k[nv:]) + lv[nv:]
             with np.errstate(invalid="ignore"):
-                n = int((x_ok & (f > 0)).sum())
-            return np.concatenate([out_v, out_s]), np.array([n])
+                shaded = x_ok & (f > 0)
+            return np.concatenate([out_v, out_s]), shaded
 
         names = [f"{'VNIR' if i < nv else 'SWIR'} {w:.1f} nm" for i, w in enumerate(wl)]
         tags = {
@@ -237,7 +246,7 @@ def deshadow_file(
                 **strips,
             ):
                 dst.write(np.where(np.isfinite(cube), cube, io.FLOAT_NODATA), window=win)
-                n_corrected += int(n[0])
+                n_corrected += int(n.sum())
     result = {
         "output": output,
         "pairs": int(a.shape[0]),
@@ -246,6 +255,7 @@ def deshadow_file(
         "ratio_min": round(float(np.nanmin(k)), 4),
         "ratio_max": round(float(np.nanmax(k)), 4),
         "shadowed_pixels": n_corrected,
+        "bands_unchanged": unchanged,
         "offset_along_px": round(along, 3),
         "offset_across_px": round(across, 3),
         "warnings": warnings,

@@ -58,6 +58,7 @@ def shadow_pairs(
     distances=DISTANCES,
     full: float = FULL,
     lit: float = LIT,
+    own: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(shaded, sunlit) spectra, each (n_pairs, n_bands), of the pixel pairs across shadow
     edges: a pixel with ``fraction ≥ full`` and one with ``fraction ≤ lit`` ``d`` pixels
@@ -65,7 +66,8 @@ def shadow_pairs(
 
     ``cube`` is (n_bands, rows, cols) signal above the dark level; NaN fractions are
     invalid. A strip gives the pairs whose shadowed pixel is its own when read with a halo of
-    ``max(distances)`` lines (pass its own rows as ``valid`` of the shaded side by cropping).
+    ``max(distances) + 1`` lines and ``own`` (bool, rows × cols) True on its own lines:
+    only shadowed pixels in ``own`` start a pair.
     """
     x = np.asarray(cube)
     f = np.asarray(fraction, np.float64)
@@ -81,6 +83,8 @@ def shadow_pairs(
     ring = np.ones((3, 3), bool)
     shade = ndimage.binary_erosion(shade, ring, border_value=1) & shade
     sun = ndimage.binary_erosion(sun, ring, border_value=1) & sun
+    if own is not None:
+        shade &= np.asarray(own, bool)
     rows, cols = f.shape
     a_idx, b_idx = [], []
     for d in distances:
@@ -120,7 +124,8 @@ def illumination_ratio(
     Returns
     -------
     k : array (n_bands,)
-        The ratio (≥ 1 where the data say so; NaN for a band no pair measures).
+        The ratio (1 for a band no pair measures; below 1 only where the pairs say so:
+        noise in absorption bands).
     n_pairs : int
         Pairs kept in the end.
     spread : float
@@ -150,6 +155,8 @@ def illumination_ratio(
             f"(need {min_pairs}): the shadow map has too little full shadow next to sunlit "
             "ground to measure the illumination ratio"
         )
+    measured = np.isfinite(lr).any(axis=0)
+    lr[:, ~measured] = 0.0  # a band no pair measures: ratio 1 (unchanged)
     k = np.nanmedian(lr, axis=0)
     kept = np.ones(lr.shape[0], bool)
     for _ in range(int(iterations)):
