@@ -54,6 +54,7 @@ from .operations.anomaly import unmix_file as unmix_file
 from .operations.dem import disparity_file as disparity_file
 from .operations.dem import relative_dem_file as relative_dem_file
 from .operations.dem import view_3d_file as view_3d_file
+from .operations.deshadow import deshadow_file as deshadow_file
 from .operations.georef import auto_georeference_file as auto_georeference_file
 from .operations.georef import geolocate_file as geolocate_file
 from .operations.georef import georeference_file as georeference_file

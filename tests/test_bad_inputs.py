@@ -32,6 +32,7 @@ BASE: dict[str, dict[str, str]] = {
     "shadow-fraction-apply": {"ratio": "ratio.tif", "output": "out.tif"},
     "shadow-fraction-fit": {"ratio": "ratio.tif", "truth": "truth.tif", "report": "out.json"},
     "shadow-map": {"vnir": "v.img", "swir": "s.img", "output": "out.tif"},
+    "deshadow": {"vnir": "v.img", "swir": "s.img", "shadow": "truth.tif", "output": "out.tif"},
     "shadow-polygons": {"classes_raster": "classes.tif", "output": "out.gpkg"},
     "sun-shadow": {
         "dsm": "dem_g.tif",
