@@ -8,7 +8,9 @@ checks that this stub names exactly ``geoboresight.__all__``, each from its tabl
 """
 
 from .anomaly.bands import BandSelection as BandSelection
+from .anomaly.indicator import Eq3Reference as Eq3Reference
 from .anomaly.indicator import boresight_indicator as boresight_indicator
+from .anomaly.physical import Dipole as Dipole
 from .anomaly.polygons import label_anomalies as label_anomalies
 from .anomaly.roc import roc_curve as roc_curve
 from .anomaly.rx import RXBackground as RXBackground
@@ -34,6 +36,7 @@ from .georef.tiepoints import TieMatching as TieMatching
 from .georef.tiepoints import match_tie_points as match_tie_points
 from .georef.tiepoints import place_reference as place_reference
 from .georef.transforms import fit_transform as fit_transform
+from .io.bands import Coregistration as Coregistration
 from .io.bands import MatchBands as MatchBands
 from .io.cube import open_cube as open_cube
 from .io.dual import BandChoice as BandChoice
@@ -54,6 +57,7 @@ from .operations.anomaly import unmix_file as unmix_file
 from .operations.dem import disparity_file as disparity_file
 from .operations.dem import relative_dem_file as relative_dem_file
 from .operations.dem import view_3d_file as view_3d_file
+from .operations.deshadow import deshadow_file as deshadow_file
 from .operations.georef import auto_georeference_file as auto_georeference_file
 from .operations.georef import geolocate_file as geolocate_file
 from .operations.georef import georeference_file as georeference_file

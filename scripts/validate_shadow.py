@@ -28,10 +28,16 @@ Hold-out groups (``--holdout 1``, ``2`` or ``3``; :func:`holdout_cases`: five mo
 three simulator scenes each, conditions drawn at random from stated ranges) are not looked at
 while the method is developed; each is run once.
 
+``--dsm``: the surface-model prior and de-shadowing instead (:func:`run_dsm_case`):
+``shadow-map`` with a DSM (the model's own, with 0.3 m of Gaussian height noise and a random
+sub-pixel shift of up to half a pixel each way: registered within a pixel; seeds fixed below)
+against ``shadow-map`` without, and ``deshadow`` with the truth fraction and with the map's.
+Its hold-out groups (``--dsm --holdout 4`` / ``5``) are drawn as the others, with other seeds.
+
 Usage::
 
-    python scripts/validate_shadow.py [--lines 128] [--quick | --holdout N] [--out FOLDER]
-        [--markdown FILE]
+    python scripts/validate_shadow.py [--lines 128] [--quick | --holdout N] [--dsm]
+        [--out FOLDER] [--markdown FILE]
 """
 
 from __future__ import annotations
@@ -56,9 +62,10 @@ from scene_model2 import simulate2, write_scene2  # noqa: E402
 
 from geoboresight.io import quiet_georef  # noqa: E402
 from geoboresight.io.scene import write_scene  # noqa: E402
+from geoboresight.operations.deshadow import deshadow_file  # noqa: E402
 from geoboresight.operations.ratio import ratio_file  # noqa: E402
 from geoboresight.operations.shadow import shadow_classes_file, shadow_cluster_file  # noqa: E402
-from geoboresight.operations.shadow_map import shadow_map_file  # noqa: E402
+from geoboresight.operations.shadow_map import SurfaceModel, shadow_map_file  # noqa: E402
 from geoboresight.operations.shadow_truth import (  # noqa: E402
     dark_pixel_shadow_file,
     sun_shadow_file,
@@ -113,7 +120,14 @@ HOLDOUT = {
     1: (20261122, range(5, 10), (1, 2, 3)),
     2: (20261123, range(10, 15), (4, 5, 6)),
     3: (20261124, range(15, 20), (7, 8, 9)),
+    # Issue 24 (surface-model prior, de-shadowing): fixed before the first --dsm run.
+    4: (20261125, range(20, 25), (10, 11, 12)),
+    5: (20261126, range(25, 30), (13, 14, 15)),
 }
+#: Height noise (m) and largest sub-pixel shift (px) of the DSM given to shadow-map --dsm.
+DSM_NOISE_M = 0.3
+DSM_SHIFT_PX = 0.5
+DSM_SEED = 24
 
 
 def holdout_cases(group=1):
@@ -309,6 +323,126 @@ def run_case(label, model, opts, lines, folder):
     return row
 
 
+def write_tif(path, array):
+    with rasterio.open(
+        path,
+        "w",
+        driver="GTiff",
+        width=array.shape[1],
+        height=array.shape[0],
+        count=1,
+        dtype="float32",
+    ) as dst:
+        dst.write(array.astype("float32"), 1)
+
+
+def spectra_check(cube_path, dark, f_truth, material, names):
+    """Per material: the mean de-shadowed spectrum of fully shadowed pixels (truth fraction
+    1, one pixel inside the shadow) against the mean spectrum of its sunlit pixels (truth 0,
+    two pixels away from any shadow): spectral angle (°) and brightness ratio − 1 (over the
+    bands whose sunlit signal is ≥ 2 % of the brightest band's)."""
+    with quiet_georef(), rasterio.open(cube_path) as src:
+        x = src.read().astype(np.float64) - np.asarray(dark)[:, None, None]
+    full = ndimage.binary_erosion(f_truth >= 0.999)
+    sun = ~ndimage.binary_dilation(f_truth > 0.0, iterations=2)
+    out = {}
+    for k, name in names.items():
+        a = full & (material == k)
+        b = sun & (material == k)
+        if a.sum() < 20 or b.sum() < 20:
+            continue
+        ma, mb = x[:, a].mean(axis=1), x[:, b].mean(axis=1)
+        use = mb >= 0.02 * mb.max()
+        cos = np.dot(ma[use], mb[use]) / np.linalg.norm(ma[use]) / np.linalg.norm(mb[use])
+        angle = float(np.degrees(np.arccos(np.clip(cos, -1, 1))))
+        out[name] = (angle, float(ma[use].mean() / mb[use].mean() - 1), int(a.sum()))
+    return out
+
+
+def run_dsm_case(label, model, opts, lines, folder, index):
+    """The surface-model prior and de-shadowing on one scene (see the module's doc)."""
+    t0 = time.perf_counter()
+    os.makedirs(os.path.dirname(folder), exist_ok=True)
+    material, names, dark_ids, zen, az, gsd = make_scene(model, opts, lines, folder)
+    j = lambda name: os.path.join(folder, name)  # noqa: E731
+    vnir, swir = j("vnir.hdr"), j("swir.hdr")
+    rng = np.random.default_rng([DSM_SEED, index])
+    z = read(j("truth_dsm.tif")).astype(np.float64)
+    shift = rng.uniform(-DSM_SHIFT_PX, DSM_SHIFT_PX, 2)
+    z = ndimage.shift(z, shift, order=1, mode="nearest") + rng.normal(0, DSM_NOISE_M, z.shape)
+    write_tif(j("dsm_noisy.tif"), z)
+    shadow_map_file(vnir, swir, output=j("map0.tif"), mask=j("map0_mask.tif"))
+    sm = shadow_map_file(
+        vnir,
+        swir,
+        output=j("map_dsm.tif"),
+        mask=j("map_dsm_mask.tif"),
+        fraction=j("map_dsm_fraction.tif"),
+        surface=SurfaceModel(j("dsm_noisy.tif"), zen, az, gsd),
+    )
+    f = read(j("truth_shadow_fraction.tif")).astype(float)
+    valid = np.isfinite(f) & (read(j("map_dsm_mask.tif")) != 255)
+    truth = f >= 0.5
+    wide = ndimage.binary_opening(truth, np.ones((2, 2), bool))
+    domain = valid & ~(truth & ~wide)
+    sunlit_dark = np.isin(material, dark_ids) & (f < 0.1) & valid
+    row = {"label": label, "shift": tuple(shift), "truth_share": float(truth[valid].mean())}
+    for key, path in (("map0", "map0_mask.tif"), ("dsm", "map_dsm_mask.tif")):
+        m = read(j(path)) == 1
+        row[key] = prf(m, truth, valid)
+        row[key + "_wide"] = prf(m, truth, domain)[2]
+        row[key + "_fa"] = float(m[sunlit_dark].mean()) if sunlit_dark.any() else float("nan")
+    row["lit_share"] = sm["dsm_predicted_shadow_lit_share"]
+    row["best_shift"] = (sm["dsm_shift_rows"], sm["dsm_shift_columns"])
+    row["warnings"] = sm["warnings"]
+    write_tif(j("truth_fraction.tif"), np.nan_to_num(f, nan=0.0))
+    for key, frac in (("truth", j("truth_fraction.tif")), ("mapf", j("map_dsm_fraction.tif"))):
+        out = j(f"deshadow_{key}.tif")
+        try:
+            r = deshadow_file(vnir, swir, shadow=frac, output=out, report=j(f"ds_{key}.json"))
+        except Exception as e:  # reported, not hidden
+            row[key] = {"error": str(e)}
+            continue
+        with open(j(f"ds_{key}.json")) as fh:
+            dark = [b["dark_level_dn"] for b in json.load(fh)["bands"]]
+        row[key] = spectra_check(out, dark, f, material, names)
+        row[key + "_pairs"] = r["pairs_used"]
+    row["seconds"] = time.perf_counter() - t0
+    return row
+
+
+def _worst(d):
+    if "error" in d:
+        return "error", "error", ""
+    if not d:
+        return "–", "–", ""
+    sa = max(v[0] for v in d.values())
+    br = max(abs(v[1]) for v in d.values())
+    by = ", ".join(f"{k} {v[0]:.1f}°/{100 * v[1]:+.0f} %" for k, v in d.items())
+    return f"{sa:.1f}°", f"{100 * br:.0f} %", by
+
+
+def dsm_table(rows) -> str:
+    out = [
+        "| scene | truth shadow | no DSM: F1 wide / flagged | DSM: P / R / F1 | DSM F1 wide | "
+        "DSM sunlit dark flagged | predicted shadow lit | best shift (DSM shift) | deshadow, "
+        "truth f: worst SA / brightness | deshadow, map f: worst SA / brightness | "
+        "map f, by material (SA / brightness) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        t, m = _worst(r["truth"]), _worst(r["mapf"])
+        out.append(
+            f"| {r['label']} | {100 * r['truth_share']:.1f} % | {fmt(r['map0_wide'])} / "
+            f"{fmt(100 * r['map0_fa'], 1)} % | {' / '.join(fmt(v) for v in r['dsm'])} | "
+            f"{fmt(r['dsm_wide'])} | {fmt(100 * r['dsm_fa'], 1)} % | "
+            f"{100 * r['lit_share']:.1f} % | {r['best_shift'][0]:+d}, {r['best_shift'][1]:+d} "
+            f"({r['shift'][0]:+.2f}, {r['shift'][1]:+.2f}) | {t[0]} / {t[1]} | {m[0]} / {m[1]} "
+            f"| {m[2]} |"
+        )
+    return "\n".join(out)
+
+
 def fmt(x, nd=2):
     return "–" if x is None or (isinstance(x, float) and not np.isfinite(x)) else f"{x:.{nd}f}"
 
@@ -344,6 +478,9 @@ def main(argv=None):
         choices=sorted(HOLDOUT),
         help="a hold-out group (holdout_cases) instead of the development scenes",
     )
+    ap.add_argument(
+        "--dsm", action="store_true", help="the surface-model prior and de-shadowing (run_dsm_case)"
+    )
     ap.add_argument("--out", help="keep the scenes and products in this (new) folder")
     ap.add_argument("--markdown", help="also write the table to this file")
     args = ap.parse_args(argv)
@@ -361,6 +498,19 @@ def main(argv=None):
         rows = []
         for i, (label, model, opts) in enumerate(cases):
             print(f"… {label}", file=sys.stderr)
+            if args.dsm:
+                r = run_dsm_case(
+                    label, model, opts, args.lines, os.path.join(folder, f"s{i:02d}"), i
+                )
+                rows.append(r)
+                print(
+                    f"    no DSM F1 wide {fmt(r['map0_wide'])} flagged {fmt(100 * r['map0_fa'], 1)} %;"
+                    f" DSM F1 wide {fmt(r['dsm_wide'])} flagged {fmt(100 * r['dsm_fa'], 1)} %; "
+                    f"deshadow truth {_worst(r['truth'])[:2]} map {_worst(r['mapf'])[:2]}; "
+                    f"{r['seconds']:.0f} s",
+                    file=sys.stderr,
+                )
+                continue
             rows.append(run_case(label, model, opts, args.lines, os.path.join(folder, f"s{i:02d}")))
             r = rows[-1]
             print(
@@ -369,7 +519,7 @@ def main(argv=None):
                 f"{r['seconds']:.0f} s; warnings: {r['warnings']}",
                 file=sys.stderr,
             )
-        text = table(rows)
+        text = dsm_table(rows) if args.dsm else table(rows)
         print(text)
         if args.markdown:
             with open(args.markdown, "w", encoding="utf-8") as fh:

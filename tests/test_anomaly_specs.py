@@ -13,6 +13,7 @@ from sklearn.svm import OneClassSVM
 
 from geoboresight.algorithms.anomaly import ALGORITHMS as CUBE_ALGORITHMS
 from geoboresight.algorithms.roc import ALGORITHMS as MAP_ALGORITHMS
+from geoboresight.anomaly.indicator import Eq3Reference
 from geoboresight.errors import InputError
 from geoboresight.io import write_envi
 from geoboresight.io.cube import open_cube
@@ -306,7 +307,12 @@ def test_indicator_operation_by_strips_equals_the_kernel(tmp_path, window, tail)
     whole = boresight_indicator(ratio, valid, threshold=2.5, tail=tail, window=window)
     sp, mp = str(tmp_path / "s.tif"), str(tmp_path / "m.tif")
     res = boresight_indicator_file(
-        rp, output=sp, anomalies=mp, threshold=2.5, tail=tail, window=window, block_rows=4
+        rp,
+        output=sp,
+        anomalies=mp,
+        threshold=2.5,
+        reference=Eq3Reference(tail=tail, window=window),
+        block_rows=4,
     )
     assert res["count"] == whole.count and res["median"] == pytest.approx(whole.median)
     assert res["robust_sigma"] == pytest.approx(whole.sigma, rel=1e-12)

@@ -38,6 +38,7 @@ FIXTURES = {
     "igm.tif": "igm.tif",
     "gcps.csv": "gcps.csv",
     "ratio_map.tif": "ratio_g.tif",
+    "shadow_fraction.tif": "truth.tif",
 }
 #: Where the catalogue's inputs differ from the example's for one operation.
 OVERRIDES = {("reproject-to", "reference"): "truth37.tif", ("geolocate", "igm_crs"): UTM36}

@@ -51,13 +51,13 @@ def test_bad_levels_are_refused():
 
 
 def test_a_non_finite_member_of_a_group_is_refused_before_any_work(tmp_path):
-    from geoboresight.operations.shadow_map import BoresightOffset, shadow_map_file
+    from geoboresight.operations.shadow_map import MapCalibration, shadow_map_file
 
     scene = "sample_data/scene"
     out = tmp_path / "m.tif"
     for kw, name in (
         (dict(dark=DarkLevels(float("nan"))), "vnir_dark"),
-        (dict(offset=BoresightOffset(None, float("inf"))), "offset_across"),
+        (dict(calibration=MapCalibration(offset_across=float("inf"))), "offset_across"),
     ):
         with pytest.raises(ParameterError, match=name):
             shadow_map_file(f"{scene}/vnir.hdr", f"{scene}/swir.hdr", output=str(out), **kw)

@@ -21,7 +21,7 @@ from geoboresight.io import quiet_georef
 from geoboresight.io.dark import DarkLevels
 from geoboresight.io.windows import map_windows
 from geoboresight.operations.shadow import shadow_classes_file, shadow_fraction_apply_file
-from geoboresight.operations.shadow_map import shadow_map_file
+from geoboresight.operations.shadow_map import Detection, shadow_map_file
 from geoboresight.operations.shadow_truth import dark_pixel_shadow_file, sun_shadow_file
 from geoboresight.shadow import map as smap
 from geoboresight.shadow.classes import (
@@ -350,6 +350,6 @@ def test_shadow_map_refuses_bad_parameters(model2_scene, tmp_path):
             os.path.join(folder, "vnir.hdr"),
             os.path.join(folder, "swir.hdr"),
             output=str(tmp_path / "x.tif"),
-            edge_pixels=-1,
+            detection=Detection(edge_pixels=-1),
         )
     assert not os.path.exists(tmp_path / "x.tif")

@@ -7,7 +7,7 @@ import dataclasses
 from .. import io
 from ..anomaly.bands import WATER_BANDS_NM, BandSelection
 from ..anomaly.physical import TARGET_CONTRAST, TARGET_FRACTION, Detectability
-from ..io.bands import BoresightOffset
+from ..io.bands import BoresightOffset, Coregistration
 from ..io.dark import DarkLevels
 from ..io.dual import SEAM_NM, SWIR_NM, TOLERANCE_NM, VNIR_NM, BandChoice, DualLayout
 from ..io.products import FILE_FORMATS
@@ -232,8 +232,13 @@ COREGISTER = Flag(
     default=True,
 )
 
+#: Whether and by which offset RX and SVDD co-register the SWIR (io.bands.Coregistration).
+COREGISTRATION = Group(
+    name="coregistration", value=Coregistration, params=(COREGISTER, *OFFSET.params)
+)
+
 #: Co-registration, dark levels and detectability: what RX and SVDD add to the image.
-CHAIN_PARAMS = (COREGISTER, OFFSET, DARK, DETECTABILITY)
+CHAIN_PARAMS = (COREGISTRATION, DARK, DETECTABILITY)
 
 DPRIME_RESULTS = (
     Result("coregistered", "boolean", "SWIR co-registered onto the VNIR grid"),

@@ -6,8 +6,8 @@ Declarations only; the work is done by :mod:`geoboresight.operations.anomaly`.
 
 from __future__ import annotations
 
-from ..anomaly.indicator import TAILS, THRESHOLD
-from ..anomaly.physical import SIGNS
+from ..anomaly.indicator import TAILS, THRESHOLD, Eq3Reference
+from ..anomaly.physical import SIGNS, Dipole
 from ..anomaly.physical import WINDOW as DIPOLE_WINDOW
 from ..anomaly.rx import INNER, MODES, OUTER, PRECISIONS, RXBackground
 from ..anomaly.svdd import NU, SAMPLE_SIZE
@@ -243,38 +243,50 @@ INDICATOR = Algorithm(
             minimum=0.1,
             maximum=100.0,
         ),
-        Enum(
-            name="tail",
-            description="eq3: which side stands out: both, high or low ratios",
-            choices=TAILS,
-            default="both",
+        Group(
+            name="reference",
+            value=Eq3Reference,
+            params=(
+                Enum(
+                    name="tail",
+                    description="eq3: which side stands out: both, high or low ratios",
+                    choices=TAILS,
+                    default="both",
+                ),
+                Number(
+                    name="window",
+                    description="eq3: local reference, median ratio in this odd window (pixels); 0 = whole scene",
+                    default=0,
+                    minimum=0,
+                    maximum=101,
+                    integer=True,
+                ),
+            ),
         ),
-        Number(
-            name="window",
-            description="eq3: local reference, median ratio in this odd window (pixels); 0 = whole scene",
-            default=0,
-            minimum=0,
-            maximum=101,
-            integer=True,
-        ),
-        Enum(
-            name="target_sign",
-            description="physical: the targets against their ground at 900–1,100 nm (unknown: two-sided)",
-            choices=SIGNS,
-            default="unknown",
-        ),
-        Number(
-            name="dipole_window",
-            description="physical: odd window of the dipole's local median and spread (pixels)",
-            default=DIPOLE_WINDOW,
-            minimum=3,
-            maximum=101,
-            integer=True,
-            advanced=True,
+        Group(
+            name="dipole",
+            value=Dipole,
+            params=(
+                Enum(
+                    name="target_sign",
+                    description="physical: the targets against their ground at 900–1,100 nm (unknown: two-sided)",
+                    choices=SIGNS,
+                    default="unknown",
+                ),
+                Number(
+                    name="dipole_window",
+                    description="physical: odd window of the dipole's local median and spread (pixels)",
+                    default=DIPOLE_WINDOW,
+                    minimum=3,
+                    maximum=101,
+                    integer=True,
+                    advanced=True,
+                ),
+                *OFFSET.params,
+            ),
         ),
         LAYOUT,
         DARK,
-        OFFSET,
         DETECTABILITY,
         BLOCK_ROWS,
         RasterOut(name="output", description="Indicator score raster (GeoTIFF)"),

@@ -5,7 +5,13 @@ four shadow-fraction classes out. Declaration only: ``run`` is
 from __future__ import annotations
 
 from ..io.dual import BandChoice
-from ..operations.shadow_map import SAMPLE_SIZE, MapSample, shadow_map_file
+from ..operations.shadow_map import (
+    SAMPLE_SIZE,
+    Detection,
+    MapCalibration,
+    SurfaceModel,
+    shadow_map_file,
+)
 from ..shadow.map import CORE_DARKNESS, EDGE_PIXELS
 from ._common import (
     BLOCK_ROWS,
@@ -18,22 +24,95 @@ from ._common import (
     sample_size,
     seed,
 )
-from .spec import Algorithm, FileIn, Group, Number, RasterOut, Result
+from .spec import Algorithm, FileIn, Group, Number, RasterIn, RasterOut, Result
 
 GROUP = "Shadow"
 
 #: The ratio's bands, always by wavelength here (no 'band_mode': BandChoice's default).
 RATIO_BANDS = Group(name="bands", value=BandChoice, params=(VNIR_BAND, SWIR_BAND, TOLERANCE))
 
-#: The calibration sample (MapSample: 200,000 pixels by default).
-SAMPLE = Group(
-    name="sample",
-    value=MapSample,
+#: How the map is calibrated (MapCalibration): the boresight offset the user gives (empty =
+#: measured) and the random sample (200,000 pixels by default).
+CALIBRATION = Group(
+    name="calibration",
+    value=MapCalibration,
     params=(
+        *OFFSET.params,
         sample_size(
             "Pixels sampled at random (to calibrate the map)", SAMPLE_SIZE, 1000, 5_000_000
         ),
         seed(),
+    ),
+)
+
+#: The spectral shadow test (Detection).
+DETECTION = Group(
+    name="detection",
+    value=Detection,
+    params=(
+        Number(
+            name="core_darkness",
+            description="Core shadow: natural log of the SWIR signal over its sunlit mode at or below this (default ln 1/6; not used with a surface model)",
+            default=CORE_DARKNESS,
+            minimum=-10.0,
+            maximum=-0.01,
+            advanced=True,
+        ),
+        Number(
+            name="edge_pixels",
+            description="Look for partial shadow this many pixels around the core (0 = core only)",
+            default=EDGE_PIXELS,
+            minimum=0,
+            maximum=10,
+            integer=True,
+            advanced=True,
+        ),
+    ),
+)
+
+#: A surface model and the sun (SurfaceModel): the cast shadow it predicts is the prior.
+SURFACE = Group(
+    name="surface",
+    value=SurfaceModel,
+    params=(
+        RasterIn(
+            name="dsm",
+            description="Surface model (DSM, m) on the image's grid: its cast shadow is the prior (empty = spectra only)",
+            optional=True,
+        ),
+        Number(
+            name="sun_zenith",
+            description="Sun zenith angle at acquisition (degrees from vertical, below 90; with the DSM)",
+            optional=True,
+            minimum=0.0,
+            maximum=90.0,
+            unit="°",
+        ),
+        Number(
+            name="sun_azimuth",
+            description="Sun azimuth at acquisition (degrees clockwise from north towards the sun; with the DSM)",
+            optional=True,
+            minimum=0.0,
+            maximum=360.0,
+            unit="°",
+        ),
+        Number(
+            name="cell_size",
+            description="Cell size of the DSM in metres, when neither it nor the image has a geotransform",
+            optional=True,
+            minimum=0.0,
+            unit="m",
+            advanced=True,
+        ),
+        Number(
+            name="clearance",
+            description="Height a caster must rise above the sun line to cast shadow: about 3 × the DSM's height noise (m; 0 = exact)",
+            default=1.0,
+            minimum=0.0,
+            maximum=100.0,
+            unit="m",
+            advanced=True,
+        ),
     ),
 )
 
@@ -66,6 +145,18 @@ SHADOW_MAP = Algorithm(
         Result("class_3_pixels", "number", "Pixels in class 3"),
         Result("class_4_pixels", "number", "Pixels in class 4"),
         Result("no_shadow_pixels", "number", "Pixels without shadow"),
+        Result("dsm_surface", "string", "Surface model read as blocks or smooth"),
+        Result("dsm_relief_m", "number", "Relief of the surface model (m)"),
+        Result("dsm_predicted_shadow_pixels", "number", "Pixels the surface model shades"),
+        Result(
+            "dsm_predicted_shadow_lit_share",
+            "number",
+            "Share of the predicted shadow that is spectrally lit",
+        ),
+        Result("dsm_shift_rows", "number", "Best shift of the predicted shadow (rows)"),
+        Result("dsm_shift_columns", "number", "Best shift of the predicted shadow (columns)"),
+        Result("dsm_iou", "number", "IoU of predicted shadow and dark pixels"),
+        Result("dsm_iou_at_shift", "number", "IoU at the best shift"),
     ),
     display_name="Boresight shadow map (VNIR + SWIR): mask and shadow-fraction classes",
     group=GROUP,
@@ -91,7 +182,13 @@ SHADOW_MAP = Algorithm(
         "shadowed neighbours, giving the 20–50 and 50–80 % classes along edges.\n\n"
         "What it did is in the log, the result and the output's tags: dark levels and their "
         "source, the sunlit signals, the offset, the sunlit boresight ratio and the ratio "
-        "bounds Table 2 would have on this scene, and warnings. Validated on two independent "
+        "bounds Table 2 would have on this scene, and warnings.\n\n"
+        "With a surface model (DSM on the image's grid) and the sun's zenith and azimuth at "
+        "acquisition, the cast shadow the DSM predicts is the prior: the spectra refine its "
+        "edges (within a pixel) and fraction, a predicted shadow that is spectrally lit is "
+        "dropped, and nothing away from it is shadow (a black roof in the sun is not). How far "
+        "the DSM and the image disagree (best shift, share of predicted shadow spectrally lit) "
+        "is reported. Validated on two independent "
         "scene models (docs/shadow.md): it still misses shadow under strong skylight (hazy "
         "air, high sun zenith) and in narrow courtyards lit by sunlit walls, and takes black "
         "roofs, and asphalt in scenes of very bright soil, for shadow."
@@ -107,28 +204,17 @@ SHADOW_MAP = Algorithm(
         ),
         RATIO_BANDS,
         DARK,
-        OFFSET,
-        Number(
-            name="core_darkness",
-            description="Core shadow: natural log of the SWIR signal over its sunlit mode at or below this (default ln 1/6)",
-            default=CORE_DARKNESS,
-            minimum=-10.0,
-            maximum=-0.01,
-            advanced=True,
-        ),
-        Number(
-            name="edge_pixels",
-            description="Look for partial shadow this many pixels around the core (0 = core only)",
-            default=EDGE_PIXELS,
-            minimum=0,
-            maximum=10,
-            integer=True,
-            advanced=True,
-        ),
-        SAMPLE,
+        SURFACE,
+        DETECTION,
+        CALIBRATION,
         BLOCK_ROWS,
         RasterOut(name="output", description="Shadow-fraction classes (byte, colour table)"),
         RasterOut(name="mask", description="Shadow mask (1 shadow, 0 not)", optional=True),
+        RasterOut(
+            name="fraction",
+            description="Estimated shadow fraction (float, 0–1; the input of De-shadow)",
+            optional=True,
+        ),
     ),
     run=shadow_map_file,
 )

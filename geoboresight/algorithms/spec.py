@@ -550,7 +550,12 @@ def _check_signature(alg: Algorithm) -> None:
                 f"{'nothing' if default is inspect.Parameter.empty else repr(default)} "
                 "in the function"
             )
-    ins = {p.name for p in alg.inputs if p.kind in ("raster", "multiraster", "file")}
+    member_of = {p.name: g.name for g in alg.groups for p in g.params}
+    ins = {
+        f"{member_of[p.name]}.{p.name}" if p.name in member_of else p.name
+        for p in alg.inputs
+        if p.kind in ("raster", "multiraster", "file")
+    }
     outs = {p.name for p in alg.outputs}
     if set(getattr(alg.run, "inputs", ())) != ins or set(getattr(alg.run, "outputs", ())) != outs:
         raise TypeError(

@@ -231,3 +231,13 @@ def boresight_indicator(
     with np.errstate(invalid="ignore"):
         flags = score > threshold
     return IndicatorResult(score, flags, med, sigma, float(threshold), int(flags.sum()))
+
+
+@dataclass(frozen=True)
+class Eq3Reference:
+    """What the paper's Eq. 3 z-score compares a pixel's ratio with: the whole scene
+    (``window`` 0) or the median of its odd ``window`` × ``window`` neighbourhood, and which
+    ``tail`` is anomalous ("both", "high", "low")."""
+
+    tail: str = "both"
+    window: int = 0

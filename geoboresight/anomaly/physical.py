@@ -334,3 +334,16 @@ def describe(name: str, dprime: float, target: Detectability) -> tuple[str, bool
             "at useful false-alarm rates"
         )
     return msg, low
+
+
+@dataclass(frozen=True)
+class Dipole:
+    """How the physical indicator scores the dipole (docs/anomaly.md): one-sided by
+    ``target_sign`` where known, against the median and spread of an odd ``dipole_window``
+    neighbourhood, along the boresight offset (``offset_along``, ``offset_across`` px; both
+    None: measured)."""
+
+    target_sign: str = "unknown"
+    dipole_window: int = WINDOW
+    offset_along: float | None = None
+    offset_across: float | None = None

@@ -55,6 +55,14 @@ class BoresightOffset:
     offset_across: float | None = None
 
 
+@dataclass(frozen=True)
+class Coregistration(BoresightOffset):
+    """Whether RX and SVDD shift the SWIR onto the VNIR grid first (``coregister``), and by
+    which boresight offset (given, or both None: measured)."""
+
+    coregister: bool = True
+
+
 #: Dense matching's images: band means 900–970 nm against 980–1,100 nm (the single 1,010 nm
 #: band is too weak to match pixel by pixel; docs/dem.md).
 DENSE_MATCH = MatchBands(MATCH_VNIR_NM, MATCH_SWIR_NM, MATCH_VNIR_TO_NM, MATCH_SWIR_TO_NM)

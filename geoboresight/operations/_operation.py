@@ -41,7 +41,9 @@ from ..progress import as_progress
 
 def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) -> Callable:
     """Declare a file-level operation whose parameters ``inputs`` name files it reads (a path
-    or a list of paths) and ``outputs`` the files or folders it writes.
+    or a list of paths) and ``outputs`` the files or folders it writes. A file inside a
+    parameter group's value is named ``"group.member"`` (``"surface.dsm"``: the ``dsm`` of the
+    ``surface`` value), and is checked as an input like any other.
 
     The decorated function takes ``progress`` (a :class:`~geoboresight.progress.Progress` or
     None) and gains ``overwrite`` (default False). How GeoTIFF outputs are written
@@ -52,7 +54,9 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
 
     def decorate(func: Callable) -> Callable:
         sig = inspect.signature(func)
-        missing = [n for n in (*inputs, *outputs, "progress") if n not in sig.parameters]
+        missing = [
+            n for n in (*inputs, *outputs, "progress") if n.split(".")[0] not in sig.parameters
+        ]
         if missing:
             raise TypeError(f"{func.__name__}: no parameter(s) {', '.join(missing)}")
 
@@ -80,7 +84,7 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
                         _remove(o)
                 if isinstance(exc, GeoboresightError) or not isinstance(exc, OSError | MemoryError):
                     raise
-                ins = [p for name in inputs for p in _paths(values.get(name))]
+                ins = [p for name in inputs for p in _paths(_value(values, name))]
                 names = [p.name for p in spec.params] if spec is not None else list(values)
                 raise translate_error(exc, ins, outs, names) from exc
             finally:
@@ -94,6 +98,14 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
         return run
 
     return decorate
+
+
+def _value(values: dict, name: str):
+    """The value of parameter ``name``, or of ``"group.member"``: that member of a group's
+    value (None when the group is not given)."""
+    group, _, member = name.partition(".")
+    value = values.get(group)
+    return getattr(value, member, None) if member else value
 
 
 def _paths(value) -> list[str]:
@@ -110,7 +122,7 @@ def _paths(value) -> list[str]:
 def check_paths(values: dict, inputs, outputs, overwrite: bool) -> list[str]:
     """Refuse an output that is an input (or its sidecar), given twice, or existing without
     ``overwrite``; return the output paths."""
-    ins = [p for name in inputs for p in _paths(values.get(name))]
+    ins = [p for name in inputs for p in _paths(_value(values, name))]
     outs: list[str] = []
     seen: set[str] = set()
     for name in outputs:

@@ -16,15 +16,14 @@ import numpy as np
 from .. import io
 from ..anomaly import indicator as ind
 from ..anomaly.bands import BandSelection, select_bands
-from ..anomaly.indicator import THRESHOLD
-from ..anomaly.physical import WINDOW as DIPOLE_WINDOW
-from ..anomaly.physical import Detectability
+from ..anomaly.indicator import THRESHOLD, Eq3Reference
+from ..anomaly.physical import Detectability, Dipole
 from ..anomaly.polygons import FIELDS
 from ..anomaly.roc import PFA, TITLE
 from ..anomaly.rx import RXBackground
 from ..anomaly.svdd import NU, SAMPLE_SIZE
 from ..errors import InputError
-from ..io.bands import BoresightOffset
+from ..io.bands import BoresightOffset, Coregistration
 from ..io.dark import DarkLevels
 from ..io.dual import DualLayout
 from ._operation import operation
@@ -288,8 +287,7 @@ def rx_file(
     background=RXBackground(),
     regularize=0.0,
     precision="float64",
-    coregister=True,
-    offset=BoresightOffset(),
+    coregistration=Coregistration(),
     dark=DarkLevels(),
     detectability=Detectability(),
     block_rows=CUBE_BLOCK_ROWS,
@@ -323,12 +321,12 @@ def rx_file(
         Ridge added to the covariance diagonal, as a fraction of the mean band variance.
     precision : {"float64", "float32"}
         Arithmetic of the scoring pass.
-    coregister : bool
-        Shift the SWIR bands onto the VNIR grid by the boresight offset first (default): a
-        sub-pixel target's VNIR and SWIR signals then fall in one pixel. Needs a dual dataset
-        (VNIR and SWIR files, or a sensor product); one plain cube is used as it is.
-    offset : BoresightOffset
-        The offset to remove (px); empty: measured as ``boresight-offset`` measures it.
+    coregistration : Coregistration
+        ``coregister``: shift the SWIR bands onto the VNIR grid by the boresight offset first
+        (default): a sub-pixel target's VNIR and SWIR signals then fall in one pixel. Needs a
+        dual dataset (VNIR and SWIR files, or a sensor product); one plain cube is used as it
+        is. The offset to remove (``offset_along``, ``offset_across`` px); empty: measured as
+        ``boresight-offset`` measures it.
     dark : DarkLevels
         Dark levels for the detectability (given, else the product's, the header's, or the
         dark object of a random sample), as ``shadow-map`` finds them.
@@ -357,7 +355,14 @@ def rx_file(
 
     physical.check_target(detectability)
     cube, bands, wl, read, coreg, dark_dn = _prepare_image(
-        vnir, swir, layout, spectral, dark, offset, coregister, progress
+        vnir,
+        swir,
+        layout,
+        spectral,
+        dark,
+        coregistration,
+        coregistration.coregister,
+        progress,
     )
     progress = progress.sub(0.1 if coreg["coregistered"] else 0.0, 1.0)
     read64 = read if coreg["coregistered"] else cube.reader(bands, "float64")
@@ -472,8 +477,7 @@ def svdd_file(
     nu=NU,
     sample_size=SAMPLE_SIZE,
     seed=0,
-    coregister=True,
-    offset=BoresightOffset(),
+    coregistration=Coregistration(),
     dark=DarkLevels(),
     detectability=Detectability(),
     block_rows=CUBE_BLOCK_ROWS,
@@ -507,12 +511,12 @@ def svdd_file(
         Background pixels drawn for training.
     seed : int
         Random seed of the sample (same seed, same result).
-    coregister : bool
-        Shift the SWIR bands onto the VNIR grid by the boresight offset first (default): a
-        sub-pixel target's VNIR and SWIR signals then fall in one pixel. Needs a dual dataset
-        (VNIR and SWIR files, or a sensor product); one plain cube is used as it is.
-    offset : BoresightOffset
-        The offset to remove (px); empty: measured as ``boresight-offset`` measures it.
+    coregistration : Coregistration
+        ``coregister``: shift the SWIR bands onto the VNIR grid by the boresight offset first
+        (default): a sub-pixel target's VNIR and SWIR signals then fall in one pixel. Needs a
+        dual dataset (VNIR and SWIR files, or a sensor product); one plain cube is used as it
+        is. The offset to remove (``offset_along``, ``offset_across`` px); empty: measured as
+        ``boresight-offset`` measures it.
     dark : DarkLevels
         Dark levels for the detectability (given, else the product's, the header's, or the
         dark object of a random sample), as ``shadow-map`` finds them.
@@ -540,7 +544,14 @@ def svdd_file(
 
     physical.check_target(detectability)
     cube, bands, wl, read, coreg, dark_dn = _prepare_image(
-        vnir, swir, layout, spectral, dark, offset, coregister, progress
+        vnir,
+        swir,
+        layout,
+        spectral,
+        dark,
+        coregistration,
+        coregistration.coregister,
+        progress,
     )
     progress = progress.sub(0.1 if coreg["coregistered"] else 0.0, 1.0)
     with cube:
@@ -618,13 +629,10 @@ def boresight_indicator_file(
     anomalies=None,
     method="auto",
     threshold=THRESHOLD,
-    tail="both",
-    window=0,
-    target_sign="unknown",
-    dipole_window=DIPOLE_WINDOW,
+    reference=Eq3Reference(),
+    dipole=Dipole(),
     layout=DualLayout(),
     dark=DarkLevels(),
-    offset=BoresightOffset(),
     detectability=Detectability(),
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
@@ -664,20 +672,17 @@ def boresight_indicator_file(
     method : {"auto", "eq3", "physical"}
     threshold : float
         Threshold on the score (σ units; the paper's 3σ rule).
-    tail : {"both", "high", "low"}
-        "eq3": which side of the ratio's distribution stands out.
-    window : int
-        "eq3": odd window of the local median reference; 0 (or 1): the whole scene.
-    target_sign : {"unknown", "darker", "brighter"}
-        "physical": the targets' sign at 900–1,100 nm against their ground, when known.
-    dipole_window : int
-        "physical": odd window of D's local median and spread.
+    reference : Eq3Reference
+        "eq3": which side of the ratio's distribution stands out (``tail``), and the odd
+        ``window`` of the local median reference (0 or 1: the whole scene).
+    dipole : Dipole
+        "physical": the targets' sign at 900–1,100 nm against their ground when known
+        (``target_sign``), the odd ``dipole_window`` of D's local median and spread, and the
+        offset δ (``offset_along``, ``offset_across`` px; empty: measured).
     layout : DualLayout
         How to read VNIR and SWIR files that do not say it all.
     dark : DarkLevels
         "physical": dark levels (given, else the product's, the header's, or estimated).
-    offset : BoresightOffset
-        "physical": the offset δ (px); empty: measured.
     detectability : Detectability
         The target whose expected d′ is reported (a warning below 3).
     block_rows : int
@@ -717,11 +722,11 @@ def boresight_indicator_file(
             output=output,
             anomalies=anomalies,
             threshold=threshold,
-            sign=target_sign,
-            window=dipole_window,
+            sign=dipole.target_sign,
+            window=dipole.dipole_window,
             layout=layout,
             dark=dark,
-            offset=offset,
+            offset=BoresightOffset(dipole.offset_along, dipole.offset_across),
             target=detectability,
             block_rows=block_rows,
             progress=progress,
@@ -737,7 +742,14 @@ def boresight_indicator_file(
     )
     return {
         **_eq3_indicator_file(
-            ratio, output, anomalies, threshold, tail, window, block_rows, progress
+            ratio,
+            output,
+            anomalies,
+            threshold,
+            reference.tail,
+            reference.window,
+            block_rows,
+            progress,
         ),
         "method": "eq3",
     }

@@ -14,6 +14,7 @@ import contextlib
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import ndimage
 
 from .. import io
 from ..errors import InputError, ParameterError
@@ -24,6 +25,7 @@ from ..io.masks import mask_raster
 from ..io.shadow import class_table_csv
 from ..io.windows import Sample
 from ..shadow import classes as cls
+from ..shadow import illumination as ill
 from ..shadow import map as smap
 from ._operation import operation
 from .shadow import class_table, no_valid_error
@@ -38,6 +40,39 @@ class MapSample(Sample):
     :data:`SAMPLE_SIZE` pixels by default."""
 
     sample_size: int = SAMPLE_SIZE
+
+
+@dataclass(frozen=True)
+class MapCalibration(MapSample, BoresightOffset):
+    """How the shadow map is calibrated on the flight line: the random sample
+    (``sample_size``, ``seed``; :class:`MapSample`) and the boresight offset of the SWIR
+    (``offset_along``, ``offset_across``; :class:`BoresightOffset`: both None = measured)."""
+
+
+@dataclass(frozen=True)
+class Detection:
+    """The spectral shadow test: core shadow at or below ``core_darkness`` (natural log of the
+    SWIR signal over its sunlit mode; not used with a surface model, whose prior replaces it)
+    and partial shadow looked for ``edge_pixels`` around it."""
+
+    core_darkness: float = smap.CORE_DARKNESS
+    edge_pixels: int = smap.EDGE_PIXELS
+
+
+@dataclass(frozen=True)
+class SurfaceModel:
+    """A surface model (DSM, heights in metres) on the image's grid and the sun's position:
+    the cast shadow it predicts is the shadow map's prior. ``dsm`` None = no surface model.
+    ``sun_zenith`` 0–90° (< 90), ``sun_azimuth`` clockwise from north towards the sun (as
+    ``sun-shadow``); ``cell_size`` (m) for a DSM without a geotransform (else the image's);
+    ``clearance`` (m): a caster must rise this far above the sun line to cast shadow (the
+    DSM's height noise: about 3 × its standard deviation; 0 = exact, as ``sun-shadow``)."""
+
+    dsm: str | None = None
+    sun_zenith: float | None = None
+    sun_azimuth: float | None = None
+    cell_size: float | None = None
+    clearance: float = 1.0
 
 
 #: Bands per instrument read for the dark level besides the signal bands (evenly spaced).
@@ -83,7 +118,113 @@ def _offset(dual, v_src, s_src, rb, given: BoresightOffset, progress):
     return off.along, off.across, f"measured on lines {r0}–{r1}"
 
 
-@operation(inputs=("vnir", "swir", "classes"), outputs=("output", "mask"))
+@dataclass(frozen=True)
+class _Surface:
+    """An opened surface model: what the strips need to cast its shadows."""
+
+    src: object
+    zenith: float
+    azimuth: float
+    matrix: np.ndarray
+    relief: float
+    surface: str
+    halo: tuple[int, int]
+    clearance: float = 0.0
+
+    def prior(self, z, valid):
+        return ill.shadow_fraction(
+            z,
+            valid,
+            sun_zenith=self.zenith,
+            sun_azimuth=self.azimuth,
+            transform=self.matrix,
+            relief=self.relief,
+            interpolation=ill.SURFACES[self.surface],
+            clearance=self.clearance,
+        )
+
+
+def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _Surface | None:
+    """Check the surface model against the image and find its relief (how far its shadows
+    reach) and whether it has walls (blocks or smooth surface, as ``sun-shadow``)."""
+    from ..shadow.surface import choose_surface, surface_walls
+
+    given = [surface.sun_zenith is not None, surface.sun_azimuth is not None]
+    if not surface.dsm:
+        if any(given):
+            raise ParameterError(
+                "parameters 'sun_zenith'/'sun_azimuth' are only used with a surface model: "
+                "give 'dsm' too, or leave them empty"
+            )
+        return None
+    if not all(given):
+        raise ParameterError(
+            "parameter 'dsm' needs the sun's position: give 'sun_zenith' and 'sun_azimuth' "
+            "(degrees; the azimuth clockwise from north towards the sun)"
+        )
+    zen, az = ill.check_sun(surface.sun_zenith, surface.sun_azimuth)
+    if zen >= 90.0:
+        raise ParameterError(
+            f"parameter 'sun_zenith': {zen:g}° puts the sun on or below the horizon: every "
+            "surface would be in shadow; give the zenith of the acquisition (below 90°)"
+        )
+    src = stack.enter_context(io.open_raster(surface.dsm, "surface model"))
+    if (src.height, src.width) != (dual.height, dual.width):
+        raise InputError(
+            f"surface model {surface.dsm} has {src.height} × {src.width} cells but the image "
+            f"{dual.height} × {dual.width} pixels: give a DSM on the image's grid (a DSM on a "
+            "map grid with the line's IGM is not supported yet: resample it onto the image "
+            "grid first)"
+        )
+    grid = io.Grid.of(src)
+    if grid.georeferenced:
+        matrix = ill.grid_matrix(grid.transform)
+    elif surface.cell_size:
+        matrix = ill.grid_matrix(None, surface.cell_size)
+    elif dual.grid.georeferenced:
+        matrix = ill.grid_matrix(dual.grid.transform)
+    else:
+        raise ParameterError(
+            f"surface model {surface.dsm} and the image have no geotransform: give "
+            "'cell_size' (the DSM's cell size in metres)"
+        )
+    read = io.band_reader(src, 1)
+
+    def relief_and_walls(z, valid, block):
+        own = block.inner
+        lo, hi, n = ill.height_range(z[own], valid[own])
+        pairs = slice(own.start, own.stop + 1)
+        return lo, hi, n, *surface_walls(z[pairs], valid[pairs], matrix=matrix)
+
+    lo, hi, n_valid, walls, pairs = io.reduce_windows(
+        read,
+        relief_and_walls,
+        lambda a, b: (min(a[0], b[0]), max(a[1], b[1]), a[2] + b[2], a[3] + b[3], a[4] + b[4]),
+        (np.inf, -np.inf, 0, 0, 0),
+        halo=(0, 1),
+        pass_block=True,
+        height=dual.height,
+        width=dual.width,
+        block_rows=block_rows,
+        message="surface model relief",
+    )
+    if n_valid == 0:
+        raise no_valid_error(surface.dsm, "surface model")
+    kind = choose_surface(walls, pairs)
+    relief = float(hi - lo)
+    halo = ill.halo_rows(relief, zen, az, matrix, (dual.height, dual.width))
+    progress.info(
+        f"surface model {surface.dsm}: relief {relief:.1f} m, {kind} surface ({walls} of "
+        f"{pairs} cell pairs are walls); sun zenith {zen:g}°, azimuth {az:g}°"
+    )
+    if not surface.clearance >= 0:
+        raise ParameterError(f"parameter 'clearance': {surface.clearance!r} must be ≥ 0 (m)")
+    return _Surface(src, zen, az, matrix, relief, kind, halo, float(surface.clearance))
+
+
+@operation(
+    inputs=("vnir", "swir", "classes", "surface.dsm"), outputs=("output", "mask", "fraction")
+)
 def shadow_map_file(
     vnir,
     swir=None,
@@ -91,13 +232,13 @@ def shadow_map_file(
     *,
     output,
     mask=None,
+    fraction=None,
     layout=DualLayout(),
     bands=BandChoice(),
     dark=DarkLevels(),
-    offset=BoresightOffset(),
-    core_darkness=smap.CORE_DARKNESS,
-    edge_pixels=smap.EDGE_PIXELS,
-    sample=MapSample(),
+    surface=SurfaceModel(),
+    detection=Detection(),
+    calibration=MapCalibration(),
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
 ) -> dict:
@@ -116,6 +257,9 @@ def shadow_map_file(
         Byte class raster (0 no shadow, 1–4 the classes, 255 nodata) with a colour table.
     mask : path, optional
         Binary shadow mask (1 shadow, 0 not, 255 nodata).
+    fraction : path, optional
+        The estimated shadow fraction (float32, 0–1; what the classes are cut from): the
+        input of ``deshadow``.
     layout : DualLayout
         How to read files that do not say it all (a merged cube's seam, band centres).
     bands : BandChoice
@@ -127,17 +271,21 @@ def shadow_map_file(
         None = the sensor product's dark reference, else the header's 'dark level', else
         estimated from the data (dark object): :func:`geoboresight.io.dark.dark_level_of`.
         Give 0 for radiance.
-    offset : BoresightOffset
-        Boresight offset of the SWIR relative to the VNIR (px, ``offset_along``,
-        ``offset_across``); both None = measured on a central block of lines.
-    core_darkness : float
-        Core shadow: mean natural log of the NIR and SWIR signals over their sunlit modes at
-        or below this (default ln 0.2).
-    edge_pixels : int
-        Partial shadow is looked for this many pixels around the core (0 = core only).
-    sample : MapSample
-        The random sample that calibrates the map: ``sample_size`` pixels (default 200,000),
-        ``seed``.
+    surface : SurfaceModel
+        A surface model on the image's grid (``dsm``) and the sun (``sun_zenith``,
+        ``sun_azimuth``; ``cell_size`` for a DSM without a geotransform): the cast shadow it
+        predicts is the prior, the spectra refine its edges and fraction, and no pixel away
+        from it is shadow (:func:`geoboresight.shadow.map.dsm_shadow_fraction`). How far the
+        model and the image disagree is reported (best shift, share of predicted shadow that
+        is spectrally lit). Default: none (spectral evidence only).
+    detection : Detection
+        ``core_darkness``: core shadow where the SWIR signal over its sunlit mode is at or
+        below this (natural log, default ln 1/6; without a surface model);
+        ``edge_pixels``: partial shadow is looked for this many pixels around it.
+    calibration : MapCalibration
+        The random sample that calibrates the map (``sample_size``, default 200,000;
+        ``seed``) and the boresight offset of the SWIR relative to the VNIR (px,
+        ``offset_along``, ``offset_across``; both None = measured on a central block).
     block_rows : int
         Lines read at a time.
     progress : Progress, optional
@@ -155,6 +303,8 @@ def shadow_map_file(
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1, Table 2).
     Chavez, P.S. Remote Sens. Environ. 1988, 24, 459–479 (dark-object subtraction).
     """
+    core_darkness, edge_pixels = detection.core_darkness, detection.edge_pixels
+    sample = offset = calibration
     if int(edge_pixels) != edge_pixels or edge_pixels < 0:
         raise ParameterError(f"parameter 'edge_pixels': {edge_pixels!r} must be a whole number ≥ 0")
     edge_pixels = int(edge_pixels)
@@ -179,6 +329,7 @@ def shadow_map_file(
         s_src = (
             v_src if dual.merged else stack.enter_context(io.open_raster(dual.swir.reads, "SWIR"))
         )
+        dsm = _open_surface(surface, dual, block_rows, stack, progress)
         # Pass 1: a random sample of the line for the dark levels and the sunlit modes.
         sources = [(v_src, b) for b in v_dark_b] + [(s_src, b) for b in s_dark_b]
         pixels, ok = io.sample_windows(
@@ -240,18 +391,29 @@ def shadow_map_file(
         fraction_classes = "; ".join(f"{c.id}: {cls.fraction_text(c)}" for c in cal.table.classes)
         # Pass 2: the map, strip by strip (shadow.map.shadow_map_block); the halo covers the
         # SWIR shift and the edge search.
-        read = io.bands_reader(
+        read_image = io.bands_reader(
             [(v_src, b) for b in blue_b]
             + [(v_src, b) for b in nir_b]
             + [(s_src, b) for b in swir_b]
             + [(v_src, rb.vnir_band), (s_src, rb.swir_band)]  # valid in the ratio's bands too
         )
+        if dsm is None:
+            read = read_image
+        else:
+            read_z = io.band_reader(dsm.src, 1)
+
+            def read(r0, r1):
+                values, valid = read_image(r0, r1)
+                z, z_ok = read_z(r0, r1)
+                return values, valid, z, z_ok
+
         at_nir, at_swir = len(blue_b), len(blue_b) + len(nir_b)
         at_end = at_swir + len(swir_b)
         levels = (blue_lv, nir_lv, swir_lv)
 
-        def kernel(values, valid):
-            c, m = smap.shadow_map_block(
+        def kernel(values, valid, z=None, z_ok=None):
+            prior = None if z is None else dsm.prior(z, z_ok)
+            f, d = smap.shadow_fraction_block(
                 values[:at_nir],
                 values[at_nir:at_swir],
                 values[at_swir:at_end],
@@ -259,8 +421,39 @@ def shadow_map_file(
                 calibration=cal,
                 dark_levels=levels,
                 edge_pixels=edge_pixels,
+                prior=prior,
             )
-            return c, m, np.bincount(c.ravel(), minlength=256)
+            c = smap.shadow_classes(f, cal.table)
+            m = smap.shadow_mask(f)
+            if prior is None:
+                return c, m, f, None, None
+            # Predicted shadow away from its edges, and the part of it spectrally lit.
+            deep = ndimage.binary_erosion(prior >= 0.5) & np.isfinite(f)
+            with np.errstate(invalid="ignore"):
+                lit = deep & (d > smap.LIT_DARKNESS)
+            return c, m, f, deep, lit
+
+        halo = smap.shadow_map_halo(cal, edge_pixels)
+        halo = (halo, halo) if dsm is None else (halo + dsm.halo[0], halo + dsm.halo[1])
+        agreement = {}
+        if dsm is not None:
+            # Registration: the best shift of the predicted shadow onto the image's dark
+            # pixels, on a central block of lines (as the boresight offset).
+            r0 = max(0, dual.height // 2 - OFFSET_ROWS // 2)
+            r1 = min(dual.height, r0 + OFFSET_ROWS)
+            values, valid, z, z_ok = read(r0, r1)
+            prior_c = dsm.prior(z, z_ok)
+            _, d_c = smap.shadow_fraction_block(
+                values[:at_nir],
+                values[at_nir:at_swir],
+                values[at_swir:at_end],
+                valid,
+                calibration=cal,
+                dark_levels=levels,
+                edge_pixels=edge_pixels,
+                prior=prior_c,
+            )
+            agreement = smap.prior_agreement(d_c, prior_c, valid)
 
         tags = {
             "product": "boresight shadow map: mask and scene-calibrated Table 2 classes "
@@ -277,6 +470,19 @@ def shadow_map_file(
             f"{edge_pixels} px by unmixing between the local sunlit and core-shadow signals; "
             "classes by Table 2's fraction intervals",
         }
+        if dsm is not None:
+            tags.update(
+                dsm=surface.dsm,
+                sun_zenith_deg=str(dsm.zenith),
+                sun_azimuth_deg=str(dsm.azimuth),
+                dsm_surface=dsm.surface,
+                method="surface model prior: cast shadow from the DSM and the sun (ray march, "
+                f"{dsm.surface} surface), refined by SWIR/NIR darkness within "
+                f"{smap.DSM_TOLERANCE} px (lit above ln 1/2 of the sunlit mode, rim shadow at "
+                "or below ln 1/3) and unmixed within "
+                f"{edge_pixels} px; no shadow away from the predicted shadow; classes by "
+                "Table 2's fraction intervals",
+            )
         counts = np.zeros(256, np.int64)
         n_shadow = 0
         dst = stack.enter_context(
@@ -293,10 +499,21 @@ def shadow_map_file(
         mdst = None
         if mask:
             mdst = stack.enter_context(mask_raster(mask, dual.grid, tags, "shadow mask"))
-        for win, (c, m, n) in io.map_windows(
+        fdst = None
+        if fraction:
+            fdst = stack.enter_context(
+                io.create_raster(
+                    fraction,
+                    dual.grid,
+                    tags={**tags, "product": "estimated shadow fraction (0–1)"},
+                    band_names=["shadow fraction"],
+                )
+            )
+        n_deep = n_lit = 0
+        for win, (c, m, f, deep, lit) in io.map_windows(
             read,
             kernel,
-            halo=(smap.shadow_map_halo(cal, edge_pixels),) * 2,
+            halo=halo,
             progress=progress.sub(0.3, 1.0),
             message="shadow map",
             **strips,
@@ -304,8 +521,15 @@ def shadow_map_file(
             dst.write(c, 1, window=win)
             if mdst is not None:
                 mdst.write(m, 1, window=win)
-            counts += n
+            if fdst is not None:
+                fdst.write(
+                    np.where(np.isfinite(f), f, io.FLOAT_NODATA).astype("float32"), 1, window=win
+                )
+            counts += np.bincount(c.ravel(), minlength=256)
             n_shadow += int((m == cls.MASK_SHADOW).sum())
+            if deep is not None:
+                n_deep += int(deep.sum())
+                n_lit += int(lit.sum())
         n_valid = int(counts[: cls.NODATA_CLASS].sum())
         if n_valid == 0:
             raise no_valid_error(vnir, "VNIR/SWIR image")
@@ -315,6 +539,35 @@ def shadow_map_file(
             f"{100 * share:.0f} % of the valid pixels are shadow: the sunlit mode may not be "
             "sunlit ground (a mostly shaded or dark scene); check the calibration"
         )
+    if dsm is not None:
+        lit_share = n_lit / n_deep if n_deep else 0.0
+        agreement.update(
+            dsm_surface=dsm.surface,
+            dsm_relief_m=round(dsm.relief, 3),
+            dsm_predicted_shadow_pixels=n_deep,
+            dsm_predicted_shadow_lit_share=round(lit_share, 4),
+        )
+        progress.info(
+            f"surface model against the image: {100 * lit_share:.1f} % of the predicted shadow "
+            "(away from its edges) is spectrally lit; best shift of the predicted shadow "
+            f"{agreement['dsm_shift_rows']:+d} rows, {agreement['dsm_shift_columns']:+d} columns "
+            f"(IoU with the dark pixels {agreement['dsm_iou_at_shift']} there, "
+            f"{agreement['dsm_iou']} unshifted)"
+        )
+        if lit_share > 0.2:
+            warnings.append(
+                f"{100 * lit_share:.0f} % of the shadow the surface model predicts is "
+                "spectrally lit: the model may be of another date, not registered with the "
+                "image, or the sun's angles wrong"
+            )
+        gain = (agreement["dsm_iou_at_shift"] or 0) - (agreement["dsm_iou"] or 0)
+        if (agreement["dsm_shift_rows"], agreement["dsm_shift_columns"]) != (0, 0) and gain > 0.05:
+            warnings.append(
+                "the predicted shadow matches the image's dark pixels best shifted by "
+                f"{agreement['dsm_shift_rows']:+d} rows, {agreement['dsm_shift_columns']:+d} "
+                f"columns (IoU {agreement['dsm_iou']} → {agreement['dsm_iou_at_shift']}): the "
+                "surface model is probably not registered with the image"
+            )
     for w in warnings:
         progress.info(f"warning: {w}")
     result = {
@@ -325,10 +578,13 @@ def shadow_map_file(
         **cal.as_dict(),
         "classes": fraction_classes,
         "table2_ratio_bounds_on_scene": cal.table.describe(),
+        **agreement,
         "warnings": warnings,
     }
     if mask:
         result["mask"] = mask
+    if fraction:
+        result["fraction"] = fraction
     for c in cal.table.classes:
         result[f"class_{c.id}_pixels"] = int(counts[c.id])
     result["no_shadow_pixels"] = int(counts[cls.NO_SHADOW])

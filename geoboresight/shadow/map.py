@@ -72,6 +72,15 @@ WATER_FACTOR = 6.0
 EDGE_PIXELS = 2
 #: Side (pixels) of the neighbourhood whose sunlit and shadowed means decide an edge pixel.
 EDGE_WINDOW = 5
+#: With a surface model (:func:`dsm_shadow_fraction`): a pixel within :data:`DSM_TOLERANCE` of
+#: the predicted cast shadow but outside it is shadow when at most a third of the sunlit mode
+#: (ln 1/3: looser than the core, since a surface model rules out dark materials elsewhere).
+RIM_DARKNESS = math.log(1 / 3)
+#: A pixel brighter than half the sunlit mode is spectrally lit, whatever the surface model
+#: predicts: sky and adjacency light give a shadow at most about a third of the sunlit signal.
+LIT_DARKNESS = math.log(1 / 2)
+#: How far (px) a cast shadow predicted from a surface model may be off (registration).
+DSM_TOLERANCE = 1
 #: The sunlit ratio of the paper's scenes: Figure 5(B)'s line at shadow fraction 0 (1.31).
 PAPER_SUNLIT_RATIO = 1.31
 #: Smallest signal (DN above the dark level) used in logarithms.
@@ -496,6 +505,13 @@ def shadow_fraction_estimate(
         core_px = ok & (d <= core)
     if water is not None:
         core_px &= ~np.asarray(water, bool)
+    return _unmix(d, ok, core_px, edge_pixels, window)
+
+
+def _unmix(d, ok, core_px, edge_pixels, window, allowed=None) -> np.ndarray:
+    """Shadow fraction: core pixels at least 0.5, pixels within ``edge_pixels`` of the core
+    unmixed between the local sunlit and core-shadow signals (``exp(d)``), 0 elsewhere and
+    outside ``allowed``; NaN where not ``ok``."""
     f = np.zeros(d.shape, np.float64)
     if core_px.any():
         s = np.exp(np.where(ok, d, 0.0))
@@ -512,11 +528,147 @@ def shadow_fraction_estimate(
             est = np.clip((lit - s) / (lit - shade), 0.0, 1.0)
         est = np.where(np.isfinite(est) & (lit > shade), est, 0.0)
         near = zone & ok & ~core_px
+        if allowed is not None:
+            near &= allowed
         f[near] = est[near]
         f[core_px] = np.where(np.isfinite(lit[core_px]), np.maximum(est[core_px], 0.5), 1.0)
     out = f.astype(np.float32)
     out[~ok] = np.nan
     return out
+
+
+def dsm_shadow_fraction(
+    dark: np.ndarray,
+    prior: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    edge_pixels: int = EDGE_PIXELS,
+    window: int = EDGE_WINDOW,
+    water: np.ndarray | None = None,
+    tolerance: int = DSM_TOLERANCE,
+    rim: float = RIM_DARKNESS,
+    lit: float = LIT_DARKNESS,
+) -> np.ndarray:
+    """Estimated shadow fraction (float32, 0–1; NaN where invalid) from :func:`darkness` with
+    the cast shadow a surface model predicts as the prior.
+
+    Shadow can only be where the surface model puts it, give or take ``tolerance`` pixels of
+    registration: outside that zone the fraction is 0, however dark the pixel (a black roof
+    or road in the sun). Inside it:
+
+    * a pixel the model shades (``prior`` ≥ 0.5) is shadow unless it is spectrally lit
+      (``dark`` > ``lit``, more than half the sunlit mode: the surface model is wrong there,
+      e.g. of another date);
+    * a pixel within ``tolerance`` of that but not shaded by the model is shadow when it is
+      at most ``exp(rim)`` of the sunlit mode and not water (a shadow edge the model puts a
+      pixel off);
+    * around those, within ``edge_pixels`` (and the zone), the fraction is unmixed between the
+      local sunlit and shadowed signals as in :func:`shadow_fraction_estimate`; shadow pixels
+      get at least 0.5, and those more than ``tolerance + 1`` pixels inside the predicted
+      shadow at least the model's fraction (1 inside a cast shadow).
+
+    Strips need a halo of ``edge_pixels + window // 2 + tolerance + 1`` lines (and the prior's
+    own, :func:`geoboresight.shadow.illumination.halo_rows`).
+
+    Parameters
+    ----------
+    dark : array
+        :func:`darkness` (natural log of the signal over its sunlit mode).
+    prior : array
+        Cast-shadow fraction from the surface model
+        (:func:`geoboresight.shadow.illumination.shadow_fraction`) on the same grid; NaN = 0.
+    valid : bool array, optional
+    edge_pixels, window : int
+        As :func:`shadow_fraction_estimate`.
+    water : bool array, optional
+        Pixels too blue for skylight (:func:`too_blue`): not shadow outside the prior.
+    tolerance : int
+        Registration tolerance of the surface model (px).
+    rim, lit : float
+        Darkness (natural log over the sunlit mode) at or below which a pixel next to the
+        predicted shadow is shadow, and above which a predicted one is lit.
+
+    Returns
+    -------
+    float32 array
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484
+    (§3.1: the shadow simulated from a surface model and the sun).
+    """
+    d = np.asarray(dark, np.float64)
+    ok = np.isfinite(d)
+    if valid is not None:
+        ok &= np.asarray(valid, bool)
+    if edge_pixels < 0 or window < 1 or tolerance < 0:
+        raise ParameterError(
+            "parameters 'edge_pixels' ≥ 0, 'edge_window' ≥ 1 and 'tolerance' ≥ 0 are required"
+        )
+    p = np.nan_to_num(np.asarray(prior, np.float64), nan=0.0)
+    if p.shape != d.shape:
+        raise InputError(f"the prior's shape {p.shape} is not the image's {d.shape}")
+    shaded = p >= 0.5
+    # Where the model shades at least half a pixel, give or take the tolerance (sub-cells
+    # shaded by height noise on open ground stay out).
+    zone = ndimage.binary_dilation(shaded, iterations=tolerance) if tolerance else shaded
+    with np.errstate(invalid="ignore"):
+        core_px = ok & shaded & (d <= lit)
+        rim_px = ok & zone & ~shaded & (d <= rim)
+    if water is not None:
+        rim_px &= ~np.asarray(water, bool)
+    f = _unmix(d, ok, core_px | rim_px, edge_pixels, window, allowed=zone)
+    # Away from the predicted edges (by more than the tolerance) the model's shade is whole.
+    deep = core_px & ndimage.binary_erosion(shaded, iterations=tolerance + 1)
+    f[deep] = np.maximum(f[deep], p[deep]).astype(np.float32)
+    return f
+
+
+def prior_agreement(
+    dark: np.ndarray,
+    prior: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    max_shift: int = 3,
+    rim: float = RIM_DARKNESS,
+) -> dict:
+    """How well a surface model's cast shadow matches the image's darkness: the shift (rows,
+    columns, within ``max_shift``) of the predicted shadow (``prior`` ≥ 0.5) that best
+    overlaps the dark pixels (``dark`` ≤ ``rim``), by intersection over union, and the IoU
+    at that shift and unshifted. A best shift other than (0, 0) that gains much says the
+    model and the image are not registered."""
+    d = np.asarray(dark, np.float64)
+    ok = np.isfinite(d)
+    if valid is not None:
+        ok &= np.asarray(valid, bool)
+    with np.errstate(invalid="ignore"):
+        dk = ok & (d <= rim)
+    pr = np.nan_to_num(np.asarray(prior, np.float64), nan=0.0) >= 0.5
+    m = int(max_shift)
+    h, w = d.shape
+    inner = np.zeros(d.shape, bool)
+    inner[m : h - m, m : w - m] = True
+    inner &= ok
+    best = (0, 0, -1.0)
+    iou0 = float("nan")
+    shifts = sorted(
+        ((dy, dx) for dy in range(-m, m + 1) for dx in range(-m, m + 1)),
+        key=lambda s: s[0] ** 2 + s[1] ** 2,
+    )
+    for dy, dx in shifts:  # nearest first: a tie keeps the smaller shift
+        sh = np.roll(pr, (dy, dx), axis=(0, 1))
+        union = ((sh | dk) & inner).sum()
+        iou = float((sh & dk & inner).sum() / union) if union else float("nan")
+        if (dy, dx) == (0, 0):
+            iou0 = iou
+        if np.isfinite(iou) and iou > best[2] + 1e-9:
+            best = (dy, dx, iou)
+    return {
+        "dsm_shift_rows": best[0],
+        "dsm_shift_columns": best[1],
+        "dsm_iou_at_shift": round(best[2], 4) if best[2] >= 0 else None,
+        "dsm_iou": round(iou0, 4) if np.isfinite(iou0) else None,
+    }
 
 
 def shadow_mask(fraction: np.ndarray, threshold: float = 0.5) -> np.ndarray:
@@ -555,7 +707,13 @@ def shadow_map_halo(calibration: SceneCalibration, edge_pixels: int = EDGE_PIXEL
     """Lines above and below a block that :func:`shadow_map_block` needs to give, on the
     block, the values of the whole image: the SWIR's along-track shift and its bilinear
     reach, and the edge search (``edge_pixels`` and half the unmixing window)."""
-    return math.ceil(abs(calibration.offset_along)) + 3 + int(edge_pixels) + EDGE_WINDOW // 2
+    return (
+        math.ceil(abs(calibration.offset_along))
+        + 3
+        + int(edge_pixels)
+        + EDGE_WINDOW // 2
+        + DSM_TOLERANCE
+    )
 
 
 def shadow_map_block(
@@ -567,6 +725,7 @@ def shadow_map_block(
     calibration: SceneCalibration,
     dark_levels: tuple = (0.0, 0.0, 0.0),
     edge_pixels: int = EDGE_PIXELS,
+    prior: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Shadow classes and shadow mask of a block of lines: the shadow map's per-pixel pipeline.
 
@@ -600,6 +759,10 @@ def shadow_map_block(
         (:meth:`DarkLevel.for_bands`).
     edge_pixels : int
         Partial shadow is looked for this many pixels around the core (0 = core only).
+    prior : array (lines, columns), optional
+        The cast-shadow fraction a surface model predicts on the block: step 4 is then
+        :func:`dsm_shadow_fraction` (no shadow away from it; needs :data:`DSM_TOLERANCE` more
+        lines of halo).
 
     Returns
     -------
@@ -615,6 +778,33 @@ def shadow_map_block(
     shadow-fraction classes, 80–100, 50–80, 20–50 and 10–20 % shadow).
     Chavez, P.S. Remote Sens. Environ. 1988, 24, 459–479 (dark-object subtraction).
     """
+    f, _ = shadow_fraction_block(
+        blue,
+        nir,
+        swir,
+        valid,
+        calibration=calibration,
+        dark_levels=dark_levels,
+        edge_pixels=edge_pixels,
+        prior=prior,
+    )
+    return shadow_classes(f, calibration.table), shadow_mask(f)
+
+
+def shadow_fraction_block(
+    blue: np.ndarray,
+    nir: np.ndarray,
+    swir: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    calibration: SceneCalibration,
+    dark_levels: tuple = (0.0, 0.0, 0.0),
+    edge_pixels: int = EDGE_PIXELS,
+    prior: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(shadow fraction, darkness) of a block: steps 1–4 of :func:`shadow_map_block`; with
+    ``prior`` (a surface model's cast-shadow fraction on the block) by
+    :func:`dsm_shadow_fraction` instead of :func:`shadow_fraction_estimate`."""
     from ..dem.coregister import coregister
 
     blue_level, nir_level, swir_level = dark_levels
@@ -631,11 +821,12 @@ def shadow_map_block(
         fill=math.exp(calibration.swir_mode),
     )
     good = ok & s_ok
-    f = shadow_fraction_estimate(
-        darkness(n, s, calibration, good),
-        good,
-        core=calibration.core,
-        edge_pixels=edge_pixels,
-        water=too_blue(b, n, calibration.blue_limit),
-    )
-    return shadow_classes(f, calibration.table), shadow_mask(f)
+    d = darkness(n, s, calibration, good)
+    water = too_blue(b, n, calibration.blue_limit)
+    if prior is not None:
+        f = dsm_shadow_fraction(d, prior, good, edge_pixels=edge_pixels, water=water)
+    else:
+        f = shadow_fraction_estimate(
+            d, good, core=calibration.core, edge_pixels=edge_pixels, water=water
+        )
+    return f, d

@@ -1,0 +1,95 @@
+"""Spec of de-shadowing: a VNIR + SWIR cube and a shadow fraction in, the cube with shadowed
+pixels scaled to their sunlit signal out. Declaration only: ``run`` is
+:func:`geoboresight.operations.deshadow.deshadow_file`."""
+
+from __future__ import annotations
+
+from ..operations.deshadow import deshadow_file
+from ..operations.shadow_map import BoresightOffset
+from ._common import BLOCK_ROWS, DUAL_PARAMS
+from .shadow_map import DARK, GROUP
+from .spec import Algorithm, FileOut, Group, Number, RasterIn, RasterOut, Result
+
+#: The boresight offset the user gives (BoresightOffset); empty = measured.
+OFFSET = Group(
+    name="offset",
+    value=BoresightOffset,
+    params=(
+        Number(
+            name="offset_along",
+            description="Boresight offset of the SWIR along-track (px; empty = measured)",
+            optional=True,
+            unit="px",
+            advanced=True,
+        ),
+        Number(
+            name="offset_across",
+            description="Boresight offset of the SWIR across-track (px; empty = measured)",
+            optional=True,
+            unit="px",
+            advanced=True,
+        ),
+    ),
+)
+
+DESHADOW = Algorithm(
+    name="deshadow",
+    example={
+        "vnir": "vnir.hdr",
+        "swir": "swir.hdr",
+        "shadow": "shadow_fraction.tif",
+        "output": "deshadowed.tif",
+    },
+    results=(
+        Result("pairs", "number", "Pairs of shadowed and sunlit pixels across shadow edges"),
+        Result("pairs_used", "number", "Pairs that measured the illumination ratio"),
+        Result("pair_spread", "number", "Median RMS log difference of the pairs used"),
+        Result("ratio_min", "number", "Smallest sunlit-to-shadow ratio over the bands"),
+        Result("ratio_max", "number", "Largest sunlit-to-shadow ratio over the bands"),
+        Result("shadowed_pixels", "number", "Pixels corrected (shadow fraction above 0)"),
+        Result("offset_along_px", "number", "Offset along track (pixels)"),
+        Result("offset_across_px", "number", "Offset across track (pixels)"),
+    ),
+    display_name="De-shadow (VNIR + SWIR cube and a shadow fraction)",
+    group=GROUP,
+    short_help="The cube with shadowed pixels scaled to their sunlit signal, the illumination "
+    "ratio measured across the scene's shadow edges.",
+    help=(
+        "Scales each shadowed pixel to the signal it would have in the sun. A pixel with a "
+        "shadow fraction f receives the direct sunlight on (1 − f) of it and the sky's diffuse "
+        "light everywhere, so its sunlit signal is L / (1 − f·(1 − 1/k)), with k the band's "
+        "ratio of sunlit to shadowed signal of one surface (about 3 in the blue, 10–30 in the "
+        "SWIR). k is measured on the scene: pairs of a fully shadowed pixel and a sunlit pixel "
+        "2–4 pixels away across a shadow edge (each at least a pixel from it), the pairs most alike once corrected (the same "
+        "surface on both sides) kept.\n\n"
+        "Inputs: the cube (VNIR + SWIR, raw DN or radiance) and a shadow fraction on its grid "
+        "(the 'fraction' output of the Boresight shadow map, best with a surface model, or "
+        "Sun shadow's fraction). Dark levels as the shadow map finds them (0 for radiance): "
+        "the correction scales the signal above the dark level, which is added back, so "
+        "pixels out of shadow keep their values. Output: a float cube (VNIR bands then SWIR "
+        "bands, wavelengths in the band descriptions and tags), the ratio of each band in the "
+        "tags and the optional JSON report. Validated on two scene models (docs/deshadow.md); "
+        "one ratio per scene: shadow lit by sunlit walls or under little sky is "
+        "under- or over-corrected."
+    ),
+    params=(
+        *DUAL_PARAMS,
+        RasterIn(
+            name="shadow",
+            description="Shadow fraction (0–1) on the image's grid: the shadow map's 'fraction' or Sun shadow's output",
+        ),
+        DARK,
+        OFFSET,
+        BLOCK_ROWS,
+        RasterOut(name="output", description="De-shadowed cube (float32, all bands)"),
+        FileOut(
+            name="report",
+            description="JSON report: each band's illumination ratio and dark level",
+            optional=True,
+            extension="json",
+        ),
+    ),
+    run=deshadow_file,
+)
+
+ALGORITHMS = (DESHADOW,)

@@ -1,0 +1,283 @@
+"""File-level de-shadowing: a VNIR + SWIR cube and a shadow fraction in, the cube with each
+shadowed pixel scaled to its sunlit signal out (:mod:`geoboresight.shadow.deshadow`).
+
+Two passes over the flight line: the pairs of shadowed and sunlit pixels across shadow edges
+give each band's illumination ratio (on the VNIR grid, the SWIR resampled by the boresight
+offset); then the cube is written strip by strip, each instrument on its own grid (the
+fraction shifted onto the SWIR's).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+
+import numpy as np
+
+from .. import io
+from ..dem.coregister import coregister
+from ..errors import InputError
+from ..io.bands import BoresightOffset
+from ..io.dark import DarkLevels, dark_level_of
+from ..io.dual import DualLayout
+from ..shadow import deshadow as ds
+from ._operation import operation
+from .shadow import no_valid_error
+from .shadow_map import DARK_BANDS, _dark_level, _offset, _spread
+
+#: Pixels sampled for the dark level estimate.
+DARK_SAMPLE = 100_000
+#: Pixels of a flight line whose pairs are looked for (a fixed share of a longer line, so
+#: that the pairs held stay bounded: about 1 % of pixels are at a shadow edge).
+PAIR_PIXELS = 250_000
+
+
+def _fraction_grid(f, along, across, ok):
+    """The shadow fraction (VNIR grid) moved onto the SWIR's grid."""
+    g, g_ok = coregister(np.where(ok, f, 0.0), -along, -across, ok, order=1, fill=0.0)
+    return np.where(g_ok, g, np.nan)
+
+
+def _levels(sensor, src, bands, sampled, given, sample, ok, progress) -> np.ndarray:
+    """The dark level of each of ``bands``: per band from the product or header when it lists
+    them, else the one level (given, or the dark object's, as ``shadow-map``)."""
+    level = dark_level_of(sensor, bands, src.tags(ns="ENVI"), src.count, given)
+    if level is not None:
+        progress.info(level.describe(sensor.name))
+        return np.broadcast_to(level.for_bands(bands, bands), (len(bands),)).astype(float)
+    level = _dark_level(sensor, src, sampled, given, sample, ok, progress)
+    return np.full(len(bands), level.level)
+
+
+@operation(inputs=("vnir", "swir", "shadow"), outputs=("output", "report"))
+def deshadow_file(
+    vnir,
+    swir=None,
+    *,
+    shadow,
+    output,
+    report=None,
+    layout=DualLayout(),
+    dark=DarkLevels(),
+    offset=BoresightOffset(),
+    block_rows=io.DEFAULT_BLOCK_ROWS,
+    progress=None,
+) -> dict:
+    """De-shadowed cube: each pixel scaled by its shadow fraction and the scene's
+    sunlit-to-shadow illumination ratio of each band.
+
+    ``L_sun = L / (1 − f·(1 − 1/k_b))`` on the signal above the dark level (from
+    ``L = (E_dir·(1 − f) + E_diff)·ρ``), ``k_b`` measured on pairs of fully shadowed and
+    sunlit pixels across the shadow edges of the scene
+    (:func:`geoboresight.shadow.deshadow.illumination_ratio`). The output is in the input's
+    units (the dark level added back): pixels out of shadow keep their values.
+
+    Parameters
+    ----------
+    vnir : path
+        VNIR file, a merged VNIR+SWIR cube when ``swir`` is None, or a sensor product.
+    swir : path, optional
+        SWIR file on the same pixel grid.
+    shadow : path
+        Shadow fraction (0–1) on the image's grid: ``shadow-map``'s ``fraction`` or
+        ``sun-shadow``'s output.
+    output : path
+        Float32 GeoTIFF, VNIR bands then SWIR bands, wavelengths in the band descriptions and
+        tags.
+    report : path, optional
+        JSON: the illumination ratio and factor at full shadow of each band, the pairs used.
+    layout : DualLayout
+    dark : DarkLevels
+        Dark level of each instrument (None = the product's, the header's, else estimated as
+        ``shadow-map`` does); 0 for radiance.
+    offset : BoresightOffset
+        Boresight offset of the SWIR (px); both None = measured.
+    block_rows : int
+    progress : Progress, optional
+
+    Returns
+    -------
+    dict
+        ``output`` (``report``), the pairs used, their spread, the ratio's range over the
+        bands, shadowed pixels corrected, warnings.
+
+    References
+    ----------
+    Richter, R.; Müller, A. Int. J. Remote Sens. 2005, 26, 3137–3148 (de-shadowing).
+    Brook, A.; Ben-Dor, E. Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484.
+    """
+    dual = io.as_dual(vnir, swir, layout)
+    vb, sb = list(dual.vnir.bands), list(dual.swir.bands)
+    wl = np.concatenate([dual.vnir.wavelengths, dual.swir.wavelengths]).astype(float)
+    nv = len(vb)
+    strips = {"height": dual.height, "width": dual.width, "block_rows": block_rows}
+    warnings: list[str] = []
+    with contextlib.ExitStack() as stack:
+        v_src = stack.enter_context(io.open_raster(dual.vnir.reads, "VNIR"))
+        s_src = (
+            v_src if dual.merged else stack.enter_context(io.open_raster(dual.swir.reads, "SWIR"))
+        )
+        f_src = stack.enter_context(io.open_raster(shadow, "shadow fraction"))
+        if (f_src.height, f_src.width) != (dual.height, dual.width):
+            raise InputError(
+                f"shadow fraction {shadow} has {f_src.height} × {f_src.width} pixels but the "
+                f"image {dual.height} × {dual.width}: give the fraction of this image "
+                "(shadow-map --fraction, or sun-shadow on its grid)"
+            )
+        # Dark levels, as shadow-map finds them.
+        v_dark_b = _spread(tuple(vb), DARK_BANDS)
+        s_dark_b = _spread(tuple(sb), DARK_BANDS)
+        pixels, ok = io.sample_windows(
+            io.bands_reader([(v_src, b) for b in v_dark_b] + [(s_src, b) for b in s_dark_b]),
+            size=DARK_SAMPLE,
+            progress=progress.sub(0, 0.1),
+            **strips,
+        )
+        if not ok.any():
+            raise no_valid_error(vnir, "VNIR/SWIR image")
+        nd = len(v_dark_b)
+        levels = np.concatenate(
+            [
+                _levels(dual.vnir, v_src, vb, v_dark_b, dark.vnir_dark, pixels[:nd], ok, progress),
+                _levels(dual.swir, s_src, sb, s_dark_b, dark.swir_dark, pixels[nd:], ok, progress),
+            ]
+        )
+        rb = dual.ratio_bands()
+        along, across, how = _offset(dual, v_src, s_src, rb, offset, progress)
+        progress.info(f"boresight offset {along:+.2f} px along, {across:+.2f} px across ({how})")
+        read_cube = io.bands_reader([(v_src, b) for b in vb] + [(s_src, b) for b in sb])
+        read_f = io.band_reader(f_src, 1)
+
+        def read(r0, r1):
+            x, x_ok = read_cube(r0, r1)
+            f, f_ok = read_f(r0, r1)
+            return x, x_ok, np.where(f_ok, f, np.nan)
+
+        shift_halo = math.ceil(abs(along)) + 2
+        keep_per_mille = max(1, min(1000, round(1000 * PAIR_PIXELS / (dual.height * dual.width))))
+        lv = levels[:, None, None]
+
+        # Pass 1: pairs across shadow edges, on the VNIR grid (the SWIR resampled onto it).
+        def pairs(x, x_ok, f, block):
+            sig = x.astype(np.float64) - lv
+            for i in range(nv, sig.shape[0]):
+                sig[i], _ = coregister(sig[i], along, across, x_ok, order=1, fill=0.0)
+            own = np.zeros(f.shape, bool)
+            own[block.inner] = True
+            # Shadowed pixels of the strip's own lines, a fixed share of them on a long line
+            # (chosen by their position, so strips give the pairs of the whole image).
+            rr, cc = np.mgrid[block.row0 : block.row0 + f.shape[0], 0 : f.shape[1]]
+            picked = (rr * 73856093 ^ cc * 19349663) % 1000 < keep_per_mille
+            shaded_ok = own & picked
+            a, b = ds.shadow_pairs(sig, f, x_ok, own=shaded_ok)
+            return a.astype(np.float32), b.astype(np.float32)
+
+        a, b = io.reduce_windows(
+            read,
+            pairs,
+            lambda u, v: (np.concatenate([u[0], v[0]]), np.concatenate([u[1], v[1]])),
+            (np.zeros((0, len(wl)), np.float32), np.zeros((0, len(wl)), np.float32)),
+            halo=(max(ds.DISTANCES) + 1 + shift_halo,) * 2,
+            pass_block=True,
+            progress=progress.sub(0.1, 0.4),
+            message="shadow edges",
+            **strips,
+        )
+        k, n_pairs, spread = ds.illumination_ratio(a, b)
+        # A band whose pairs do not say the sun brightens it (noise, absorption bands) is
+        # left as it is: ratio 1.
+        unchanged = int((~(np.isfinite(k) & (k >= 1.0))).sum())
+        k = np.where(np.isfinite(k) & (k >= 1.0), k, 1.0)
+        if unchanged:
+            progress.info(f"{unchanged} band(s) left unchanged (no ratio above 1 measured)")
+        progress.info(
+            f"illumination ratio (sunlit / shadow) from {n_pairs} of {a.shape[0]} pairs "
+            f"across shadow edges: {np.nanmin(k):.2f}–{np.nanmax(k):.2f} over the bands "
+            f"(spread {spread:.3f} in log)"
+        )
+        if spread > 0.2:
+            warnings.append(
+                f"the pairs across shadow edges agree poorly (median RMS log difference "
+                f"{spread:.2f}): the ratio may mix materials; check the shadow fraction"
+            )
+
+        # Pass 2: the de-shadowed cube, each instrument on its own grid.
+        def kernel(x, x_ok, f):
+            f_ok = np.isfinite(f)
+            fs = _fraction_grid(f, along, across, f_ok)
+            out_v = ds.deshadow(x[:nv] - lv[:nv], f, x_ok, ratio=k[:nv]) + lv[:nv]
+            out_s = ds.deshadow(x[nv:] - lv[nv:], fs, x_ok, ratio=k[nv:]) + lv[nv:]
+            with np.errstate(invalid="ignore"):
+                shaded = x_ok & (f > 0)
+            return np.concatenate([out_v, out_s]), shaded
+
+        names = [f"{'VNIR' if i < nv else 'SWIR'} {w:.1f} nm" for i, w in enumerate(wl)]
+        tags = {
+            "product": "de-shadowed cube: L / (1 − f·(1 − 1/k)) on the signal above the dark "
+            "level, k the scene's sunlit-to-shadow illumination ratio",
+            "vnir": dual.vnir.path,
+            "swir": dual.swir.path,
+            "shadow": str(shadow),
+            "wavelength": "{" + ", ".join(f"{w:.2f}" for w in wl) + "}",
+            "wavelength_units": "Nanometers",
+            "illumination_ratio": ",".join(f"{v:.4f}" for v in k),
+            "dark_level_dn": ",".join(f"{v:.2f}" for v in levels),
+            "pairs_used": str(n_pairs),
+            "offset_along_px": f"{along:.3f}",
+            "offset_across_px": f"{across:.3f}",
+        }
+        band_tags = [
+            {
+                "wavelength": f"{w:.2f}",
+                "wavelength_units": "Nanometers",
+                "illumination_ratio": f"{kk:.4f}",
+            }
+            for w, kk in zip(wl, k, strict=True)
+        ]
+        n_corrected = 0
+        with io.create_raster(
+            output, dual.grid, count=len(wl), tags=tags, band_names=names, band_tags=band_tags
+        ) as dst:
+            for win, (cube, n) in io.map_windows(
+                read,
+                kernel,
+                halo=(shift_halo,) * 2,
+                progress=progress.sub(0.4, 1.0),
+                message="de-shadowing",
+                **strips,
+            ):
+                dst.write(np.where(np.isfinite(cube), cube, io.FLOAT_NODATA), window=win)
+                n_corrected += int(n.sum())
+    result = {
+        "output": output,
+        "pairs": int(a.shape[0]),
+        "pairs_used": n_pairs,
+        "pair_spread": round(spread, 4),
+        "ratio_min": round(float(np.nanmin(k)), 4),
+        "ratio_max": round(float(np.nanmax(k)), 4),
+        "shadowed_pixels": n_corrected,
+        "bands_unchanged": unchanged,
+        "offset_along_px": round(along, 3),
+        "offset_across_px": round(across, 3),
+        "warnings": warnings,
+    }
+    if report:
+        io.write_json(
+            report,
+            {
+                **result,
+                "bands": [
+                    {
+                        "wavelength_nm": round(float(w), 2),
+                        "illumination_ratio": float(kk),
+                        "dark_level_dn": float(lvl),
+                    }
+                    for w, kk, lvl in zip(wl, k, levels, strict=True)
+                ],
+                "formula": "L_sun = L / (1 - f * (1 - 1/k)), L = DN - dark level",
+            },
+        )
+        result["report"] = report
+    for w in warnings:
+        progress.info(f"warning: {w}")
+    return result

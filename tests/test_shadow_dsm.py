@@ -1,0 +1,326 @@
+"""The surface-model prior of shadow-map (``--dsm``) and de-shadowing (``deshadow``).
+
+Independent truth: cast shadows and illumination ratios put into synthetic arrays (the
+sunlit/shadow signal written from L = (E_dir·(1 − f) + E_diff)·ρ), and the second scene model
+(``validation/scene_model2.py``), which shares no code with the kernels.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+
+import numpy as np
+import pytest
+import rasterio
+from click.testing import CliRunner
+
+from geoboresight.errors import InputError, ParameterError
+from geoboresight.operations.deshadow import deshadow_file
+from geoboresight.operations.shadow_map import SurfaceModel, shadow_map_file
+from geoboresight.shadow import deshadow as ds
+from geoboresight.shadow import illumination as ill
+from geoboresight.shadow import map as smap
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "validation"))
+from scene_model2 import simulate2, write_scene2  # noqa: E402
+
+SUN = dict(sun_zenith=40.0, sun_azimuth=180.0)  # from the south: shadows fall north (up)
+
+
+def _town():
+    """A 6 m building (cast shadow north of it) and a black roof at 3 m elsewhere whose own
+    shadow is small; (dsm, darkness, truth shadow, black roof)."""
+    z = np.zeros((60, 60))
+    z[30:40, 10:22] = 6.0  # building
+    z[30:40, 40:52] = 3.0  # black-roofed building
+    prior = ill.shadow_fraction(z, **SUN, cell_size=1.0)
+    d = np.full(z.shape, -0.1)  # sunlit ground near the sunlit mode
+    shade = prior >= 0.5
+    d[shade] = math.log(1 / 10)  # skylight only
+    roof = np.zeros(z.shape, bool)
+    roof[30:40, 40:52] = True
+    d[roof] = math.log(1 / 8)  # black roof in the sun: as dark as shadow
+    return z, prior, d, shade, roof
+
+
+def test_the_dsm_prior_flags_cast_shadow_and_not_a_black_roof():
+    z, prior, d, shade, roof = _town()
+    assert shade.sum() > 50  # 6 m · tan 40° ≈ 5 px of shadow north of the building
+    f = smap.dsm_shadow_fraction(d, prior)
+    # A black roof outside any cast shadow is not shadow; only its row next to its own
+    # shadow (within the registration tolerance) may be taken.
+    from scipy import ndimage
+
+    far = roof & ~ndimage.binary_dilation(shade, iterations=smap.DSM_TOLERANCE)
+    assert far.sum() >= 0.85 * roof.sum()
+    assert (f[far] == 0).all()
+    assert (f[shade] >= 0.5).all()  # the cast shadow is
+    # Without the prior the roof is shadow: the reason for the surface model.
+    f0 = smap.shadow_fraction_estimate(d, core=smap.CORE_DARKNESS)
+    assert (f0[roof] >= 0.5).mean() > 0.9
+
+
+def test_the_prior_is_refined_within_a_pixel_and_lit_predictions_dropped():
+    z, prior, d, shade, roof = _town()
+    # The image's shadow a pixel longer than the model's (registration): the rim pixel is
+    # taken, a pixel two away is not.
+    rows = np.nonzero(shade.any(axis=1))[0]
+    top = rows.min()
+    d2 = d.copy()
+    d2[top - 1, 12:20] = math.log(1 / 10)
+    d2[top - 3, 12:20] = math.log(1 / 10)
+    f = smap.dsm_shadow_fraction(d2, prior)
+    assert (f[top - 1, 12:20] >= 0.5).all()
+    assert (f[top - 3, 12:20] == 0).all()
+    # Predicted shadow that is bright (the model is of another date) is not shadow.
+    d3 = d.copy()
+    d3[shade] = -0.2
+    assert (smap.dsm_shadow_fraction(d3, prior)[shade] < 0.5).all()
+
+
+def test_clearance_removes_the_shadows_of_height_noise():
+    rng = np.random.default_rng(0)
+    z = rng.normal(0, 0.3, (80, 80))  # flat ground, 0.3 m of noise
+    noisy = ill.shadow_fraction(z, **SUN, cell_size=1.0) >= 0.5
+    clear = ill.shadow_fraction(z, **SUN, cell_size=1.0, clearance=1.0) >= 0.5
+    assert noisy.mean() > 0.01
+    assert clear.mean() < 0.001
+
+
+def test_prior_agreement_finds_the_shift():
+    z, prior, d, shade, roof = _town()
+    d2 = np.full(d.shape, -0.1)
+    d2[np.roll(shade, (2, -1), axis=(0, 1))] = math.log(1 / 10)
+    a = smap.prior_agreement(d2, prior)
+    assert (a["dsm_shift_rows"], a["dsm_shift_columns"]) == (2, -1)
+    assert a["dsm_iou_at_shift"] > 0.95 > a["dsm_iou"]
+
+
+def _lit_scene(k, rows=60, cols=70, seed=1):
+    """Cube (bands, rows, cols) of two materials under a cast shadow with fraction f, from
+    L = (E_dir·(1 − f) + E_diff)·ρ with E_diff = 1, E_dir = k − 1."""
+    rng = np.random.default_rng(seed)
+    nb = k.size
+    z = np.zeros((rows, cols))
+    z[35:45, 10:30] = 8.0
+    z[35:45, 45:60] = 5.0
+    f = ill.shadow_fraction(z, **SUN, cell_size=1.0, supersample=4).astype(float)
+    rho = np.empty((nb, rows, cols))
+    a = np.linspace(0.1, 0.4, nb)
+    b = np.linspace(0.3, 0.15, nb)
+    grass = np.zeros((rows, cols), bool)
+    grass[:, cols // 2 :] = True
+    rho[:, ~grass] = a[:, None]
+    rho[:, grass] = b[:, None]
+    rho *= 1 + 0.03 * rng.standard_normal((1, rows, cols))
+    roofs = z > 0
+    rho[:, roofs] = np.linspace(0.05, 0.07, nb)[:, None]  # dark roofs: other material
+    e_dir, e_diff = k - 1.0, 1.0
+    light = e_dir[:, None, None] * (1 - f)[None] + e_diff
+    return rho * light, rho * k[:, None, None], f
+
+
+def test_deshadow_recovers_the_sunlit_spectrum():
+    k = np.linspace(3.0, 20.0, 12)  # blue to SWIR
+    cube, sunlit, f = _lit_scene(k)
+    a, b = ds.shadow_pairs(cube, f)
+    est, n, spread = ds.illumination_ratio(a, b)
+    # Texture of 3 % on both sides of a pair: the median ratio is within a few per cent.
+    assert np.allclose(est, k, rtol=0.05), (est, k)
+    out = ds.deshadow(cube, f, ratio=est)
+    full = f >= 0.999
+    ratio = out[:, full].mean(axis=1) / sunlit[:, full].mean(axis=1)
+    assert np.allclose(ratio, 1.0, atol=0.05)
+    # Partial shadow: the exact formula (the linear one would over-correct).
+    part = (f > 0.2) & (f < 0.8)
+    assert part.sum() > 5
+    exact = ds.deshadow(cube, f, ratio=k)
+    assert np.allclose(exact[:, part], sunlit[:, part], rtol=1e-5)
+    assert (ds.deshadow(cube, np.zeros_like(f), ratio=k) == cube.astype(np.float32)).all()
+
+
+def test_too_few_pairs_is_one_clear_error():
+    with pytest.raises(InputError, match="pairs of shadowed and sunlit"):
+        ds.illumination_ratio(np.ones((3, 4)), np.ones((3, 4)))
+
+
+# ------------------------------------------------------------------------- the operations
+
+
+@pytest.fixture(scope="module")
+def scene(tmp_path_factory):
+    folder = str(tmp_path_factory.mktemp("m2dsm") / "scene")
+    sc = simulate2(rows=72, cols=96, seed=0, sun_zenith=35.0, buildings=8, trees=6)
+    write_scene2(sc, folder)
+    return sc, folder
+
+
+def _j(folder, name):
+    return os.path.join(folder, name)
+
+
+def _read(path):
+    with rasterio.open(path) as src:
+        return src.read()
+
+
+def _surface(sc, folder):
+    t = sc.truth
+    return SurfaceModel(
+        _j(folder, "truth_dsm.tif"), t["sun"]["zenith_deg"], t["sun"]["azimuth_deg"], t["gsd_m"]
+    )
+
+
+def test_shadow_map_with_a_dsm_in_strips_equals_the_whole_image(scene, tmp_path):
+    sc, folder = scene
+    surface = _surface(sc, folder)
+    outs = []
+    for rows in (16, 1000):
+        r = shadow_map_file(
+            _j(folder, "vnir.hdr"),
+            _j(folder, "swir.hdr"),
+            output=str(tmp_path / f"c{rows}.tif"),
+            fraction=str(tmp_path / f"f{rows}.tif"),
+            surface=surface,
+            block_rows=rows,
+        )
+        outs.append((_read(tmp_path / f"c{rows}.tif"), _read(tmp_path / f"f{rows}.tif")))
+    assert (outs[0][0] == outs[1][0]).all()
+    assert np.array_equal(outs[0][1], outs[1][1], equal_nan=True)
+    # The true DSM: registered (best shift 0) and little predicted shadow spectrally lit.
+    assert (r["dsm_shift_rows"], r["dsm_shift_columns"]) == (0, 0)
+    assert r["dsm_predicted_shadow_lit_share"] < 0.1
+    f = outs[1][1][0]
+    truth = sc.shadow_fraction >= 0.5
+    pred = f >= 0.5
+    tp = (pred & truth).sum()
+    f1 = 2 * tp / (2 * tp + (pred & ~truth).sum() + (~pred & truth).sum())
+    assert f1 > 0.8
+
+
+def test_deshadow_file_strips_equal_whole_and_report(scene, tmp_path):
+    sc, folder = scene
+    frac = tmp_path / "truth_f.tif"
+    with rasterio.open(_j(folder, "truth_shadow_fraction.tif")) as src:
+        prof = src.profile
+        data = src.read(1)
+    with rasterio.open(frac, "w", **prof) as dst:
+        dst.write(data, 1)
+    outs = []
+    for rows in (16, 1000):
+        r = deshadow_file(
+            _j(folder, "vnir.hdr"),
+            _j(folder, "swir.hdr"),
+            shadow=str(frac),
+            output=str(tmp_path / f"d{rows}.tif"),
+            report=str(tmp_path / f"d{rows}.json"),
+            block_rows=rows,
+        )
+        outs.append(_read(tmp_path / f"d{rows}.tif"))
+    assert np.array_equal(outs[0], outs[1])
+    rep = json.loads((tmp_path / "d16.json").read_text())
+    nb = sc.vnir.shape[0] + sc.swir.shape[0]
+    assert len(rep["bands"]) == nb == outs[0].shape[0]
+    with rasterio.open(tmp_path / "d16.tif") as src:
+        assert src.descriptions[0].startswith("VNIR 400.0")
+        assert float(src.tags(1)["wavelength"]) == pytest.approx(400.0)
+    # Out of shadow the values are the input's.
+    lit = data == 0
+    assert np.allclose(outs[0][0][lit], sc.vnir[0][lit], atol=0.01)
+    assert r["pairs_used"] >= ds.MIN_PAIRS
+
+
+def test_bad_surface_inputs_give_one_clear_line(scene, tmp_path):
+    sc, folder = scene
+    small = tmp_path / "small.tif"
+    with rasterio.open(
+        small, "w", driver="GTiff", width=10, height=8, count=1, dtype="float32"
+    ) as dst:
+        dst.write(np.zeros((8, 10), "float32"), 1)
+    v, s = _j(folder, "vnir.hdr"), _j(folder, "swir.hdr")
+    out = str(tmp_path / "x.tif")
+    with pytest.raises(InputError, match="8 × 10 cells but the image 72 × 96") as e:
+        shadow_map_file(v, s, output=out, surface=SurfaceModel(str(small), 30.0, 150.0, 1.0))
+    assert "\n" not in str(e.value)
+    for zen, match in ((95.0, "sun_zenith"), (90.0, "horizon")):
+        with pytest.raises(ParameterError, match=match) as e:
+            shadow_map_file(
+                v,
+                s,
+                output=out,
+                surface=_surface(sc, folder).__class__(
+                    _j(folder, "truth_dsm.tif"), zen, 150.0, 1.0
+                ),
+            )
+        assert "\n" not in str(e.value)
+    with pytest.raises(ParameterError, match="sun_zenith"):
+        shadow_map_file(v, s, output=out, surface=SurfaceModel(_j(folder, "truth_dsm.tif")))
+    with pytest.raises(InputError, match="shadow fraction .* 8 × 10 pixels"):
+        deshadow_file(v, s, shadow=str(small), output=out)
+    assert not os.path.exists(out)
+
+
+def test_the_dsm_is_an_input_of_shadow_map(scene, tmp_path):
+    # A file inside a parameter group is still checked as an input: not overwritten.
+    sc, folder = scene
+    from geoboresight.errors import OutputError
+
+    dsm = _j(folder, "truth_dsm.tif")
+    with pytest.raises(OutputError):
+        shadow_map_file(
+            _j(folder, "vnir.hdr"),
+            _j(folder, "swir.hdr"),
+            output=dsm,
+            surface=_surface(sc, folder),
+            overwrite=True,
+        )
+    assert os.path.exists(dsm)
+
+
+def test_cli_runs_shadow_map_with_a_dsm_then_deshadow(scene, tmp_path):
+    from geoboresight.cli import main
+
+    sc, folder = scene
+    t = sc.truth
+    frac = str(tmp_path / "f.tif")
+    r = CliRunner().invoke(
+        main,
+        [
+            "shadow-map",
+            "--vnir", _j(folder, "vnir.hdr"),
+            "--swir", _j(folder, "swir.hdr"),
+            "--dsm", _j(folder, "truth_dsm.tif"),
+            "--sun-zenith", str(t["sun"]["zenith_deg"]),
+            "--sun-azimuth", str(t["sun"]["azimuth_deg"]),
+            "--cell-size", "1",
+            "--fraction", frac,
+            "-o", str(tmp_path / "c.tif"),
+        ],
+    )  # fmt: skip
+    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(
+        main,
+        [
+            "deshadow",
+            "--vnir", _j(folder, "vnir.hdr"),
+            "--swir", _j(folder, "swir.hdr"),
+            "--shadow", frac,
+            "-o", str(tmp_path / "d.tif"),
+        ],
+    )  # fmt: skip
+    assert r.exit_code == 0, r.output
+    with rasterio.open(tmp_path / "d.tif") as src:
+        assert src.count == sc.vnir.shape[0] + sc.swir.shape[0]
+    # The spec from Python, as QGIS and batch reach it.
+    from geoboresight.algorithms import registry
+
+    res = registry()["deshadow"](
+        vnir=_j(folder, "vnir.hdr"),
+        swir=_j(folder, "swir.hdr"),
+        shadow=frac,
+        output=str(tmp_path / "d2.tif"),
+    )
+    assert res["ratio_max"] > 3 and res["ratio_min"] >= 1
