@@ -136,6 +136,18 @@ class _Bar:
             self.bar.__exit__(None, None, None)
 
 
+def paragraphs(text: str) -> str:
+    """A spec's help for click: a paragraph of bullets ("• ...") or a list kept as written
+    (click's ``\\b`` marker), other paragraphs rewrapped to the terminal."""
+    out = []
+    for para in text.split("\n\n"):
+        lines = para.split("\n")
+        if any(line.lstrip().startswith(("•", "- ")) for line in lines[1:]):
+            para = "\b\n" + para
+        out.append(para)
+    return "\n\n".join(out)
+
+
 def make_command(alg: Algorithm) -> click.Command:
     """A click command for ``alg``: options from its parameters, the run through ``execute``."""
 
@@ -246,7 +258,7 @@ def make_command(alg: Algorithm) -> click.Command:
         name=alg.name,
         callback=callback,
         params=params,
-        help=f"{alg.display_name}.\n\n{alg.help}",
+        help=f"{alg.display_name}.\n\n{paragraphs(alg.help)}",
         short_help=alg.short_help,
         epilog=f"\b\nExample:\n  {alg.example_command()}" if alg.example else None,
         context_settings={"max_content_width": 100},

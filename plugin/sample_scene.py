@@ -48,6 +48,7 @@ LAYERS = (
     ("orthophoto", "orthophoto", 1.0),
     ("ratio", "boresight ratio", 0.75),
     ("shadow", "shadow classes", 1.0),
+    ("dem", "relative DEM", 0.6),
 )
 
 
@@ -93,6 +94,25 @@ def _run(engine, name: str, values: dict, feedback, done: str) -> None:
     feedback.setProgressText(f"geoboresight {name}")
     feedback.pushInfo(f"{name}: {values}")
     engine_client.run(engine, name, values, feedback, overwrite=True)
+
+
+def _flight_geometry(scene: str) -> dict:
+    """The DEM's flight geometry from the scene's truth.json (empty when it has none)."""
+    import json
+
+    try:
+        with open(os.path.join(scene, "truth.json"), encoding="utf-8") as f:
+            truth = json.load(f)
+    except (OSError, ValueError):
+        return {}
+    keys = {
+        "squint_deg": "squint_deg",
+        "flying_height": "flying_height_m",
+        "ifov_mrad": "ifov_mrad",
+    }
+    if not all(truth.get(k) for k in keys.values()):
+        return {}
+    return {name: truth[key] for name, key in keys.items()}
 
 
 def prepare(engine, feedback=None, folder: str | None = None) -> dict:
@@ -142,8 +162,22 @@ def prepare(engine, feedback=None, folder: str | None = None) -> dict:
         feedback,
         shadow_raw,
     )
+    # The relative DEM with the scene's flight geometry (truth.json: squint, flying height,
+    # IFOV of the simulated bench; the sample recipe's large-squint geometry).
+    dem_raw = os.path.join(raw, "dem.tif")
+    geometry = _flight_geometry(scene)
+    sources = [("ratio", ratio_raw), ("shadow", shadow_raw)]
+    if geometry:
+        _run(
+            engine,
+            "relative-dem",
+            {"vnir": vnir, "swir": swir, "output": dem_raw, **geometry},
+            feedback,
+            dem_raw,
+        )
+        sources.append(("dem", dem_raw))
     out = {"scene": scene, "igm": igm, "own_igm": own, "orthophoto": ortho}
-    for key, source in (("ratio", ratio_raw), ("shadow", shadow_raw)):
+    for key, source in sources:
         path = os.path.join(mapped, os.path.basename(source))
         _run(engine, "geolocate", {"input": source, "igm": igm, "output": path}, feedback, path)
         write_style(path)
@@ -166,6 +200,8 @@ def add_layers(files: dict, project=None, canvas=None) -> list:
     group = root.insertGroup(0, "geoboresight sample scene")
     layers = []
     for key, name, opacity in LAYERS:
+        if key not in files:  # a scene without flight geometry has no DEM
+            continue
         layer = QgsRasterLayer(files[key], name, "gdal")
         if not layer.isValid():
             continue

@@ -81,3 +81,14 @@ def test_existing_output_and_overwrite(tmp_path):
     assert r.exit_code == 1 and "--overwrite" in r.output
     assert CliRunner().invoke(main, [*args, "--overwrite"]).exit_code == 0
     assert not np.isnan(rasterio.open(out).read(1)).all()
+
+
+def test_help_keeps_bullets_as_paragraphs():
+    """A spec's bulleted help prints one bullet a line (click would join them into one)."""
+    from click.testing import CliRunner
+
+    from geoboresight.cli import main
+
+    out = CliRunner().invoke(main, ["shadow-map", "--help"], terminal_width=100).output
+    bullets = [line for line in out.splitlines() if line.lstrip().startswith("•")]
+    assert len(bullets) >= 4, out

@@ -200,6 +200,12 @@ def newcomer(processing):
         {
             "name": lay.name(),
             "crs": lay.crs().authid(),
+            "extent": [
+                lay.extent().xMinimum(),
+                lay.extent().yMinimum(),
+                lay.extent().xMaximum(),
+                lay.extent().yMaximum(),
+            ],
             "renderer": lay.renderer().type(),
             "classes": [(c.value, c.label, c.color.alpha()) for c in lay.renderer().classes()]
             if lay.renderer().type() == "paletted"

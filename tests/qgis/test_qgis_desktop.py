@@ -144,7 +144,18 @@ def test_the_newcomers_path_setup_then_the_sample_scene_on_its_map(desktop):
     tour = report["tour"]
     assert tour["error"] in (None, ""), tour["error"]
     names = [lay["name"] for lay in tour["layers"]]
-    assert sorted(names) == ["boresight ratio", "orthophoto", "shadow classes"], names
+    assert sorted(names) == [
+        "boresight ratio",
+        "orthophoto",
+        "relative DEM",
+        "shadow classes",
+    ], names
+    # The products lie on the orthophoto: each one's extent inside the orthophoto's.
+    ortho = next(lay for lay in tour["layers"] if lay["name"] == "orthophoto")["extent"]
+    for lay in tour["layers"]:
+        x0, y0, x1, y1 = lay["extent"]
+        assert x0 >= ortho[0] - 3 and y0 >= ortho[1] - 3, (lay["name"], lay["extent"], ortho)
+        assert x1 <= ortho[2] + 3 and y1 <= ortho[3] + 3, (lay["name"], lay["extent"], ortho)
     crs = {lay["crs"] for lay in tour["layers"]}
     assert len(crs) == 1 and crs.pop().startswith("EPSG:326"), tour["layers"]
     assert tour["project_crs"] == tour["layers"][0]["crs"]
