@@ -5,33 +5,11 @@ pixels scaled to their sunlit signal out. Declaration only: ``run`` is
 from __future__ import annotations
 
 from ..operations.deshadow import deshadow_file
-from ..operations.shadow_map import BoresightOffset
-from ._common import BLOCK_ROWS, DUAL_PARAMS
+from ._common import BLOCK_ROWS, DUAL_PARAMS, OFFSET
 from .shadow_map import DARK, GROUP
-from .spec import Algorithm, FileOut, Group, Number, RasterIn, RasterOut, Result
+from .spec import Algorithm, FileOut, RasterIn, RasterOut, Result
 
 #: The boresight offset the user gives (BoresightOffset); empty = measured.
-OFFSET = Group(
-    name="offset",
-    value=BoresightOffset,
-    params=(
-        Number(
-            name="offset_along",
-            description="Boresight offset of the SWIR along-track (px; empty = measured)",
-            optional=True,
-            unit="px",
-            advanced=True,
-        ),
-        Number(
-            name="offset_across",
-            description="Boresight offset of the SWIR across-track (px; empty = measured)",
-            optional=True,
-            unit="px",
-            advanced=True,
-        ),
-    ),
-)
-
 DESHADOW = Algorithm(
     name="deshadow",
     example={

@@ -212,6 +212,20 @@ class _Coregistered:
         return read
 
 
+def _detector_input(vnir, swir, layout, spectral, dark, coregistration, target, progress):
+    """What RX and SVDD start from: the target checked, the image prepared
+    (:func:`_prepare_image`, co-registered as ``coregistration`` says) and the progress left
+    for the detection."""
+    from ..anomaly import physical
+
+    physical.check_target(target)
+    prepared = _prepare_image(
+        vnir, swir, layout, spectral, dark, coregistration, coregistration.coregister, progress
+    )
+    coreg = prepared[4]
+    return (*prepared, progress.sub(0.1 if coreg["coregistered"] else 0.0, 1.0))
+
+
 def _prepare_image(vnir, swir, layout, spectral, dark, offset, coregistered, progress):
     """``(cube, bands, wl, reader, info, dark per band)``: :func:`open_image`, and the strip
     reader RX/SVDD use: the SWIR shifted onto the VNIR grid by the boresight offset (measured,
@@ -353,18 +367,9 @@ def rx_file(
     """
     from ..anomaly import physical, rx
 
-    physical.check_target(detectability)
-    cube, bands, wl, read, coreg, dark_dn = _prepare_image(
-        vnir,
-        swir,
-        layout,
-        spectral,
-        dark,
-        coregistration,
-        coregistration.coregister,
-        progress,
+    cube, bands, wl, read, coreg, dark_dn, progress = _detector_input(
+        vnir, swir, layout, spectral, dark, coregistration, detectability, progress
     )
-    progress = progress.sub(0.1 if coreg["coregistered"] else 0.0, 1.0)
     read64 = read if coreg["coregistered"] else cube.reader(bands, "float64")
     inner, outer = background.inner, background.outer
     with cube:
@@ -542,18 +547,9 @@ def svdd_file(
     """
     from ..anomaly import physical, svdd
 
-    physical.check_target(detectability)
-    cube, bands, wl, read, coreg, dark_dn = _prepare_image(
-        vnir,
-        swir,
-        layout,
-        spectral,
-        dark,
-        coregistration,
-        coregistration.coregister,
-        progress,
+    cube, bands, wl, read, coreg, dark_dn, progress = _detector_input(
+        vnir, swir, layout, spectral, dark, coregistration, detectability, progress
     )
-    progress = progress.sub(0.1 if coreg["coregistered"] else 0.0, 1.0)
     with cube:
         strips = {"height": cube.height, "width": cube.width, "block_rows": block_rows}
         rng = np.random.default_rng(seed)
