@@ -506,3 +506,27 @@ def test_one_table_reader_for_every_delimiter(tmp_path):
         assert t.header == ["a", "b", "c"] and t.rows == [["1", "2", "3"]] and t.delimiter == sep
     p.write_bytes("a;b\n\xe9;2\n".encode("cp1252"))  # Excel's plain "CSV" on Windows
     assert read_table(p).rows == [["é", "2"]]
+
+
+@pytest.mark.parametrize("chunked", [False, True])
+def test_prisma_geolocation_puts_its_products_on_a_metric_grid(tmp_path, chunked):
+    """A PRISMA L1 file's own latitude/longitude arrays (``Latitude_VNIR``/``Longitude_VNIR``,
+    the layout facts in tests/products_space.py) place a product of its raw grid:
+    ``geolocate --input ratio.tif --igm PRISMA.he5`` gives the data's UTM zone (32N at 9° E),
+    cells in metres, and ≥ 95 % of raw pixels within one output pixel of their position."""
+    from products_space import write_prisma_l1
+
+    w = write_prisma_l1(tmp_path / "PRS_L1_STD_OFFL.he5", chunked=chunked)
+    lat, lon = w.extra["lat"].astype("float64"), w.extra["lon"].astype("float64")
+    h, wd = lat.shape
+    index = _index_raster(tmp_path / "index.tif", wd, h)  # a product on the cube's raw grid
+    out = str(tmp_path / "map.tif")
+    r = gb.geolocate_file(index, w.path, output=out, grid=gb.OutputGrid(resolution=30.0))
+    assert r["crs"] == "EPSG:32632" and r["resolution"] == 30.0
+    e, n = Transformer.from_crs("EPSG:4326", "EPSG:32632", always_xy=True).transform(lon, lat)
+    got = _sample_nearest(out, e, n)
+    jj, ii = np.meshgrid(np.arange(wd), np.arange(h))
+    err = np.hypot(got[0] - jj, got[1] - ii)
+    assert np.mean(err <= 1.0) >= 0.95, np.nanpercentile(err, [50, 95, 99])
+    with rasterio.open(out) as a:
+        assert a.crs.to_epsg() == 32632 and a.res == (30.0, 30.0)

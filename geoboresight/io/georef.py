@@ -386,6 +386,10 @@ def coordinates_for(input, igm=None, crs=None) -> Coordinates:
     """The per-pixel coordinates of ``input``: its IGM (``igm``) when given, else its own GDAL
     geolocation arrays. A product without them is refused: its bands are data, not
     coordinates, whatever ``crs`` (``--igm-crs``, the CRS of an IGM) says."""
+    for path, label in ((igm, "IGM"), (None if igm else input, "input")):
+        coords = product_coordinates(path, crs, label) if path else None
+        if coords is not None:
+            return coords
     if igm:
         return read_coordinates(igm, crs=crs, label="IGM")
     input = os.fspath(input)
@@ -398,6 +402,31 @@ def coordinates_for(input, igm=None, crs=None) -> Coordinates:
             f"coordinates with --igm (an IGM) or --glt (a GLT){extra}"
         )
     return read_coordinates(input, crs=crs, label="input")
+
+
+def product_coordinates(path, crs=None, label: str = "IGM") -> Coordinates | None:
+    """The geolocation a sensor product carries (PRISMA L1's latitude and longitude arrays:
+    :class:`geoboresight.io.products.Geolocation`) as coordinates, checked against their CRS;
+    None when ``path`` is no such product. ``crs`` (``--igm-crs``) overrides theirs."""
+    from .products import recognise
+
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        return None
+    product = recognise(path)
+    if product is None or product.geolocation is None:
+        return None
+    geo = product.geolocation
+    arrays = []
+    for source, band, axis in ((geo.x, geo.x_band, "x"), (geo.y, geo.y_band, "y")):
+        with open_raster(source, f"{label} {path}: {product.kind} geolocation {axis}") as g:
+            arrays.append(g.read(band, masked=True).astype("float64").filled(np.nan))
+    use = parse_crs(crs, "parameter 'igm_crs'") if crs else parse_crs(geo.crs, f"{label} {path}")
+    coords = Coordinates(
+        arrays[0], arrays[1], use, path, f"{product.kind} geolocation ({geo.source or geo.crs})"
+    )
+    _check(coords, label, "from its product" if not crs else "from --igm-crs")
+    return coords
 
 
 def _read_geolocation(src, geo: dict, path: str, user_crs, label: str) -> Coordinates:

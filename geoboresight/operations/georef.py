@@ -39,7 +39,11 @@ def _docstring(func):
 
 
 def _product_size(path: str) -> tuple[int, int]:
-    with open_raster(path, "input") as src:
+    """Columns and lines of a raw product: a raster, or a sensor product's image."""
+    from ..io.products import recognise
+
+    product = recognise(path) if os.path.exists(path) else None
+    with open_raster(product.images[0].source if product else path, "input") as src:
         return src.width, src.height
 
 
