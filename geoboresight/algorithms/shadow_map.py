@@ -82,7 +82,7 @@ SURFACE = Group(
         ),
         Number(
             name="sun_zenith",
-            description="Sun zenith angle at acquisition (degrees from vertical, below 90; with the DSM)",
+            description="Sun zenith angle (degrees from vertical, below 90; at acquisition, with the DSM)",
             optional=True,
             minimum=0.0,
             maximum=90.0,
@@ -90,7 +90,7 @@ SURFACE = Group(
         ),
         Number(
             name="sun_azimuth",
-            description="Sun azimuth at acquisition (degrees clockwise from north towards the sun; with the DSM)",
+            description="Sun azimuth (degrees clockwise from the grid's up: north on a map grid, the flight direction in raw sensor geometry; at acquisition, with the DSM)",
             optional=True,
             minimum=0.0,
             maximum=360.0,
