@@ -87,7 +87,7 @@ def test_enmap_folder_zip_and_xml_are_described_alike(enmap, enmap_zip, tmp_path
     rows, cols = enmap.vnir_radiance.shape[1:]
     for path in (enmap.path, enmap_zip.path, str(xml)):
         d = describe_product(path)
-        assert d["product"] == "EnMAP L1B" and d["layout"] == "product"
+        assert d["product"] == "EnMAP L1B" and d["arrangement"] == "product"
         assert (d["lines"], d["samples"]) == (rows, cols)
         assert (d["vnir_bands"], d["swir_bands"]) == (enmap.vnir_wl.size, enmap.swir_wl.size)
         _check_against_ratio(d, ratio)
@@ -125,7 +125,7 @@ def test_prisma_reports_its_geolocation_unused_slots_and_bil(prisma, tmp_path):
 def test_specim_pair_reports_dark_frames_and_the_ratio_bands(specim, scene, tmp_path):
     v, s = specim
     d = describe_product(v, s)
-    assert d["product"] == "Specim raw ENVI" and d["layout"] == "two files"
+    assert d["product"] == "Specim raw ENVI" and d["arrangement"] == "two files"
     assert (d["lines"], d["samples"]) == scene.vnir.shape[1:]
     assert (d["vnir_bands"], d["swir_bands"]) == (scene.vnir.shape[0], scene.swir.shape[0])
     _check_against_ratio(d, _ratio_bands(tmp_path, v, s))

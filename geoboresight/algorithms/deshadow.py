@@ -9,7 +9,6 @@ from ._common import BLOCK_ROWS, DUAL_PARAMS, OFFSET
 from .shadow_map import DARK, GROUP
 from .spec import Algorithm, FileOut, RasterIn, RasterOut, Result
 
-#: The boresight offset the user gives (BoresightOffset); empty = measured.
 DESHADOW = Algorithm(
     name="deshadow",
     example={

@@ -21,6 +21,16 @@ INFO = Algorithm(
         Result("swir_wavelength_nm", "number", "Centre of the ratio's SWIR band (nm)"),
         Result("dark_source", "string", "Where the dark reference comes from ('' if none)"),
         Result("summary", "string", "The description as text (what the command line prints)"),
+        Result(
+            "arrangement",
+            "string",
+            "How VNIR and SWIR are held: two files, a merged cube, a product",
+        ),
+        Result(
+            "files",
+            "string",
+            "Each file described: images, bands, dark reference, geolocation (JSON)",
+        ),
     ),
     display_name="Describe a flight line (info)",
     group="Boresight ratio and statistics",

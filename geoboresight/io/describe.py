@@ -60,7 +60,7 @@ def describe_product(
             paths[0], paths[1] if swir else None, *_layout_args(layout)
         )  # the split the operations make
         out["vnir_bands"], out["swir_bands"] = len(dual.vnir.bands), len(dual.swir.bands)
-        out["layout"] = (
+        out["arrangement"] = (
             "merged cube"
             if dual.merged
             else ("product" if dual.product and not swir else "two files")
@@ -277,8 +277,8 @@ def _grid_geolocation(src) -> dict | None:
 def format_description(d: dict) -> str:
     """The description as lines a person reads (what ``geoboresight info`` prints)."""
     lines = [f"Product: {d['product']}"]
-    if d.get("layout"):
-        lines[0] += f" ({d['layout']})"
+    if d.get("arrangement"):
+        lines[0] += f" ({d['arrangement']})"
     lines.append(f"Size: {d['lines']} lines × {d['samples']} samples")
     for f in d["files"]:
         lines.append("")

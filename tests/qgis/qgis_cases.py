@@ -13,6 +13,7 @@ import re
 #: where ``inputs`` is the :class:`Inputs` of the session (scene files, derived rasters).
 CASES: dict[str, dict] = {
     "shadow-fraction-fit": {"truth": lambda i: i.raster("truth_shadow_fraction")},
+    "deshadow": {"shadow": lambda i: i.raster("truth_shadow_fraction")},
     "roc": {"truth": lambda i: i.raster("truth_target_abundance")},
     "anomaly-polygons": {"threshold": lambda i: i.percentile(i.ratio, 99.0)},
     "view-3d": {"dem": lambda i: i.raster("truth_dsm")},
