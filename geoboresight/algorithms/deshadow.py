@@ -24,6 +24,9 @@ DESHADOW = Algorithm(
         Result("ratio_min", "number", "Smallest sunlit-to-shadow ratio over the bands"),
         Result("ratio_max", "number", "Largest sunlit-to-shadow ratio over the bands"),
         Result("shadowed_pixels", "number", "Pixels corrected (shadow fraction above 0)"),
+        Result(
+            "bands_unchanged", "number", "Bands left as they are (no illumination ratio measured)"
+        ),
         Result("offset_along_px", "number", "Offset along track (pixels)"),
         Result("offset_across_px", "number", "Offset across track (pixels)"),
     ),

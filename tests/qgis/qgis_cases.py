@@ -14,6 +14,12 @@ import re
 CASES: dict[str, dict] = {
     "shadow-fraction-fit": {"truth": lambda i: i.raster("truth_shadow_fraction")},
     "deshadow": {"shadow": lambda i: i.raster("truth_shadow_fraction")},
+    # The scene's own DSM (matched by name) with its sun: the surface-model prior.
+    "shadow-map": {
+        "sun_zenith": lambda i: i.truth.get("sun", {}).get("zenith_deg", 45.0),
+        "sun_azimuth": lambda i: i.truth.get("sun", {}).get("azimuth_deg", 135.0),
+        "cell_size": lambda i: i.truth.get("gsd_m", 1.5),
+    },
     "roc": {"truth": lambda i: i.raster("truth_target_abundance")},
     "anomaly-polygons": {"threshold": lambda i: i.percentile(i.ratio, 99.0)},
     "view-3d": {"dem": lambda i: i.raster("truth_dsm")},

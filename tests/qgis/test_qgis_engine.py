@@ -18,13 +18,14 @@ pytestmark = pytest.mark.qgis
 
 @pytest.fixture(scope="module")
 def long_scene(tmp_path_factory):
-    """A tall ENVI pair: the ratio streams it in thousands of one-line blocks (seconds of
-    work), so that a cancel lands in the middle of a run."""
+    """A tall ENVI pair: the ratio streams it in tens of thousands of one-line blocks (seconds
+    of work even on a fast machine: 3,000 lines once finished within the cancel's 0.5 s), so
+    that a cancel lands in the middle of a run."""
     from geoboresight.io import write_envi
 
     folder = tmp_path_factory.mktemp("long")
     rng = np.random.default_rng(1)
-    shape = (3000, 64)
+    shape = (24000, 64)
     vnir = rng.integers(200, 4000, (6, *shape)).astype("uint16")
     swir = rng.integers(200, 4000, (6, *shape)).astype("uint16")
     return (
