@@ -147,7 +147,8 @@ class _Surface:
 def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _Surface | None:
     """Check the surface model against the image and find its relief (how far its shadows
     reach) and whether it has walls (blocks or smooth surface, as ``sun-shadow``)."""
-    from ..shadow.surface import choose_surface, surface_walls
+    from ..shadow.surface import choose_surface
+    from .shadow_truth import relief_and_walls
 
     given = [surface.sun_zenith is not None, surface.sun_azimuth is not None]
     if not surface.dsm:
@@ -188,25 +189,13 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
             f"surface model {surface.dsm} and the image have no geotransform: give "
             "'cell_size' (the DSM's cell size in metres)"
         )
-    read = io.band_reader(src, 1)
-
-    def relief_and_walls(z, valid, block):
-        own = block.inner
-        lo, hi, n = ill.height_range(z[own], valid[own])
-        pairs = slice(own.start, own.stop + 1)
-        return lo, hi, n, *surface_walls(z[pairs], valid[pairs], matrix=matrix)
-
-    lo, hi, n_valid, walls, pairs = io.reduce_windows(
-        read,
-        relief_and_walls,
-        lambda a, b: (min(a[0], b[0]), max(a[1], b[1]), a[2] + b[2], a[3] + b[3], a[4] + b[4]),
-        (np.inf, -np.inf, 0, 0, 0),
-        halo=(0, 1),
-        pass_block=True,
+    lo, hi, n_valid, walls, pairs = relief_and_walls(
+        io.band_reader(src, 1),
+        matrix,
+        message="surface model relief",
         height=dual.height,
         width=dual.width,
         block_rows=block_rows,
-        message="surface model relief",
     )
     if n_valid == 0:
         raise no_valid_error(surface.dsm, "surface model")
