@@ -304,10 +304,11 @@ class Group:
     def initial(self) -> Any:
         return self.value() if self.default is None else self.default
 
-    def build(self, values: Mapping[str, Any]) -> Any:
-        """The value from the members' validated values (missing members keep defaults)."""
+    def build(self, values: Mapping[str, Any], base: Any = None) -> Any:
+        """The value from the members' validated values: ``base`` (a caller's own value, else
+        the default) with those members replaced."""
         fields = {p.name: values[p.name] for p in self.params if p.name in values}
-        return dataclasses.replace(self.initial, **fields)
+        return dataclasses.replace(self.initial if base is None else base, **fields)
 
 
 @dataclass(frozen=True)
@@ -455,10 +456,7 @@ class Algorithm:
         out = dict(values)
         for g in self.groups:
             members = {p.name: out.pop(p.name) for p in g.params if p.name in out}
-            if given and g.name in given:
-                out[g.name] = dataclasses.replace(given[g.name], **members)
-            else:
-                out[g.name] = g.build(members)
+            out[g.name] = g.build(members, (given or {}).get(g.name))
         return out
 
     def __call__(
