@@ -400,9 +400,9 @@ def shadow_map_file(
         at_end = at_swir + len(swir_b)
         levels = (blue_lv, nir_lv, swir_lv)
 
-        def kernel(values, valid, z=None, z_ok=None):
-            prior = None if z is None else dsm.prior(z, z_ok)
-            f, d = smap.shadow_fraction_block(
+        def fraction_of(values, valid, prior):
+            """(shadow fraction, darkness) of a block of the read bands."""
+            return smap.shadow_fraction_block(
                 values[:at_nir],
                 values[at_nir:at_swir],
                 values[at_swir:at_end],
@@ -412,6 +412,10 @@ def shadow_map_file(
                 edge_pixels=edge_pixels,
                 prior=prior,
             )
+
+        def kernel(values, valid, z=None, z_ok=None):
+            prior = None if z is None else dsm.prior(z, z_ok)
+            f, d = fraction_of(values, valid, prior)
             c = smap.shadow_classes(f, cal.table)
             m = smap.shadow_mask(f)
             if prior is None:
@@ -432,16 +436,7 @@ def shadow_map_file(
             r1 = min(dual.height, r0 + OFFSET_ROWS)
             values, valid, z, z_ok = read(r0, r1)
             prior_c = dsm.prior(z, z_ok)
-            _, d_c = smap.shadow_fraction_block(
-                values[:at_nir],
-                values[at_nir:at_swir],
-                values[at_swir:at_end],
-                valid,
-                calibration=cal,
-                dark_levels=levels,
-                edge_pixels=edge_pixels,
-                prior=prior_c,
-            )
+            _, d_c = fraction_of(values, valid, prior_c)
             agreement = smap.prior_agreement(d_c, prior_c, valid)
 
         tags = {
