@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -63,4 +64,23 @@ class Product:
         return None
 
 
-__all__ = ["Geolocation", "Product", "SensorImage"]
+#: Products already read in this process, by file identity: a product is read once however
+#: many times the operations of a run open it (a chunked cube is unpacked once).
+_READ: dict[tuple, Product] = {}
+
+
+def read_once(container: str, extra, read) -> Product | None:
+    """``read()``'s product, kept while ``container`` (the file whose identity stands for the
+    product) keeps its path, size and modification time; ``extra`` tells apart several
+    products read from one container. None (not kept) when ``read()`` finds no product."""
+    st = os.stat(container)
+    key = (os.path.realpath(container), st.st_mtime_ns, st.st_size, extra)
+    if key not in _READ:
+        product = read()
+        if product is None:
+            return None
+        _READ[key] = product
+    return _READ[key]
+
+
+__all__ = ["Geolocation", "Product", "SensorImage", "read_once"]

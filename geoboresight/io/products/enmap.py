@@ -31,15 +31,13 @@ from xml.etree import ElementTree
 import numpy as np
 
 from ...errors import InputError
-from .base import Product, SensorImage
+from .base import Product, SensorImage, read_once
 
 KIND = "EnMAP L1B"
 UNITS = "radiance (W m-2 sr-1 nm-1)"
 XML_SUFFIX = "-METADATA.XML"
 _IMAGE = re.compile(r"-SPECTRAL_IMAGE_(VNIR|SWIR)(\.[A-Za-z0-9]+)?$", re.IGNORECASE)
 _EXTS = (".TIF", ".TIFF", ".GEOTIFF", ".BSQ", ".BIL", ".BIP", ".JP2", "")
-
-_CACHE: dict[tuple, Product] = {}
 
 
 @dataclass(frozen=True)
@@ -141,14 +139,7 @@ def read(path) -> Product | None:
     if files is None:
         return None
     container = files.zip_path or os.path.join(files.folder, files.xml)
-    st = os.stat(container)
-    key = (os.path.realpath(container), st.st_mtime_ns, st.st_size, path)
-    if key not in _CACHE:
-        product = _read(path, files)
-        if product is None:
-            return None
-        _CACHE[key] = product
-    return _CACHE[key]
+    return read_once(container, ("enmap", path), lambda: _read(path, files))
 
 
 def _text(root, where: str) -> str | None:

@@ -26,7 +26,7 @@ import os
 import numpy as np
 
 from ...errors import InputError
-from .base import Geolocation, Product, SensorImage
+from .base import Geolocation, Product, SensorImage, read_once
 
 KIND = "PRISMA L1"
 UNITS = "radiance (W m-2 sr-1 um-1)"
@@ -35,8 +35,6 @@ DATA = SWATH + "/Data Fields"
 GEO = SWATH + "/Geolocation Fields"
 _EXTS = (".he5", ".h5", ".hdf5", ".hdf")
 _HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
-
-_CACHE: dict[tuple, Product] = {}
 
 
 def _is_hdf5(path: str) -> bool:
@@ -65,14 +63,7 @@ def read(path) -> Product | None:
                 f"{KIND} {path}: not an HDF5 file (truncated download?): download it again"
             )
         return None
-    st = os.stat(path)
-    key = (os.path.realpath(path), st.st_mtime_ns, st.st_size)
-    if key not in _CACHE:
-        product = _read(path, named)
-        if product is None:
-            return None
-        _CACHE[key] = product
-    return _CACHE[key]
+    return read_once(path, "prisma", lambda: _read(path, named))
 
 
 def _read(path: str, named: bool) -> Product | None:
