@@ -152,10 +152,10 @@ class DualSensor:
 
 
 def _sensor_wavelengths(
-    src, path: str, user: str | None, option: str
+    src, path: str, user: str | None, sensor: str
 ) -> tuple[np.ndarray, np.ndarray | None]:
-    label = "SWIR" if "swir" in option else "VNIR"
-    return wavelengths_of(src, f"{label} {path}", user, option)
+    """(centres, fwhm) of the file of ``sensor`` ("VNIR" or "SWIR"), or the user's list."""
+    return wavelengths_of(src, f"{sensor} {path}", user, _option(sensor))
 
 
 def _good(src, label: str, path: str) -> np.ndarray:
@@ -169,16 +169,17 @@ def _good(src, label: str, path: str) -> np.ndarray:
     return good
 
 
-def _image(path: str, label: str, user: str | None, option: str):
-    """(SensorImage, Grid, Product or None) of one file: a recognised sensor product's
-    images, or the file as GDAL reads it (one image, named "cube")."""
+def _image(path: str, label: str, user: str | None, sensor: str):
+    """(SensorImage, Grid, Product or None) of one file given for ``sensor`` ("VNIR" or
+    "SWIR"): a recognised sensor product's images, or the file as GDAL reads it (one image,
+    named "cube")."""
     from .products import SensorImage, recognise
 
     product = recognise(path)
     images = product.images if product is not None else None
     if images is None:
         with open_raster(path, label) as src:
-            wl, fw = _sensor_wavelengths(src, path, user, option)
+            wl, fw = _sensor_wavelengths(src, path, user, sensor)
             images = (SensorImage("cube", path, wl, fw, _good(src, label, path), src.nodata),)
             grid = Grid.of(src)
         return images, grid, None
@@ -234,7 +235,7 @@ def open_dual(
     """
     vnir = str(vnir)
     label = "VNIR" if swir else "merged cube"
-    images, grid_v, product = _image(vnir, label, vnir_wavelengths, _option("VNIR"))
+    images, grid_v, product = _image(vnir, label, vnir_wavelengths, "VNIR")
     named = {im.name: im for im in images}
     if swir is None and "VNIR" in named and "SWIR" in named:
         # One product holding both detectors (EnMAP L1B, PRISMA L1).
@@ -272,7 +273,7 @@ def open_dual(
         )
 
     swir = str(swir)
-    s_images, grid_s, s_product = _image(swir, "SWIR", swir_wavelengths, _option("SWIR"))
+    s_images, grid_s, s_product = _image(swir, "SWIR", swir_wavelengths, "SWIR")
     v = named.get("VNIR", images[0])
     s = {im.name: im for im in s_images}.get("SWIR", s_images[0])
     grid_v.require_same(grid_s, f"VNIR {vnir}", f"SWIR {swir}")
