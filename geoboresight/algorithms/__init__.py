@@ -31,34 +31,38 @@ __all__ = [
 #: again by every operation a user, a script or QGIS runs. tests/test_house.py checks it
 #: against the modules' ``ALGORITHMS``.
 _DECLARED = re.compile(r'Algorithm\(\s*name="([a-z0-9-]+)"')
+#: ... and the file-level operation each spec runs (``run=ratio_file``).
+_RUNS = re.compile(r"\brun=(\w+_file)\b")
 
 
 @cache
-def spec_modules() -> dict[str, str]:
-    """``{operation name: spec module}``, from the spec modules' source text."""
-    found = {}
+def _declarations() -> tuple[dict[str, str], dict[str, str]]:
+    """``({operation name: spec module}, {operation function: spec module})``, read once
+    from the spec modules' source text."""
+    names, runs = {}, {}
     for path in sorted(Path(__file__).parent.glob("*.py")):
         if path.stem == "spec" or path.stem.startswith("_"):
             continue
-        for name in _DECLARED.findall(path.read_text(encoding="utf-8")):
-            found[name] = path.stem
-    return found
+        text = path.read_text(encoding="utf-8")
+        names.update(dict.fromkeys(_DECLARED.findall(text), path.stem))
+        runs.update(dict.fromkeys(_RUNS.findall(text), path.stem))
+    return names, runs
 
 
-_RUNS = re.compile(r"\brun=(\w+_file)\b")
+def spec_modules() -> dict[str, str]:
+    """``{operation name: spec module}``, from the spec modules' source text."""
+    return dict(_declarations()[0])
 
 
 def spec_of_operation(function: str) -> Algorithm | None:
     """The spec whose ``run`` is the file-level operation called ``function`` (e.g.
     ``"ratio_file"``), importing its spec module only; None if no spec runs it."""
-    for path in sorted(Path(__file__).parent.glob("*.py")):
-        if path.stem == "spec" or path.stem.startswith("_"):
-            continue
-        if function in _RUNS.findall(path.read_text(encoding="utf-8")):
-            module = importlib.import_module(f"{__name__}.{path.stem}")
-            for alg in getattr(module, "ALGORITHMS", ()):
-                if getattr(alg.run, "__name__", None) == function:
-                    return alg
+    stem = _declarations()[1].get(function)
+    if stem is not None:
+        module = importlib.import_module(f"{__name__}.{stem}")
+        for alg in getattr(module, "ALGORITHMS", ()):
+            if getattr(alg.run, "__name__", None) == function:
+                return alg
     return None
 
 
