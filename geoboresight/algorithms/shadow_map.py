@@ -24,7 +24,7 @@ from ._common import (
     sample_size,
     seed,
 )
-from .spec import Algorithm, FileIn, Group, Number, RasterIn, RasterOut, Result
+from .spec import Algorithm, FileIn, Group, Number, RasterIn, RasterOut, Result, Text
 
 GROUP = "Shadow"
 
@@ -77,12 +77,22 @@ SURFACE = Group(
     params=(
         RasterIn(
             name="dsm",
-            description="Surface model (DSM, m) on the image's grid: its cast shadow is the prior (empty = spectra only)",
+            description="Surface model (DSM, m) on the image's grid, or on a map grid with the line's IGM: its cast shadow is the prior (empty = spectra only)",
+            optional=True,
+        ),
+        RasterIn(
+            name="igm",
+            description="The line's IGM (map coordinates of each raw pixel), to read a DSM on a map grid at the image's pixels",
+            optional=True,
+        ),
+        Text(
+            name="acquisition_time",
+            description="Acquisition date and time, ISO 8601 (e.g. 2009-06-20T10:32:00Z; UTC without an offset): the sun's zenith and azimuth are computed from it at the scene's centre (instead of giving them)",
             optional=True,
         ),
         Number(
             name="sun_zenith",
-            description="Sun zenith angle (degrees from vertical, below 90; at acquisition, with the DSM)",
+            description="Sun zenith angle (degrees from vertical, below 90; at acquisition, with the DSM; or give the acquisition time)",
             optional=True,
             minimum=0.0,
             maximum=90.0,
@@ -90,7 +100,7 @@ SURFACE = Group(
         ),
         Number(
             name="sun_azimuth",
-            description="Sun azimuth (degrees clockwise from the grid's up: north on a map grid, the flight direction in raw sensor geometry; at acquisition, with the DSM)",
+            description="Sun azimuth (degrees clockwise from the grid's up: north on a map grid or with the IGM, the flight direction in raw sensor geometry; at acquisition, with the DSM)",
             optional=True,
             minimum=0.0,
             maximum=360.0,

@@ -146,7 +146,7 @@ def envi_header_crs(src, label: str):
     )
 
 
-def _centre_lonlat(x, y, crs) -> tuple[float, float]:
+def centre_lonlat(x, y, crs) -> tuple[float, float]:
     """The median position of coordinates ``x``, ``y`` in ``crs``, as WGS 84 lon/lat."""
     xs, ys = np.asarray(x, "float64").ravel(), np.asarray(y, "float64").ravel()
     ok = np.isfinite(xs) & np.isfinite(ys)
@@ -161,6 +161,22 @@ def _centre_lonlat(x, y, crs) -> tuple[float, float]:
     return (cx + 180.0) % 360.0 - 180.0, cy
 
 
+def true_north_bearing(lon: float, lat: float, crs) -> float:
+    """The bearing of true north on the grid of ``crs`` at (``lon``, ``lat``), in degrees
+    clockwise from the grid's up (the meridian convergence, from two points 10 m apart
+    along the meridian: any projection, no formula per projection). A true azimuth ``A``
+    is ``A + bearing`` on the grid."""
+    from rasterio.crs import CRS
+
+    if _pyproj(crs).is_geographic:
+        return 0.0
+    dlat = 10.0 / 111_320.0
+    x, y = transform_xy(
+        np.array([lon, lon]), np.array([lat - dlat, lat + dlat]), CRS.from_epsg(4326), crs
+    )
+    return float(np.degrees(np.arctan2(x[1] - x[0], y[1] - y[0])))
+
+
 def utm_crs(x, y, crs):
     """The UTM zone (pyproj's ``query_utm_crs_info``) holding the median position of
     coordinates ``x``, ``y`` given in ``crs``: on the CRS's datum when it is NAD83 or NAD27
@@ -169,7 +185,7 @@ def utm_crs(x, y, crs):
     from pyproj.aoi import AreaOfInterest
     from pyproj.database import query_utm_crs_info
 
-    lon, lat = _centre_lonlat(x, y, crs)
+    lon, lat = centre_lonlat(x, y, crs)
     datum = (_pyproj(crs).datum.name if _pyproj(crs).datum else "") or ""
     names = ["WGS 84"]
     if "North American Datum 1983" in datum:

@@ -18,6 +18,7 @@ from scipy import ndimage
 
 from .. import io
 from ..errors import InputError, ParameterError
+from ..io import georef
 from ..io.bands import BoresightOffset, band_range
 from ..io.dark import DarkLevels, dark_level_of
 from ..io.dual import BandChoice, DualLayout
@@ -61,18 +62,26 @@ class Detection:
 
 @dataclass(frozen=True)
 class SurfaceModel:
-    """A surface model (DSM, heights in metres) on the image's grid and the sun's position:
-    the cast shadow it predicts is the shadow map's prior. ``dsm`` None = no surface model.
-    ``sun_zenith`` 0–90° (< 90), ``sun_azimuth`` clockwise from north towards the sun (as
-    ``sun-shadow``); ``cell_size`` (m) for a DSM without a geotransform (else the image's);
-    ``clearance`` (m): a caster must rise this far above the sun line to cast shadow (the
-    DSM's height noise: about 3 × its standard deviation; 0 = exact, as ``sun-shadow``)."""
+    """A surface model (DSM, heights in metres) and the sun's position: the cast shadow it
+    predicts is the shadow map's prior. ``dsm`` None = no surface model.
+
+    The DSM is on the image's grid, or on a map grid with ``igm``, the line's IGM (each raw
+    pixel's map coordinates: the DSM is read at every raw pixel, and the sun's azimuth is
+    from north). ``sun_zenith`` 0–90° (< 90), ``sun_azimuth`` clockwise from north towards
+    the sun (as ``sun-shadow``); or ``acquisition_time`` (ISO 8601, UTC without an offset),
+    from which they are computed at the scene's centre (NREL's SPA:
+    :func:`geoboresight.shadow.solar.sun_position`). ``cell_size`` (m) for a DSM without a
+    geotransform (else the image's); ``clearance`` (m): a caster must rise this far above the
+    sun line to cast shadow (the DSM's height noise: about 3 × its standard deviation; 0 =
+    exact, as ``sun-shadow``)."""
 
     dsm: str | None = None
     sun_zenith: float | None = None
     sun_azimuth: float | None = None
     cell_size: float | None = None
     clearance: float = 1.0
+    igm: str | None = None
+    acquisition_time: str | None = None
 
 
 #: Bands per instrument read for the dark level besides the signal bands (evenly spaced).
@@ -130,6 +139,7 @@ class _Surface:
     surface: str
     halo: tuple[int, int]
     clearance: float = 0.0
+    sun: str = "given"
 
     def prior(self, z, valid):
         return ill.shadow_fraction(
@@ -144,50 +154,162 @@ class _Surface:
         )
 
 
+def _sun(surface: SurfaceModel, place, progress) -> tuple[float, float, str]:
+    """The sun's (zenith, azimuth, how): given, or computed from the acquisition time at
+    ``place`` ((lon, lat, CRS of the grid the shadows are cast on) or None: unknown)."""
+    from ..shadow.solar import sun_position
+
+    given = [surface.sun_zenith is not None, surface.sun_azimuth is not None]
+    if surface.acquisition_time is None:
+        if not all(given):
+            raise ParameterError(
+                "parameter 'dsm' needs the sun's position: give 'sun_zenith' and "
+                "'sun_azimuth' (degrees; the azimuth clockwise from north towards the sun), "
+                "or 'acquisition_time'"
+            )
+        zen, az = ill.check_sun(surface.sun_zenith, surface.sun_azimuth)
+        return zen, az, "given"
+    if any(given):
+        raise ParameterError(
+            "parameter 'acquisition_time': give the sun's position once, either the time or "
+            "'sun_zenith' and 'sun_azimuth', not both"
+        )
+    if place is None:
+        raise ParameterError(
+            "parameter 'acquisition_time' needs the scene's position: give a georeferenced "
+            "DSM, the line's IGM ('igm'), or 'sun_zenith' and 'sun_azimuth'"
+        )
+    lon, lat, crs = place
+    zen, az = sun_position(surface.acquisition_time, lon, lat)
+    # SPA's azimuth is from true north; the shadows are cast on the grid of ``crs``.
+    bearing = georef.true_north_bearing(lon, lat, crs)
+    how = (
+        f"computed for {surface.acquisition_time} at {lat:.4f}°, {lon:.4f}° (NREL SPA; "
+        f"azimuth {az:.2f}° from true north, {az + bearing:.2f}° from grid north)"
+    )
+    return zen, (az + bearing) % 360.0, how
+
+
+def _surface_via_igm(surface: SurfaceModel, dual, stack, progress):
+    """The DSM (on a map grid) read at every raw pixel through the line's IGM: a temporary
+    raster on the image's grid, the raw grid's geometry, and the place for the sun."""
+    import tempfile
+
+    import rasterio
+
+    from ..io.sample import raw_grid_matrix, surface_on_raw_grid
+
+    coords = georef.coordinates_for(dual.vnir.path, igm=surface.igm)
+    if coords.x.shape != (dual.height, dual.width):
+        raise InputError(
+            f"IGM {surface.igm} has {coords.x.shape[0]} × {coords.x.shape[1]} pixels but the "
+            f"image {dual.height} × {dual.width}: give the IGM of this flight line"
+        )
+    matrix, crs, rms = raw_grid_matrix(coords)
+    src = stack.enter_context(io.open_raster(surface.dsm, "surface model"))
+    folder = stack.enter_context(tempfile.TemporaryDirectory(prefix="geoboresight-dsm-"))
+    path = f"{folder}/dsm_raw.tif"
+    profile = dict(
+        driver="GTiff",
+        width=dual.width,
+        height=dual.height,
+        count=1,
+        dtype="float32",
+        nodata=float("nan"),
+        tiled=True,
+        blockxsize=256,
+        blockysize=256,
+    )
+    with io.quiet_georef(), rasterio.open(path, "w", **profile) as dst:
+        covered = surface_on_raw_grid(src, coords, dst, progress.sub(0.0, 0.05))
+    if covered == 0:
+        raise InputError(
+            f"surface model {surface.dsm} does not cover the flight line: none of the IGM "
+            f"{surface.igm}'s pixels fall on it (check both files' CRS)"
+        )
+    share = covered / float(dual.height * dual.width)
+    cell = float(np.sqrt(abs(np.linalg.det(matrix))))
+    progress.info(
+        f"surface model {surface.dsm} read at the raw pixels through IGM {surface.igm}: "
+        f"{100 * share:.1f} % covered; raw grid {cell:.2f} m pixels, affine within "
+        f"{rms:.2f} m RMS ({georef.crs_name(crs)})"
+    )
+    if rms > cell:
+        progress.info(
+            f"warning: the flight line departs from an affine grid by {rms:.1f} m RMS (more "
+            "than a pixel): its shadows are cast on the line's mean geometry"
+        )
+    lon, lat = georef.centre_lonlat(coords.x, coords.y, coords.crs)
+    raw = stack.enter_context(io.open_raster(path, "surface model"))
+    return raw, matrix, (lon, lat, crs)
+
+
+def _place_of(grid) -> tuple[float, float, object] | None:
+    """(lon, lat, CRS) of the centre of a grid with a CRS and a geotransform, else None."""
+    if grid.crs is None or grid.transform is None:
+        return None
+    cx, cy = grid.transform * (grid.width / 2.0, grid.height / 2.0)
+    lon, lat = georef.centre_lonlat(np.array([cx]), np.array([cy]), grid.crs)
+    return lon, lat, grid.crs
+
+
 def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _Surface | None:
     """Check the surface model against the image and find its relief (how far its shadows
     reach) and whether it has walls (blocks or smooth surface, as ``sun-shadow``)."""
     from ..shadow.surface import choose_surface
     from .shadow_truth import relief_and_walls
 
-    given = [surface.sun_zenith is not None, surface.sun_azimuth is not None]
     if not surface.dsm:
-        if any(given):
+        extra = [
+            n
+            for n, v in (
+                ("sun_zenith", surface.sun_zenith),
+                ("sun_azimuth", surface.sun_azimuth),
+                ("acquisition_time", surface.acquisition_time),
+                ("igm", surface.igm),
+            )
+            if v is not None
+        ]
+        if extra:
             raise ParameterError(
-                "parameters 'sun_zenith'/'sun_azimuth' are only used with a surface model: "
-                "give 'dsm' too, or leave them empty"
+                f"parameter{'s' if len(extra) > 1 else ''} {', '.join(repr(n) for n in extra)} "
+                "only used with a surface model: give 'dsm' too, or leave them empty"
             )
         return None
-    if not all(given):
-        raise ParameterError(
-            "parameter 'dsm' needs the sun's position: give 'sun_zenith' and 'sun_azimuth' "
-            "(degrees; the azimuth clockwise from north towards the sun)"
-        )
-    zen, az = ill.check_sun(surface.sun_zenith, surface.sun_azimuth)
+    # The sun's position first: a missing or doubly given sun fails before any reading.
+    sun = _sun(surface, None, progress) if surface.acquisition_time is None else None
+    if sun is None and (surface.sun_zenith is not None or surface.sun_azimuth is not None):
+        _sun(surface, None, progress)  # raises: the time and the angles both given
+    if surface.igm:
+        src, matrix, place = _surface_via_igm(surface, dual, stack, progress)
+    else:
+        src = stack.enter_context(io.open_raster(surface.dsm, "surface model"))
+        if (src.height, src.width) != (dual.height, dual.width):
+            raise InputError(
+                f"surface model {surface.dsm} has {src.height} × {src.width} cells but the "
+                f"image {dual.height} × {dual.width} pixels: give a DSM on the image's grid, or "
+                "the line's IGM ('igm') to read a DSM on a map grid at the image's pixels"
+            )
+        grid = io.Grid.of(src)
+        if grid.georeferenced:
+            matrix = ill.grid_matrix(grid.transform)
+            place = _place_of(grid)
+        elif surface.cell_size:
+            matrix = ill.grid_matrix(None, surface.cell_size)
+            place = None
+        elif dual.grid.georeferenced:
+            matrix = ill.grid_matrix(dual.grid.transform)
+            place = _place_of(dual.grid)
+        else:
+            raise ParameterError(
+                f"surface model {surface.dsm} and the image have no geotransform: give "
+                "'cell_size' (the DSM's cell size in metres)"
+            )
+    zen, az, how = sun or _sun(surface, place, progress)
     if zen >= 90.0:
         raise ParameterError(
             f"parameter 'sun_zenith': {zen:g}° puts the sun on or below the horizon: every "
             "surface would be in shadow; give the zenith of the acquisition (below 90°)"
-        )
-    src = stack.enter_context(io.open_raster(surface.dsm, "surface model"))
-    if (src.height, src.width) != (dual.height, dual.width):
-        raise InputError(
-            f"surface model {surface.dsm} has {src.height} × {src.width} cells but the image "
-            f"{dual.height} × {dual.width} pixels: give a DSM on the image's grid (a DSM on a "
-            "map grid with the line's IGM is not supported yet: resample it onto the image "
-            "grid first)"
-        )
-    grid = io.Grid.of(src)
-    if grid.georeferenced:
-        matrix = ill.grid_matrix(grid.transform)
-    elif surface.cell_size:
-        matrix = ill.grid_matrix(None, surface.cell_size)
-    elif dual.grid.georeferenced:
-        matrix = ill.grid_matrix(dual.grid.transform)
-    else:
-        raise ParameterError(
-            f"surface model {surface.dsm} and the image have no geotransform: give "
-            "'cell_size' (the DSM's cell size in metres)"
         )
     lo, hi, n_valid, walls, pairs = relief_and_walls(
         io.band_reader(src, 1),
@@ -204,15 +326,16 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
     halo = ill.halo_rows(relief, zen, az, matrix, (dual.height, dual.width))
     progress.info(
         f"surface model {surface.dsm}: relief {relief:.1f} m, {kind} surface ({walls} of "
-        f"{pairs} cell pairs are walls); sun zenith {zen:g}°, azimuth {az:g}°"
+        f"{pairs} cell pairs are walls); sun zenith {zen:.2f}°, azimuth {az:.2f}° ({how})"
     )
     if not surface.clearance >= 0:
         raise ParameterError(f"parameter 'clearance': {surface.clearance!r} must be ≥ 0 (m)")
-    return _Surface(src, zen, az, matrix, relief, kind, halo, float(surface.clearance))
+    return _Surface(src, zen, az, matrix, relief, kind, halo, float(surface.clearance), how)
 
 
 @operation(
-    inputs=("vnir", "swir", "classes", "surface.dsm"), outputs=("output", "mask", "fraction")
+    inputs=("vnir", "swir", "classes", "surface.dsm", "surface.igm"),
+    outputs=("output", "mask", "fraction"),
 )
 def shadow_map_file(
     vnir,
@@ -459,6 +582,8 @@ def shadow_map_file(
                 dsm=surface.dsm,
                 sun_zenith_deg=str(dsm.zenith),
                 sun_azimuth_deg=str(dsm.azimuth),
+                sun_position=dsm.sun,
+                **({"igm": surface.igm} if surface.igm else {}),
                 dsm_surface=dsm.surface,
                 method="surface model prior: cast shadow from the DSM and the sun (ray march, "
                 f"{dsm.surface} surface), refined by SWIR/NIR darkness within "

@@ -1,0 +1,266 @@
+"""``shadow-map --dsm`` with a DSM on a map grid read through the line's IGM, and the sun's
+position from the acquisition time.
+
+Independent truth: NREL's published SPA example (Reda & Andreas 2004, Table A5.1), the
+transverse Mercator meridian convergence γ ≈ Δλ·sin φ, and the second scene model
+(``validation/scene_model2.py``), whose DSM and shadows are on the raw grid: here its DSM is
+put on a north-up map grid under a flight line heading 30° east of north, and the shadow map
+made through the IGM is compared with the model's own shadow.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+
+import numpy as np
+import pytest
+import rasterio
+from rasterio.crs import CRS
+from rasterio.transform import from_origin
+
+from geoboresight.errors import InputError, ParameterError
+from geoboresight.io.georef import true_north_bearing, write_igm
+from geoboresight.io.sample import raw_grid_matrix, sample_bilinear
+from geoboresight.operations.shadow_map import SurfaceModel, shadow_map_file
+from geoboresight.shadow.solar import parse_time, sun_position
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "validation"))
+from scene_model2 import simulate2, write_scene2  # noqa: E402
+
+UTM36N = CRS.from_epsg(32636)
+HEADING = 30.0  # the raw grid's up (flight direction), clockwise from north
+ORIGIN = (700_000.0, 3_500_000.0)  # east of zone 36's central meridian (33°E)
+
+
+def test_sun_position_is_nrel_spa_published_example():
+    # Reda & Andreas (2004), Table A5.1: 17 October 2003, 12:30:30 local (UTC−7), Golden,
+    # Colorado; topocentric zenith 50.11162°, azimuth 194.34024° (±0.0003° claimed).
+    zen, az = sun_position(
+        "2003-10-17T12:30:30-07:00",
+        -105.1786,
+        39.742476,
+        1830.14,
+        pressure=820,
+        temperature=11,
+        delta_t=67,
+    )
+    assert zen == pytest.approx(50.11162, abs=1e-3)
+    assert az == pytest.approx(194.34024, abs=1e-3)
+    # Without an offset the time is UTC: the same instant as 19:30:30Z.
+    assert sun_position(
+        "2003-10-17T19:30:30",
+        -105.1786,
+        39.742476,
+        1830.14,
+        pressure=820,
+        temperature=11,
+        delta_t=67,
+    ) == (zen, az)
+
+
+@pytest.mark.parametrize(
+    "text, match",
+    [("yesterday", "not an ISO 8601"), ("2009-06-20", "no time of day"), ("", "ISO 8601")],
+)
+def test_bad_times_name_the_parameter(text, match):
+    with pytest.raises(ParameterError, match=match) as e:
+        parse_time(text)
+    assert "acquisition_time" in str(e.value)
+
+
+def test_true_north_bearing_is_the_meridian_convergence():
+    # On the central meridian grid north is true north; 2° east of it at 45°N, true north
+    # leans west of grid north by γ ≈ Δλ·sin φ = 1.414° (first order of the TM series).
+    assert true_north_bearing(33.0, 45.0, UTM36N) == pytest.approx(0.0, abs=1e-6)
+    assert true_north_bearing(35.0, 45.0, UTM36N) == pytest.approx(
+        -2.0 * math.sin(math.radians(45.0)), abs=0.01
+    )
+    assert true_north_bearing(35.0, 45.0, CRS.from_epsg(4326)) == 0.0
+
+
+def _unit(bearing):
+    b = math.radians(bearing)
+    return np.array([math.sin(b), math.cos(b)])  # (east, north)
+
+
+def _igm(rows, cols, gsd):
+    """Each raw pixel centre on the map: columns to the right of the flight direction."""
+    r, c = np.mgrid[0:rows, 0:cols] + 0.5
+    right, down = _unit(HEADING + 90.0), _unit(HEADING + 180.0)
+    x = ORIGIN[0] + gsd * (c * right[0] + r * down[0])
+    y = ORIGIN[1] + gsd * (c * right[1] + r * down[1])
+    return x, y
+
+
+def _map_dsm(z, x, y, gsd, cell=0.25):
+    """The raw-grid DSM ``z`` drawn on a north-up map grid of ``cell`` m: each map cell
+    takes the height of the raw pixel it falls in (blocks stay blocks)."""
+    x0, x1 = x.min() - 3 * gsd, x.max() + 3 * gsd
+    y0, y1 = y.min() - 3 * gsd, y.max() + 3 * gsd
+    w, h = int((x1 - x0) / cell), int((y1 - y0) / cell)
+    transform = from_origin(x0, y1, cell, cell)
+    cx = x0 + (np.arange(w) + 0.5) * cell
+    cy = y1 - (np.arange(h) + 0.5) * cell
+    ex, ny = np.meshgrid(cx - ORIGIN[0], cy - ORIGIN[1])
+    right, down = _unit(HEADING + 90.0), _unit(HEADING + 180.0)
+    col = (ex * right[0] + ny * right[1]) / gsd
+    row = (ex * down[0] + ny * down[1]) / gsd
+    ri, ci = np.floor(row).astype(int), np.floor(col).astype(int)
+    inside = (ri >= 0) & (ri < z.shape[0]) & (ci >= 0) & (ci < z.shape[1])
+    out = np.full((h, w), -9999.0, np.float32)
+    out[inside] = z[ri[inside], ci[inside]]
+    return out, transform
+
+
+@pytest.fixture(scope="module")
+def mapped(tmp_path_factory):
+    root = tmp_path_factory.mktemp("dsm_map")
+    folder = str(root / "scene")
+    sc = simulate2(rows=72, cols=96, seed=0, sun_zenith=35.0, buildings=8, trees=6)
+    write_scene2(sc, folder)
+    gsd = float(sc.truth["gsd_m"])
+    with rasterio.open(os.path.join(folder, "truth_dsm.tif")) as src:
+        z = src.read(1).astype(np.float64)
+    x, y = _igm(*z.shape, gsd)
+    igm = str(root / "igm.tif")
+    write_igm(igm, x, y, UTM36N, {})
+    dsm, transform = _map_dsm(z, x, y, gsd)
+    dsm_path = str(root / "dsm_map.tif")
+    with rasterio.open(
+        dsm_path,
+        "w",
+        driver="GTiff",
+        width=dsm.shape[1],
+        height=dsm.shape[0],
+        count=1,
+        dtype="float32",
+        crs=UTM36N,
+        transform=transform,
+        nodata=-9999.0,
+    ) as dst:
+        dst.write(dsm, 1)
+    return sc, folder, igm, dsm_path, z, (x, y)
+
+
+def test_the_igm_gives_the_raw_grid_geometry(mapped):
+    sc, folder, igm, dsm_path, z, (x, y) = mapped
+    from geoboresight.io.georef import read_coordinates
+
+    m, crs, rms = raw_grid_matrix(read_coordinates(igm))
+    gsd = float(sc.truth["gsd_m"])
+    right, down = _unit(HEADING + 90.0), _unit(HEADING + 180.0)
+    assert np.allclose(m, gsd * np.column_stack([right, down]), atol=1e-9)
+    assert rms < 1e-6 and crs == UTM36N
+    # The DSM read back at the raw pixel centres is the model's DSM (blocks: exact inside
+    # them; a bilinear mix only within half a map cell of a wall).
+    with rasterio.open(dsm_path) as src:
+        back = sample_bilinear(src, x, y)
+    assert np.mean(np.abs(back - z) < 1e-6) > 0.97
+
+
+def _f1(pred, truth):
+    tp = (pred & truth).sum()
+    return 2 * tp / (2 * tp + (pred & ~truth).sum() + (~pred & truth).sum())
+
+
+def test_shadow_map_through_the_igm_finds_the_models_shadow(mapped, tmp_path):
+    sc, folder, igm, dsm_path, z, _ = mapped
+    sun = sc.truth["sun"]
+    v, s = os.path.join(folder, "vnir.hdr"), os.path.join(folder, "swir.hdr")
+    raw = tmp_path / "raw.tif"
+    shadow_map_file(
+        v,
+        s,
+        output=str(tmp_path / "c_raw.tif"),
+        fraction=str(raw),
+        surface=SurfaceModel(
+            os.path.join(folder, "truth_dsm.tif"),
+            sun["zenith_deg"],
+            sun["azimuth_deg"],
+            sc.truth["gsd_m"],
+        ),
+    )
+    via = tmp_path / "via.tif"
+    r = shadow_map_file(
+        v,
+        s,
+        output=str(tmp_path / "c_map.tif"),
+        fraction=str(via),
+        # On the map the sun's azimuth is from north: the raw grid's + the heading.
+        surface=SurfaceModel(
+            dsm_path,
+            sun["zenith_deg"],
+            (sun["azimuth_deg"] + HEADING) % 360.0,
+            igm=igm,
+        ),
+    )
+    with rasterio.open(raw) as a, rasterio.open(via) as b:
+        f_raw, f_via = a.read(1), b.read(1)
+        assert b.crs is None and b.shape == (z.shape)  # the image's grid, not the map's
+    truth = sc.shadow_fraction >= 0.5
+    assert _f1(f_via >= 0.5, truth) > 0.8
+    assert np.mean((f_via >= 0.5) == (f_raw >= 0.5)) > 0.97
+    assert (r["dsm_shift_rows"], r["dsm_shift_columns"]) == (0, 0)
+
+
+def test_acquisition_time_gives_the_sun_at_the_scene(mapped, tmp_path):
+    sc, folder, igm, dsm_path, z, (x, y) = mapped
+    from pyproj import Transformer
+
+    when = "2010-06-21T09:00:00Z"
+    out = tmp_path / "c.tif"
+    shadow_map_file(
+        os.path.join(folder, "vnir.hdr"),
+        os.path.join(folder, "swir.hdr"),
+        output=str(out),
+        surface=SurfaceModel(dsm_path, igm=igm, acquisition_time=when),
+    )
+    lon, lat = Transformer.from_crs(32636, 4326, always_xy=True).transform(
+        np.median(x), np.median(y)
+    )
+    zen, az = sun_position(when, lon, lat)
+    with rasterio.open(out) as src:
+        tags = src.tags()
+    assert float(tags["SUN_ZENITH_DEG"]) == pytest.approx(zen, abs=1e-6)
+    # Cast on UTM's grid: the true azimuth turned by the meridian convergence there.
+    grid_az = (az + true_north_bearing(lon, lat, UTM36N)) % 360
+    assert float(tags["SUN_AZIMUTH_DEG"]) == pytest.approx(grid_az, abs=1e-6)
+    assert abs(grid_az - az) > 0.5  # 36°E at 31.6°N: the convergence is not negligible
+    assert "NREL SPA" in tags["SUN_POSITION"] and tags["IGM"] == igm
+
+
+def test_bad_map_grid_inputs_give_one_clear_line(mapped, tmp_path):
+    sc, folder, igm, dsm_path, z, (x, y) = mapped
+    v, s = os.path.join(folder, "vnir.hdr"), os.path.join(folder, "swir.hdr")
+    out = str(tmp_path / "x.tif")
+    cases = [
+        (SurfaceModel(dsm_path, 30.0, 150.0), InputError, "give a DSM on the image's grid, or"),
+        (
+            SurfaceModel(dsm_path, 30.0, 150.0, acquisition_time="2010-06-21T09:00Z", igm=igm),
+            ParameterError,
+            "give the sun's position once",
+        ),
+        (SurfaceModel(None, igm=igm), ParameterError, "'igm' only used with a surface model"),
+        (
+            SurfaceModel(
+                os.path.join(folder, "truth_dsm.tif"),
+                cell_size=1.5,
+                acquisition_time="2010-06-21T09:00Z",
+            ),
+            ParameterError,
+            "needs the scene's position",
+        ),
+    ]
+    far = str(tmp_path / "igm_far.tif")
+    write_igm(far, x - 50_000.0, y, UTM36N, {})
+    cases.append((SurfaceModel(dsm_path, 30.0, 150.0, igm=far), InputError, "does not cover"))
+    small = str(tmp_path / "igm_small.tif")
+    write_igm(small, x[:10], y[:10], UTM36N, {})
+    cases.append((SurfaceModel(dsm_path, 30.0, 150.0, igm=small), InputError, "10 × 96 pixels"))
+    for surface, error, match in cases:
+        with pytest.raises(error, match=match) as e:
+            shadow_map_file(v, s, output=out, surface=surface)
+        assert "\n" not in str(e.value)
+    assert not os.path.exists(out)
