@@ -264,3 +264,51 @@ def test_bad_map_grid_inputs_give_one_clear_line(mapped, tmp_path):
             shadow_map_file(v, s, output=out, surface=surface)
         assert "\n" not in str(e.value)
     assert not os.path.exists(out)
+
+
+def test_sun_shadow_takes_the_acquisition_time(tmp_path):
+    from geoboresight.operations.shadow_truth import sun_shadow_file
+
+    z = np.zeros((40, 40), np.float32)
+    z[15:25, 15:25] = 10.0
+    dsm = str(tmp_path / "dsm.tif")
+    with rasterio.open(
+        dsm,
+        "w",
+        driver="GTiff",
+        width=40,
+        height=40,
+        count=1,
+        dtype="float32",
+        crs=UTM36N,
+        transform=from_origin(*ORIGIN, 1.0, 1.0),
+    ) as dst:
+        dst.write(z, 1)
+    when = "2010-06-21T07:00:00+02:00"
+    r = sun_shadow_file(dsm, output=str(tmp_path / "t.tif"), acquisition_time=when)
+    from pyproj import Transformer
+
+    lon, lat = Transformer.from_crs(32636, 4326, always_xy=True).transform(
+        ORIGIN[0] + 20.0, ORIGIN[1] - 20.0
+    )
+    zen, az = sun_position(when, lon, lat)
+    az = (az + true_north_bearing(lon, lat, UTM36N)) % 360
+    given = sun_shadow_file(dsm, output=str(tmp_path / "g.tif"), sun_zenith=zen, sun_azimuth=az)
+    with rasterio.open(tmp_path / "t.tif") as a, rasterio.open(tmp_path / "g.tif") as b:
+        assert np.array_equal(a.read(), b.read())
+        assert float(a.tags()["SUN_ZENITH_DEG"]) == pytest.approx(zen, abs=1e-9)
+    assert r["shadow_pixels"] == given["shadow_pixels"] > 0
+    for kwargs, match in (
+        ({}, "needs the sun's position"),
+        ({"sun_zenith": 30.0, "acquisition_time": when}, "give the sun's position once"),
+    ):
+        with pytest.raises(ParameterError, match=match):
+            sun_shadow_file(dsm, output=str(tmp_path / "x.tif"), **kwargs)
+    raw = str(tmp_path / "raw.tif")
+    with rasterio.open(
+        raw, "w", driver="GTiff", width=40, height=40, count=1, dtype="float32"
+    ) as dst:
+        dst.write(z, 1)
+    with pytest.raises(ParameterError, match="needs the scene's position"):
+        sun_shadow_file(raw, output=str(tmp_path / "x.tif"), cell_size=1.0, acquisition_time=when)
+    assert not os.path.exists(tmp_path / "x.tif")

@@ -43,7 +43,8 @@ SUN_SHADOW = Algorithm(
         "0.2 % of the pairs) and smooth otherwise. The optional hillshade is the cosine of the solar incidence angle "
         "from Horn's gradient, as gdaldem hillshade (GDAL's byte value is 1 + 254·max(cos i, 0)).\n\n"
         "The zenith is 0° (sun overhead) to 90° (horizon); the azimuth is clockwise from north "
-        "towards the sun. A surface model without a geotransform needs a cell size; its row 0 is "
+        "towards the sun. Or give the acquisition time: the angles are computed at the surface "
+        "model's centre with NREL's Solar Position Algorithm. A surface model without a geotransform needs a cell size; its row 0 is "
         "then taken as the northern edge."
     ),
     params=(
@@ -54,7 +55,8 @@ SUN_SHADOW = Algorithm(
         Band(name="band", description="Band of the surface model", default=1, raster="dsm"),
         Number(
             name="sun_zenith",
-            description="Sun zenith angle (degrees from vertical, 0–90)",
+            description="Sun zenith angle (degrees from vertical, 0–90; or give the acquisition time)",
+            optional=True,
             minimum=0.0,
             maximum=90.0,
             unit="°",
@@ -62,9 +64,15 @@ SUN_SHADOW = Algorithm(
         Number(
             name="sun_azimuth",
             description="Sun azimuth (degrees clockwise from the grid's up: north on a map grid, the flight direction in raw sensor geometry; 0–360)",
+            optional=True,
             minimum=0.0,
             maximum=360.0,
             unit="°",
+        ),
+        Text(
+            name="acquisition_time",
+            description="Acquisition date and time, ISO 8601 (e.g. 2009-06-20T10:32:00Z; UTC without an offset): the sun's zenith and azimuth are computed from it at the surface model's centre (instead of giving them; needs a georeferenced surface model)",
+            optional=True,
         ),
         Number(
             name="cell_size",

@@ -14,6 +14,7 @@ import numpy as np
 
 from .. import io
 from ..errors import InputError, ParameterError
+from ..io import georef
 from ..io.dual import TOLERANCE_NM
 from ..io.masks import mask_raster, masked_reader
 from ..io.shadow import class_polygons, class_table_csv, read_class_table, read_fraction_model
@@ -35,6 +36,57 @@ def no_valid_error(path: str, what: str = "ratio raster") -> InputError:
         f"{what} {path} has no valid pixel (every pixel is nodata or not finite): check the "
         "file and its nodata value"
     )
+
+
+def grid_place(grid) -> tuple[float, float, object] | None:
+    """(lon, lat, CRS) of the centre of a grid with a CRS and a geotransform, else None: where
+    the sun is computed from the acquisition time (:func:`sun_angles`)."""
+    if grid.crs is None or grid.transform is None:
+        return None
+    cx, cy = grid.transform * (grid.width / 2.0, grid.height / 2.0)
+    lon, lat = georef.centre_lonlat(np.array([cx]), np.array([cy]), grid.crs)
+    return lon, lat, grid.crs
+
+
+def sun_angles(
+    sun_zenith, sun_azimuth, acquisition_time, place, *, needed_by: str
+) -> tuple[float, float, str]:
+    """The sun's (zenith, azimuth, how) for casting shadows: the angles given, or computed
+    from ``acquisition_time`` at ``place`` ((lon, lat, CRS of the grid the shadows are cast
+    on), or None when unknown) with NREL's SPA (:func:`geoboresight.shadow.solar.sun_position`),
+    the azimuth turned from true north to the grid's north (meridian convergence)."""
+    from ..shadow import illumination as ill
+    from ..shadow.solar import sun_position
+
+    given = [sun_zenith is not None, sun_azimuth is not None]
+    if acquisition_time is None:
+        if not all(given):
+            raise ParameterError(
+                f"parameter '{needed_by}' needs the sun's position: give 'sun_zenith' and "
+                "'sun_azimuth' (degrees; the azimuth clockwise from north towards the sun), "
+                "or 'acquisition_time'"
+            )
+        zen, az = ill.check_sun(sun_zenith, sun_azimuth)
+        return zen, az, "given"
+    if any(given):
+        raise ParameterError(
+            "parameter 'acquisition_time': give the sun's position once, either the time or "
+            "'sun_zenith' and 'sun_azimuth', not both"
+        )
+    if place is None:
+        raise ParameterError(
+            "parameter 'acquisition_time' needs the scene's position: give a georeferenced "
+            "surface model (or the line's IGM, 'igm', where taken), or 'sun_zenith' and "
+            "'sun_azimuth'"
+        )
+    lon, lat, crs = place
+    zen, az = sun_position(acquisition_time, lon, lat)
+    bearing = georef.true_north_bearing(lon, lat, crs)
+    how = (
+        f"computed for {acquisition_time} at {lat:.4f}°, {lon:.4f}° (NREL SPA; azimuth "
+        f"{az:.2f}° from true north, {(az + bearing) % 360.0:.2f}° from grid north)"
+    )
+    return zen, (az + bearing) % 360.0, how
 
 
 def class_table(path=None) -> cls.ClassTable:

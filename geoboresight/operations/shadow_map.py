@@ -29,7 +29,7 @@ from ..shadow import classes as cls
 from ..shadow import illumination as ill
 from ..shadow import map as smap
 from ._operation import operation
-from .shadow import class_table, no_valid_error
+from .shadow import class_table, grid_place, no_valid_error, sun_angles
 
 #: Pixels drawn at random to calibrate the map.
 SAMPLE_SIZE = 200_000
@@ -154,40 +154,10 @@ class _Surface:
         )
 
 
-def _sun(surface: SurfaceModel, place, progress) -> tuple[float, float, str]:
-    """The sun's (zenith, azimuth, how): given, or computed from the acquisition time at
-    ``place`` ((lon, lat, CRS of the grid the shadows are cast on) or None: unknown)."""
-    from ..shadow.solar import sun_position
-
-    given = [surface.sun_zenith is not None, surface.sun_azimuth is not None]
-    if surface.acquisition_time is None:
-        if not all(given):
-            raise ParameterError(
-                "parameter 'dsm' needs the sun's position: give 'sun_zenith' and "
-                "'sun_azimuth' (degrees; the azimuth clockwise from north towards the sun), "
-                "or 'acquisition_time'"
-            )
-        zen, az = ill.check_sun(surface.sun_zenith, surface.sun_azimuth)
-        return zen, az, "given"
-    if any(given):
-        raise ParameterError(
-            "parameter 'acquisition_time': give the sun's position once, either the time or "
-            "'sun_zenith' and 'sun_azimuth', not both"
-        )
-    if place is None:
-        raise ParameterError(
-            "parameter 'acquisition_time' needs the scene's position: give a georeferenced "
-            "DSM, the line's IGM ('igm'), or 'sun_zenith' and 'sun_azimuth'"
-        )
-    lon, lat, crs = place
-    zen, az = sun_position(surface.acquisition_time, lon, lat)
-    # SPA's azimuth is from true north; the shadows are cast on the grid of ``crs``.
-    bearing = georef.true_north_bearing(lon, lat, crs)
-    how = (
-        f"computed for {surface.acquisition_time} at {lat:.4f}°, {lon:.4f}° (NREL SPA; "
-        f"azimuth {az:.2f}° from true north, {az + bearing:.2f}° from grid north)"
+def _sun(surface: SurfaceModel, place) -> tuple[float, float, str]:
+    return sun_angles(
+        surface.sun_zenith, surface.sun_azimuth, surface.acquisition_time, place, needed_by="dsm"
     )
-    return zen, (az + bearing) % 360.0, how
 
 
 def _surface_via_igm(surface: SurfaceModel, dual, stack, progress):
@@ -244,15 +214,6 @@ def _surface_via_igm(surface: SurfaceModel, dual, stack, progress):
     return raw, matrix, (lon, lat, crs)
 
 
-def _place_of(grid) -> tuple[float, float, object] | None:
-    """(lon, lat, CRS) of the centre of a grid with a CRS and a geotransform, else None."""
-    if grid.crs is None or grid.transform is None:
-        return None
-    cx, cy = grid.transform * (grid.width / 2.0, grid.height / 2.0)
-    lon, lat = georef.centre_lonlat(np.array([cx]), np.array([cy]), grid.crs)
-    return lon, lat, grid.crs
-
-
 def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _Surface | None:
     """Check the surface model against the image and find its relief (how far its shadows
     reach) and whether it has walls (blocks or smooth surface, as ``sun-shadow``)."""
@@ -277,9 +238,9 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
             )
         return None
     # The sun's position first: a missing or doubly given sun fails before any reading.
-    sun = _sun(surface, None, progress) if surface.acquisition_time is None else None
+    sun = _sun(surface, None) if surface.acquisition_time is None else None
     if sun is None and (surface.sun_zenith is not None or surface.sun_azimuth is not None):
-        _sun(surface, None, progress)  # raises: the time and the angles both given
+        _sun(surface, None)  # raises: the time and the angles both given
     if surface.igm:
         src, matrix, place = _surface_via_igm(surface, dual, stack, progress)
     else:
@@ -293,19 +254,19 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
         grid = io.Grid.of(src)
         if grid.georeferenced:
             matrix = ill.grid_matrix(grid.transform)
-            place = _place_of(grid)
+            place = grid_place(grid)
         elif surface.cell_size:
             matrix = ill.grid_matrix(None, surface.cell_size)
             place = None
         elif dual.grid.georeferenced:
             matrix = ill.grid_matrix(dual.grid.transform)
-            place = _place_of(dual.grid)
+            place = grid_place(dual.grid)
         else:
             raise ParameterError(
                 f"surface model {surface.dsm} and the image have no geotransform: give "
                 "'cell_size' (the DSM's cell size in metres)"
             )
-    zen, az, how = sun or _sun(surface, place, progress)
+    zen, az, how = sun or _sun(surface, place)
     if zen >= 90.0:
         raise ParameterError(
             f"parameter 'sun_zenith': {zen:g}° puts the sun on or below the horizon: every "

@@ -25,7 +25,7 @@ from ..shadow.darkpixel import (
 )
 from ..shadow.surface import AUTO, choose_surface, surface_walls
 from ._operation import operation
-from .shadow import no_valid_error
+from .shadow import grid_place, no_valid_error, sun_angles
 
 #: The dark-pixel bands as the text parameter gives them (nm, comma-separated).
 BANDS_NM = ",".join(f"{b:g}" for b in DEFAULT_BANDS_NM)
@@ -65,8 +65,8 @@ def sun_shadow_file(
     dsm,
     *,
     output,
-    sun_zenith,
-    sun_azimuth,
+    sun_zenith=None,
+    sun_azimuth=None,
     mask=None,
     hillshade=None,
     band=1,
@@ -75,6 +75,7 @@ def sun_shadow_file(
     surface=AUTO,
     z_factor=ill.Z_FACTOR,
     block_rows=io.DEFAULT_BLOCK_ROWS,
+    acquisition_time=None,
     progress=None,
 ) -> dict:
     """Ground-truth shadow fraction, shadow mask and hillshade of a surface model.
@@ -93,7 +94,7 @@ def sun_shadow_file(
     output : path
         Shadow fraction (0–1, float32, nodata −9999).
     sun_zenith : float
-        Sun zenith angle, degrees from vertical (0–90).
+        Sun zenith angle, degrees from vertical (0–90); or give ``acquisition_time``.
     sun_azimuth : float
         Sun azimuth, degrees clockwise from north towards the sun.
     mask : path, optional
@@ -114,6 +115,11 @@ def sun_shadow_file(
         Vertical exaggeration of the hillshade.
     block_rows : int
         Lines per strip (without the halo).
+    acquisition_time : str, optional
+        ISO 8601 date and time (UTC without an offset): the sun's zenith and azimuth are
+        computed for it at the surface model's centre (NREL's SPA,
+        :func:`geoboresight.shadow.solar.sun_position`; the azimuth turned to the grid's
+        north), instead of ``sun_zenith`` and ``sun_azimuth``. Needs a georeferenced model.
     progress : Progress, optional
 
     Returns
@@ -127,7 +133,8 @@ def sun_shadow_file(
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1: the ground-truth
     shadow map from a surface model, hillshade and shadow model).
     """
-    zen, az = ill.check_sun(sun_zenith, sun_azimuth)
+    if acquisition_time is None:  # fail before reading anything
+        sun_angles(sun_zenith, sun_azimuth, None, None, needed_by="dsm")
     if surface != AUTO and surface not in ill.SURFACES:
         raise ParameterError(
             f"parameter 'surface': {surface!r} is not one of {AUTO}, {', '.join(ill.SURFACES)}"
@@ -139,6 +146,11 @@ def sun_shadow_file(
                 "the surface model has a geotransform: its cell size is used, not --cell-size"
             )
         matrix = ill.grid_matrix(grid.transform, cell_size)
+        zen, az, how = sun_angles(
+            sun_zenith, sun_azimuth, acquisition_time, grid_place(grid), needed_by="dsm"
+        )
+        if acquisition_time is not None:
+            progress.info(f"sun zenith {zen:.2f}°, azimuth {az:.2f}°: {how}")
         read = io.band_reader(src, band)
         strips = {"height": grid.height, "width": grid.width, "block_rows": block_rows}
 
@@ -164,6 +176,7 @@ def sun_shadow_file(
             f"{supersample}×{supersample} sub-cells",
             "sun_zenith_deg": zen,
             "sun_azimuth_deg": az,
+            "sun_position": how,
             "dsm": dsm,
         }
         if not grid.georeferenced:
