@@ -129,6 +129,49 @@ def test_coregister_undoes_the_offset(tex):
     np.testing.assert_allclose(out2[inner], out[inner], atol=1e-3)
 
 
+@pytest.mark.parametrize("order", [0, 1, 3])
+@pytest.mark.parametrize("shift", [(2, -1), (-3, 0), (0, 4)])
+def test_coregister_by_whole_pixels_is_the_slice(tex, order, shift):
+    # A whole-pixel offset moves pixels and nothing else: output[r, c] = input[r + a, c + b],
+    # as slicing gives it, for any spline order (an interpolating spline passes through its
+    # samples). The only error allowed is the float32 rounding of the output.
+    a, b = shift
+    out, ok = coregister(tex, float(a), float(b), order=order)
+    rows, cols = tex.shape
+    ref = np.full(tex.shape, np.nan)
+    ref[max(0, -a) : rows - max(0, a), max(0, -b) : cols - max(0, b)] = tex[
+        max(0, a) : rows - max(0, -a), max(0, b) : cols - max(0, -b)
+    ]
+    assert ok.sum() > 0.8 * ok.size
+    assert np.isfinite(ref[ok]).all()  # nothing from beyond the image is called valid
+    np.testing.assert_allclose(out[ok], ref[ok].astype(np.float32), rtol=1e-6, atol=0)
+
+
+def test_coregister_puts_both_lobes_of_a_target_in_one_pixel():
+    # A small target seen by the VNIR at (30.3, 40.7) and by the SWIR displaced by the
+    # boresight offset (1.37, -0.62) px: both images are the analytic footprint (a Gaussian
+    # of σ 1.2 px), so the truth does not come from the resampler. After co-registration the
+    # SWIR footprint's centroid is the VNIR's and its peak pixel is the same pixel. A cubic
+    # spline's error on a Gaussian of σ 1.2 px is a few 1e-3 of the peak, which moves the
+    # centroid by well under 0.02 px; the test fails by 1.4 px without the shift.
+    r, c = np.mgrid[0:64, 0:80].astype(float)
+    centre, off = np.array([30.3, 40.7]), np.array([1.37, -0.62])
+
+    def blob(at):
+        return np.exp(-((r - at[0]) ** 2 + (c - at[1]) ** 2) / (2 * 1.2**2))
+
+    vnir, swir = blob(centre), blob(centre + off)
+    out, ok = coregister(swir, *off)
+    out = np.where(ok, out, 0.0)
+
+    def centroid(img):
+        return np.array([(img * r).sum(), (img * c).sum()]) / img.sum()
+
+    np.testing.assert_allclose(centroid(out), centroid(vnir), atol=0.02)
+    assert np.argmax(out) == np.argmax(vnir)
+    assert np.abs(centroid(swir) - centroid(vnir)).max() > 1.0  # the test can fail
+
+
 def test_coregister_masks_invalid_neighbourhood(tex):
     valid = np.ones(tex.shape, bool)
     valid[50, 60] = False
