@@ -43,7 +43,8 @@ def grid_place(grid) -> tuple[float, float, object] | None:
     the sun is computed from the acquisition time (:func:`sun_angles`)."""
     if grid.crs is None or grid.transform is None:
         return None
-    cx, cy = grid.transform * (grid.width / 2.0, grid.height / 2.0)
+    t, c, r = grid.transform, grid.width / 2.0, grid.height / 2.0
+    cx, cy = t.a * c + t.b * r + t.c, t.d * c + t.e * r + t.f
     lon, lat = georef.centre_lonlat(np.array([cx]), np.array([cy]), grid.crs)
     return lon, lat, grid.crs
 
