@@ -123,6 +123,9 @@ HOLDOUT = {
     # Issue 24 (surface-model prior, de-shadowing): fixed before the first --dsm run.
     4: (20261125, range(20, 25), (10, 11, 12)),
     5: (20261126, range(25, 30), (13, 14, 15)),
+    # Issue 24, shadow with a surface model (second session): the seed was drawn from the
+    # system's random source and fixed here before the session's hold-out run.
+    6: (1977598514, range(30, 35), (16, 17, 18)),
 }
 #: Height noise (m) and largest sub-pixel shift (px) of the DSM given to shadow-map --dsm.
 DSM_NOISE_M = 0.3
