@@ -400,7 +400,7 @@ def shadow_map_file(
         at_end = at_swir + len(swir_b)
         levels = (blue_lv, nir_lv, swir_lv)
 
-        def fraction_of(values, valid, prior):
+        def fraction_of(values, valid, prior, z):
             """(shadow fraction, darkness) of a block of the read bands."""
             return smap.shadow_fraction_block(
                 values[:at_nir],
@@ -411,11 +411,15 @@ def shadow_map_file(
                 dark_levels=levels,
                 edge_pixels=edge_pixels,
                 prior=prior,
+                heights=z,
+                clearance=0.0 if dsm is None else dsm.clearance,
             )
 
         def kernel(values, valid, z=None, z_ok=None):
             prior = None if z is None else dsm.prior(z, z_ok)
-            f, d = fraction_of(values, valid, prior)
+            f, d = fraction_of(
+                values, valid, prior, None if z is None else np.where(z_ok, z, np.nan)
+            )
             c = smap.shadow_classes(f, cal.table)
             m = smap.shadow_mask(f)
             if prior is None:
@@ -436,7 +440,7 @@ def shadow_map_file(
             r1 = min(dual.height, r0 + OFFSET_ROWS)
             values, valid, z, z_ok = read(r0, r1)
             prior_c = dsm.prior(z, z_ok)
-            _, d_c = fraction_of(values, valid, prior_c)
+            _, d_c = fraction_of(values, valid, prior_c, np.where(z_ok, z, np.nan))
             agreement = smap.prior_agreement(d_c, prior_c, valid)
 
         tags = {
