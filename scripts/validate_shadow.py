@@ -36,8 +36,8 @@ Its hold-out groups (``--dsm --holdout 4`` / ``5``) are drawn as the others, wit
 
 Usage::
 
-    python scripts/validate_shadow.py [--lines 128] [--quick | --holdout N] [--dsm]
-        [--out FOLDER] [--markdown FILE]
+    python scripts/validate_shadow.py [--lines 128] [--quick | --holdout N] [--dsm
+        [--no-deshadow]] [--out FOLDER] [--markdown FILE]
 """
 
 from __future__ import annotations
@@ -362,8 +362,9 @@ def spectra_check(cube_path, dark, f_truth, material, names):
     return out
 
 
-def run_dsm_case(label, model, opts, lines, folder, index):
-    """The surface-model prior and de-shadowing on one scene (see the module's doc)."""
+def run_dsm_case(label, model, opts, lines, folder, index, deshadow=True):
+    """The surface-model prior and de-shadowing on one scene (see the module's doc);
+    ``deshadow`` False leaves the de-shadow columns empty (the shadow map only)."""
     t0 = time.perf_counter()
     os.makedirs(os.path.dirname(folder), exist_ok=True)
     material, names, dark_ids, zen, az, gsd = make_scene(model, opts, lines, folder)
@@ -400,6 +401,9 @@ def run_dsm_case(label, model, opts, lines, folder, index):
     row["warnings"] = sm["warnings"]
     write_tif(j("truth_fraction.tif"), np.nan_to_num(f, nan=0.0))
     for key, frac in (("truth", j("truth_fraction.tif")), ("mapf", j("map_dsm_fraction.tif"))):
+        if not deshadow:
+            row[key] = {}
+            continue
         out = j(f"deshadow_{key}.tif")
         try:
             r = deshadow_file(vnir, swir, shadow=frac, output=out, report=j(f"ds_{key}.json"))
@@ -484,6 +488,9 @@ def main(argv=None):
     ap.add_argument(
         "--dsm", action="store_true", help="the surface-model prior and de-shadowing (run_dsm_case)"
     )
+    ap.add_argument(
+        "--no-deshadow", action="store_true", help="with --dsm: the shadow map only (faster)"
+    )
     ap.add_argument("--out", help="keep the scenes and products in this (new) folder")
     ap.add_argument("--markdown", help="also write the table to this file")
     args = ap.parse_args(argv)
@@ -503,7 +510,13 @@ def main(argv=None):
             print(f"… {label}", file=sys.stderr)
             if args.dsm:
                 r = run_dsm_case(
-                    label, model, opts, args.lines, os.path.join(folder, f"s{i:02d}"), i
+                    label,
+                    model,
+                    opts,
+                    args.lines,
+                    os.path.join(folder, f"s{i:02d}"),
+                    i,
+                    deshadow=not args.no_deshadow,
                 )
                 rows.append(r)
                 print(
