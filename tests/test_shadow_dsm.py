@@ -81,6 +81,57 @@ def test_the_prior_is_refined_within_a_pixel_and_lit_predictions_dropped():
     assert (smap.dsm_shadow_fraction(d3, prior)[shade] < 0.5).all()
 
 
+def test_the_top_of_a_caster_beside_its_shadow_is_not_rim_shadow():
+    z, prior, d, shade, roof = _town()
+    from scipy import ndimage
+
+    # The black roof's row next to its own shadow: dark enough for the rim rule, but it is
+    # the caster's top (3 m above the shadow's ground), lit by the sun.
+    beside = roof & ndimage.binary_dilation(shade, iterations=smap.DSM_TOLERANCE)
+    assert beside.sum() >= 10
+    without = smap.dsm_shadow_fraction(d, prior)
+    assert (without[beside] >= 0.5).mean() > 0.9  # the failure the heights remove
+    f = smap.dsm_shadow_fraction(d, prior, heights=z, clearance=1.0)
+    # Not rim shadow any more; it is still unmixed against its neighbourhood, where its own
+    # dark roof is the sunlit reference (fraction ~0), except within the unmixing window
+    # (half of EDGE_WINDOW + 1 = 3 px) of the roof's ends, where the bright ground is.
+    assert (f[roof & ~beside] == 0).all()
+    inner = (
+        beside & (np.cumsum(beside, axis=1) > 3) & (np.cumsum(beside[:, ::-1], axis=1)[:, ::-1] > 3)
+    )
+    assert inner.sum() >= 4
+    assert (f[inner] < 0.5).all()
+    assert (f[beside] >= 0.5).mean() <= 0.5
+    assert (f[shade] >= 0.5).all()
+    # A dark pixel at ground level beside the shadow (registration) is still taken.
+    top = np.nonzero(shade.any(axis=1))[0].min()
+    d2 = d.copy()
+    d2[top - 1, 12:20] = math.log(1 / 10)
+    f2 = smap.dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0)
+    assert (f2[top - 1, 12:20] >= 0.5).all()
+    with pytest.raises(InputError, match="parameter 'heights'"):
+        smap.dsm_shadow_fraction(d, prior, heights=z[:-1], clearance=1.0)
+
+
+@pytest.mark.parametrize("truth", [0.3, 0.8])
+def test_a_predicted_edge_pixel_keeps_its_unmixed_fraction(truth):
+    """A dark soil (sunlit signal 0.4 of the mode, skylight a tenth of the sun's light): the
+    model shades the edge row of a shadow that covers ``truth`` of it. Signal is linear in
+    the shaded share, so the row is shadow (≥ 0.5) exactly when ``truth`` ≥ 0.5, although at
+    0.3 it is darker than half the sunlit mode (the old rule forced it to 0.5)."""
+    rho, sky = 0.4, 0.1
+    frac = np.zeros((40, 40))
+    frac[20:30, 10:30] = 1.0
+    frac[20, 10:30] = truth
+    d = np.log(rho * (1 - frac + sky * frac))
+    prior = np.where(frac > 0, 0.75, 0.0)  # the model: shaded, with a sub-pixel edge
+    prior[21:30] = 1.0
+    f = smap.dsm_shadow_fraction(d, prior)
+    assert (d[20, 10:30] < smap.LIT_DARKNESS).all()  # not spectrally lit
+    assert ((f[20, 12:28] >= 0.5) == (truth >= 0.5)).all()
+    assert (f[22:30, 10:30] >= 0.5).all()
+
+
 def test_clearance_removes_the_shadows_of_height_noise():
     rng = np.random.default_rng(0)
     z = rng.normal(0, 0.3, (80, 80))  # flat ground, 0.3 m of noise

@@ -637,7 +637,7 @@ def dsm_shadow_fraction(
     if heights is not None:
         z = np.asarray(heights, np.float64)
         if z.shape != d.shape:
-            raise InputError(f"the heights' shape {z.shape} is not the image's {d.shape}")
+            raise InputError(f"parameter 'heights': shape {z.shape} is not the image's {d.shape}")
         with np.errstate(invalid="ignore"):
             ground = ndimage.minimum_filter(
                 np.where(shaded & np.isfinite(z), z, np.inf), size=2 * tolerance + 1
