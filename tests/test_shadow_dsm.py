@@ -113,6 +113,24 @@ def test_the_top_of_a_caster_beside_its_shadow_is_not_rim_shadow():
         smap.dsm_shadow_fraction(d, prior, heights=z[:-1], clearance=1.0)
 
 
+def test_shadow_cast_from_beyond_the_surface_model_is_left_to_the_spectra():
+    """The sun is south: a caster just south of the grid (not in the surface model) shades
+    its southern edge; there the spectral estimate holds, elsewhere the prior rules."""
+    z, prior, d, shade, roof = _town()
+    d2 = d.copy()
+    d2[57:, 5:25] = math.log(1 / 10)  # shadow of something beyond the southern edge
+    unseen = ill.unseen_casters(z, **SUN, top=float(z.max()), cell_size=1.0, clearance=1.0)
+    assert unseen[57:, 5:25].all()
+    assert not unseen[:50].any()  # 5 m of rise clear the grid's top within a few cells
+    f_no = smap.dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0)
+    f = smap.dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0, unseen=unseen)
+    assert (f_no[57:, 5:25] == 0).all()
+    assert (f[58:, 7:23] >= 0.5).all()
+    assert np.array_equal(f[:50], f_no[:50])  # the black roof stays out
+    with pytest.raises(InputError, match="parameter 'unseen'"):
+        smap.dsm_shadow_fraction(d, prior, unseen=unseen[:-1])
+
+
 @pytest.mark.parametrize("truth", [0.3, 0.8])
 def test_a_predicted_edge_pixel_keeps_its_unmixed_fraction(truth):
     """A dark soil (sunlit signal 0.4 of the mode, skylight a tenth of the sun's light): the

@@ -130,6 +130,22 @@ class _Surface:
     surface: str
     halo: tuple[int, int]
     clearance: float = 0.0
+    top: float = 0.0  # highest valid height
+    height: int = 0  # lines of the grid
+
+    def unseen(self, z, valid, row0):
+        """Pixels a caster beyond the surface model's edge could shade."""
+        return ill.unseen_casters(
+            z,
+            valid,
+            sun_zenith=self.zenith,
+            sun_azimuth=self.azimuth,
+            top=self.top,
+            transform=self.matrix,
+            row0=row0,
+            height=self.height,
+            clearance=self.clearance,
+        )
 
     def prior(self, z, valid):
         return ill.shadow_fraction(
@@ -208,7 +224,9 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
     )
     if not surface.clearance >= 0:
         raise ParameterError(f"parameter 'clearance': {surface.clearance!r} must be ≥ 0 (m)")
-    return _Surface(src, zen, az, matrix, relief, kind, halo, float(surface.clearance))
+    return _Surface(
+        src, zen, az, matrix, relief, kind, halo, float(surface.clearance), float(hi), dual.height
+    )
 
 
 @operation(
@@ -394,14 +412,14 @@ def shadow_map_file(
             def read(r0, r1):
                 values, valid = read_image(r0, r1)
                 z, z_ok = read_z(r0, r1)
-                return values, valid, z, z_ok
+                return values, valid, z, z_ok, r0
 
         at_nir, at_swir = len(blue_b), len(blue_b) + len(nir_b)
         at_end = at_swir + len(swir_b)
         levels = (blue_lv, nir_lv, swir_lv)
 
-        def fraction_of(values, valid, prior, z):
-            """(shadow fraction, darkness) of a block of the read bands."""
+        def fraction_of(values, valid, prior=None, z=None, z_ok=None, r0=0):
+            """(shadow fraction, darkness) of a block of the read bands (lines ``r0``…)."""
             return smap.shadow_fraction_block(
                 values[:at_nir],
                 values[at_nir:at_swir],
@@ -411,15 +429,14 @@ def shadow_map_file(
                 dark_levels=levels,
                 edge_pixels=edge_pixels,
                 prior=prior,
-                heights=z,
+                heights=None if z is None else np.where(z_ok, z, np.nan),
                 clearance=0.0 if dsm is None else dsm.clearance,
+                unseen=None if z is None else dsm.unseen(z, z_ok, r0),
             )
 
-        def kernel(values, valid, z=None, z_ok=None):
+        def kernel(values, valid, z=None, z_ok=None, r0=0):
             prior = None if z is None else dsm.prior(z, z_ok)
-            f, d = fraction_of(
-                values, valid, prior, None if z is None else np.where(z_ok, z, np.nan)
-            )
+            f, d = fraction_of(values, valid, prior, z, z_ok, r0)
             c = smap.shadow_classes(f, cal.table)
             m = smap.shadow_mask(f)
             if prior is None:
@@ -438,9 +455,9 @@ def shadow_map_file(
             # pixels, on a central block of lines (as the boresight offset).
             r0 = max(0, dual.height // 2 - OFFSET_ROWS // 2)
             r1 = min(dual.height, r0 + OFFSET_ROWS)
-            values, valid, z, z_ok = read(r0, r1)
+            values, valid, z, z_ok, _ = read(r0, r1)
             prior_c = dsm.prior(z, z_ok)
-            _, d_c = fraction_of(values, valid, prior_c, np.where(z_ok, z, np.nan))
+            _, d_c = fraction_of(values, valid, prior_c, z, z_ok, r0)
             agreement = smap.prior_agreement(d_c, prior_c, valid)
 
         tags = {

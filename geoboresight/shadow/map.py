@@ -554,6 +554,8 @@ def dsm_shadow_fraction(
     lit: float = LIT_DARKNESS,
     heights: np.ndarray | None = None,
     clearance: float = 0.0,
+    unseen: np.ndarray | None = None,
+    core: float = CORE_DARKNESS,
 ) -> np.ndarray:
     """Estimated shadow fraction (float32, 0–1; NaN where invalid) from :func:`darkness` with
     the cast shadow a surface model predicts as the prior.
@@ -577,6 +579,11 @@ def dsm_shadow_fraction(
       (:data:`CORE_DARKNESS`) at least 0.5; the others (the predicted shadow's edges and the
       rim) keep their unmixed fraction, so that a mixed edge pixel is shadow when more than
       half of it is shaded, not because it is darker than ``lit``.
+
+    Where the surface model cannot rule shadow out (``unseen``: a caster beyond its edge could
+    shade the pixel, :func:`geoboresight.shadow.illumination.unseen_casters`), the fraction is
+    at least the spectral estimate without a surface model (:func:`shadow_fraction_estimate`
+    with ``core``).
 
     Strips need a halo of ``edge_pixels + window // 2 + tolerance + 1`` lines (and the prior's
     own, :func:`geoboresight.shadow.illumination.halo_rows`).
@@ -604,6 +611,10 @@ def dsm_shadow_fraction(
     clearance : float
         Height (m) above the predicted shadow's ground beyond which a rim pixel is a caster
         (the prior's clearance: the surface model's height noise).
+    unseen : bool array, optional
+        Pixels whose casters the surface model may not hold (same grid).
+    core : float
+        Core-shadow darkness of the spectral estimate used on ``unseen`` pixels.
 
     Returns
     -------
@@ -649,6 +660,15 @@ def dsm_shadow_fraction(
         whole = deep | (d <= CORE_DARKNESS)
     f = _unmix(d, ok, core_px | rim_px, edge_pixels, window, allowed=zone, whole=whole)
     f[deep] = np.maximum(f[deep], p[deep]).astype(np.float32)
+    if unseen is not None:
+        u = np.asarray(unseen, bool)
+        if u.shape != d.shape:
+            raise InputError(f"parameter 'unseen': shape {u.shape} is not the image's {d.shape}")
+        if u.any():
+            f0 = shadow_fraction_estimate(
+                d, ok, core=core, edge_pixels=edge_pixels, window=window, water=water
+            )
+            f[u] = np.fmax(f[u], f0[u])
     return f
 
 
@@ -756,6 +776,7 @@ def shadow_map_block(
     prior: np.ndarray | None = None,
     heights: np.ndarray | None = None,
     clearance: float = 0.0,
+    unseen: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Shadow classes and shadow mask of a block of lines: the shadow map's per-pixel pipeline.
 
@@ -795,8 +816,9 @@ def shadow_map_block(
         lines of halo).
     heights : array (lines, columns), optional
         With ``prior``: the surface model's heights, and ``clearance`` its height tolerance
-        (m), so that the top of a caster beside its shadow is not taken for shadow
-        (:func:`dsm_shadow_fraction`).
+        (m), so that the top of a caster beside its shadow is not taken for shadow, and
+        ``unseen`` the pixels a caster beyond the surface model could shade, where the
+        spectral estimate holds (:func:`dsm_shadow_fraction`).
 
     Returns
     -------
@@ -823,6 +845,7 @@ def shadow_map_block(
         prior=prior,
         heights=heights,
         clearance=clearance,
+        unseen=unseen,
     )
     return shadow_classes(f, calibration.table), shadow_mask(f)
 
@@ -839,10 +862,11 @@ def shadow_fraction_block(
     prior: np.ndarray | None = None,
     heights: np.ndarray | None = None,
     clearance: float = 0.0,
+    unseen: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(shadow fraction, darkness) of a block: steps 1–4 of :func:`shadow_map_block`; with
-    ``prior`` (a surface model's cast-shadow fraction on the block; ``heights`` and
-    ``clearance``, the surface model's) by :func:`dsm_shadow_fraction` instead of
+    ``prior`` (a surface model's cast-shadow fraction on the block; ``heights``,
+    ``clearance`` and ``unseen``, the surface model's) by :func:`dsm_shadow_fraction` instead of
     :func:`shadow_fraction_estimate`."""
     from ..dem.coregister import coregister
 
@@ -871,6 +895,8 @@ def shadow_fraction_block(
             water=water,
             heights=heights,
             clearance=clearance,
+            unseen=unseen,
+            core=calibration.core,
         )
     else:
         f = shadow_fraction_estimate(
