@@ -282,7 +282,8 @@ def shadow_map_file(
         A surface model on the image's grid (``dsm``) and the sun (``sun_zenith``,
         ``sun_azimuth``; ``cell_size`` for a DSM without a geotransform): the cast shadow it
         predicts is the prior, the spectra refine its edges and fraction, and no pixel away
-        from it is shadow (:func:`geoboresight.shadow.map.dsm_shadow_fraction`). How far the
+        from it is shadow, except where a caster beyond the model's edge could shade it
+        (:func:`geoboresight.shadow.map.dsm_shadow_fraction`). How far the
         model and the image disagree is reported (best shift, share of predicted shadow that
         is spectrally lit). Default: none (spectral evidence only).
     detection : Detection
@@ -418,8 +419,8 @@ def shadow_map_file(
         at_end = at_swir + len(swir_b)
         levels = (blue_lv, nir_lv, swir_lv)
 
-        def fraction_of(values, valid, prior=None, z=None, z_ok=None, r0=0):
-            """(shadow fraction, darkness) of a block of the read bands (lines ``r0``…)."""
+        def fraction_of(values, valid, prior=None, z=None, z_ok=None, unseen=None):
+            """(shadow fraction, darkness) of a block of the read bands."""
             return smap.shadow_fraction_block(
                 values[:at_nir],
                 values[at_nir:at_swir],
@@ -431,21 +432,23 @@ def shadow_map_file(
                 prior=prior,
                 heights=None if z is None else np.where(z_ok, z, np.nan),
                 clearance=0.0 if dsm is None else dsm.clearance,
-                unseen=None if z is None else dsm.unseen(z, z_ok, r0),
+                unseen=unseen,
             )
 
         def kernel(values, valid, z=None, z_ok=None, r0=0):
-            prior = None if z is None else dsm.prior(z, z_ok)
-            f, d = fraction_of(values, valid, prior, z, z_ok, r0)
+            if z is None:
+                f, _ = fraction_of(values, valid)
+                return smap.shadow_classes(f, cal.table), smap.shadow_mask(f), f, None, None, None
+            prior = dsm.prior(z, z_ok)
+            unseen = dsm.unseen(z, z_ok, r0)
+            f, d = fraction_of(values, valid, prior, z, z_ok, unseen)
             c = smap.shadow_classes(f, cal.table)
             m = smap.shadow_mask(f)
-            if prior is None:
-                return c, m, f, None, None
             # Predicted shadow away from its edges, and the part of it spectrally lit.
             deep = ndimage.binary_erosion(prior >= 0.5) & np.isfinite(f)
             with np.errstate(invalid="ignore"):
                 lit = deep & (d > smap.LIT_DARKNESS)
-            return c, m, f, deep, lit
+            return c, m, f, deep, lit, unseen & np.isfinite(f)
 
         halo = smap.shadow_map_halo(cal, edge_pixels)
         halo = (halo, halo) if dsm is None else (halo + dsm.halo[0], halo + dsm.halo[1])
@@ -457,7 +460,7 @@ def shadow_map_file(
             r1 = min(dual.height, r0 + OFFSET_ROWS)
             values, valid, z, z_ok, _ = read(r0, r1)
             prior_c = dsm.prior(z, z_ok)
-            _, d_c = fraction_of(values, valid, prior_c, z, z_ok, r0)
+            _, d_c = fraction_of(values, valid, prior_c, z, z_ok, dsm.unseen(z, z_ok, r0))
             agreement = smap.prior_agreement(d_c, prior_c, valid)
 
         tags = {
@@ -484,9 +487,12 @@ def shadow_map_file(
                 method="surface model prior: cast shadow from the DSM and the sun (ray march, "
                 f"{dsm.surface} surface), refined by SWIR/NIR darkness within "
                 f"{smap.DSM_TOLERANCE} px (lit above ln 1/2 of the sunlit mode, rim shadow at "
-                "or below ln 1/3) and unmixed within "
-                f"{edge_pixels} px; no shadow away from the predicted shadow; classes by "
-                "Table 2's fraction intervals",
+                f"or below ln 1/3 unless more than the clearance ({dsm.clearance:g} m) above the "
+                "shadow: a caster's top) and unmixed within "
+                f"{edge_pixels} px (at least half shaded only where as dark as core shadow or "
+                "deep in the prediction); no shadow away from the predicted shadow except "
+                "where a caster beyond the surface model's edge could shade (spectral "
+                "estimate there); classes by Table 2's fraction intervals",
             )
         counts = np.zeros(256, np.int64)
         n_shadow = 0
@@ -514,8 +520,8 @@ def shadow_map_file(
                     band_names=["shadow fraction"],
                 )
             )
-        n_deep = n_lit = 0
-        for win, (c, m, f, deep, lit) in io.map_windows(
+        n_deep = n_lit = n_unseen = 0
+        for win, (c, m, f, deep, lit, unseen) in io.map_windows(
             read,
             kernel,
             halo=halo,
@@ -535,6 +541,7 @@ def shadow_map_file(
             if deep is not None:
                 n_deep += int(deep.sum())
                 n_lit += int(lit.sum())
+                n_unseen += int(unseen.sum())
         n_valid = int(counts[: cls.NODATA_CLASS].sum())
         if n_valid == 0:
             raise no_valid_error(vnir, "VNIR/SWIR image")
@@ -551,13 +558,16 @@ def shadow_map_file(
             dsm_relief_m=round(dsm.relief, 3),
             dsm_predicted_shadow_pixels=n_deep,
             dsm_predicted_shadow_lit_share=round(lit_share, 4),
+            dsm_unseen_share=round(n_unseen / n_valid, 4),
         )
         progress.info(
             f"surface model against the image: {100 * lit_share:.1f} % of the predicted shadow "
             "(away from its edges) is spectrally lit; best shift of the predicted shadow "
             f"{agreement['dsm_shift_rows']:+d} rows, {agreement['dsm_shift_columns']:+d} columns "
             f"(IoU with the dark pixels {agreement['dsm_iou_at_shift']} there, "
-            f"{agreement['dsm_iou']} unshifted)"
+            f"{agreement['dsm_iou']} unshifted); {100 * n_unseen / n_valid:.1f} % of the "
+            "pixels could be shaded by casters beyond the surface model's edge (spectral "
+            "estimate there)"
         )
         if lit_share > 0.2:
             warnings.append(
