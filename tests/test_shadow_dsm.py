@@ -122,10 +122,22 @@ def test_shadow_cast_from_beyond_the_surface_model_is_left_to_the_spectra():
     unseen = ill.unseen_casters(z, **SUN, top=float(z.max()), cell_size=1.0, clearance=1.0)
     assert unseen[57:, 5:25].all()
     assert not unseen[:50].any()  # 5 m of rise clear the grid's top within a few cells
+    # A black patch in the same band that does not reach the edge: a lit row lies between
+    # it and the sun, so no caster beyond the edge shades it.
+    d2[56:58, 35:50] = math.log(1 / 8)
+    assert unseen[56:58, 35:50].all()
+    m = ill.grid_matrix(None, 1.0)
+    drow, dcol, rise = ill.sun_step(SUN["sun_zenith"], SUN["sun_azimuth"], m, 1.0)
+    ray = (drow, dcol, ill.march_steps(float(z.max()), rise, z.shape, drow, dcol))
+    assert (round(drow), round(dcol)) == (1, 0)  # towards the sun: south, down the rows
     f_no = smap.dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0)
-    f = smap.dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0, unseen=unseen)
+    f = smap.dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0, unseen=unseen, ray=ray)
     assert (f_no[57:, 5:25] == 0).all()
     assert (f[58:, 7:23] >= 0.5).all()
+    assert (f[56:58, 35:50] == 0).all()
+    # Without the way to the edge checked, the patch is taken.
+    f_any = smap.dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0, unseen=unseen)
+    assert (f_any[56:58, 37:48] >= 0.5).all()
     assert np.array_equal(f[:50], f_no[:50])  # the black roof stays out
     with pytest.raises(InputError, match="parameter 'unseen'"):
         smap.dsm_shadow_fraction(d, prior, unseen=unseen[:-1])

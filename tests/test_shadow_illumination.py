@@ -23,6 +23,7 @@ from geoboresight.algorithms.shadow_truth import SUN_SHADOW
 from geoboresight.errors import ParameterError
 from geoboresight.operations.shadow_truth import sun_shadow_file
 from geoboresight.shadow.illumination import (
+    along_ray,
     cast_shadow,
     grid_matrix,
     halo_rows,
@@ -371,3 +372,14 @@ def test_unseen_casters_hold_every_shadow_cast_from_beyond_the_grid():
         assert np.array_equal(np.vstack(parts), u)
     flat = unseen_casters(np.zeros((5, 5)), sun_zenith=0.0, sun_azimuth=0.0, top=1.0, cell_size=1.0)
     assert not flat.any()
+
+
+def test_along_ray_follows_the_sun_to_the_edge():
+    m = np.ones((10, 12), bool)
+    m[4, 6] = False  # one lit cell
+    # Towards the sun: one row down and half a column right per step (nearest cell, halves
+    # rounded up): the cells whose ray passes through (4, 6) are above it, drifting left.
+    out = along_ray(m, (1.0, 0.5, 20))
+    expected = {(4, 6)} | {(r, 6 - math.floor(0.5 * (4 - r) + 0.5)) for r in range(4)}
+    assert {tuple(x) for x in np.argwhere(~out)} == expected
+    assert along_ray(m, (1.0, 0.5, 1))[0, 4]  # one step does not reach it from row 0

@@ -132,6 +132,7 @@ class _Surface:
     clearance: float = 0.0
     top: float = 0.0  # highest valid height
     height: int = 0  # lines of the grid
+    ray: tuple = (0.0, 0.0, 0)  # (Δrow, Δcol) per cell towards the sun, steps over the relief
 
     def unseen(self, z, valid, row0):
         """Pixels a caster beyond the surface model's edge could shade."""
@@ -224,8 +225,20 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
     )
     if not surface.clearance >= 0:
         raise ParameterError(f"parameter 'clearance': {surface.clearance!r} must be ≥ 0 (m)")
+    drow, dcol, rise = ill.sun_step(zen, az, matrix, 1.0)
+    steps = ill.march_steps(relief, rise, (dual.height, dual.width), drow, dcol)
     return _Surface(
-        src, zen, az, matrix, relief, kind, halo, float(surface.clearance), float(hi), dual.height
+        src,
+        zen,
+        az,
+        matrix,
+        relief,
+        kind,
+        halo,
+        float(surface.clearance),
+        float(hi),
+        dual.height,
+        (drow, dcol, steps),
     )
 
 
@@ -433,6 +446,7 @@ def shadow_map_file(
                 heights=None if z is None else np.where(z_ok, z, np.nan),
                 clearance=0.0 if dsm is None else dsm.clearance,
                 unseen=unseen,
+                ray=None if dsm is None else dsm.ray,
             )
 
         def kernel(values, valid, z=None, z_ok=None, r0=0):

@@ -510,6 +510,23 @@ def unseen_casters(
         return ok & (z + steps * rise + float(clearance) < float(top))
 
 
+def along_ray(mask: np.ndarray, ray: tuple[float, float, int]) -> np.ndarray:
+    """True where ``mask`` holds at the cell and at every sample of its ray towards the sun:
+    ``ray`` = (Δrow, Δcol, steps), the samples at k·(Δrow, Δcol), k = 1…steps (nearest cell;
+    :func:`sun_step` with ``step`` 1 and :func:`march_steps`). Samples beyond the grid hold.
+    A strip gives the whole grid's answer on its lines when read with :func:`halo_rows`
+    lines towards the sun."""
+    m = np.asarray(mask, bool)
+    drow, dcol, steps = ray
+    out = m.copy()
+    for k in range(1, int(steps) + 1):
+        sr, sc = int(np.floor(k * drow + 0.5)), int(np.floor(k * dcol + 0.5))
+        if abs(sr) >= m.shape[0] and abs(sc) >= m.shape[1]:
+            break
+        out &= _shifted(m, sr, sc, True)
+    return out
+
+
 def halo_rows(
     relief: float,
     sun_zenith: float,

@@ -555,6 +555,7 @@ def dsm_shadow_fraction(
     heights: np.ndarray | None = None,
     clearance: float = 0.0,
     unseen: np.ndarray | None = None,
+    ray: tuple[float, float, int] | None = None,
     core: float = CORE_DARKNESS,
 ) -> np.ndarray:
     """Estimated shadow fraction (float32, 0–1; NaN where invalid) from :func:`darkness` with
@@ -583,7 +584,10 @@ def dsm_shadow_fraction(
     Where the surface model cannot rule shadow out (``unseen``: a caster beyond its edge could
     shade the pixel, :func:`geoboresight.shadow.illumination.unseen_casters`), the fraction is
     at least the spectral estimate without a surface model (:func:`shadow_fraction_estimate`
-    with ``core``).
+    with ``core``), provided (with ``ray``) that no pixel on the way towards the sun to the
+    grid's edge is spectrally lit: the shadow of a caster beyond the edge covers the ground
+    between the caster and the pixel it shades (on level ground), so it reaches the edge; a
+    dark material alone near the edge does not.
 
     Strips need a halo of ``edge_pixels + window // 2 + tolerance + 1`` lines (and the prior's
     own, :func:`geoboresight.shadow.illumination.halo_rows`).
@@ -613,6 +617,9 @@ def dsm_shadow_fraction(
         (the prior's clearance: the surface model's height noise).
     unseen : bool array, optional
         Pixels whose casters the surface model may not hold (same grid).
+    ray : (Δrow, Δcol, steps), optional
+        The march towards the sun (:func:`geoboresight.shadow.illumination.along_ray`);
+        strips need :func:`geoboresight.shadow.illumination.halo_rows` lines towards it.
     core : float
         Core-shadow darkness of the spectral estimate used on ``unseen`` pixels.
 
@@ -664,6 +671,11 @@ def dsm_shadow_fraction(
         u = np.asarray(unseen, bool)
         if u.shape != d.shape:
             raise InputError(f"parameter 'unseen': shape {u.shape} is not the image's {d.shape}")
+        if ray is not None and u.any():
+            from .illumination import along_ray
+
+            with np.errstate(invalid="ignore"):
+                u = u & along_ray(~(d > lit), ray)
         if u.any():
             f0 = shadow_fraction_estimate(
                 d, ok, core=core, edge_pixels=edge_pixels, window=window, water=water
@@ -777,6 +789,7 @@ def shadow_map_block(
     heights: np.ndarray | None = None,
     clearance: float = 0.0,
     unseen: np.ndarray | None = None,
+    ray: tuple[float, float, int] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Shadow classes and shadow mask of a block of lines: the shadow map's per-pixel pipeline.
 
@@ -818,7 +831,8 @@ def shadow_map_block(
         With ``prior``: the surface model's heights, and ``clearance`` its height tolerance
         (m), so that the top of a caster beside its shadow is not taken for shadow, and
         ``unseen`` the pixels a caster beyond the surface model could shade, where the
-        spectral estimate holds (:func:`dsm_shadow_fraction`).
+        spectral estimate holds if the way to the edge along ``ray`` is not lit
+        (:func:`dsm_shadow_fraction`).
 
     Returns
     -------
@@ -846,6 +860,7 @@ def shadow_map_block(
         heights=heights,
         clearance=clearance,
         unseen=unseen,
+        ray=ray,
     )
     return shadow_classes(f, calibration.table), shadow_mask(f)
 
@@ -863,10 +878,11 @@ def shadow_fraction_block(
     heights: np.ndarray | None = None,
     clearance: float = 0.0,
     unseen: np.ndarray | None = None,
+    ray: tuple[float, float, int] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(shadow fraction, darkness) of a block: steps 1–4 of :func:`shadow_map_block`; with
     ``prior`` (a surface model's cast-shadow fraction on the block; ``heights``,
-    ``clearance`` and ``unseen``, the surface model's) by :func:`dsm_shadow_fraction` instead of
+    ``clearance``, ``unseen`` and ``ray``, the surface model's) by :func:`dsm_shadow_fraction` instead of
     :func:`shadow_fraction_estimate`."""
     from ..dem.coregister import coregister
 
@@ -896,6 +912,7 @@ def shadow_fraction_block(
             heights=heights,
             clearance=clearance,
             unseen=unseen,
+            ray=ray,
             core=calibration.core,
         )
     else:
