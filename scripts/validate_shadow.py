@@ -32,7 +32,8 @@ while the method is developed; each is run once.
 ``shadow-map`` with a DSM (the model's own, with 0.3 m of Gaussian height noise and a random
 sub-pixel shift of up to half a pixel each way: registered within a pixel; seeds fixed below)
 against ``shadow-map`` without, and ``deshadow`` with the truth fraction and with the map's.
-Its hold-out groups (``--dsm --holdout 4`` / ``5``) are drawn as the others, with other seeds.
+Its hold-out groups (``--dsm --holdout 4`` to ``8``) are drawn as the others, with other seeds;
+``--no-deshadow`` leaves the de-shadow columns empty.
 
 Usage::
 
