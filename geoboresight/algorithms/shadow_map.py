@@ -52,7 +52,7 @@ DETECTION = Group(
     params=(
         Number(
             name="core_darkness",
-            description="Core shadow: natural log of the SWIR signal over its sunlit mode at or below this (default ln 1/6; not used with a surface model)",
+            description="Core shadow: natural log of the SWIR signal over its sunlit mode at or below this (default ln 1/6; with a surface model only at its predicted edges and near its sunward edge)",
             default=CORE_DARKNESS,
             minimum=-10.0,
             maximum=-0.01,

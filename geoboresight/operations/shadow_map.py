@@ -52,7 +52,8 @@ class MapCalibration(MapSample, BoresightOffset):
 @dataclass(frozen=True)
 class Detection:
     """The spectral shadow test: core shadow at or below ``core_darkness`` (natural log of the
-    SWIR signal over its sunlit mode; not used with a surface model, whose prior replaces it)
+    SWIR signal over its sunlit mode; with a surface model, whose prior replaces it, only for
+    the edges a pixel this dark is at least half shaded, and near the model's sunward edge)
     and partial shadow looked for ``edge_pixels`` around it."""
 
     core_darkness: float = smap.CORE_DARKNESS
@@ -301,7 +302,8 @@ def shadow_map_file(
         is spectrally lit). Default: none (spectral evidence only).
     detection : Detection
         ``core_darkness``: core shadow where the SWIR signal over its sunlit mode is at or
-        below this (natural log, default ln 1/6; without a surface model);
+        below this (natural log, default ln 1/6; with a surface model only at the prior's
+        edges and near the model's sunward edge);
         ``edge_pixels``: partial shadow is looked for this many pixels around it.
     calibration : MapCalibration
         The random sample that calibrates the map (``sample_size``, default 200,000;

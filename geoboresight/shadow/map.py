@@ -576,8 +576,8 @@ def dsm_shadow_fraction(
     * around those, within ``edge_pixels`` (and the zone), the fraction is unmixed between the
       local sunlit and shadowed signals as in :func:`shadow_fraction_estimate`. Those more
       than ``tolerance + 1`` pixels inside the predicted shadow get at least the model's
-      fraction (1 inside a cast shadow), and shadow pixels as dark as core shadow
-      (:data:`CORE_DARKNESS`) at least 0.5; the others (the predicted shadow's edges and the
+      fraction (1 inside a cast shadow), and shadow pixels as dark as core shadow (``core``)
+      at least 0.5; the others (the predicted shadow's edges and the
       rim) keep their unmixed fraction, so that a mixed edge pixel is shadow when more than
       half of it is shaded, not because it is darker than ``lit``.
 
@@ -621,7 +621,8 @@ def dsm_shadow_fraction(
         The march towards the sun (:func:`geoboresight.shadow.illumination.along_ray`);
         strips need :func:`geoboresight.shadow.illumination.halo_rows` lines towards it.
     core : float
-        Core-shadow darkness of the spectral estimate used on ``unseen`` pixels.
+        Core-shadow darkness (natural log over the sunlit mode): a shadow pixel this dark is
+        at least half shaded, and the spectral estimate on ``unseen`` pixels uses it.
 
     Returns
     -------
@@ -664,7 +665,7 @@ def dsm_shadow_fraction(
     # Away from the predicted edges (by more than the tolerance) the model's shade is whole.
     deep = core_px & ndimage.binary_erosion(shaded, iterations=tolerance + 1)
     with np.errstate(invalid="ignore"):
-        whole = deep | (d <= CORE_DARKNESS)
+        whole = deep | (d <= core)
     f = _unmix(d, ok, core_px | rim_px, edge_pixels, window, allowed=zone, whole=whole)
     f[deep] = np.maximum(f[deep], p[deep]).astype(np.float32)
     if unseen is not None:
@@ -882,8 +883,8 @@ def shadow_fraction_block(
 ) -> tuple[np.ndarray, np.ndarray]:
     """(shadow fraction, darkness) of a block: steps 1–4 of :func:`shadow_map_block`; with
     ``prior`` (a surface model's cast-shadow fraction on the block; ``heights``,
-    ``clearance``, ``unseen`` and ``ray``, the surface model's) by :func:`dsm_shadow_fraction` instead of
-    :func:`shadow_fraction_estimate`."""
+    ``clearance``, ``unseen`` and ``ray``, the surface model's) by
+    :func:`dsm_shadow_fraction` instead of :func:`shadow_fraction_estimate`."""
     from ..dem.coregister import coregister
 
     blue_level, nir_level, swir_level = dark_levels
