@@ -81,6 +81,87 @@ def test_the_prior_is_refined_within_a_pixel_and_lit_predictions_dropped():
     assert (smap.dsm_shadow_fraction(d3, prior)[shade] < 0.5).all()
 
 
+def test_the_top_of_a_caster_beside_its_shadow_is_not_rim_shadow():
+    z, prior, d, shade, roof = _town()
+    from scipy import ndimage
+
+    # The black roof's row next to its own shadow: dark enough for the rim rule, but it is
+    # the caster's top (3 m above the shadow's ground), lit by the sun.
+    beside = roof & ndimage.binary_dilation(shade, iterations=smap.DSM_TOLERANCE)
+    assert beside.sum() >= 10
+    without = smap.dsm_shadow_fraction(d, prior)
+    assert (without[beside] >= 0.5).mean() > 0.9  # the failure the heights remove
+    f = smap.dsm_shadow_fraction(d, prior, heights=z, clearance=1.0)
+    # Not rim shadow any more; it is still unmixed against its neighbourhood, where its own
+    # dark roof is the sunlit reference (fraction ~0), except within the unmixing window
+    # (half of EDGE_WINDOW + 1 = 3 px) of the roof's ends, where the bright ground is.
+    assert (f[roof & ~beside] == 0).all()
+    inner = (
+        beside & (np.cumsum(beside, axis=1) > 3) & (np.cumsum(beside[:, ::-1], axis=1)[:, ::-1] > 3)
+    )
+    assert inner.sum() >= 4
+    assert (f[inner] < 0.5).all()
+    assert (f[beside] >= 0.5).mean() <= 0.5
+    assert (f[shade] >= 0.5).all()
+    # A dark pixel at ground level beside the shadow (registration) is still taken.
+    top = np.nonzero(shade.any(axis=1))[0].min()
+    d2 = d.copy()
+    d2[top - 1, 12:20] = math.log(1 / 10)
+    f2 = smap.dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0)
+    assert (f2[top - 1, 12:20] >= 0.5).all()
+    with pytest.raises(InputError, match="parameter 'heights'"):
+        smap.dsm_shadow_fraction(d, prior, heights=z[:-1], clearance=1.0)
+
+
+def test_shadow_cast_from_beyond_the_surface_model_is_left_to_the_spectra():
+    """The sun is south: a caster just south of the grid (not in the surface model) shades
+    its southern edge; there the spectral estimate holds, elsewhere the prior rules."""
+    z, prior, d, shade, roof = _town()
+    d2 = d.copy()
+    d2[57:, 5:25] = math.log(1 / 10)  # shadow of something beyond the southern edge
+    unseen = ill.unseen_casters(z, **SUN, top=float(z.max()), cell_size=1.0, clearance=1.0)
+    assert unseen[57:, 5:25].all()
+    assert not unseen[:50].any()  # 5 m of rise clear the grid's top within a few cells
+    # A black patch in the same band that does not reach the edge: a lit row lies between
+    # it and the sun, so no caster beyond the edge shades it.
+    d2[56:58, 35:50] = math.log(1 / 8)
+    assert unseen[56:58, 35:50].all()
+    m = ill.grid_matrix(None, 1.0)
+    drow, dcol, rise = ill.sun_step(SUN["sun_zenith"], SUN["sun_azimuth"], m, 1.0)
+    ray = (drow, dcol, ill.march_steps(float(z.max()), rise, z.shape, drow, dcol))
+    assert (round(drow), round(dcol)) == (1, 0)  # towards the sun: south, down the rows
+    f_no = smap.dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0)
+    f = smap.dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0, unseen=unseen, ray=ray)
+    assert (f_no[57:, 5:25] == 0).all()
+    assert (f[58:, 7:23] >= 0.5).all()
+    assert (f[56:58, 35:50] == 0).all()
+    # Without the way to the edge checked, the patch is taken.
+    f_any = smap.dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0, unseen=unseen)
+    assert (f_any[56:58, 37:48] >= 0.5).all()
+    assert np.array_equal(f[:50], f_no[:50])  # the black roof stays out
+    with pytest.raises(InputError, match="parameter 'unseen'"):
+        smap.dsm_shadow_fraction(d, prior, unseen=unseen[:-1])
+
+
+@pytest.mark.parametrize("truth", [0.3, 0.8])
+def test_a_predicted_edge_pixel_keeps_its_unmixed_fraction(truth):
+    """A dark soil (sunlit signal 0.4 of the mode, skylight a tenth of the sun's light): the
+    model shades the edge row of a shadow that covers ``truth`` of it. Signal is linear in
+    the shaded share, so the row is shadow (≥ 0.5) exactly when ``truth`` ≥ 0.5, although at
+    0.3 it is darker than half the sunlit mode (the old rule forced it to 0.5)."""
+    rho, sky = 0.4, 0.1
+    frac = np.zeros((40, 40))
+    frac[20:30, 10:30] = 1.0
+    frac[20, 10:30] = truth
+    d = np.log(rho * (1 - frac + sky * frac))
+    prior = np.where(frac > 0, 0.75, 0.0)  # the model: shaded, with a sub-pixel edge
+    prior[21:30] = 1.0
+    f = smap.dsm_shadow_fraction(d, prior)
+    assert (d[20, 10:30] < smap.LIT_DARKNESS).all()  # not spectrally lit
+    assert ((f[20, 12:28] >= 0.5) == (truth >= 0.5)).all()
+    assert (f[22:30, 10:30] >= 0.5).all()
+
+
 def test_clearance_removes_the_shadows_of_height_noise():
     rng = np.random.default_rng(0)
     z = rng.normal(0, 0.3, (80, 80))  # flat ground, 0.3 m of noise
@@ -193,6 +274,8 @@ def test_shadow_map_with_a_dsm_in_strips_equals_the_whole_image(scene, tmp_path)
     # The true DSM: registered (best shift 0) and little predicted shadow spectrally lit.
     assert (r["dsm_shift_rows"], r["dsm_shift_columns"]) == (0, 0)
     assert r["dsm_predicted_shadow_lit_share"] < 0.1
+    # Strips of 16 lines cut the band a caster beyond the edge could shade: still equal.
+    assert 0 < r["dsm_unseen_share"] < 0.5
     f = outs[1][1][0]
     truth = sc.shadow_fraction >= 0.5
     pred = f >= 0.5

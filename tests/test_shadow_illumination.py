@@ -23,12 +23,14 @@ from geoboresight.algorithms.shadow_truth import SUN_SHADOW
 from geoboresight.errors import ParameterError
 from geoboresight.operations.shadow_truth import sun_shadow_file
 from geoboresight.shadow.illumination import (
+    along_ray,
     cast_shadow,
     grid_matrix,
     halo_rows,
     height_range,
     hillshade,
     shadow_fraction,
+    unseen_casters,
 )
 
 CRS = "EPSG:32636"
@@ -341,3 +343,43 @@ def test_sun_shadow_operation_with_nodata_equals_the_kernel(tmp_path):
     assert (got[~valid] == io.FLOAT_NODATA).all()
     assert res["valid_pixels"] == int(valid.sum())
     assert res["relief_m"] == pytest.approx(float(z[valid].max() - z[valid].min()), abs=1e-3)
+
+
+def test_unseen_casters_hold_every_shadow_cast_from_beyond_the_grid():
+    """Casters outside a cropped surface model (no higher than its highest surface) shade
+    only cells ``unseen_casters`` marks; the mark depends only on each cell's position."""
+    rng = np.random.default_rng(3)
+    big = np.zeros((90, 90))
+    for _ in range(40):  # boxes 2–8 m high everywhere, inside and outside the crop
+        r, c = rng.integers(0, 85, 2)
+        big[r : r + rng.integers(2, 6), c : c + rng.integers(2, 6)] = rng.uniform(2, 8)
+    big[40:44, 40:44] = 8.0  # the crop's highest surface is the highest of all
+    crop = (slice(25, 65), slice(25, 65))
+    for zen, az in ((35.0, 150.0), (60.0, 300.0), (50.0, 90.0)):
+        sun = dict(sun_zenith=zen, sun_azimuth=az, cell_size=1.0)
+        whole = cast_shadow(big, **sun)[crop]
+        inside = cast_shadow(big[crop], **sun)
+        from_beyond = whole & ~inside
+        assert from_beyond.sum() > 5  # the case the function is for
+        u = unseen_casters(big[crop], top=8.0, **sun)
+        assert (u[from_beyond]).all()
+        assert u.mean() < 0.5  # and not everything
+        # Strips give what the whole grid gives.
+        parts = [
+            unseen_casters(big[crop][r0 : r0 + 13], top=8.0, row0=r0, height=40, **sun)
+            for r0 in range(0, 40, 13)
+        ]
+        assert np.array_equal(np.vstack(parts), u)
+    flat = unseen_casters(np.zeros((5, 5)), sun_zenith=0.0, sun_azimuth=0.0, top=1.0, cell_size=1.0)
+    assert not flat.any()
+
+
+def test_along_ray_follows_the_sun_to_the_edge():
+    m = np.ones((10, 12), bool)
+    m[4, 6] = False  # one lit cell
+    # Towards the sun: one row down and half a column right per step (nearest cell, halves
+    # rounded up): the cells whose ray passes through (4, 6) are above it, drifting left.
+    out = along_ray(m, (1.0, 0.5, 20))
+    expected = {(4, 6)} | {(r, 6 - math.floor(0.5 * (4 - r) + 0.5)) for r in range(4)}
+    assert {tuple(x) for x in np.argwhere(~out)} == expected
+    assert along_ray(m, (1.0, 0.5, 1))[0, 4]  # one step does not reach it from row 0

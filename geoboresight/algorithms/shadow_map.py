@@ -52,7 +52,7 @@ DETECTION = Group(
     params=(
         Number(
             name="core_darkness",
-            description="Core shadow: natural log of the SWIR signal over its sunlit mode at or below this (default ln 1/6; not used with a surface model)",
+            description="Core shadow: natural log of the SWIR signal over its sunlit mode at or below this (default ln 1/6; with a surface model only at its predicted edges and near its sunward edge)",
             default=CORE_DARKNESS,
             minimum=-10.0,
             maximum=-0.01,
@@ -167,6 +167,11 @@ SHADOW_MAP = Algorithm(
         Result("dsm_shift_columns", "number", "Best shift of the predicted shadow (columns)"),
         Result("dsm_iou", "number", "IoU of predicted shadow and dark pixels"),
         Result("dsm_iou_at_shift", "number", "IoU at the best shift"),
+        Result(
+            "dsm_unseen_share",
+            "number",
+            "Share of pixels a caster beyond the surface model's edge could shade",
+        ),
     ),
     display_name="Boresight shadow map (VNIR + SWIR): mask and shadow-fraction classes",
     group=GROUP,
@@ -196,7 +201,9 @@ SHADOW_MAP = Algorithm(
         "With a surface model (DSM on the image's grid) and the sun's zenith and azimuth at "
         "acquisition, the cast shadow the DSM predicts is the prior: the spectra refine its "
         "edges (within a pixel) and fraction, a predicted shadow that is spectrally lit is "
-        "dropped, and nothing away from it is shadow (a black roof in the sun is not). How far "
+        "dropped, and nothing away from it is shadow (a black roof in the sun is not), except "
+        "near the DSM's sunward edge, where a caster beyond it could shade: there a dark pixel "
+        "whose way to the edge is dark too is judged by its spectrum. How far "
         "the DSM and the image disagree (best shift, share of predicted shadow spectrally lit) "
         "is reported. Validated on two independent "
         "scene models (docs/shadow.md): it still misses shadow under strong skylight (hazy "

@@ -53,7 +53,8 @@ class MapCalibration(MapSample, BoresightOffset):
 @dataclass(frozen=True)
 class Detection:
     """The spectral shadow test: core shadow at or below ``core_darkness`` (natural log of the
-    SWIR signal over its sunlit mode; not used with a surface model, whose prior replaces it)
+    SWIR signal over its sunlit mode; with a surface model, whose prior replaces it, only for
+    the edges a pixel this dark is at least half shaded, and near the model's sunward edge)
     and partial shadow looked for ``edge_pixels`` around it."""
 
     core_darkness: float = smap.CORE_DARKNESS
@@ -139,7 +140,24 @@ class _Surface:
     surface: str
     halo: tuple[int, int]
     clearance: float = 0.0
-    sun: str = "given"
+    top: float = 0.0  # highest valid height
+    height: int = 0  # lines of the grid
+    ray: tuple = (0.0, 0.0, 0)  # (Δrow, Δcol) per cell towards the sun, steps over the relief
+    sun: str = "given"  # where the sun's angles came from
+
+    def unseen(self, z, valid, row0):
+        """Pixels a caster beyond the surface model's edge could shade."""
+        return ill.unseen_casters(
+            z,
+            valid,
+            sun_zenith=self.zenith,
+            sun_azimuth=self.azimuth,
+            top=self.top,
+            transform=self.matrix,
+            row0=row0,
+            height=self.height,
+            clearance=self.clearance,
+        )
 
     def prior(self, z, valid):
         return ill.shadow_fraction(
@@ -291,7 +309,22 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
     )
     if not surface.clearance >= 0:
         raise ParameterError(f"parameter 'clearance': {surface.clearance!r} must be ≥ 0 (m)")
-    return _Surface(src, zen, az, matrix, relief, kind, halo, float(surface.clearance), how)
+    drow, dcol, rise = ill.sun_step(zen, az, matrix, 1.0)
+    steps = ill.march_steps(relief, rise, (dual.height, dual.width), drow, dcol)
+    return _Surface(
+        src,
+        zen,
+        az,
+        matrix,
+        relief,
+        kind,
+        halo,
+        float(surface.clearance),
+        float(hi),
+        dual.height,
+        (drow, dcol, steps),
+        how,
+    )
 
 
 @operation(
@@ -348,12 +381,14 @@ def shadow_map_file(
         A surface model on the image's grid (``dsm``) and the sun (``sun_zenith``,
         ``sun_azimuth``; ``cell_size`` for a DSM without a geotransform): the cast shadow it
         predicts is the prior, the spectra refine its edges and fraction, and no pixel away
-        from it is shadow (:func:`geoboresight.shadow.map.dsm_shadow_fraction`). How far the
+        from it is shadow, except where a caster beyond the model's edge could shade it
+        (:func:`geoboresight.shadow.map.dsm_shadow_fraction`). How far the
         model and the image disagree is reported (best shift, share of predicted shadow that
         is spectrally lit). Default: none (spectral evidence only).
     detection : Detection
         ``core_darkness``: core shadow where the SWIR signal over its sunlit mode is at or
-        below this (natural log, default ln 1/6; without a surface model);
+        below this (natural log, default ln 1/6; with a surface model only at the prior's
+        edges and near the model's sunward edge);
         ``edge_pixels``: partial shadow is looked for this many pixels around it.
     calibration : MapCalibration
         The random sample that calibrates the map (``sample_size``, default 200,000;
@@ -478,13 +513,13 @@ def shadow_map_file(
             def read(r0, r1):
                 values, valid = read_image(r0, r1)
                 z, z_ok = read_z(r0, r1)
-                return values, valid, z, z_ok
+                return values, valid, z, z_ok, r0
 
         at_nir, at_swir = len(blue_b), len(blue_b) + len(nir_b)
         at_end = at_swir + len(swir_b)
         levels = (blue_lv, nir_lv, swir_lv)
 
-        def fraction_of(values, valid, prior):
+        def fraction_of(values, valid, prior=None, z=None, z_ok=None, unseen=None):
             """(shadow fraction, darkness) of a block of the read bands."""
             return smap.shadow_fraction_block(
                 values[:at_nir],
@@ -495,20 +530,26 @@ def shadow_map_file(
                 dark_levels=levels,
                 edge_pixels=edge_pixels,
                 prior=prior,
+                heights=None if z is None else np.where(z_ok, z, np.nan),
+                clearance=0.0 if dsm is None else dsm.clearance,
+                unseen=unseen,
+                ray=None if dsm is None else dsm.ray,
             )
 
-        def kernel(values, valid, z=None, z_ok=None):
-            prior = None if z is None else dsm.prior(z, z_ok)
-            f, d = fraction_of(values, valid, prior)
+        def kernel(values, valid, z=None, z_ok=None, r0=0):
+            if z is None:
+                f, _ = fraction_of(values, valid)
+                return smap.shadow_classes(f, cal.table), smap.shadow_mask(f), f, None, None, None
+            prior = dsm.prior(z, z_ok)
+            unseen = dsm.unseen(z, z_ok, r0)
+            f, d = fraction_of(values, valid, prior, z, z_ok, unseen)
             c = smap.shadow_classes(f, cal.table)
             m = smap.shadow_mask(f)
-            if prior is None:
-                return c, m, f, None, None
             # Predicted shadow away from its edges, and the part of it spectrally lit.
             deep = ndimage.binary_erosion(prior >= 0.5) & np.isfinite(f)
             with np.errstate(invalid="ignore"):
                 lit = deep & (d > smap.LIT_DARKNESS)
-            return c, m, f, deep, lit
+            return c, m, f, deep, lit, unseen & np.isfinite(f)
 
         halo = smap.shadow_map_halo(cal, edge_pixels)
         halo = (halo, halo) if dsm is None else (halo + dsm.halo[0], halo + dsm.halo[1])
@@ -518,9 +559,9 @@ def shadow_map_file(
             # pixels, on a central block of lines (as the boresight offset).
             r0 = max(0, dual.height // 2 - OFFSET_ROWS // 2)
             r1 = min(dual.height, r0 + OFFSET_ROWS)
-            values, valid, z, z_ok = read(r0, r1)
+            values, valid, z, z_ok, _ = read(r0, r1)
             prior_c = dsm.prior(z, z_ok)
-            _, d_c = fraction_of(values, valid, prior_c)
+            _, d_c = fraction_of(values, valid, prior_c, z, z_ok, dsm.unseen(z, z_ok, r0))
             agreement = smap.prior_agreement(d_c, prior_c, valid)
 
         tags = {
@@ -549,9 +590,12 @@ def shadow_map_file(
                 method="surface model prior: cast shadow from the DSM and the sun (ray march, "
                 f"{dsm.surface} surface), refined by SWIR/NIR darkness within "
                 f"{smap.DSM_TOLERANCE} px (lit above ln 1/2 of the sunlit mode, rim shadow at "
-                "or below ln 1/3) and unmixed within "
-                f"{edge_pixels} px; no shadow away from the predicted shadow; classes by "
-                "Table 2's fraction intervals",
+                f"or below ln 1/3 unless more than the clearance ({dsm.clearance:g} m) above the "
+                "shadow: a caster's top) and unmixed within "
+                f"{edge_pixels} px (at least half shaded only where as dark as core shadow or "
+                "deep in the prediction); no shadow away from the predicted shadow except "
+                "where a caster beyond the surface model's edge could shade (spectral "
+                "estimate there); classes by Table 2's fraction intervals",
             )
         counts = np.zeros(256, np.int64)
         n_shadow = 0
@@ -579,8 +623,8 @@ def shadow_map_file(
                     band_names=["shadow fraction"],
                 )
             )
-        n_deep = n_lit = 0
-        for win, (c, m, f, deep, lit) in io.map_windows(
+        n_deep = n_lit = n_unseen = 0
+        for win, (c, m, f, deep, lit, unseen) in io.map_windows(
             read,
             kernel,
             halo=halo,
@@ -600,6 +644,7 @@ def shadow_map_file(
             if deep is not None:
                 n_deep += int(deep.sum())
                 n_lit += int(lit.sum())
+                n_unseen += int(unseen.sum())
         n_valid = int(counts[: cls.NODATA_CLASS].sum())
         if n_valid == 0:
             raise no_valid_error(vnir, "VNIR/SWIR image")
@@ -616,13 +661,16 @@ def shadow_map_file(
             dsm_relief_m=round(dsm.relief, 3),
             dsm_predicted_shadow_pixels=n_deep,
             dsm_predicted_shadow_lit_share=round(lit_share, 4),
+            dsm_unseen_share=round(n_unseen / n_valid, 4),
         )
         progress.info(
             f"surface model against the image: {100 * lit_share:.1f} % of the predicted shadow "
             "(away from its edges) is spectrally lit; best shift of the predicted shadow "
             f"{agreement['dsm_shift_rows']:+d} rows, {agreement['dsm_shift_columns']:+d} columns "
             f"(IoU with the dark pixels {agreement['dsm_iou_at_shift']} there, "
-            f"{agreement['dsm_iou']} unshifted)"
+            f"{agreement['dsm_iou']} unshifted); {100 * n_unseen / n_valid:.1f} % of the "
+            "pixels could be shaded by casters beyond the surface model's edge (spectral "
+            "estimate there)"
         )
         if lit_share > 0.2:
             warnings.append(

@@ -442,6 +442,91 @@ def shadow_fraction(
     return np.where(ok, frac, np.nan).astype(np.float32)
 
 
+def unseen_casters(
+    dsm: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    sun_zenith: float,
+    sun_azimuth: float,
+    top: float,
+    transform: Any = None,
+    cell_size: float | None = None,
+    row0: int = 0,
+    height: int | None = None,
+    clearance: float = 0.0,
+) -> np.ndarray:
+    """Cells whose shadow the surface model cannot rule out (bool): the ray from the cell
+    towards the sun leaves the grid while still more than ``clearance`` below ``top`` (the
+    grid's highest surface), so a caster of that height just beyond the grid's edge could
+    shade the cell. A surface model cut to the image's extent sees no caster beyond it.
+
+    ``dsm`` may be a strip of lines ``row0`` to ``row0 + len(dsm)`` of a grid of ``height``
+    lines (by default the strip is the whole grid); the answer depends only on each cell's
+    height and position. Invalid cells are False.
+
+    Parameters
+    ----------
+    dsm : 2-D array
+        Heights (ground units of the grid, metres).
+    valid : bool array, optional
+    sun_zenith, sun_azimuth : float
+        As :func:`cast_shadow`; at zenith 0 nothing is unseen.
+    top : float
+        The highest valid height of the whole grid.
+    transform, cell_size
+        As :func:`cast_shadow`.
+    row0, height : int
+        First line of the strip and lines of the whole grid.
+    clearance : float
+        As :func:`cast_shadow`.
+
+    Returns
+    -------
+    bool array, the shape of ``dsm``
+    """
+    z = np.asarray(dsm, dtype=np.float64)
+    ok = np.isfinite(z) if valid is None else (np.asarray(valid, bool) & np.isfinite(z))
+    m = grid_matrix(transform, cell_size)
+    check_sun(sun_zenith, sun_azimuth)
+    if float(sun_zenith) == 0.0:
+        return np.zeros(z.shape, bool)
+    rows, cols = z.shape
+    total = rows if height is None else int(height)
+    drow, dcol, rise = sun_step(sun_zenith, sun_azimuth, m, 1.0)
+    r = (np.arange(rows) + int(row0))[:, None].astype(np.float64)
+    c = np.arange(cols)[None, :].astype(np.float64)
+    # Steps (of one cell) from each cell's centre to the grid's edge along the ray.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if abs(drow) > 1e-12:
+            to_row = ((total - 0.5 - r) if drow > 0 else (r + 0.5)) / abs(drow)
+        else:
+            to_row = np.full(r.shape, np.inf)
+        if abs(dcol) > 1e-12:
+            to_col = ((cols - 0.5 - c) if dcol > 0 else (c + 0.5)) / abs(dcol)
+        else:
+            to_col = np.full(c.shape, np.inf)
+    steps = np.minimum(to_row, to_col)
+    with np.errstate(invalid="ignore"):
+        return ok & (z + steps * rise + float(clearance) < float(top))
+
+
+def along_ray(mask: np.ndarray, ray: tuple[float, float, int]) -> np.ndarray:
+    """True where ``mask`` holds at the cell and at every sample of its ray towards the sun:
+    ``ray`` = (Δrow, Δcol, steps), the samples at k·(Δrow, Δcol), k = 1…steps (nearest cell;
+    :func:`sun_step` with ``step`` 1 and :func:`march_steps`). Samples beyond the grid hold.
+    A strip gives the whole grid's answer on its lines when read with :func:`halo_rows`
+    lines towards the sun."""
+    m = np.asarray(mask, bool)
+    drow, dcol, steps = ray
+    out = m.copy()
+    for k in range(1, int(steps) + 1):
+        sr, sc = int(np.floor(k * drow + 0.5)), int(np.floor(k * dcol + 0.5))
+        if abs(sr) >= m.shape[0] and abs(sc) >= m.shape[1]:
+            break
+        out &= _shifted(m, sr, sc, True)
+    return out
+
+
 def halo_rows(
     relief: float,
     sun_zenith: float,

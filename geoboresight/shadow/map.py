@@ -508,10 +508,11 @@ def shadow_fraction_estimate(
     return _unmix(d, ok, core_px, edge_pixels, window)
 
 
-def _unmix(d, ok, core_px, edge_pixels, window, allowed=None) -> np.ndarray:
-    """Shadow fraction: core pixels at least 0.5, pixels within ``edge_pixels`` of the core
-    unmixed between the local sunlit and core-shadow signals (``exp(d)``), 0 elsewhere and
-    outside ``allowed``; NaN where not ``ok``."""
+def _unmix(d, ok, core_px, edge_pixels, window, allowed=None, whole=None) -> np.ndarray:
+    """Shadow fraction: core pixels at least 0.5 (only those of ``whole`` when given; the
+    others get their unmixed fraction), pixels within ``edge_pixels`` of the core unmixed
+    between the local sunlit and core-shadow signals (``exp(d)``), 0 elsewhere and outside
+    ``allowed``; NaN where not ``ok``."""
     f = np.zeros(d.shape, np.float64)
     if core_px.any():
         s = np.exp(np.where(ok, d, 0.0))
@@ -531,7 +532,10 @@ def _unmix(d, ok, core_px, edge_pixels, window, allowed=None) -> np.ndarray:
         if allowed is not None:
             near &= allowed
         f[near] = est[near]
-        f[core_px] = np.where(np.isfinite(lit[core_px]), np.maximum(est[core_px], 0.5), 1.0)
+        at_least = (
+            np.maximum(est, 0.5) if whole is None else np.where(whole, np.maximum(est, 0.5), est)
+        )
+        f[core_px] = np.where(np.isfinite(lit[core_px]), at_least[core_px], 1.0)
     out = f.astype(np.float32)
     out[~ok] = np.nan
     return out
@@ -548,6 +552,11 @@ def dsm_shadow_fraction(
     tolerance: int = DSM_TOLERANCE,
     rim: float = RIM_DARKNESS,
     lit: float = LIT_DARKNESS,
+    heights: np.ndarray | None = None,
+    clearance: float = 0.0,
+    unseen: np.ndarray | None = None,
+    ray: tuple[float, float, int] | None = None,
+    core: float = CORE_DARKNESS,
 ) -> np.ndarray:
     """Estimated shadow fraction (float32, 0–1; NaN where invalid) from :func:`darkness` with
     the cast shadow a surface model predicts as the prior.
@@ -561,11 +570,24 @@ def dsm_shadow_fraction(
       e.g. of another date);
     * a pixel within ``tolerance`` of that but not shaded by the model is shadow when it is
       at most ``exp(rim)`` of the sunlit mode and not water (a shadow edge the model puts a
-      pixel off);
+      pixel off), unless (with ``heights``) it stands more than ``clearance`` above the
+      lowest predicted-shadow cell within ``tolerance``: then it is the top of the caster
+      (a roof or crown beside its own shadow), lit by the sun whatever its darkness;
     * around those, within ``edge_pixels`` (and the zone), the fraction is unmixed between the
-      local sunlit and shadowed signals as in :func:`shadow_fraction_estimate`; shadow pixels
-      get at least 0.5, and those more than ``tolerance + 1`` pixels inside the predicted
-      shadow at least the model's fraction (1 inside a cast shadow).
+      local sunlit and shadowed signals as in :func:`shadow_fraction_estimate`. Those more
+      than ``tolerance + 1`` pixels inside the predicted shadow get at least the model's
+      fraction (1 inside a cast shadow), and shadow pixels as dark as core shadow (``core``)
+      at least 0.5; the others (the predicted shadow's edges and the
+      rim) keep their unmixed fraction, so that a mixed edge pixel is shadow when more than
+      half of it is shaded, not because it is darker than ``lit``.
+
+    Where the surface model cannot rule shadow out (``unseen``: a caster beyond its edge could
+    shade the pixel, :func:`geoboresight.shadow.illumination.unseen_casters`), the fraction is
+    at least the spectral estimate without a surface model (:func:`shadow_fraction_estimate`
+    with ``core``), provided (with ``ray``) that no pixel on the way towards the sun to the
+    grid's edge is spectrally lit: the shadow of a caster beyond the edge covers the ground
+    between the caster and the pixel it shades (on level ground), so it reaches the edge; a
+    dark material alone near the edge does not.
 
     Strips need a halo of ``edge_pixels + window // 2 + tolerance + 1`` lines (and the prior's
     own, :func:`geoboresight.shadow.illumination.halo_rows`).
@@ -587,6 +609,20 @@ def dsm_shadow_fraction(
     rim, lit : float
         Darkness (natural log over the sunlit mode) at or below which a pixel next to the
         predicted shadow is shadow, and above which a predicted one is lit.
+    heights : array, optional
+        The surface model's heights (m) on the same grid: without them no rim pixel is
+        taken for a caster.
+    clearance : float
+        Height (m) above the predicted shadow's ground beyond which a rim pixel is a caster
+        (the prior's clearance: the surface model's height noise).
+    unseen : bool array, optional
+        Pixels whose casters the surface model may not hold (same grid).
+    ray : (Δrow, Δcol, steps), optional
+        The march towards the sun (:func:`geoboresight.shadow.illumination.along_ray`);
+        strips need :func:`geoboresight.shadow.illumination.halo_rows` lines towards it.
+    core : float
+        Core-shadow darkness (natural log over the sunlit mode): a shadow pixel this dark is
+        at least half shaded, and the spectral estimate on ``unseen`` pixels uses it.
 
     Returns
     -------
@@ -617,10 +653,35 @@ def dsm_shadow_fraction(
         rim_px = ok & zone & ~shaded & (d <= rim)
     if water is not None:
         rim_px &= ~np.asarray(water, bool)
-    f = _unmix(d, ok, core_px | rim_px, edge_pixels, window, allowed=zone)
+    if heights is not None:
+        z = np.asarray(heights, np.float64)
+        if z.shape != d.shape:
+            raise InputError(f"parameter 'heights': shape {z.shape} is not the image's {d.shape}")
+        with np.errstate(invalid="ignore"):
+            ground = ndimage.minimum_filter(
+                np.where(shaded & np.isfinite(z), z, np.inf), size=2 * tolerance + 1
+            )
+            rim_px &= ~(z - ground > clearance)
     # Away from the predicted edges (by more than the tolerance) the model's shade is whole.
     deep = core_px & ndimage.binary_erosion(shaded, iterations=tolerance + 1)
+    with np.errstate(invalid="ignore"):
+        whole = deep | (d <= core)
+    f = _unmix(d, ok, core_px | rim_px, edge_pixels, window, allowed=zone, whole=whole)
     f[deep] = np.maximum(f[deep], p[deep]).astype(np.float32)
+    if unseen is not None:
+        u = np.asarray(unseen, bool)
+        if u.shape != d.shape:
+            raise InputError(f"parameter 'unseen': shape {u.shape} is not the image's {d.shape}")
+        if ray is not None and u.any():
+            from .illumination import along_ray
+
+            with np.errstate(invalid="ignore"):
+                u = u & along_ray(~(d > lit), ray)
+        if u.any():
+            f0 = shadow_fraction_estimate(
+                d, ok, core=core, edge_pixels=edge_pixels, window=window, water=water
+            )
+            f[u] = np.fmax(f[u], f0[u])
     return f
 
 
@@ -726,6 +787,10 @@ def shadow_map_block(
     dark_levels: tuple = (0.0, 0.0, 0.0),
     edge_pixels: int = EDGE_PIXELS,
     prior: np.ndarray | None = None,
+    heights: np.ndarray | None = None,
+    clearance: float = 0.0,
+    unseen: np.ndarray | None = None,
+    ray: tuple[float, float, int] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Shadow classes and shadow mask of a block of lines: the shadow map's per-pixel pipeline.
 
@@ -763,6 +828,12 @@ def shadow_map_block(
         The cast-shadow fraction a surface model predicts on the block: step 4 is then
         :func:`dsm_shadow_fraction` (no shadow away from it; needs :data:`DSM_TOLERANCE` more
         lines of halo).
+    heights : array (lines, columns), optional
+        With ``prior``: the surface model's heights, and ``clearance`` its height tolerance
+        (m), so that the top of a caster beside its shadow is not taken for shadow, and
+        ``unseen`` the pixels a caster beyond the surface model could shade, where the
+        spectral estimate holds if the way to the edge along ``ray`` is not lit
+        (:func:`dsm_shadow_fraction`).
 
     Returns
     -------
@@ -787,6 +858,10 @@ def shadow_map_block(
         dark_levels=dark_levels,
         edge_pixels=edge_pixels,
         prior=prior,
+        heights=heights,
+        clearance=clearance,
+        unseen=unseen,
+        ray=ray,
     )
     return shadow_classes(f, calibration.table), shadow_mask(f)
 
@@ -801,9 +876,14 @@ def shadow_fraction_block(
     dark_levels: tuple = (0.0, 0.0, 0.0),
     edge_pixels: int = EDGE_PIXELS,
     prior: np.ndarray | None = None,
+    heights: np.ndarray | None = None,
+    clearance: float = 0.0,
+    unseen: np.ndarray | None = None,
+    ray: tuple[float, float, int] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(shadow fraction, darkness) of a block: steps 1–4 of :func:`shadow_map_block`; with
-    ``prior`` (a surface model's cast-shadow fraction on the block) by
+    ``prior`` (a surface model's cast-shadow fraction on the block; ``heights``,
+    ``clearance``, ``unseen`` and ``ray``, the surface model's) by
     :func:`dsm_shadow_fraction` instead of :func:`shadow_fraction_estimate`."""
     from ..dem.coregister import coregister
 
@@ -824,7 +904,18 @@ def shadow_fraction_block(
     d = darkness(n, s, calibration, good)
     water = too_blue(b, n, calibration.blue_limit)
     if prior is not None:
-        f = dsm_shadow_fraction(d, prior, good, edge_pixels=edge_pixels, water=water)
+        f = dsm_shadow_fraction(
+            d,
+            prior,
+            good,
+            edge_pixels=edge_pixels,
+            water=water,
+            heights=heights,
+            clearance=clearance,
+            unseen=unseen,
+            ray=ray,
+            core=calibration.core,
+        )
     else:
         f = shadow_fraction_estimate(
             d, good, core=calibration.core, edge_pixels=edge_pixels, water=water
