@@ -123,6 +123,9 @@ HOLDOUT = {
     # Issue 24 (surface-model prior, de-shadowing): fixed before the first --dsm run.
     4: (20261125, range(20, 25), (10, 11, 12)),
     5: (20261126, range(25, 30), (13, 14, 15)),
+    # Issue 24, de-shadowing with the sky-view factor: the seed of the draws from
+    # random.SystemRandom, fixed before the group was first run (run once).
+    7: (650604672, range(40, 45), (22, 23, 24)),
 }
 #: Height noise (m) and largest sub-pixel shift (px) of the DSM given to shadow-map --dsm.
 DSM_NOISE_M = 0.3
