@@ -345,9 +345,15 @@ def spectra_check(cube_path, dark, f_truth, material, names):
     two pixels away from any shadow): spectral angle (°) and brightness ratio − 1 (over the
     bands whose sunlit signal is ≥ 2 % of the brightest band's)."""
     with quiet_georef(), rasterio.open(cube_path) as src:
-        x = src.read().astype(np.float64) - np.asarray(dark)[:, None, None]
-    full = ndimage.binary_erosion(f_truth >= 0.999)
-    sun = ~ndimage.binary_dilation(f_truth > 0.0, iterations=2)
+        raw = src.read().astype(np.float64)
+        nodata = src.nodata
+    x = raw - np.asarray(dark)[:, None, None]
+    # Pixels with no data in a band (the SWIR's edge beyond the boresight offset) are left out.
+    has = np.isfinite(raw).all(axis=0)
+    if nodata is not None:
+        has &= (raw != nodata).all(axis=0)
+    full = ndimage.binary_erosion(f_truth >= 0.999) & has
+    sun = ~ndimage.binary_dilation(f_truth > 0.0, iterations=2) & has
     out = {}
     for k, name in names.items():
         a = full & (material == k)
