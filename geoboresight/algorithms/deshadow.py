@@ -4,10 +4,31 @@ pixels scaled to their sunlit signal out. Declaration only: ``run`` is
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from ..operations.deshadow import deshadow_file
 from ._common import BLOCK_ROWS, DUAL_PARAMS, OFFSET
 from .shadow_map import DARK, GROUP, SURFACE
 from .spec import Algorithm, FileOut, RasterIn, RasterOut, Result
+
+#: The shadow map's surface model and sun (SurfaceModel), described for de-shadowing.
+_dsm, _zen, _az, _cell, _clear = SURFACE.params
+SURFACE_DESHADOW = replace(
+    SURFACE,
+    params=(
+        replace(
+            _dsm,
+            description="Surface model (DSM, m) on the image's grid: pairs chosen by geometry and each pixel's sky-view factor (empty = one ratio for all)",
+        ),
+        _zen,
+        _az,
+        _cell,
+        replace(
+            _clear,
+            description="Height an obstacle must rise above a cell to hide its sky: about 3 × the DSM's height noise (m)",
+        ),
+    ),
+)
 
 DESHADOW = Algorithm(
     name="deshadow",
@@ -63,7 +84,7 @@ DESHADOW = Algorithm(
             name="shadow",
             description="Shadow fraction (0–1) on the image's grid: the shadow map's 'fraction' or Sun shadow's output",
         ),
-        SURFACE,
+        SURFACE_DESHADOW,
         DARK,
         OFFSET,
         BLOCK_ROWS,
