@@ -31,8 +31,9 @@ while the method is developed; each is run once.
 ``--dsm``: the surface-model prior and de-shadowing instead (:func:`run_dsm_case`):
 ``shadow-map`` with a DSM (the model's own, with 0.3 m of Gaussian height noise and a random
 sub-pixel shift of up to half a pixel each way: registered within a pixel; seeds fixed below)
-against ``shadow-map`` without, and ``deshadow`` with the truth fraction and with the map's.
-Its hold-out groups (``--dsm --holdout 4`` to ``8``) are drawn as the others, with other seeds;
+against ``shadow-map`` without, and ``deshadow`` with the truth fraction and with the map's,
+each without and with the DSM (the same noisy one, and the sun).
+Its hold-out groups (``--dsm --holdout 4`` to ``9``) are drawn as the others, with other seeds;
 ``--no-deshadow`` leaves the de-shadow columns empty.
 
 Usage::
@@ -62,6 +63,7 @@ from scene_model2 import MATERIALS as MATERIALS2  # noqa: E402
 from scene_model2 import simulate2, write_scene2  # noqa: E402
 
 from geoboresight.io import quiet_georef  # noqa: E402
+from geoboresight.io.raster import writer_options  # noqa: E402
 from geoboresight.io.scene import write_scene  # noqa: E402
 from geoboresight.operations.deshadow import deshadow_file  # noqa: E402
 from geoboresight.operations.ratio import ratio_file  # noqa: E402
@@ -131,6 +133,10 @@ HOLDOUT = {
     7: (59352930, range(35, 40), (19, 20, 21)),
     # Drawn the same way after group 7's run, before the last change of the method.
     8: (1990625790, range(40, 45), (22, 23, 24)),
+    # Issue 24, de-shadowing with the sky-view factor: the seed of the draws from
+    # random.SystemRandom, fixed before the group was first run (run once). Drawn in parallel
+    # with groups 6–8 as "group 7" of that work; renumbered when the two were merged.
+    9: (650604672, range(40, 45), (22, 23, 24)),
 }
 #: Height noise (m) and largest sub-pixel shift (px) of the DSM given to shadow-map --dsm.
 DSM_NOISE_M = 0.3
@@ -350,9 +356,15 @@ def spectra_check(cube_path, dark, f_truth, material, names):
     two pixels away from any shadow): spectral angle (°) and brightness ratio − 1 (over the
     bands whose sunlit signal is ≥ 2 % of the brightest band's)."""
     with quiet_georef(), rasterio.open(cube_path) as src:
-        x = src.read().astype(np.float64) - np.asarray(dark)[:, None, None]
-    full = ndimage.binary_erosion(f_truth >= 0.999)
-    sun = ~ndimage.binary_dilation(f_truth > 0.0, iterations=2)
+        raw = src.read().astype(np.float64)
+        nodata = src.nodata
+    x = raw - np.asarray(dark)[:, None, None]
+    # Pixels with no data in a band (the SWIR's edge beyond the boresight offset) are left out.
+    has = np.isfinite(raw).all(axis=0)
+    if nodata is not None:
+        has &= (raw != nodata).all(axis=0)
+    full = ndimage.binary_erosion(f_truth >= 0.999) & has
+    sun = ~ndimage.binary_dilation(f_truth > 0.0, iterations=2) & has
     out = {}
     for k, name in names.items():
         a = full & (material == k)
@@ -405,13 +417,23 @@ def run_dsm_case(label, model, opts, lines, folder, index, deshadow=True):
     row["best_shift"] = (sm["dsm_shift_rows"], sm["dsm_shift_columns"])
     row["warnings"] = sm["warnings"]
     write_tif(j("truth_fraction.tif"), np.nan_to_num(f, nan=0.0))
-    for key, frac in (("truth", j("truth_fraction.tif")), ("mapf", j("map_dsm_fraction.tif"))):
+    surface = SurfaceModel(j("dsm_noisy.tif"), zen, az, gsd)
+    for key, frac, surf in (
+        ("truth", j("truth_fraction.tif"), SurfaceModel()),
+        ("mapf", j("map_dsm_fraction.tif"), SurfaceModel()),
+        ("truth_dsm", j("truth_fraction.tif"), surface),
+        ("mapf_dsm", j("map_dsm_fraction.tif"), surface),
+    ):
         if not deshadow:
             row[key] = {}
             continue
         out = j(f"deshadow_{key}.tif")
         try:
-            r = deshadow_file(vnir, swir, shadow=frac, output=out, report=j(f"ds_{key}.json"))
+            # Band-interleaved: a cube of ~200 bands written pixel-interleaved takes 15 × longer.
+            with writer_options(co=["INTERLEAVE=BAND"]):
+                r = deshadow_file(
+                    vnir, swir, shadow=frac, output=out, report=j(f"ds_{key}.json"), surface=surf
+                )
         except Exception as e:  # reported, not hidden
             row[key] = {"error": str(e)}
             continue
@@ -439,18 +461,20 @@ def dsm_table(rows) -> str:
         "| scene | truth shadow | no DSM: F1 wide / flagged | DSM: P / R / F1 | DSM F1 wide | "
         "DSM sunlit dark flagged | predicted shadow lit | best shift (DSM shift) | deshadow, "
         "truth f: worst SA / brightness | deshadow, map f: worst SA / brightness | "
-        "map f, by material (SA / brightness) |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "deshadow with the DSM, truth f | deshadow with the DSM, map f | "
+        "with the DSM, map f, by material (SA / brightness) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         t, m = _worst(r["truth"]), _worst(r["mapf"])
+        td, md = _worst(r["truth_dsm"]), _worst(r["mapf_dsm"])
         out.append(
             f"| {r['label']} | {100 * r['truth_share']:.1f} % | {fmt(r['map0_wide'])} / "
             f"{fmt(100 * r['map0_fa'], 1)} % | {' / '.join(fmt(v) for v in r['dsm'])} | "
             f"{fmt(r['dsm_wide'])} | {fmt(100 * r['dsm_fa'], 1)} % | "
             f"{100 * r['lit_share']:.1f} % | {r['best_shift'][0]:+d}, {r['best_shift'][1]:+d} "
             f"({r['shift'][0]:+.2f}, {r['shift'][1]:+.2f}) | {t[0]} / {t[1]} | {m[0]} / {m[1]} "
-            f"| {m[2]} |"
+            f"| {td[0]} / {td[1]} | {md[0]} / {md[1]} | {md[2]} |"
         )
     return "\n".join(out)
 
@@ -527,7 +551,9 @@ def main(argv=None):
                 print(
                     f"    no DSM F1 wide {fmt(r['map0_wide'])} flagged {fmt(100 * r['map0_fa'], 1)} %;"
                     f" DSM F1 wide {fmt(r['dsm_wide'])} flagged {fmt(100 * r['dsm_fa'], 1)} %; "
-                    f"deshadow truth {_worst(r['truth'])[:2]} map {_worst(r['mapf'])[:2]}; "
+                    f"deshadow truth {_worst(r['truth'])[:2]} map {_worst(r['mapf'])[:2]}, "
+                    f"with the DSM truth {_worst(r['truth_dsm'])[:2]} map "
+                    f"{_worst(r['mapf_dsm'])[:2]}; "
                     f"{r['seconds']:.0f} s",
                     file=sys.stderr,
                 )

@@ -407,3 +407,56 @@ def test_cli_runs_shadow_map_with_a_dsm_then_deshadow(scene, tmp_path):
         output=str(tmp_path / "d2.tif"),
     )
     assert res["ratio_max"] > 3 and res["ratio_min"] >= 1
+
+
+def test_deshadow_file_with_a_dsm_strips_equal_whole(scene, tmp_path):
+    # The sky-view factor is computed on each strip's DSM read beyond it by the horizon
+    # search's reach, the pairs with their heights: strips give the whole image's result.
+    sc, folder = scene
+    frac = tmp_path / "truth_f.tif"
+    with rasterio.open(_j(folder, "truth_shadow_fraction.tif")) as src:
+        prof = src.profile
+        data = src.read(1)
+    with rasterio.open(frac, "w", **prof) as dst:
+        dst.write(data, 1)
+    outs, results = [], []
+    for rows in (16, 1000):
+        results.append(
+            deshadow_file(
+                _j(folder, "vnir.hdr"),
+                _j(folder, "swir.hdr"),
+                shadow=str(frac),
+                output=str(tmp_path / f"d{rows}.tif"),
+                surface=_surface(sc, folder),
+                block_rows=rows,
+            )
+        )
+        outs.append(_read(tmp_path / f"d{rows}.tif"))
+    assert np.array_equal(outs[0], outs[1])
+    assert results[0]["pairs_used"] == results[1]["pairs_used"] >= ds.MIN_PAIRS
+    # Out of shadow the values are the input's.
+    lit = data == 0
+    assert np.allclose(outs[0][0][lit], sc.vnir[0][lit], atol=0.01)
+
+
+def test_deshadow_bad_surface_inputs_give_one_clear_line(scene, tmp_path):
+    sc, folder = scene
+    small = tmp_path / "small.tif"
+    with rasterio.open(
+        small, "w", driver="GTiff", width=10, height=8, count=1, dtype="float32"
+    ) as dst:
+        dst.write(np.zeros((8, 10), "float32"), 1)
+    v, s = _j(folder, "vnir.hdr"), _j(folder, "swir.hdr")
+    shadow = _j(folder, "truth_shadow_fraction.tif")
+    out = str(tmp_path / "x.tif")
+    with pytest.raises(InputError, match="surface model .*8 × 10 cells") as e:
+        deshadow_file(
+            v, s, shadow=shadow, output=out, surface=SurfaceModel(str(small), 30.0, 150.0, 1.0)
+        )
+    assert "\n" not in str(e.value)
+    with pytest.raises(ParameterError, match="sun_zenith") as e:
+        deshadow_file(
+            v, s, shadow=shadow, output=out, surface=SurfaceModel(_j(folder, "truth_dsm.tif"))
+        )
+    assert "\n" not in str(e.value)
+    assert not os.path.exists(out)

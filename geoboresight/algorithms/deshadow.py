@@ -4,10 +4,31 @@ pixels scaled to their sunlit signal out. Declaration only: ``run`` is
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from ..operations.deshadow import deshadow_file
 from ._common import BLOCK_ROWS, DUAL_PARAMS, OFFSET
-from .shadow_map import DARK, GROUP
+from .shadow_map import DARK, GROUP, SURFACE
 from .spec import Algorithm, FileOut, RasterIn, RasterOut, Result
+
+#: The shadow map's surface model and sun (SurfaceModel), described for de-shadowing.
+_dsm, _zen, _az, _cell, _clear = SURFACE.params
+SURFACE_DESHADOW = replace(
+    SURFACE,
+    params=(
+        replace(
+            _dsm,
+            description="Surface model (DSM, m) on the image's grid: pairs chosen by geometry and each pixel's sky-view factor (empty = one ratio for all)",
+        ),
+        _zen,
+        _az,
+        _cell,
+        replace(
+            _clear,
+            description="Height an obstacle must rise above a cell to hide its sky: about 3 × the DSM's height noise (m)",
+        ),
+    ),
+)
 
 DESHADOW = Algorithm(
     name="deshadow",
@@ -42,6 +63,11 @@ DESHADOW = Algorithm(
         "SWIR). k is measured on the scene: pairs of a fully shadowed pixel and a sunlit pixel "
         "2–4 pixels away across a shadow edge (each at least a pixel from it), the pairs most alike once corrected (the same "
         "surface on both sides) kept.\n\n"
+        "With a surface model (DSM on the image's grid, and the sun's zenith and azimuth) the "
+        "pairs are chosen by geometry: the sunlit pixel down-sun or beside the shadow (not "
+        "towards the sun, where the caster is) and at about the same height; and each pixel "
+        "gets the sky in proportion to its sky-view factor from the DSM, so shadow in a "
+        "courtyard or against a wall is brightened more than open shadow.\n\n"
         "Inputs: the cube (VNIR + SWIR, raw DN or radiance) and a shadow fraction on its grid "
         "(the 'fraction' output of the Boresight shadow map, best with a surface model, or "
         "Sun shadow's fraction). Dark levels as the shadow map finds them (0 for radiance): "
@@ -49,8 +75,8 @@ DESHADOW = Algorithm(
         "pixels out of shadow keep their values. Output: a float cube (VNIR bands then SWIR "
         "bands, wavelengths in the band descriptions and tags), the ratio of each band in the "
         "tags and the optional JSON report. Validated on two scene models (docs/deshadow.md); "
-        "one ratio per scene: shadow lit by sunlit walls or under little sky is "
-        "under- or over-corrected."
+        "without a surface model one ratio per scene: shadow lit by sunlit walls or under "
+        "little sky is under- or over-corrected."
     ),
     params=(
         *DUAL_PARAMS,
@@ -58,6 +84,7 @@ DESHADOW = Algorithm(
             name="shadow",
             description="Shadow fraction (0–1) on the image's grid: the shadow map's 'fraction' or Sun shadow's output",
         ),
+        SURFACE_DESHADOW,
         DARK,
         OFFSET,
         BLOCK_ROWS,

@@ -21,9 +21,10 @@ from ..io.bands import BoresightOffset
 from ..io.dark import DarkLevels, dark_level_of
 from ..io.dual import DualLayout
 from ..shadow import deshadow as ds
+from ..shadow import illumination as ill
 from ._operation import operation
 from .shadow import no_valid_error
-from .shadow_map import DARK_BANDS, _dark_level, _offset, _spread
+from .shadow_map import DARK_BANDS, SurfaceModel, _dark_level, _offset, _open_surface, _spread
 
 #: Pixels sampled for the dark level estimate.
 DARK_SAMPLE = 100_000
@@ -49,7 +50,19 @@ def _levels(sensor, src, bands, sampled, given, sample, ok, progress) -> np.ndar
     return np.full(len(bands), level.level)
 
 
-@operation(inputs=("vnir", "swir", "shadow"), outputs=("output", "report"))
+def _sky_view(read_z, dsm, r0, r1, height):
+    """(heights, sky-view factor) of lines r0–r1: the factor from the DSM read
+    :data:`~geoboresight.shadow.illumination.SKY_RADIUS_M` beyond them (its horizon search)."""
+    cell = float(np.sqrt(abs(np.linalg.det(dsm.matrix))))
+    halo = math.ceil(ill.SKY_RADIUS_M / cell) + 1
+    q0, q1 = max(0, r0 - halo), min(height, r1 + halo)
+    z, z_ok = read_z(q0, q1)
+    v = ill.sky_view_factor(z, z_ok, transform=dsm.matrix, clearance=dsm.clearance)
+    cut = slice(r0 - q0, r1 - q0)
+    return np.where(z_ok, z, np.nan)[cut], v[cut]
+
+
+@operation(inputs=("vnir", "swir", "shadow", "surface.dsm"), outputs=("output", "report"))
 def deshadow_file(
     vnir,
     swir=None,
@@ -57,6 +70,7 @@ def deshadow_file(
     shadow,
     output,
     report=None,
+    surface=SurfaceModel(),
     layout=DualLayout(),
     dark=DarkLevels(),
     offset=BoresightOffset(),
@@ -86,6 +100,14 @@ def deshadow_file(
         tags.
     report : path, optional
         JSON: the illumination ratio and factor at full shadow of each band, the pairs used.
+    surface : SurfaceModel
+        A surface model on the image's grid and the sun (as ``shadow-map --dsm``; its
+        ``clearance`` is the height noise the horizon search ignores): pairs are kept only
+        down-sun or lateral of the shadow and between cells of about the same height (the same
+        surface), the median of all of them is the ratio, and each pixel gets the sky in
+        proportion to its sky-view factor
+        (:func:`geoboresight.shadow.illumination.sky_view_factor`): the ratio is that of open
+        ground, each pixel's own follows from its sky view. None: one ratio for every pixel.
     layout : DualLayout
     dark : DarkLevels
         Dark level of each instrument (None = the product's, the header's, else estimated as
@@ -124,6 +146,11 @@ def deshadow_file(
                 f"image {dual.height} × {dual.width}: give the fraction of this image "
                 "(shadow-map --fraction, or sun-shadow on its grid)"
             )
+        dsm = _open_surface(surface, dual, block_rows, stack, progress)
+        toward_sun = None
+        if dsm is not None:
+            toward_sun = ill.sun_step(dsm.zenith, dsm.azimuth, dsm.matrix)[:2]
+            read_z = io.band_reader(dsm.src, 1)
         # Dark levels, as shadow-map finds them.
         v_dark_b = _spread(tuple(vb), DARK_BANDS)
         s_dark_b = _spread(tuple(sb), DARK_BANDS)
@@ -151,14 +178,17 @@ def deshadow_file(
         def read(r0, r1):
             x, x_ok = read_cube(r0, r1)
             f, f_ok = read_f(r0, r1)
-            return x, x_ok, np.where(f_ok, f, np.nan)
+            f = np.where(f_ok, f, np.nan)
+            if dsm is None:
+                return x, x_ok, f, None, None
+            return (x, x_ok, f, *_sky_view(read_z, dsm, r0, r1, dual.height))
 
         shift_halo = math.ceil(abs(along)) + 2
         keep_per_mille = max(1, min(1000, round(1000 * PAIR_PIXELS / (dual.height * dual.width))))
         lv = levels[:, None, None]
 
         # Pass 1: pairs across shadow edges, on the VNIR grid (the SWIR resampled onto it).
-        def pairs(x, x_ok, f, block):
+        def pairs(x, x_ok, f, z, v, block):
             sig = x.astype(np.float64) - lv
             for i in range(nv, sig.shape[0]):
                 sig[i], _ = coregister(sig[i], along, across, x_ok, order=1, fill=0.0)
@@ -169,21 +199,45 @@ def deshadow_file(
             rr, cc = np.mgrid[block.row0 : block.row0 + f.shape[0], 0 : f.shape[1]]
             picked = (rr * 73856093 ^ cc * 19349663) % 1000 < keep_per_mille
             shaded_ok = own & picked
-            a, b = ds.shadow_pairs(sig, f, x_ok, own=shaded_ok)
-            return a.astype(np.float32), b.astype(np.float32)
+            ia, ib = ds.pair_indices(
+                f,
+                x_ok & np.isfinite(sig).all(axis=0),
+                own=shaded_ok,
+                toward_sun=toward_sun,
+                heights=z,
+            )
+            flat = sig.reshape(sig.shape[0], -1)
+            sky = np.ones(f.size) if v is None else v.reshape(-1)
+            return (
+                flat[:, ia].T.astype(np.float32),
+                flat[:, ib].T.astype(np.float32),
+                np.stack([sky[ia], sky[ib]]).astype(np.float32),
+            )
 
-        a, b = io.reduce_windows(
+        a, b, pv = io.reduce_windows(
             read,
             pairs,
-            lambda u, v: (np.concatenate([u[0], v[0]]), np.concatenate([u[1], v[1]])),
-            (np.zeros((0, len(wl)), np.float32), np.zeros((0, len(wl)), np.float32)),
+            lambda u, w: tuple(
+                np.concatenate([p, q], axis=-1 if i == 2 else 0)
+                for i, (p, q) in enumerate(zip(u, w, strict=True))  # sky views: (2, n)
+            ),
+            (
+                np.zeros((0, len(wl)), np.float32),
+                np.zeros((0, len(wl)), np.float32),
+                np.zeros((2, 0), np.float32),
+            ),
             halo=(max(ds.DISTANCES) + 1 + shift_halo,) * 2,
             pass_block=True,
             progress=progress.sub(0.1, 0.4),
             message="shadow edges",
             **strips,
         )
-        k, n_pairs, spread = ds.illumination_ratio(a, b)
+        if dsm is None:
+            k, n_pairs, spread = ds.illumination_ratio(a, b)
+        else:
+            k, n_pairs, spread = ds.illumination_ratio(
+                a, b, sky_view=(pv[0], pv[1]), keep=ds.KEEP_WITH_SURFACE
+            )
         # A band whose pairs do not say the sun brightens it (noise, absorption bands) is
         # left as it is: ratio 1.
         unchanged = int((~(np.isfinite(k) & (k >= 1.0))).sum())
@@ -202,11 +256,12 @@ def deshadow_file(
             )
 
         # Pass 2: the de-shadowed cube, each instrument on its own grid.
-        def kernel(x, x_ok, f):
+        def kernel(x, x_ok, f, z, v):
             f_ok = np.isfinite(f)
             fs = _fraction_grid(f, along, across, f_ok)
-            out_v = ds.deshadow(x[:nv] - lv[:nv], f, x_ok, ratio=k[:nv]) + lv[:nv]
-            out_s = ds.deshadow(x[nv:] - lv[nv:], fs, x_ok, ratio=k[nv:]) + lv[nv:]
+            vs = None if v is None else _fraction_grid(v, along, across, np.isfinite(v))
+            out_v = ds.deshadow(x[:nv] - lv[:nv], f, x_ok, ratio=k[:nv], sky_view=v) + lv[:nv]
+            out_s = ds.deshadow(x[nv:] - lv[nv:], fs, x_ok, ratio=k[nv:], sky_view=vs) + lv[nv:]
             with np.errstate(invalid="ignore"):
                 shaded = x_ok & (f > 0)
             return np.concatenate([out_v, out_s]), shaded
@@ -218,6 +273,11 @@ def deshadow_file(
             "vnir": dual.vnir.path,
             "swir": dual.swir.path,
             "shadow": str(shadow),
+            "surface_model": str(surface.dsm) if dsm is not None else "none",
+            "sky_view": "each pixel's sky-view factor V from the surface model: factor "
+            "(k − 1 + V)/((k − 1)·(1 − f) + V), k the open-ground ratio"
+            if dsm is not None
+            else "none (V = 1)",
             "wavelength": "{" + ", ".join(f"{w:.2f}" for w in wl) + "}",
             "wavelength_units": "Nanometers",
             "illumination_ratio": ",".join(f"{v:.4f}" for v in k),

@@ -13,7 +13,13 @@ import re
 #: where ``inputs`` is the :class:`Inputs` of the session (scene files, derived rasters).
 CASES: dict[str, dict] = {
     "shadow-fraction-fit": {"truth": lambda i: i.raster("truth_shadow_fraction")},
-    "deshadow": {"shadow": lambda i: i.raster("truth_shadow_fraction")},
+    # The scene's DSM (matched by name) needs its sun, as for shadow-map below.
+    "deshadow": {
+        "shadow": lambda i: i.raster("truth_shadow_fraction"),
+        "sun_zenith": lambda i: i.truth.get("sun", {}).get("zenith_deg", 45.0),
+        "sun_azimuth": lambda i: i.truth.get("sun", {}).get("azimuth_deg", 135.0),
+        "cell_size": lambda i: i.truth.get("gsd_m", 1.5),
+    },
     # The scene's own DSM (matched by name) with its sun: the surface-model prior.
     "shadow-map": {
         "sun_zenith": lambda i: i.truth.get("sun", {}).get("zenith_deg", 45.0),
