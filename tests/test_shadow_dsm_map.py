@@ -312,3 +312,45 @@ def test_sun_shadow_takes_the_acquisition_time(tmp_path):
     with pytest.raises(ParameterError, match="needs the scene's position"):
         sun_shadow_file(raw, output=str(tmp_path / "x.tif"), cell_size=1.0, acquisition_time=when)
     assert not os.path.exists(tmp_path / "x.tif")
+
+
+def test_deshadow_through_the_igm_equals_the_raw_grid_dsm(mapped, tmp_path):
+    # The same surface model, once on the image's grid and once on a rotated map grid read
+    # through the IGM: the same pairs, sky-view factors and so the same de-shadowed pixels,
+    # but at walls, where the map grid's blocks are read back bilinearly. The IGM moved by
+    # four pixels (the sky-view factors misplaced) and no DSM at all show the check can fail.
+    from geoboresight.operations.deshadow import deshadow_file
+
+    sc, folder, igm, dsm_path, z, (x, y) = mapped
+    sun = sc.truth["sun"]
+    gsd = float(sc.truth["gsd_m"])
+    moved = str(tmp_path / "igm_moved.tif")
+    write_igm(moved, x + 4 * gsd, y, UTM36N, {})
+    on_map = (sun["zenith_deg"], (sun["azimuth_deg"] + HEADING) % 360.0)
+    surfaces = {
+        "raw": SurfaceModel(
+            os.path.join(folder, "truth_dsm.tif"), sun["zenith_deg"], sun["azimuth_deg"], gsd
+        ),
+        "igm": SurfaceModel(dsm_path, *on_map, igm=igm),
+        "moved": SurfaceModel(dsm_path, *on_map, igm=moved),
+        "none": SurfaceModel(),
+    }
+    v, s = os.path.join(folder, "vnir.hdr"), os.path.join(folder, "swir.hdr")
+    cubes = {}
+    for name, surface in surfaces.items():
+        out = tmp_path / f"out_{name}.tif"
+        shadow = os.path.join(folder, "truth_shadow_fraction.tif")
+        deshadow_file(v, s, shadow=shadow, output=str(out), surface=surface)
+        with rasterio.open(out) as src:
+            cubes[name] = src.read()
+    a = cubes["raw"]
+    shaded = (sc.shadow_fraction >= 0.9)[None]
+
+    def rel(b):
+        ok = np.isfinite(a) & np.isfinite(b) & (np.abs(a) > 1) & shaded
+        return np.abs(b[ok] - a[ok]) / np.abs(a[ok])
+
+    assert np.median(rel(cubes["igm"])) < 0.02  # measured 0.006
+    assert np.mean(rel(cubes["igm"]) < 0.05) > 0.8  # measured 0.90
+    assert np.median(rel(cubes["moved"])) > 0.03  # measured 0.046
+    assert np.median(rel(cubes["none"])) > 0.05  # measured 0.12

@@ -11,22 +11,20 @@ from ._common import BLOCK_ROWS, DUAL_PARAMS, OFFSET
 from .shadow_map import DARK, GROUP, SURFACE
 from .spec import Algorithm, FileOut, RasterIn, RasterOut, Result
 
-#: The shadow map's surface model and sun (SurfaceModel), described for de-shadowing.
-_dsm, _zen, _az, _cell, _clear = SURFACE.params
+#: The shadow map's surface model and sun (SurfaceModel), described for de-shadowing: the same
+#: members (a DSM on a map grid through the line's IGM, the sun from the acquisition time),
+#: two of them with their de-shadowing meaning.
+_DESCRIPTIONS = {
+    "dsm": "Surface model (DSM, m) on the image's grid, or on a map grid with the line's IGM: "
+    "pairs chosen by geometry and each pixel's sky-view factor (empty = one ratio for all)",
+    "clearance": "Height an obstacle must rise above a cell to hide its sky: about 3 × the "
+    "DSM's height noise (m)",
+}
 SURFACE_DESHADOW = replace(
     SURFACE,
-    params=(
-        replace(
-            _dsm,
-            description="Surface model (DSM, m) on the image's grid: pairs chosen by geometry and each pixel's sky-view factor (empty = one ratio for all)",
-        ),
-        _zen,
-        _az,
-        _cell,
-        replace(
-            _clear,
-            description="Height an obstacle must rise above a cell to hide its sky: about 3 × the DSM's height noise (m)",
-        ),
+    params=tuple(
+        replace(p, description=_DESCRIPTIONS[p.name]) if p.name in _DESCRIPTIONS else p
+        for p in SURFACE.params
     ),
 )
 

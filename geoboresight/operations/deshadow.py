@@ -62,7 +62,9 @@ def _sky_view(read_z, dsm, r0, r1, height):
     return np.where(z_ok, z, np.nan)[cut], v[cut]
 
 
-@operation(inputs=("vnir", "swir", "shadow", "surface.dsm"), outputs=("output", "report"))
+@operation(
+    inputs=("vnir", "swir", "shadow", "surface.dsm", "surface.igm"), outputs=("output", "report")
+)
 def deshadow_file(
     vnir,
     swir=None,
