@@ -36,6 +36,8 @@ Brook, A.; Ben-Dor, E. Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from scipy import ndimage
 
@@ -252,7 +254,10 @@ def illumination_ratio(
         n = max(min_pairs, int(round(keep * lr.shape[0])))
         kept = np.zeros(lr.shape[0], bool)
         kept[np.argsort(rms, kind="stable")[:n]] = True
-        k = np.nanmedian(lr[kept], axis=0)
+        with warnings.catch_warnings():
+            # A band none of the kept pairs measures keeps the previous estimate.
+            warnings.simplefilter("ignore", RuntimeWarning)
+            k = np.where(np.isfinite(lr[kept]).any(axis=0), np.nanmedian(lr[kept], axis=0), k)
     spread = float(np.median(np.sqrt(np.nanmean((lr[kept] - k) ** 2, axis=1))))
     return np.exp(k), int(kept.sum()), spread
 
