@@ -123,6 +123,13 @@ class Grid:
             "blockysize": TILE,
             "BIGTIFF": "IF_SAFER",
         }
+        if count > 1:
+            # Band-interleaved: a cube written strip by strip into pixel-interleaved tiles
+            # (GDAL's default) recompresses every tile of all its bands for each strip once
+            # the block cache is full (200 bands × 1,024 × 512: over 900 s against 15 s;
+            # benchmarks/cube_write.py), and a viewer drawing 3 bands of 200 would
+            # decompress all 200.
+            profile["interleave"] = "band"
         if nodata is not None:
             profile["nodata"] = nodata
         if self.crs is not None:
