@@ -271,3 +271,24 @@ def test_tile_row_writer_passes_other_writes_through(tmp_path):
         dst.write(data[310:], 1, window=Window(0, 310, 300, 290))
     with rasterio.open(tmp_path / "x.tif") as src:
         np.testing.assert_array_equal(src.read(1), data)
+
+
+def test_multi_band_outputs_are_band_interleaved_unless_the_user_says(tmp_path):
+    # A cube is written strip by strip and drawn three bands at a time: band-interleaved
+    # (benchmarks/cube_write.py); a user's --co INTERLEAVE=PIXEL still wins; one band has
+    # nothing to interleave.
+    from rasterio.enums import Interleaving
+
+    from geoboresight.io.raster import writer_options
+
+    grid = io.Grid(40, 30)
+    data = np.arange(3 * 30 * 40, dtype="float32").reshape(3, 30, 40)
+    for name, co, expected in (
+        ("band.tif", None, Interleaving.band),
+        ("pixel.tif", ["INTERLEAVE=PIXEL"], Interleaving.pixel),
+    ):
+        with writer_options(co=co), io.create_raster(str(tmp_path / name), grid, count=3) as d:
+            d.write(data)
+        with rasterio.open(tmp_path / name) as src:
+            assert src.interleaving == expected
+            assert np.array_equal(src.read(), data)
