@@ -354,3 +354,71 @@ def test_deshadow_through_the_igm_equals_the_raw_grid_dsm(mapped, tmp_path):
     assert np.mean(rel(cubes["igm"]) < 0.05) > 0.8  # measured 0.90
     assert np.median(rel(cubes["moved"])) > 0.03  # measured 0.046
     assert np.median(rel(cubes["none"])) > 0.05  # measured 0.12
+
+
+def _glt(x, y, gsd, cell):
+    """A GLT on a north-up map grid of ``cell`` m (EMIT's layout: band 1 sample, band 2 line,
+    one-based, 0 = nothing seen): each cell shows the raw pixel its centre falls in."""
+    x0, y1 = x.min() - gsd, y.max() + gsd
+    w, h = int((x.max() + gsd - x0) / cell), int((y1 - (y.min() - gsd)) / cell)
+    ex, ny = np.meshgrid(
+        x0 + (np.arange(w) + 0.5) * cell - ORIGIN[0], y1 - (np.arange(h) + 0.5) * cell - ORIGIN[1]
+    )
+    right, down = _unit(HEADING + 90.0), _unit(HEADING + 180.0)
+    col = np.floor((ex * right[0] + ny * right[1]) / gsd).astype(int)
+    row = np.floor((ex * down[0] + ny * down[1]) / gsd).astype(int)
+    inside = (row >= 0) & (row < x.shape[0]) & (col >= 0) & (col < x.shape[1])
+    glt = np.zeros((2, h, w), np.int32)
+    glt[0][inside], glt[1][inside] = col[inside] + 1, row[inside] + 1
+    return glt, from_origin(x0, y1, cell, cell)
+
+
+def test_a_glt_places_the_raw_pixels_and_the_dsm(mapped, tmp_path):
+    from geoboresight.georef.geoloc import glt_coordinates
+
+    sc, folder, igm, dsm_path, z, (x, y) = mapped
+    gsd = float(sc.truth["gsd_m"])
+    glt, transform = _glt(x, y, gsd, cell=gsd)
+    # Raw pixels at the mean of the cells showing them: within half a cell's diagonal of
+    # their centres; the pixels no cell shows (the rotation drops some) from the affine fit.
+    gx, gy = glt_coordinates(glt[0], glt[1], None, transform, width=x.shape[1], height=x.shape[0])
+    err = np.hypot(gx - x, gy - y)
+    assert np.isfinite(err).all() and err.max() < gsd * np.sqrt(2) / 2
+    path = str(tmp_path / "glt.tif")
+    with rasterio.open(
+        path,
+        "w",
+        driver="GTiff",
+        width=glt.shape[2],
+        height=glt.shape[1],
+        count=2,
+        dtype="int32",
+        crs=UTM36N,
+        transform=transform,
+    ) as dst:
+        dst.write(glt)
+    sun = sc.truth["sun"]
+    v, s = os.path.join(folder, "vnir.hdr"), os.path.join(folder, "swir.hdr")
+    on_map = (sun["zenith_deg"], (sun["azimuth_deg"] + HEADING) % 360.0)
+    fractions = {}
+    for name, geo in (("igm", {"igm": igm}), ("glt", {"glt": path})):
+        out = tmp_path / f"f_{name}.tif"
+        shadow_map_file(
+            v,
+            s,
+            output=str(tmp_path / f"c_{name}.tif"),
+            fraction=str(out),
+            surface=SurfaceModel(dsm_path, *on_map, **geo),
+        )
+        with rasterio.open(out) as src:
+            fractions[name] = src.read(1) >= 0.5
+    assert np.mean(fractions["glt"] == fractions["igm"]) > 0.97
+    truth = sc.shadow_fraction >= 0.5
+    assert _f1(fractions["glt"], truth) > 0.8
+    with pytest.raises(ParameterError, match="its IGM or its GLT"):
+        shadow_map_file(
+            v,
+            s,
+            output=str(tmp_path / "x.tif"),
+            surface=SurfaceModel(dsm_path, *on_map, igm=igm, glt=path),
+        )

@@ -77,13 +77,19 @@ SURFACE = Group(
     params=(
         RasterIn(
             name="dsm",
-            description="Surface model (DSM, m) on the image's grid, or on a map grid with the line's IGM: its cast shadow is the prior (empty = spectra only)",
+            description="Surface model (DSM, m) on the image's grid, or on a map grid with the line's IGM or GLT: its cast shadow is the prior (empty = spectra only)",
             optional=True,
         ),
         RasterIn(
             name="igm",
             description="The line's IGM (map coordinates of each raw pixel), to read a DSM on a map grid at the image's pixels",
             optional=True,
+        ),
+        RasterIn(
+            name="glt",
+            description="Or the line's GLT (one-based sample and line of each map cell), to read a DSM on a map grid at the image's pixels",
+            optional=True,
+            advanced=True,
         ),
         Text(
             name="acquisition_time",

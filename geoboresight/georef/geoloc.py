@@ -252,3 +252,66 @@ def footprint(valid: np.ndarray, erode: int = 0) -> np.ndarray:
     """
     filled = ndimage.binary_fill_holes(valid)
     return ndimage.binary_erosion(filled, iterations=erode) if erode else filled
+
+
+def glt_coordinates(
+    sample: np.ndarray,
+    line: np.ndarray,
+    valid,
+    transform,
+    *,
+    width: int,
+    height: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Map coordinates of every raw pixel from a GLT: the inverse of the lookup.
+
+    Each raw pixel takes the mean centre of the map cells that show it directly (positive
+    indices; a negative index is a cell filled from a neighbour, not where the pixel lies).
+    A pixel no cell shows (gridding drops some where the map cell is larger or the line turns)
+    takes the value of the affine fit of the others, so that a surface model can be read at
+    every pixel.
+
+    Parameters
+    ----------
+    sample, line : 2-D integer arrays on the map grid
+        One-based indices into the raw product (:func:`glt_indices`).
+    valid : bool array or None
+        Map cells to use.
+    transform : affine.Affine
+        The GLT's geotransform.
+    width, height : int
+        Size of the raw product.
+
+    Returns
+    -------
+    x, y : float64 arrays (height, width)
+        Easting and northing (the GLT's CRS) of each raw pixel centre; NaN when the GLT shows
+        fewer than three pixels.
+    """
+    s = np.asarray(sample, "int64")
+    r = np.asarray(line, "int64")
+    direct = (s > 0) & (r > 0)
+    if valid is not None:
+        direct &= np.asarray(valid, bool)
+    rows, cols, ok, _ = glt_indices(s, r, direct, width=width, height=height)
+    gy, gx = np.nonzero(ok)
+    t = transform
+    cx = t.c + t.a * (gx + 0.5) + t.b * (gy + 0.5)
+    cy = t.f + t.d * (gx + 0.5) + t.e * (gy + 0.5)
+    flat = rows[ok] * width + cols[ok]
+    n = np.bincount(flat, minlength=width * height).astype(np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        x = np.bincount(flat, cx, minlength=width * height) / n
+        y = np.bincount(flat, cy, minlength=width * height) / n
+    x, y = x.reshape(height, width), y.reshape(height, width)
+    seen = n.reshape(height, width) > 0
+    if seen.sum() < 3:
+        return np.full((height, width), np.nan), np.full((height, width), np.nan)
+    pr, pc = np.nonzero(seen)
+    design = np.column_stack([pc, pr, np.ones(pr.size)]).astype(np.float64)
+    fx = np.linalg.lstsq(design, x[seen], rcond=None)[0]
+    fy = np.linalg.lstsq(design, y[seen], rcond=None)[0]
+    hr, hc = np.nonzero(~seen)
+    holes = np.column_stack([hc, hr, np.ones(hr.size)]).astype(np.float64)
+    x[~seen], y[~seen] = holes @ fx, holes @ fy
+    return x, y

@@ -63,7 +63,8 @@ def _sky_view(read_z, dsm, r0, r1, height):
 
 
 @operation(
-    inputs=("vnir", "swir", "shadow", "surface.dsm", "surface.igm"), outputs=("output", "report")
+    inputs=("vnir", "swir", "shadow", "surface.dsm", "surface.igm", "surface.glt"),
+    outputs=("output", "report"),
 )
 def deshadow_file(
     vnir,

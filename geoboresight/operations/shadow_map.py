@@ -68,7 +68,8 @@ class SurfaceModel:
 
     The DSM is on the image's grid, or on a map grid with ``igm``, the line's IGM (each raw
     pixel's map coordinates: the DSM is read at every raw pixel, and the sun's azimuth is
-    from north). ``sun_zenith`` 0–90° (< 90), ``sun_azimuth`` clockwise from north towards
+    from north), or with ``glt``, its GLT (each raw pixel at the mean of the map cells that
+    show it: :func:`geoboresight.georef.geoloc.glt_coordinates`). ``sun_zenith`` 0–90° (< 90), ``sun_azimuth`` clockwise from north towards
     the sun (as ``sun-shadow``); or ``acquisition_time`` (ISO 8601, UTC without an offset),
     from which they are computed at the scene's centre (NREL's SPA:
     :func:`geoboresight.shadow.solar.sun_position`). ``cell_size`` (m) for a DSM without a
@@ -83,6 +84,7 @@ class SurfaceModel:
     clearance: float = 1.0
     igm: str | None = None
     acquisition_time: str | None = None
+    glt: str | None = None
 
 
 #: Bands per instrument read for the dark level besides the signal bands (evenly spaced).
@@ -187,7 +189,31 @@ def _surface_via_igm(surface: SurfaceModel, dual, stack, progress):
 
     from ..io.sample import raw_grid_matrix, surface_on_raw_grid
 
-    coords = georef.coordinates_for(dual.vnir.path, igm=surface.igm)
+    if surface.igm and surface.glt:
+        raise ParameterError(
+            "parameters 'igm' and 'glt': give the line's geolocation once, its IGM or its GLT"
+        )
+    if surface.glt:
+        from ..georef.geoloc import glt_coordinates
+
+        glt = georef.read_glt(surface.glt)
+        x, y = glt_coordinates(
+            glt.sample,
+            glt.line,
+            glt.valid,
+            glt.grid.transform,
+            width=dual.width,
+            height=dual.height,
+        )
+        if not np.isfinite(x).any():
+            raise InputError(
+                f"GLT {surface.glt} shows fewer than 3 pixels of the {dual.height} × "
+                f"{dual.width} image: give the GLT of this flight line"
+            )
+        coords = georef.Coordinates(x, y, glt.grid.crs, surface.glt, f"GLT {surface.glt}")
+    else:
+        coords = georef.coordinates_for(dual.vnir.path, igm=surface.igm)
+    source = f"GLT {surface.glt}" if surface.glt else f"IGM {surface.igm}"
     if coords.x.shape != (dual.height, dual.width):
         raise InputError(
             f"IGM {surface.igm} has {coords.x.shape[0]} × {coords.x.shape[1]} pixels but the "
@@ -212,13 +238,13 @@ def _surface_via_igm(surface: SurfaceModel, dual, stack, progress):
         covered = surface_on_raw_grid(src, coords, dst, progress.sub(0.0, 0.05))
     if covered == 0:
         raise InputError(
-            f"surface model {surface.dsm} does not cover the flight line: none of the IGM "
-            f"{surface.igm}'s pixels fall on it (check both files' CRS)"
+            f"surface model {surface.dsm} does not cover the flight line: none of the "
+            f"{source}'s pixels fall on it (check both files' CRS)"
         )
     share = covered / float(dual.height * dual.width)
     cell = float(np.sqrt(abs(np.linalg.det(matrix))))
     progress.info(
-        f"surface model {surface.dsm} read at the raw pixels through IGM {surface.igm}: "
+        f"surface model {surface.dsm} read at the raw pixels through the {source}: "
         f"{100 * share:.1f} % covered; raw grid {cell:.2f} m pixels, affine within "
         f"{rms:.2f} m RMS ({georef.crs_name(crs)})"
     )
@@ -246,6 +272,7 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
                 ("sun_azimuth", surface.sun_azimuth),
                 ("acquisition_time", surface.acquisition_time),
                 ("igm", surface.igm),
+                ("glt", surface.glt),
             )
             if v is not None
         ]
@@ -259,7 +286,7 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
     sun = _sun(surface, None) if surface.acquisition_time is None else None
     if sun is None and (surface.sun_zenith is not None or surface.sun_azimuth is not None):
         _sun(surface, None)  # raises: the time and the angles both given
-    if surface.igm:
+    if surface.igm or surface.glt:
         src, matrix, place = _surface_via_igm(surface, dual, stack, progress)
     else:
         src = stack.enter_context(io.open_raster(surface.dsm, "surface model"))
@@ -328,7 +355,7 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
 
 
 @operation(
-    inputs=("vnir", "swir", "classes", "surface.dsm", "surface.igm"),
+    inputs=("vnir", "swir", "classes", "surface.dsm", "surface.igm", "surface.glt"),
     outputs=("output", "mask", "fraction"),
 )
 def shadow_map_file(
@@ -586,6 +613,7 @@ def shadow_map_file(
                 sun_azimuth_deg=str(dsm.azimuth),
                 sun_position=dsm.sun,
                 **({"igm": surface.igm} if surface.igm else {}),
+                **({"glt": surface.glt} if surface.glt else {}),
                 dsm_surface=dsm.surface,
                 method="surface model prior: cast shadow from the DSM and the sun (ray march, "
                 f"{dsm.surface} surface), refined by SWIR/NIR darkness within "
