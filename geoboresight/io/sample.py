@@ -73,18 +73,14 @@ def raw_grid_matrix(coords: Coordinates) -> tuple[np.ndarray, object, float]:
     if crs != coords.crs:
         x, y = transform_xy(x, y, coords.crs, crs)
     design = np.column_stack([cols, rows, np.ones(rows.size)]).astype(np.float64)
-    (ax, bx, _), res_x, rank, _ = np.linalg.lstsq(design, x, rcond=None)
-    (ay, by, _), res_y, _, _ = np.linalg.lstsq(design, y, rcond=None)
-    m = np.array([[ax, bx], [ay, by]])
+    xy = np.column_stack([x, y])
+    coef, _, rank, _ = np.linalg.lstsq(design, xy, rcond=None)  # (3, 2): a, b, c per axis
+    m = coef[:2].T  # [[∂x/∂col, ∂x/∂row], [∂y/∂col, ∂y/∂row]]
     if rank < 3 or abs(np.linalg.det(m)) == 0:
         raise InputError(
             f"IGM {coords.path}: its pixels do not span an area (all on one line or point)"
         )
-    fitted = design @ np.array([ax, bx, 0.0])
-    rx = x - fitted - np.median(x - fitted)
-    fitted = design @ np.array([ay, by, 0.0])
-    ry = y - fitted - np.median(y - fitted)
-    rms = float(np.sqrt(np.mean(rx**2 + ry**2)))
+    rms = float(np.sqrt(np.mean(np.sum((xy - design @ coef) ** 2, axis=1))))
     return m, crs, rms
 
 
