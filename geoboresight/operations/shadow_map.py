@@ -282,10 +282,10 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
                 "only used with a surface model: give 'dsm' too, or leave them empty"
             )
         return None
-    # The sun's position first: a missing or doubly given sun fails before any reading.
-    sun = _sun(surface, None) if surface.acquisition_time is None else None
-    if sun is None and (surface.sun_zenith is not None or surface.sun_azimuth is not None):
-        _sun(surface, None)  # raises: the time and the angles both given
+    # The scene's place is needed only for the sun from the time alone: otherwise the sun is
+    # known, or refused (missing, or given twice), before any reading.
+    angles = surface.sun_zenith is not None or surface.sun_azimuth is not None
+    sun = _sun(surface, None) if surface.acquisition_time is None or angles else None
     if surface.igm or surface.glt:
         src, matrix, place = _surface_via_igm(surface, dual, stack, progress)
     else:
