@@ -28,6 +28,7 @@ from geoboresight.shadow.solar import parse_time, sun_position
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "validation"))
 from scene_model2 import simulate2, write_scene2  # noqa: E402
+from synth import write_gtiff  # noqa: E402
 
 UTM36N = CRS.from_epsg(32636)
 HEADING = 30.0  # the raw grid's up (flight direction), clockwise from north
@@ -127,20 +128,9 @@ def mapped(tmp_path_factory):
     igm = str(root / "igm.tif")
     write_igm(igm, x, y, UTM36N, {})
     dsm, transform = _map_dsm(z, x, y, gsd)
-    dsm_path = str(root / "dsm_map.tif")
-    with rasterio.open(
-        dsm_path,
-        "w",
-        driver="GTiff",
-        width=dsm.shape[1],
-        height=dsm.shape[0],
-        count=1,
-        dtype="float32",
-        crs=UTM36N,
-        transform=transform,
-        nodata=-9999.0,
-    ) as dst:
-        dst.write(dsm, 1)
+    dsm_path = write_gtiff(
+        str(root / "dsm_map.tif"), dsm[None], nodata=-9999.0, crs=UTM36N, transform=transform
+    )
     return sc, folder, igm, dsm_path, z, (x, y)
 
 
@@ -272,18 +262,7 @@ def test_sun_shadow_takes_the_acquisition_time(tmp_path):
     z = np.zeros((40, 40), np.float32)
     z[15:25, 15:25] = 10.0
     dsm = str(tmp_path / "dsm.tif")
-    with rasterio.open(
-        dsm,
-        "w",
-        driver="GTiff",
-        width=40,
-        height=40,
-        count=1,
-        dtype="float32",
-        crs=UTM36N,
-        transform=from_origin(*ORIGIN, 1.0, 1.0),
-    ) as dst:
-        dst.write(z, 1)
+    write_gtiff(dsm, z[None], crs=UTM36N, transform=from_origin(*ORIGIN, 1.0, 1.0))
     when = "2010-06-21T07:00:00+02:00"
     r = sun_shadow_file(dsm, output=str(tmp_path / "t.tif"), acquisition_time=when)
     from pyproj import Transformer
@@ -305,10 +284,7 @@ def test_sun_shadow_takes_the_acquisition_time(tmp_path):
         with pytest.raises(ParameterError, match=match):
             sun_shadow_file(dsm, output=str(tmp_path / "x.tif"), **kwargs)
     raw = str(tmp_path / "raw.tif")
-    with rasterio.open(
-        raw, "w", driver="GTiff", width=40, height=40, count=1, dtype="float32"
-    ) as dst:
-        dst.write(z, 1)
+    write_gtiff(raw, z[None])
     with pytest.raises(ParameterError, match="needs the scene's position"):
         sun_shadow_file(raw, output=str(tmp_path / "x.tif"), cell_size=1.0, acquisition_time=when)
     assert not os.path.exists(tmp_path / "x.tif")
@@ -384,19 +360,7 @@ def test_a_glt_places_the_raw_pixels_and_the_dsm(mapped, tmp_path):
     gx, gy = glt_coordinates(glt[0], glt[1], None, transform, width=x.shape[1], height=x.shape[0])
     err = np.hypot(gx - x, gy - y)
     assert np.isfinite(err).all() and err.max() < gsd * np.sqrt(2) / 2
-    path = str(tmp_path / "glt.tif")
-    with rasterio.open(
-        path,
-        "w",
-        driver="GTiff",
-        width=glt.shape[2],
-        height=glt.shape[1],
-        count=2,
-        dtype="int32",
-        crs=UTM36N,
-        transform=transform,
-    ) as dst:
-        dst.write(glt)
+    path = write_gtiff(str(tmp_path / "glt.tif"), glt, crs=UTM36N, transform=transform)
     sun = sc.truth["sun"]
     v, s = os.path.join(folder, "vnir.hdr"), os.path.join(folder, "swir.hdr")
     on_map = (sun["zenith_deg"], (sun["azimuth_deg"] + HEADING) % 360.0)
