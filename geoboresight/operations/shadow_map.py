@@ -180,8 +180,8 @@ def _sun(surface: SurfaceModel, place) -> tuple[float, float, str]:
     )
 
 
-def _surface_via_igm(surface: SurfaceModel, dual, stack, progress):
-    """The DSM (on a map grid) read at every raw pixel through the line's IGM: a temporary
+def _surface_via_geolocation(surface: SurfaceModel, dual, stack, progress):
+    """The DSM (on a map grid) read at every raw pixel through the line's IGM or GLT: a
     raster on the image's grid, the raw grid's geometry, and the place for the sun."""
     import tempfile
 
@@ -287,7 +287,7 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
     angles = surface.sun_zenith is not None or surface.sun_azimuth is not None
     sun = _sun(surface, None) if surface.acquisition_time is None or angles else None
     if surface.igm or surface.glt:
-        src, matrix, place = _surface_via_igm(surface, dual, stack, progress)
+        src, matrix, place = _surface_via_geolocation(surface, dual, stack, progress)
     else:
         src = stack.enter_context(io.open_raster(surface.dsm, "surface model"))
         if (src.height, src.width) != (dual.height, dual.width):
