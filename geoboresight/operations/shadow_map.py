@@ -182,7 +182,7 @@ def _sun(surface: SurfaceModel, place) -> tuple[float, float, str]:
 
 def _surface_via_geolocation(surface: SurfaceModel, dual, stack, progress):
     """The DSM (on a map grid) read at every raw pixel through the line's IGM or GLT: a
-    raster on the image's grid, the raw grid's geometry, and the place for the sun."""
+    temporary raster on the image's grid, the raw grid's geometry, and the place for the sun."""
     import tempfile
 
     import rasterio
