@@ -33,7 +33,7 @@ while the method is developed; each is run once.
 sub-pixel shift of up to half a pixel each way: registered within a pixel; seeds fixed below)
 against ``shadow-map`` without, and ``deshadow`` with the truth fraction and with the map's,
 each without and with the DSM (the same noisy one, and the sun).
-Its hold-out groups (``--dsm --holdout 4`` to ``9``) are drawn as the others, with other seeds;
+Its hold-out groups (``--dsm --holdout 4`` to ``11``) are drawn as the others, with other seeds;
 ``--no-deshadow`` leaves the de-shadow columns empty.
 
 Usage::
@@ -137,6 +137,12 @@ HOLDOUT = {
     # random.SystemRandom, fixed before the group was first run (run once). Drawn in parallel
     # with groups 6–8 as "group 7" of that work; renumbered when the two were merged.
     9: (650604672, range(40, 45), (22, 23, 24)),
+    # Issue 24, fourth session: drawn from random.SystemRandom and fixed here before any change
+    # of the session; other model-2 and simulator seeds than every earlier group. Group 10 is
+    # the shadow map's (--dsm --no-deshadow), group 11 de-shadowing's; each is run once, with
+    # the session's final method.
+    10: (1169926643, range(45, 50), (25, 26, 27)),
+    11: (1723010984, range(50, 55), (28, 29, 30)),
 }
 #: Height noise (m) and largest sub-pixel shift (px) of the DSM given to shadow-map --dsm.
 DSM_NOISE_M = 0.3
