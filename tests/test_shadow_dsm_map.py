@@ -280,6 +280,8 @@ def test_sun_shadow_takes_the_acquisition_time(tmp_path):
     for kwargs, match in (
         ({}, "needs the sun's position"),
         ({"sun_zenith": 30.0, "acquisition_time": when}, "give the sun's position once"),
+        # 01:00 UTC at 35°E in June is before sunrise: the time is named, not 'sun_zenith'.
+        ({"acquisition_time": "2010-06-21T03:00:00+02:00"}, "acquisition_time.*below the horizon"),
     ):
         with pytest.raises(ParameterError, match=match):
             sun_shadow_file(dsm, output=str(tmp_path / "x.tif"), **kwargs)

@@ -82,6 +82,15 @@ def sun_angles(
         )
     lon, lat, crs = place
     zen, az = sun_position(acquisition_time, lon, lat)
+    if not zen < 90.0:
+        # Checked here, not by check_sun: the user gave a time, not a zenith, so the message
+        # names the time (a wrong date or UTC offset is the usual cause).
+        raise ParameterError(
+            f"parameter 'acquisition_time': at {acquisition_time} the sun is "
+            f"{zen - 90.0:.1f}° below the horizon at {lat:.4f}°, {lon:.4f}° (zenith "
+            f"{zen:.1f}°): no sunlight casts shadows; check the date and the UTC offset (a "
+            "time without an offset is UTC)"
+        )
     bearing = georef.true_north_bearing(lon, lat, crs)
     how = (
         f"computed for {acquisition_time} at {lat:.4f}°, {lon:.4f}° (NREL SPA; azimuth "
