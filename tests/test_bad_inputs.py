@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import rasterio
 from hostile import COLS, ROWS, UTM36, cli, error_line, make_inputs, read_only_folder, snapshot
 from synth import write_gtiff
 
@@ -933,7 +934,25 @@ def _georef_cases() -> list[Case]:
             setup=_cube_filled(_saturated),
         )
     )
+    # A shadow fraction given in percent would be clipped to 0–1 (nearly all "full shadow").
+    for op, key in (("deshadow", "shadow"), ("shadow-fraction-fit", "truth")):
+        c.append(
+            Case(
+                f"{op}-fraction-in-percent",
+                op,
+                {key: "pct.tif"},
+                ("pct.tif", "0–1", "divide it by 100"),
+                setup=_percent_fraction,
+            )
+        )
     return c
+
+
+def _percent_fraction(d: Path) -> None:
+    with rasterio.open(d / "truth.tif") as src:
+        f, profile = src.read(), src.profile
+    with rasterio.open(d / "pct.tif", "w", **profile) as dst:
+        dst.write(f * 100.0)
 
 
 CASES = _generic_cases() + _specific_cases() + _georef_cases()

@@ -23,7 +23,7 @@ from ..io.dual import DualLayout
 from ..shadow import deshadow as ds
 from ..shadow import illumination as ill
 from ._operation import operation
-from .shadow import no_valid_error
+from .shadow import check_fraction, no_valid_error
 from .shadow_map import DARK_BANDS, SurfaceModel, _dark_level, _offset, _open_surface, _spread
 
 #: Pixels sampled for the dark level estimate.
@@ -181,6 +181,7 @@ def deshadow_file(
         def read(r0, r1):
             x, x_ok = read_cube(r0, r1)
             f, f_ok = read_f(r0, r1)
+            check_fraction(f, f_ok, shadow)
             f = np.where(f_ok, f, np.nan)
             if dsm is None:
                 return x, x_ok, f, None, None

@@ -38,6 +38,32 @@ def no_valid_error(path: str, what: str = "ratio raster") -> InputError:
     )
 
 
+#: How far an estimated shadow fraction may stray outside 0–1 (an unmixed or fitted fraction's
+#: noise) before the file is taken for something else: a percentage, classes, a ratio.
+FRACTION_SLACK = 0.05
+
+
+def check_fraction(f: np.ndarray, ok: np.ndarray, path: str, what: str = "shadow fraction"):
+    """Refuse a shadow-fraction strip with values outside 0–1 (beyond :data:`FRACTION_SLACK`):
+    a percentage or a class raster given as a fraction would otherwise be clipped to 0–1 and
+    silently give a wrong result."""
+    v = np.asarray(f)[np.asarray(ok, bool)]
+    if not v.size:
+        return
+    lo, hi = float(v.min()), float(v.max())
+    if lo >= -FRACTION_SLACK and hi <= 1.0 + FRACTION_SLACK:
+        return
+    hint = (
+        "a percentage? divide it by 100 (e.g. gdal_calc.py, or QGIS's Raster calculator)"
+        if lo >= -FRACTION_SLACK and hi <= 100.0 + FRACTION_SLACK
+        else "give a fraction: shadow-map's 'fraction' or sun-shadow's output"
+    )
+    raise InputError(
+        f"{what} {path} holds values from {lo:g} to {hi:g}, but a shadow fraction is 0–1 "
+        f"(nodata aside): {hint}"
+    )
+
+
 def grid_place(grid) -> tuple[float, float, object] | None:
     """(lon, lat, CRS) of the centre of a grid with a CRS and a geotransform, else None: where
     the sun is computed from the acquisition time (:func:`sun_angles`)."""
@@ -468,6 +494,7 @@ def shadow_fraction_fit_file(
         share = PLOT_POINTS / max(1, grid.height * grid.width) * 4
 
         def kernel(r, okr, f, okf, m=None, okm=None):
+            check_fraction(f, okf, truth, "shadow-fraction raster")
             # Drawn in strip order in the calling thread: the plot's points are reproducible.
             sel = okr & okf & ((okm & (m == 1)) if m is not None else (f > 0))
             pick = None
