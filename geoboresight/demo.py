@@ -19,6 +19,15 @@ import click
 from .algorithms import execute, registry
 from .errors import GeoboresightError
 from .progress import Progress
+from .simulate.shadow import raw_grid_azimuth
+
+
+def _grid_azimuth(sun: dict) -> float:
+    """The scene's sun azimuth as sun-shadow takes it on the scene's grid."""
+    if sun.get("azimuth_reference") == "flight direction":
+        return raw_grid_azimuth(sun["azimuth_deg"])
+    return float(sun["azimuth_deg"])
+
 
 SAMPLE = Path(__file__).resolve().parents[1] / "sample_data" / "scene"
 
@@ -123,7 +132,7 @@ def steps(scene: Path, out: Path) -> list[tuple[str, dict]]:
                 {
                     "dsm": str(scene / "truth_dsm.tif"),
                     "sun_zenith": truth["sun"]["zenith_deg"],
-                    "sun_azimuth": truth["sun"]["azimuth_deg"],
+                    "sun_azimuth": _grid_azimuth(truth["sun"]),
                     "cell_size": truth.get("gsd_m", 1.5),
                     "output": o("sun_shadow_fraction.tif"),
                     "hillshade": o("hillshade.tif"),

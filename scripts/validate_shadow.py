@@ -74,6 +74,7 @@ from geoboresight.operations.shadow_truth import (  # noqa: E402
     sun_shadow_file,
 )
 from geoboresight.simulate import simulate_scene  # noqa: E402
+from geoboresight.simulate.shadow import raw_grid_azimuth  # noqa: E402
 
 DARK1 = ("asphalt", "roof_shingle", "roof_tile", "dark_soil")
 #: The simulator's dark offsets (geoboresight/simulate/sensor.py), to re-offset its DN.
@@ -265,9 +266,7 @@ def make_scene(model, opts, lines, folder):
             t = json.load(fh)
         names = sc.material_names
         dark_ids = [k for k, v in names.items() if v in DARK1]
-        # The simulator's azimuth is from the flight direction, lines along it: row 0 is
-        # the start of the line, so sun-shadow's north-up convention needs 180° − azimuth.
-        az = (180.0 - float(t["sun"]["azimuth_deg"])) % 360.0
+        az = raw_grid_azimuth(t["sun"]["azimuth_deg"])
         return sc.material, names, dark_ids, o["zenith"], az, float(t["gsd_m"])
     sc = simulate2(
         rows=lines, seed=opts.get("seed", 0), **{k: v for k, v in opts.items() if k != "seed"}

@@ -40,3 +40,35 @@ def test_printed_commands_paste_as_printed(tmp_path):
     words = shlex.split(line)
     assert words[:2] == ["geoboresight", name] and words[-1] == "--overwrite"
     assert str(pathlib.Path(tmp_path / "a b" / "boresight_ratio.tif")) in words
+
+
+def test_the_demos_sun_shadow_is_the_scenes_shadow(tmp_path):
+    # The simulator's azimuth is from the flight direction and its raw image is the ground
+    # mirrored (rows along the flight from row 0, columns to the right of the track): the demo
+    # must give sun-shadow 180° minus it. Checked against the scene's own truth shadow
+    # fraction, which the simulator draws by its own ray casting, not sun-shadow's.
+    import rasterio
+
+    from geoboresight.algorithms import execute, registry
+
+    values = dict(steps(SAMPLE, tmp_path))["sun-shadow"]
+    with rasterio.open(SAMPLE / "truth_shadow_fraction.tif") as src:
+        truth = src.read(1) >= 0.5
+
+    def iou(azimuth):
+        out = str(tmp_path / f"s{azimuth:.1f}.tif")
+        execute(
+            registry()["sun-shadow"],
+            {**values, "sun_azimuth": azimuth, "output": out, "hillshade": None},
+        )
+        with rasterio.open(out) as src:
+            cast = src.read(1) >= 0.5
+        return (cast & truth).sum() / (cast | truth).sum()
+
+    given = values["sun_azimuth"]
+    assert iou(given) > 0.7
+    # The azimuth as the simulator states it, unconverted, casts the shadows elsewhere.
+    import json
+
+    stated = json.loads((SAMPLE / "truth.json").read_text())["sun"]["azimuth_deg"]
+    assert given != stated and iou(stated) < 0.4

@@ -106,7 +106,7 @@ SURFACE = Group(
         ),
         Number(
             name="sun_azimuth",
-            description="Sun azimuth (degrees clockwise from the grid's up: north on a map grid or with the IGM, the flight direction in raw sensor geometry; at acquisition, with the DSM)",
+            description="Sun azimuth (degrees clockwise from the grid's up: north on a map grid or with the IGM; on the raw grid, towards row 0, so with lines recorded along the flight and columns to the right of the track it is 180° minus the azimuth from the flight direction; at acquisition, with the DSM)",
             optional=True,
             minimum=0.0,
             maximum=360.0,

@@ -63,7 +63,7 @@ SUN_SHADOW = Algorithm(
         ),
         Number(
             name="sun_azimuth",
-            description="Sun azimuth (degrees clockwise from the grid's up: north on a map grid, the flight direction in raw sensor geometry; 0–360)",
+            description="Sun azimuth (degrees clockwise from the grid's up: north on a map grid; on a raw grid without a geotransform, towards row 0, so with lines recorded along the flight and columns to the right of the track it is 180° minus the azimuth from the flight direction; 0–360)",
             optional=True,
             minimum=0.0,
             maximum=360.0,

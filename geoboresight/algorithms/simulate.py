@@ -139,7 +139,7 @@ SIMULATE = Algorithm(
                 ),
                 Number(
                     name="sun_azimuth",
-                    description="Sun azimuth (degrees clockwise from the grid's up: the flight direction in raw sensor geometry; default from the paper)",
+                    description="Sun azimuth (degrees clockwise from the flight direction; default from the paper). The raw image runs along the flight from row 0 with columns to the right of the track, so sun-shadow and shadow-map take 180° minus this on it",
                     optional=True,
                     minimum=0.0,
                     maximum=360.0,

@@ -33,6 +33,18 @@ def sun_vector(zenith_deg: float, azimuth_deg: float) -> np.ndarray:
     return np.array([np.sin(z) * np.sin(a), np.sin(z) * np.cos(a), np.cos(z)])
 
 
+def raw_grid_azimuth(azimuth_deg: float) -> float:
+    """The simulator's sun azimuth as ``sun-shadow`` and ``shadow-map`` take it on the
+    simulated raw grid: degrees clockwise from the grid's up (row 0 at the top).
+
+    The simulator measures the azimuth clockwise from the flight direction in the track frame
+    (:func:`sun_vector`). Its raw image has row 0 at the start of the line and the columns to
+    the right of the track, so the image is the ground seen mirrored: the flight runs down
+    the image and the azimuth from the image's up is 180° − ``azimuth_deg``.
+    """
+    return (180.0 - float(azimuth_deg)) % 360.0
+
+
 #: Slopes steeper than this (rise per run) are walls: vertical, of no horizontal extent.
 WALL_SLOPE = 2.5
 
