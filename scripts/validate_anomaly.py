@@ -106,12 +106,12 @@ def nominal_for(offset_px):
     return H + offset_px * 1.5 / np.tan(np.radians(SQUINT))
 
 
-def sim_scene(preset, offset, seed, lines=128):
+def sim_scene(preset, offset, seed, lines=128, n_targets=24):
     s = simulate_scene(
         preset,
         lines=lines,
         seed=seed,
-        targets=24,
+        targets=n_targets,
         squint_deg=SQUINT,
         flying_height=H,
         nominal_altitude=nominal_for(offset),
@@ -289,7 +289,16 @@ def _ratio_scores(vnir, swir, wl_v, wl_s, b920, b1010, dv, ds, along, across, sc
         scores[name], dprime[name] = res.score, res.dprime
 
 
-def run(out, lines, groups=tuple(GROUPS), detectors=DETECTORS, model=None, scene=None, seed=None):
+def run(
+    out,
+    lines,
+    groups=tuple(GROUPS),
+    detectors=DETECTORS,
+    model=None,
+    scene=None,
+    seed=None,
+    n_targets=24,
+):
     os.makedirs(out, exist_ok=True)
     rows = []
     todo = []
@@ -306,9 +315,9 @@ def run(out, lines, groups=tuple(GROUPS), detectors=DETECTORS, model=None, scene
         if (model and mod != model) or (scene and label != scene) or (seed and s != seed):
             continue
         if mod == "simulate":
-            v, sw, wv, ws, ab, true = sim_scene(preset, off, s, lines)
+            v, sw, wv, ws, ab, true = sim_scene(preset, off, s, lines, n_targets)
         else:
-            v, sw, wv, ws, ab, true = m2_scene(off, s)
+            v, sw, wv, ws, ab, true = m2_scene(off, s, n_targets)
         row = evaluate(v, sw, wv, ws, ab, s, detectors)
         row.update(model=mod, scene=label, seed=s, true=true, group=group)
         rows.append(row)
@@ -401,6 +410,13 @@ if __name__ == "__main__":
     ap.add_argument("--model", choices=("simulate", "model2"))
     ap.add_argument("--scene", choices=(*SIM_SCENES, "mixed"))
     ap.add_argument("--seed", type=int)
+    ap.add_argument(
+        "--targets",
+        type=int,
+        default=24,
+        help="grey targets per scene (24; more resolve smaller AUC differences: the SE of a "
+        "scene's AUC falls as one over the root of the targets' number)",
+    )
     a = ap.parse_args()
     t = time.perf_counter()
     run(
@@ -411,5 +427,6 @@ if __name__ == "__main__":
         a.model,
         a.scene,
         a.seed,
+        a.targets,
     )
     print(f"{time.perf_counter() - t:.0f} s")
