@@ -126,12 +126,12 @@ def sim_scene(preset, offset, seed, lines=128, n_targets=24):
     )
 
 
-def m2_scene(offset, seed, n_targets=24, fill=0.09, grey=0.30):
+def m2_scene(offset, seed, n_targets=24, fill=0.09, grey=0.30, lines=128):
     """Scene model 2 with grey sub-pixel targets on sunlit open ground (soil, dirt, grass),
     at least 7 px apart, mixed into the reflectance by the model itself."""
     import scene_model2 as m2
 
-    base = m2.simulate2(seed=seed, offset_px=offset, noise=False)
+    base = m2.simulate2(rows=lines, seed=seed, offset_px=offset, noise=False)
     ground = np.isin(base.material, (5, 6, 7)) & (base.shadow_fraction == 0)
     ground[:4] = ground[-4:] = False
     ground[:, :4] = ground[:, -4:] = False
@@ -147,7 +147,11 @@ def m2_scene(offset, seed, n_targets=24, fill=0.09, grey=0.30):
     for r, c in picks:
         abundance[r, c] = fill
     sc = m2.simulate2(
-        seed=seed, offset_px=offset, target_abundance=abundance, target_reflectance=grey
+        rows=lines,
+        seed=seed,
+        offset_px=offset,
+        target_abundance=abundance,
+        target_reflectance=grey,
     )
     return (
         sc.vnir.astype(np.float64),
@@ -317,7 +321,7 @@ def run(
         if mod == "simulate":
             v, sw, wv, ws, ab, true = sim_scene(preset, off, s, lines, n_targets)
         else:
-            v, sw, wv, ws, ab, true = m2_scene(off, s, n_targets)
+            v, sw, wv, ws, ab, true = m2_scene(off, s, n_targets, lines=lines)
         row = evaluate(v, sw, wv, ws, ab, s, detectors)
         row.update(model=mod, scene=label, seed=s, true=true, group=group)
         rows.append(row)
