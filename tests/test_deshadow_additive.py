@@ -9,10 +9,19 @@ as λ^−4 plus a white per-band dark remainder), and the second scene model
 
 from __future__ import annotations
 
+import json
+import os
+import sys
+
 import numpy as np
 import pytest
+import rasterio
 
+from geoboresight.operations.deshadow import deshadow_file
 from geoboresight.shadow import deshadow as ds
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "validation"))
+from scene_model2 import simulate2, write_scene2  # noqa: E402
 
 WL = np.linspace(420.0, 2400.0, 40)
 
@@ -119,3 +128,93 @@ def test_same_surface_drops_pairs_across_a_material_boundary():
     assert one[same].mean() > 0.8  # and most of the one-surface pairs are kept
     # No bands between 420 and 900 nm: no split.
     assert ds.same_surface(a[:, WL > 1000], b[:, WL > 1000], WL[WL > 1000]).all()
+
+
+# ------------------------------------------------------------------ per-band dark levels
+
+
+@pytest.fixture(scope="module")
+def scene(tmp_path_factory):
+    folder = str(tmp_path_factory.mktemp("m2dark") / "scene")
+    sc = simulate2(rows=64, cols=80, seed=0, sun_zenith=35.0, buildings=8, trees=6)
+    write_scene2(sc, folder)
+    return sc, folder
+
+
+def _with_dark(folder, name, levels):
+    with open(os.path.join(folder, name), "a", encoding="utf-8") as fh:
+        fh.write("dark level = {" + ", ".join(f"{v:.2f}" for v in levels) + "}\n")
+
+
+def test_deshadow_subtracts_the_headers_per_band_dark_levels(scene, tmp_path):
+    sc, folder = scene
+    dark_v, dark_s = sc.truth["vnir_dark_dn"], sc.truth["swir_dark_dn"]
+    _with_dark(folder, "vnir.hdr", dark_v)
+    _with_dark(folder, "swir.hdr", dark_s)
+    frac = str(tmp_path / "f.tif")
+    f = np.nan_to_num(sc.shadow_fraction.astype("float32"), nan=0.0)
+    with rasterio.open(
+        frac, "w", driver="GTiff", width=f.shape[1], height=f.shape[0], count=1, dtype="float32"
+    ) as dst:
+        dst.write(f, 1)
+    out, rep = str(tmp_path / "d.tif"), str(tmp_path / "d.json")
+    deshadow_file(
+        os.path.join(folder, "vnir.hdr"),
+        os.path.join(folder, "swir.hdr"),
+        shadow=frac,
+        output=out,
+        report=rep,
+    )
+    with open(rep) as fh:
+        bands = json.load(fh)["bands"]
+    levels = np.array([b["dark_level_dn"] for b in bands])
+    k = np.array([b["illumination_ratio"] for b in bands])
+    # The header's level of every band, not one per instrument.
+    assert np.allclose(levels, np.r_[dark_v, dark_s], atol=0.01)
+    nv = len(dark_v)
+    with rasterio.open(out) as src:
+        cube = src.read()
+    full = f >= 0.999
+    x = sc.vnir[:, full].astype(np.float64)
+    d = np.asarray(dark_v)[:, None]
+    # Full shadow: (DN − d_b)·k_b + d_b, band by band.
+    assert np.allclose(cube[:nv, full], (x - d) * k[:nv, None] + d, rtol=1e-4, atol=0.05)
+    lit = f == 0
+    assert np.allclose(cube[:nv, lit], sc.vnir[:, lit], atol=0.01)
+
+
+def test_deshadow_file_with_the_additive_signal_scales_only_the_signal_above_it(scene, tmp_path):
+    sc, folder = scene
+    frac = str(tmp_path / "f.tif")
+    f = np.nan_to_num(sc.shadow_fraction.astype("float32"), nan=0.0)
+    with rasterio.open(
+        frac, "w", driver="GTiff", width=f.shape[1], height=f.shape[0], count=1, dtype="float32"
+    ) as dst:
+        dst.write(f, 1)
+    out, rep = str(tmp_path / "d.tif"), str(tmp_path / "d.json")
+    deshadow_file(
+        os.path.join(folder, "vnir.hdr"),
+        os.path.join(folder, "swir.hdr"),
+        shadow=frac,
+        output=out,
+        report=rep,
+        additive=True,
+    )
+    with open(rep) as fh:
+        bands = json.load(fh)["bands"]
+    d = np.array([b["dark_level_dn"] for b in bands])
+    c = np.array([b["additive_signal_dn"] for b in bands])
+    k = np.array([b["illumination_ratio"] for b in bands])
+    nv = sc.vnir.shape[0]
+    # Model 2's path radiance is 3 % of the sky's light: the blue's additive signal is
+    # positive and measured.
+    assert (c[:10] > 0).all()
+    assert all(b["additive_signal_error_dn"] is not None for b in bands[:10])
+    with rasterio.open(out) as src:
+        cube = src.read()
+    full = f >= 0.999
+    base = (d + c)[:nv, None]
+    x = sc.vnir[:, full].astype(np.float64)
+    assert np.allclose(cube[:nv, full], (x - base) * k[:nv, None] + base, rtol=1e-4, atol=0.05)
+    lit = f == 0
+    assert np.allclose(cube[:nv, lit], sc.vnir[:, lit], atol=0.01)
