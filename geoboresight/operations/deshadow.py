@@ -250,14 +250,15 @@ def deshadow_file(
         c = np.zeros(len(wl))
         c_err = np.full(len(wl), np.inf)
         if additive:
-            # Pairs of one surface (a smooth ratio spectrum); the additive signal from their
-            # line, then the ratio of the signal above it.
+            # Pairs of one surface (a smooth ratio spectrum) give the additive signal (their
+            # line's intercept); the ratio is then that of all the pairs' signal above it
+            # (the pairs of one surface alone: m2 seeds 0-4 with the DSM and the truth
+            # fraction 15.7/23, 6.6/4, 7.9/20, 61.4/51, 5.5/10 worst SA/brightness; all
+            # pairs 13.7/28, 3.7/4, 8.1/20, 60.7/53, 3.7/8).
             one = ds.same_surface(a, b, wl)
             sky1 = None if sky is None else (sky[0][one], sky[1][one])
             c, c_err = ds.additive_signal(a[one], b[one], k, sky_view=sky1)
-            k, n_pairs, spread = ds.illumination_ratio(
-                a[one] - c, b[one] - c, sky_view=sky1, keep=keep
-            )
+            k, n_pairs, spread = ds.illumination_ratio(a - c, b - c, sky_view=sky, keep=keep)
             progress.info(
                 f"additive signal (intercept of the line of {int(one.sum())} pairs of one "
                 f"surface) in {int(np.isfinite(c_err).sum())} bands: {np.min(c):.1f} to "
