@@ -349,8 +349,9 @@ def additive_signal(
 
     The fit needs pairs of surfaces of different brightness (one material alone fixes a point,
     not the line), and pairs of one surface (:func:`same_surface`). Its standard error is
-    returned (that of the intercept, over ``k − 1``); a band where ``k`` is about 1
-    (absorption bands) does not measure ``c`` (error infinite).
+    returned: the weighted least-squares error of the intercept, over ``k − 1`` (so a band
+    where ``k`` is about 1, an absorption band, measures ``c`` poorly); the bias that
+    light the model leaves out (adjacency, slopes) puts in the line is not in it.
 
     Returns
     -------
