@@ -34,12 +34,13 @@ sub-pixel shift of up to half a pixel each way: registered within a pixel; seeds
 against ``shadow-map`` without, and ``deshadow`` with the truth fraction and with the map's,
 each without and with the DSM (the same noisy one, and the sun).
 Its hold-out groups (``--dsm --holdout 4`` to ``11``) are drawn as the others, with other seeds;
-``--no-deshadow`` leaves the de-shadow columns empty.
+``--no-deshadow`` leaves the de-shadow columns empty; ``--additive`` de-shadows with the
+additive signal estimated from the pairs (``deshadow_file(additive=True)``).
 
 Usage::
 
     python scripts/validate_shadow.py [--lines 128] [--quick | --holdout N] [--dsm
-        [--no-deshadow]] [--out FOLDER] [--markdown FILE]
+        [--no-deshadow | --additive]] [--out FOLDER] [--markdown FILE]
 """
 
 from __future__ import annotations
@@ -384,7 +385,7 @@ def spectra_check(cube_path, dark, f_truth, material, names):
     return out
 
 
-def run_dsm_case(label, model, opts, lines, folder, index, deshadow=True):
+def run_dsm_case(label, model, opts, lines, folder, index, deshadow=True, additive=False):
     """The surface-model prior and de-shadowing on one scene (see the module's doc);
     ``deshadow`` False leaves the de-shadow columns empty (the shadow map only)."""
     t0 = time.perf_counter()
@@ -437,7 +438,13 @@ def run_dsm_case(label, model, opts, lines, folder, index, deshadow=True):
             # Band-interleaved: a cube of ~200 bands written pixel-interleaved takes 15 × longer.
             with writer_options(co=["INTERLEAVE=BAND"]):
                 r = deshadow_file(
-                    vnir, swir, shadow=frac, output=out, report=j(f"ds_{key}.json"), surface=surf
+                    vnir,
+                    swir,
+                    shadow=frac,
+                    output=out,
+                    report=j(f"ds_{key}.json"),
+                    surface=surf,
+                    additive=additive,
                 )
         except Exception as e:  # reported, not hidden
             row[key] = {"error": str(e)}
@@ -525,6 +532,11 @@ def main(argv=None):
     ap.add_argument(
         "--no-deshadow", action="store_true", help="with --dsm: the shadow map only (faster)"
     )
+    ap.add_argument(
+        "--additive",
+        action="store_true",
+        help="with --dsm: deshadow with the additive signal from the pairs' line (additive=True)",
+    )
     ap.add_argument("--out", help="keep the scenes and products in this (new) folder")
     ap.add_argument("--markdown", help="also write the table to this file")
     args = ap.parse_args(argv)
@@ -551,6 +563,7 @@ def main(argv=None):
                     os.path.join(folder, f"s{i:02d}"),
                     i,
                     deshadow=not args.no_deshadow,
+                    additive=args.additive,
                 )
                 rows.append(r)
                 print(

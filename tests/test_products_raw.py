@@ -347,3 +347,47 @@ def test_stats_json_counts_image_pixels_only(specim_pair, tmp_path):
     gb.stats_file(out, output=str(tmp_path / "s.json"))
     stats = json.loads((tmp_path / "s.json").read_text())
     assert 0 < stats["n"] <= LINES * 286
+
+
+def test_deshadow_takes_the_dark_frames_band_by_band(scene, tmp_path):
+    """A Specim capture whose dark frames differ from band to band: deshadow subtracts each
+    band's own level (the mean over its columns), not one level per instrument."""
+    b_v, _, s = scene.vnir.shape
+    b_s = scene.swir.shape[0]
+    step_v = 6.0 * (np.arange(b_v) % 9)[:, None]
+    step_s = 9.0 * (np.arange(b_s) % 7)[:, None]
+    folder = tmp_path / "specim"
+    hdr_v, _, _ = write_specim_raw(
+        folder,
+        "eagle",
+        scene.vnir + step_v[:, :, None].astype(scene.vnir.dtype),  # the image's dark too
+        scene.vnir_wavelengths,
+        fwhm=scene.vnir_fwhm,
+        dark=_pattern(b_v, s, VNIR_DARK) + step_v,
+        dark_lines=DARK_LINES,
+        seed=1,
+    )
+    hdr_s, _, _ = write_specim_raw(
+        folder,
+        "hawk",
+        scene.swir + step_s[:, :, None].astype(scene.swir.dtype),
+        scene.swir_wavelengths,
+        fwhm=scene.swir_fwhm,
+        dark=_pattern(b_s, s, SWIR_DARK) + step_s,
+        dark_lines=DARK_LINES,
+        seed=2,
+    )
+    frac = str(tmp_path / "f.tif")
+    f = np.nan_to_num(np.asarray(scene.shadow_fraction, "float32"), nan=0.0)
+    with rasterio.open(
+        frac, "w", driver="GTiff", width=f.shape[1], height=f.shape[0], count=1, dtype="float32"
+    ) as dst:
+        dst.write(f, 1)
+    rep = str(tmp_path / "d.json")
+    gb.deshadow_file(hdr_v, hdr_s, shadow=frac, output=str(tmp_path / "d.tif"), report=rep)
+    with open(rep) as fh:
+        levels = np.array([b["dark_level_dn"] for b in json.load(fh)["bands"]])
+    expected = np.r_[VNIR_DARK + step_v[:, 0], SWIR_DARK + step_s[:, 0]]
+    # The column pattern averages to within a DN of the level; the steps are band by band.
+    assert levels == pytest.approx(expected, abs=1.0)
+    assert np.ptp(levels[:b_v]) >= 40

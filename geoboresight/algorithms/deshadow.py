@@ -9,7 +9,7 @@ from dataclasses import replace
 from ..operations.deshadow import deshadow_file
 from ._common import BLOCK_ROWS, DUAL_PARAMS, OFFSET
 from .shadow_map import DARK, GROUP, SURFACE
-from .spec import Algorithm, FileOut, RasterIn, RasterOut, Result
+from .spec import Algorithm, FileOut, Flag, RasterIn, RasterOut, Result
 
 #: The shadow map's surface model and sun (SurfaceModel), described for de-shadowing: the same
 #: members (a DSM on a map grid through the line's IGM, the sun from the acquisition time),
@@ -85,6 +85,12 @@ DESHADOW = Algorithm(
         SURFACE_DESHADOW,
         DARK,
         OFFSET,
+        Flag(
+            name="additive",
+            description="Also estimate each band's additive signal (path radiance, a dark level "
+            "that differs from band to band) from the intercept of the pairs' line, and scale "
+            "only the signal above it (not the default: see docs/deshadow.md)",
+        ),
         BLOCK_ROWS,
         RasterOut(name="output", description="De-shadowed cube (float32, all bands)"),
         FileOut(

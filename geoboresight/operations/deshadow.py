@@ -77,6 +77,7 @@ def deshadow_file(
     layout=DualLayout(),
     dark=DarkLevels(),
     offset=BoresightOffset(),
+    additive=False,
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
 ) -> dict:
@@ -117,6 +118,14 @@ def deshadow_file(
         ``shadow-map`` does); 0 for radiance.
     offset : BoresightOffset
         Boresight offset of the SWIR (px); both None = measured.
+    additive : bool
+        Also estimate each band's additive signal (path radiance, and what is left of a dark
+        level that differs from band to band when one level per instrument is subtracted)
+        from the pairs of one surface (:func:`geoboresight.shadow.deshadow.same_surface`), as
+        the intercept of their line (:func:`geoboresight.shadow.deshadow.additive_signal`);
+        the ratio is then measured, and the signal scaled, above it (it is added back). Off
+        by default: on the validation scenes it helps some and breaks dark materials in
+        others (docs/deshadow.md).
     block_rows : int
     progress : Progress, optional
 
@@ -236,12 +245,27 @@ def deshadow_file(
             message="shadow edges",
             **strips,
         )
-        if dsm is None:
-            k, n_pairs, spread = ds.illumination_ratio(a, b)
-        else:
-            k, n_pairs, spread = ds.illumination_ratio(
-                a, b, sky_view=(pv[0], pv[1]), keep=ds.KEEP_WITH_SURFACE
+        sky = None if dsm is None else (pv[0], pv[1])
+        keep = ds.KEEP if dsm is None else ds.KEEP_WITH_SURFACE
+        k, n_pairs, spread = ds.illumination_ratio(a, b, sky_view=sky, keep=keep)
+        c = np.zeros(len(wl))
+        c_err = np.full(len(wl), np.inf)
+        if additive:
+            # Pairs of one surface (a smooth ratio spectrum) give the additive signal (their
+            # line's intercept); the ratio is then that of all the pairs' signal above it
+            # (the pairs of one surface alone: m2 seeds 0-4 with the DSM and the truth
+            # fraction 15.7/23, 6.6/4, 7.9/20, 61.4/51, 5.5/10 worst SA/brightness; all
+            # pairs 13.7/28, 3.7/4, 8.1/20, 60.7/53, 3.7/8).
+            one = ds.same_surface(a, b, wl)
+            sky1 = None if sky is None else (sky[0][one], sky[1][one])
+            c, c_err = ds.additive_signal(a[one], b[one], k, sky_view=sky1)
+            k, n_pairs, spread = ds.illumination_ratio(a - c, b - c, sky_view=sky, keep=keep)
+            progress.info(
+                f"additive signal (intercept of the line of {int(one.sum())} pairs of one "
+                f"surface) in {int(np.isfinite(c_err).sum())} bands: {np.min(c):.1f} to "
+                f"{np.max(c):.1f} DN"
             )
+
         # A band whose pairs do not say the sun brightens it (noise, absorption bands) is
         # left as it is: ratio 1.
         unchanged = int((~(np.isfinite(k) & (k >= 1.0))).sum())
@@ -260,12 +284,15 @@ def deshadow_file(
             )
 
         # Pass 2: the de-shadowed cube, each instrument on its own grid.
+        base = lv + c[:, None, None]
+
         def kernel(x, x_ok, f, z, v):
             f_ok = np.isfinite(f)
             fs = _fraction_grid(f, along, across, f_ok)
             vs = None if v is None else _fraction_grid(v, along, across, np.isfinite(v))
-            out_v = ds.deshadow(x[:nv] - lv[:nv], f, x_ok, ratio=k[:nv], sky_view=v) + lv[:nv]
-            out_s = ds.deshadow(x[nv:] - lv[nv:], fs, x_ok, ratio=k[nv:], sky_view=vs) + lv[nv:]
+            bv, bs = base[:nv], base[nv:]
+            out_v = ds.deshadow(x[:nv] - bv, f, x_ok, ratio=k[:nv], sky_view=v) + bv
+            out_s = ds.deshadow(x[nv:] - bs, fs, x_ok, ratio=k[nv:], sky_view=vs) + bs
             with np.errstate(invalid="ignore"):
                 shaded = x_ok & (f > 0)
             return np.concatenate([out_v, out_s]), shaded
@@ -286,6 +313,7 @@ def deshadow_file(
             "wavelength_units": "Nanometers",
             "illumination_ratio": ",".join(f"{v:.4f}" for v in k),
             "dark_level_dn": ",".join(f"{v:.2f}" for v in levels),
+            "additive_signal_dn": ",".join(f"{v:.2f}" for v in c),
             "pairs_used": str(n_pairs),
             "offset_along_px": f"{along:.3f}",
             "offset_across_px": f"{across:.3f}",
@@ -335,10 +363,13 @@ def deshadow_file(
                         "wavelength_nm": round(float(w), 2),
                         "illumination_ratio": float(kk),
                         "dark_level_dn": float(lvl),
+                        "additive_signal_dn": float(cc),
+                        "additive_signal_error_dn": float(ce) if np.isfinite(ce) else None,
                     }
-                    for w, kk, lvl in zip(wl, k, levels, strict=True)
+                    for w, kk, lvl, cc, ce in zip(wl, k, levels, c, c_err, strict=True)
                 ],
-                "formula": "L_sun = L / (1 - f * (1 - 1/k)), L = DN - dark level",
+                "formula": "L_sun = L / (1 - f * (1 - 1/k)), L = DN - dark level - additive "
+                "signal (both added back)",
             },
         )
         result["report"] = report

@@ -71,6 +71,16 @@ UP_SUN_DEG = 60.0
 SAME_HEIGHT_M = 1.0
 #: Smallest sky-view factor a pixel is de-shadowed with (its factor stays finite).
 MIN_SKY = 0.01
+#: Tukey's bisquare tuning constant (in robust standard deviations of the residuals): 95 %
+#: efficiency for normal errors (Holland & Welsch 1977), the usual choice.
+BISQUARE = 4.685
+#: Iterations of the reweighted line fit of :func:`additive_signal`.
+ADDITIVE_ITERATIONS = 20
+#: Wavelengths (nm) over which a pair's ratio spectrum must be smooth to be one surface
+#: (:func:`same_surface`): silicon's range with signal in shadow, the blue to the NIR …
+SMOOTH_NM = (420.0, 900.0)
+#: … without the O2 A band (its ratio dips: the direct beam's path is longer than the sky's).
+O2_NM = (745.0, 775.0)
 
 _DIRECTIONS = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
 
@@ -260,6 +270,157 @@ def illumination_ratio(
             k = np.where(np.isfinite(lr[kept]).any(axis=0), np.nanmedian(lr[kept], axis=0), k)
     spread = float(np.median(np.sqrt(np.nanmean((lr[kept] - k) ** 2, axis=1))))
     return np.exp(k), int(kept.sum()), spread
+
+
+def same_surface(
+    shaded: np.ndarray, sunlit: np.ndarray, wavelengths: np.ndarray, *, min_pairs: int = MIN_PAIRS
+) -> np.ndarray:
+    """Which pairs are one surface on both sides, by the smoothness of their ratio spectrum.
+
+    The ratio of a pair of the same surface is the illumination's, smooth in wavelength
+    between 420 and 900 nm (E_dir/E_sky falls smoothly with the sky's scattering; the
+    O2 band at 760 nm is left out). A pair of two surfaces carries the ratio of their
+    reflectances too, with its features (the red edge of vegetation against soil or asphalt).
+    The roughness of a pair is the RMS residual of its log ratio over those bands from a
+    quadratic in wavelength; the pairs split in two by Otsu's threshold on the log roughness
+    (the smooth mode kept). Returns True for every pair when fewer than 5 bands lie in the
+    range, or fewer than ``2·min_pairs`` pairs are given (no split)."""
+    a = np.asarray(shaded, np.float64)
+    b = np.asarray(sunlit, np.float64)
+    wl = np.asarray(wavelengths, np.float64).reshape(-1)
+    use = (wl >= SMOOTH_NM[0]) & (wl <= SMOOTH_NM[1]) & ~((wl > O2_NM[0]) & (wl < O2_NM[1]))
+    n = a.shape[0]
+    if use.sum() < 5 or n < 2 * min_pairs:
+        return np.ones(n, bool)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        lr = np.log(b[:, use]) - np.log(a[:, use])
+    good = np.isfinite(lr).all(axis=1)
+    x = (wl[use] - wl[use].mean()) / max(float(np.ptp(wl[use])), 1e-9)
+    design = np.vander(x, 3)
+    coef, *_ = np.linalg.lstsq(design, np.where(good[:, None], lr, 0.0).T, rcond=None)
+    rough = np.sqrt(((lr.T - design @ coef) ** 2).mean(axis=0))
+    t = np.log(np.maximum(rough[good], 1e-12))
+    if t.size < 2 * min_pairs:
+        return good
+    s = np.sort(t)
+    i = np.arange(1, s.size)
+    c = np.cumsum(s)[:-1]
+    w0 = i / s.size
+    m0 = c / i
+    m1 = (s.sum() - c) / (s.size - i)
+    between = w0 * (1 - w0) * (m0 - m1) ** 2
+    between[(i < min_pairs)] = -1.0  # the smooth mode holds at least min_pairs
+    cut = s[int(np.argmax(between))]
+    return good & (np.log(np.maximum(rough, 1e-12)) <= cut)
+
+
+def additive_signal(
+    shaded: np.ndarray,
+    sunlit: np.ndarray,
+    ratio: np.ndarray,
+    *,
+    sky_view: tuple[np.ndarray, np.ndarray] | None = None,
+    iterations: int = ADDITIVE_ITERATIONS,
+    min_pairs: int = MIN_PAIRS,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each band's additive signal ``c``: the part of every pixel's signal that the sun does
+    not scale (path radiance, and the remainder of a dark level that differs from band to band
+    when one level per instrument was subtracted), from the intercept of a robust line fit of
+    the pairs' sunlit signals on their shadowed signals.
+
+    A surface of reflectance ρ reads ``x = ρ·E·g + c`` (E its light, g the gain), so across
+    pairs of the same surface ``x_sun − c = k·(x_shade − c)``: the sunlit signals of pairs of
+    several materials lie on the line ``x_sun = k·x_shade + (1 − k)·c``, whose intercept
+    carries ``c``. Both sides of a pair are measured with error, mostly the texture of the
+    surface (the two pixels' reflectances differ by a few per cent), which is the same share
+    of either signal: the error of the sunlit side is k times the shadowed side's. That is
+    Deming regression with an error-variance ratio of k², whose slope is the ratio of the
+    standard deviations (the reduced major axis); ordinary least squares of the sunlit on the
+    shadowed signal would flatten the line (errors in the regressor) and bias ``c``. Fitted
+    for each band with Tukey's bisquare weights (:data:`BISQUARE` robust standard deviations;
+    pairs of two different surfaces are the outliers), reweighted :data:`ADDITIVE_ITERATIONS`
+    times from the slope ``ratio`` (:func:`illumination_ratio`) and the median intercept. A
+    ``c`` above the dimmest shadowed signal the line fits contradicts the model (every
+    surface adds its own positive signal to ``c``): that band is not measured. With
+    ``sky_view`` (V_shaded, V_sunlit) the pair's relation is
+    ``V_a·(x_sun − c) = (k − 1 + V_b)·(x_shade − c)``, fitted as
+    ``V_a·x_sun − (V_b − 1)·x_shade = k·x_shade + (1 − k)·c + (V_a − V_b)·c`` (the last term
+    from the previous iteration's ``c``).
+
+    The fit needs pairs of surfaces of different brightness (one material alone fixes a point,
+    not the line), and pairs of one surface (:func:`same_surface`). Its standard error is
+    returned: the weighted least-squares error of the intercept, over ``k − 1`` (so a band
+    where ``k`` is about 1, an absorption band, measures ``c`` poorly); the bias that
+    light the model leaves out (adjacency, slopes) puts in the line is not in it.
+
+    Returns
+    -------
+    c : array (n_bands,)
+        The additive signal (in the pairs' units; 0 for a band no pair measures).
+    error : array (n_bands,)
+        Its standard error (inf where not measured).
+    """
+    a = np.asarray(shaded, np.float64)
+    b = np.asarray(sunlit, np.float64)
+    if a.shape != b.shape or a.ndim != 2:
+        raise InputError(f"pairs must be two (n, bands) arrays, got {a.shape} and {b.shape}")
+    k0 = np.asarray(ratio, np.float64).reshape(-1)
+    if k0.size != a.shape[1]:
+        raise InputError(f"{k0.size} illumination ratios for {a.shape[1]} bands")
+    if sky_view is None:
+        va = vb = np.ones((a.shape[0], 1))
+    else:
+        va, vb = (np.asarray(v, np.float64).reshape(-1, 1) for v in sky_view)
+        if va.shape[0] != a.shape[0] or vb.shape[0] != a.shape[0]:
+            raise InputError(
+                f"{va.shape[0]} and {vb.shape[0]} sky-view factors for {a.shape[0]} pairs"
+            )
+    ok = np.isfinite(a) & np.isfinite(b) & np.isfinite(va) & np.isfinite(vb)
+    n_bands = a.shape[1]
+    c = np.zeros(n_bands)
+    err = np.full(n_bands, np.inf)
+    if a.shape[0] < min_pairs:
+        return c, err
+    z = np.where(ok, a, 0.0)
+    u0 = np.where(ok, va * b - (vb - 1.0) * a, 0.0)
+    dv = np.where(ok, va - vb, 0.0)
+    k = np.where(np.isfinite(k0), k0, 1.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        icpt = np.nanmedian(np.where(ok, u0 - k * z, np.nan), axis=0)
+    icpt = np.where(np.isfinite(icpt), icpt, 0.0)
+    w = ok.astype(np.float64)
+    for _ in range(int(iterations)):
+        u = u0 - dv * c
+        res = np.where(ok, u - k * z - icpt, np.nan)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            scale = 1.4826 * np.nanmedian(np.abs(res), axis=0)
+        scale = np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
+        t = np.where(ok, res / (BISQUARE * scale), 2.0)
+        w = np.where(np.abs(t) < 1.0, (1.0 - t**2) ** 2, 0.0)
+        sw = w.sum(axis=0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            zm = (w * z).sum(axis=0) / sw
+            um = (w * u).sum(axis=0) / sw
+            szz = (w * (z - zm) ** 2).sum(axis=0)
+            suu = (w * (u - um) ** 2).sum(axis=0)
+            k = np.where(szz > 0, np.sqrt(suu / szz), k)
+            icpt = um - k * zm
+            c = np.where(np.abs(k - 1.0) > 1e-9, icpt / (1.0 - k), 0.0)
+        c = np.where(np.isfinite(c), c, 0.0)
+    res = np.where(ok, u0 - dv * c - k * z - icpt, 0.0)
+    sw = w.sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s2 = (w * res**2).sum(axis=0) / np.maximum(sw - 2.0, 1.0)
+        se_icpt = np.sqrt(s2 * (1.0 / sw + zm**2 / szz))
+        err = np.where((sw >= min_pairs) & (szz > 0), se_icpt / np.abs(1.0 - k), np.inf)
+        # Every surface's shadowed signal is c plus its own (ρ·V·E_sky·g > 0): a line whose
+        # c lies above the dimmest pair it fits contradicts the model (not measured).
+        floor = np.where(w > 0, z, np.inf).min(axis=0)
+    err = np.where(np.isfinite(err) & (c < floor), err, np.inf)
+    c = np.where(np.isfinite(err), c, 0.0)
+    return c, err
 
 
 def deshadow(
