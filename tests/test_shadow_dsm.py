@@ -338,6 +338,28 @@ def test_shadow_map_with_a_dsm_in_strips_equals_the_whole_image(scene, tmp_path)
     assert f1 > 0.8
 
 
+@pytest.mark.parametrize("azimuth", [0.0, 180.0])
+def test_strips_equal_the_whole_image_with_the_far_end_swept(azimuth, tmp_path):
+    """A high sun (60°: the clearance takes 1.7 px off each shadow's far end, swept back)
+    from the north, then the south: strips of 16 lines look far enough towards the sun."""
+    folder = str(tmp_path / "scene")
+    sc = simulate2(rows=72, cols=96, seed=0, sun_zenith=60.0, sun_azimuth=azimuth)
+    write_scene2(sc, folder)
+    surface = SurfaceModel(_j(folder, "truth_dsm.tif"), 60.0, azimuth, sc.truth["gsd_m"])
+    outs = []
+    for rows in (16, 1000):
+        shadow_map_file(
+            _j(folder, "vnir.hdr"),
+            _j(folder, "swir.hdr"),
+            output=str(tmp_path / f"c{rows}.tif"),
+            fraction=str(tmp_path / f"f{rows}.tif"),
+            surface=surface,
+            block_rows=rows,
+        )
+        outs.append(_read(tmp_path / f"f{rows}.tif"))
+    assert np.array_equal(outs[0], outs[1], equal_nan=True)
+
+
 def test_deshadow_file_strips_equal_whole_and_report(scene, tmp_path):
     sc, folder = scene
     frac = tmp_path / "truth_f.tif"
