@@ -143,6 +143,60 @@ def test_shadow_cast_from_beyond_the_surface_model_is_left_to_the_spectra():
         smap.dsm_shadow_fraction(d, prior, unseen=unseen[:-1])
 
 
+def _shortened(zenith):
+    """A 5.2 m building on level ground, sun from the south at ``zenith``; (heights, prior of
+    clearance 1, darkness written from the exact cast shadow (clearance 0), exact shadow
+    fraction, ray and reach as the operation derives them)."""
+    z = np.zeros((60, 40))
+    z[40:48, 10:30] = 5.2
+    sun = dict(sun_zenith=zenith, sun_azimuth=180.0)
+    exact = ill.shadow_fraction(z, **sun, cell_size=1.0)
+    prior = ill.shadow_fraction(z, **sun, cell_size=1.0, clearance=1.0)
+    rho, sky = 0.5, 0.1  # ground at half the sunlit mode, skylight a tenth of the sun's
+    d = np.log(rho * (1 - exact + sky * exact))
+    m = ill.grid_matrix(None, 1.0)
+    drow, dcol, rise = ill.sun_step(zenith, 180.0, m, 1.0)
+    ray = (drow, dcol, ill.march_steps(5.2, rise, z.shape, drow, dcol))
+    return z, prior, d, exact, ray, 1.0 / rise
+
+
+@pytest.mark.parametrize("zenith", [60.0, 63.4])
+def test_the_far_end_a_clearance_shortens_is_found_and_only_along_the_ray(zenith):
+    """The clearance (1 m) shortens a shadow by clearance·tan(zenith) at its far end (1.7 and
+    2.0 px here): two rows of pixels, one more than the one-pixel tolerance. With ``reach`` (the clearance over the
+    sun's rise per cell) the exact shadow is recovered; a black patch down-sun of the shadow
+    but cut from it by a lit row is not shadow."""
+    z, prior, d, exact, ray, reach = _shortened(zenith)
+    truth = exact >= 0.5
+    assert reach == pytest.approx(math.tan(math.radians(zenith)))
+    lost = truth & ~(prior >= 0.5)
+    assert lost.sum() >= 2 * 20  # two rows of the far end (the building is 20 px wide)
+    without = smap.dsm_shadow_fraction(d, prior, heights=z, clearance=1.0, ray=ray)
+    assert ((without >= 0.5) != truth).sum() >= 15  # the failure: a row beyond the tolerance
+    f = smap.dsm_shadow_fraction(d, prior, heights=z, clearance=1.0, ray=ray, reach=reach)
+    assert ((f >= 0.5) == truth).all()
+    # A shadow really as short as predicted (the two rows lit ground) with black material (an
+    # eighth of the sunlit mode) on the farther row, within the reach; and beside the shadow,
+    # off its ray: neither is shadow, since the lit row cuts the first from the shadow.
+    far = int(np.nonzero(truth.any(axis=1))[0].min())  # the exact shadow's far (northern) row
+    assert not (prior[far : far + 2] >= 0.5).any()
+    lit_ground = 0.5  # brighter than the rim's third of the sunlit mode
+    assert lit_ground > math.exp(smap.RIM_DARKNESS)
+    d2 = d.copy()
+    d2[far + 1, :] = math.log(lit_ground)
+    d2[far, 12:28] = math.log(1 / 8)
+    d2[far + 2 : far + 5, 32:35] = math.log(1 / 8)  # east of the shadow, two columns off it
+    f2 = smap.dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0, ray=ray, reach=reach)
+    assert (f2[far, 12:28] == 0).all()
+    assert (f2[far + 2 : far + 5, 32:35] == 0).all()
+    assert ((f2 >= 0.5) == (prior >= 0.5)).all()
+    # Without the ray, no sweep: the reach needs the sun's direction.
+    assert np.array_equal(
+        smap.dsm_shadow_fraction(d, prior, heights=z, clearance=1.0, reach=reach),
+        smap.dsm_shadow_fraction(d, prior, heights=z, clearance=1.0),
+    )
+
+
 @pytest.mark.parametrize("truth", [0.3, 0.8])
 def test_a_predicted_edge_pixel_keeps_its_unmixed_fraction(truth):
     """A dark soil (sunlit signal 0.4 of the mode, skylight a tenth of the sun's light): the
@@ -282,6 +336,28 @@ def test_shadow_map_with_a_dsm_in_strips_equals_the_whole_image(scene, tmp_path)
     tp = (pred & truth).sum()
     f1 = 2 * tp / (2 * tp + (pred & ~truth).sum() + (~pred & truth).sum())
     assert f1 > 0.8
+
+
+@pytest.mark.parametrize("azimuth", [0.0, 180.0])
+def test_strips_equal_the_whole_image_with_the_far_end_swept(azimuth, tmp_path):
+    """A high sun (60°: the clearance takes 1.7 px off each shadow's far end, swept back)
+    from the north, then the south: strips of 16 lines look far enough towards the sun."""
+    folder = str(tmp_path / "scene")
+    sc = simulate2(rows=72, cols=96, seed=0, sun_zenith=60.0, sun_azimuth=azimuth)
+    write_scene2(sc, folder)
+    surface = SurfaceModel(_j(folder, "truth_dsm.tif"), 60.0, azimuth, sc.truth["gsd_m"])
+    outs = []
+    for rows in (16, 1000):
+        shadow_map_file(
+            _j(folder, "vnir.hdr"),
+            _j(folder, "swir.hdr"),
+            output=str(tmp_path / f"c{rows}.tif"),
+            fraction=str(tmp_path / f"f{rows}.tif"),
+            surface=surface,
+            block_rows=rows,
+        )
+        outs.append(_read(tmp_path / f"f{rows}.tif"))
+    assert np.array_equal(outs[0], outs[1], equal_nan=True)
 
 
 def test_deshadow_file_strips_equal_whole_and_report(scene, tmp_path):

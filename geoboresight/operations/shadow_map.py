@@ -146,6 +146,7 @@ class _Surface:
     height: int = 0  # lines of the grid
     ray: tuple = (0.0, 0.0, 0)  # (Δrow, Δcol) per cell towards the sun, steps over the relief
     sun: str = "given"  # where the sun's angles came from
+    reach: float = 0.0  # cells down-sun by which the clearance shortens a shadow on level ground
 
     def unseen(self, z, valid, row0):
         """Pixels a caster beyond the surface model's edge could shade."""
@@ -351,6 +352,7 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
         dual.height,
         (drow, dcol, steps),
         how,
+        float(surface.clearance) / rise if rise > 0 else 0.0,
     )
 
 
@@ -561,6 +563,7 @@ def shadow_map_file(
                 clearance=0.0 if dsm is None else dsm.clearance,
                 unseen=unseen,
                 ray=None if dsm is None else dsm.ray,
+                reach=0.0 if dsm is None else dsm.reach,
             )
 
         def kernel(values, valid, z=None, z_ok=None, r0=0):
@@ -579,7 +582,13 @@ def shadow_map_file(
             return c, m, f, deep, lit, unseen & np.isfinite(f)
 
         halo = smap.shadow_map_halo(cal, edge_pixels)
-        halo = (halo, halo) if dsm is None else (halo + dsm.halo[0], halo + dsm.halo[1])
+        if dsm is None:
+            halo = (halo, halo)
+        else:
+            # The sweep of the predicted shadow's far end looks this many lines towards the sun.
+            sweep = int(np.ceil(dsm.reach * abs(dsm.ray[0]))) + 1
+            up, down = (sweep, 0) if dsm.ray[0] < 0 else (0, sweep)
+            halo = (halo + dsm.halo[0] + up, halo + dsm.halo[1] + down)
         agreement = {}
         if dsm is not None:
             # Registration: the best shift of the predicted shadow onto the image's dark
@@ -619,7 +628,9 @@ def shadow_map_file(
                 f"{dsm.surface} surface), refined by SWIR/NIR darkness within "
                 f"{smap.DSM_TOLERANCE} px (lit above ln 1/2 of the sunlit mode, rim shadow at "
                 f"or below ln 1/3 unless more than the clearance ({dsm.clearance:g} m) above the "
-                "shadow: a caster's top) and unmixed within "
+                "shadow: a caster's top; beyond it, down-sun of the predicted shadow by the "
+                f"{dsm.reach:.2f} cells the clearance shortens a shadow, where connected to it "
+                "along the sun's direction) and unmixed within "
                 f"{edge_pixels} px (at least half shaded only where as dark as core shadow or "
                 "deep in the prediction); no shadow away from the predicted shadow except "
                 "where a caster beyond the surface model's edge could shade (spectral "

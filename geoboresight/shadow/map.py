@@ -557,6 +557,7 @@ def dsm_shadow_fraction(
     unseen: np.ndarray | None = None,
     ray: tuple[float, float, int] | None = None,
     core: float = CORE_DARKNESS,
+    reach: float = 0.0,
 ) -> np.ndarray:
     """Estimated shadow fraction (float32, 0–1; NaN where invalid) from :func:`darkness` with
     the cast shadow a surface model predicts as the prior.
@@ -580,6 +581,14 @@ def dsm_shadow_fraction(
       at least 0.5; the others (the predicted shadow's edges and the
       rim) keep their unmixed fraction, so that a mixed edge pixel is shadow when more than
       half of it is shaded, not because it is darker than ``lit``.
+
+    With ``ray`` and ``reach`` (cells), the zone of the rim also reaches ``reach`` cells
+    down-sun of the predicted shadow, then ``tolerance``: the clearance shortens a shadow by
+    ``clearance · tan(zenith)`` at its far end on level ground (``reach`` = the clearance over
+    the sun's rise per cell). Beyond the tolerance a shadow goes on from the predicted one
+    along the sun's direction, so a rim pixel there is shadow only when the pixel next to it
+    towards the sun is shadow too, and is unmixed only next to such a pixel: a dark material
+    cut from the shadow by a lit pixel is not taken.
 
     Where the surface model cannot rule shadow out (``unseen``: a caster beyond its edge could
     shade the pixel, :func:`geoboresight.shadow.illumination.unseen_casters`), the fraction is
@@ -623,6 +632,10 @@ def dsm_shadow_fraction(
     core : float
         Core-shadow darkness (natural log over the sunlit mode): a shadow pixel this dark is
         at least half shaded, and the spectral estimate on ``unseen`` pixels uses it.
+    reach : float
+        How far (cells) the clearance shortens a shadow's far end on level ground (0: no
+        sweep; used with ``ray``). Strips need ``ceil(reach · |Δrow|) + 1`` more lines towards
+        the sun.
 
     Returns
     -------
@@ -646,27 +659,46 @@ def dsm_shadow_fraction(
         raise InputError(f"the prior's shape {p.shape} is not the image's {d.shape}")
     shaded = p >= 0.5
     # Where the model shades at least half a pixel, give or take the tolerance (sub-cells
-    # shaded by height noise on open ground stay out).
-    zone = ndimage.binary_dilation(shaded, iterations=tolerance) if tolerance else shaded
+    # shaded by height noise on open ground stay out), and down-sun of it by the ``reach`` the
+    # clearance takes off a shadow's far end (on level ground).
+    z = None
+    if heights is not None:
+        z = np.asarray(heights, np.float64)
+        if z.shape != d.shape:
+            raise InputError(f"parameter 'heights': shape {z.shape} is not the image's {d.shape}")
+    base = np.where(shaded & np.isfinite(z), z, np.inf) if z is not None else None
+    swept, base = _down_sun(shaded, ray, reach, base)
+    near = ndimage.binary_dilation(shaded, iterations=tolerance) if tolerance else shaded
+    zone = ndimage.binary_dilation(swept, iterations=tolerance) if tolerance else swept
     with np.errstate(invalid="ignore"):
         core_px = ok & shaded & (d <= lit)
         rim_px = ok & zone & ~shaded & (d <= rim)
     if water is not None:
         rim_px &= ~np.asarray(water, bool)
-    if heights is not None:
-        z = np.asarray(heights, np.float64)
-        if z.shape != d.shape:
-            raise InputError(f"parameter 'heights': shape {z.shape} is not the image's {d.shape}")
+    if z is not None:
         with np.errstate(invalid="ignore"):
-            ground = ndimage.minimum_filter(
-                np.where(shaded & np.isfinite(z), z, np.inf), size=2 * tolerance + 1
-            )
+            ground = ndimage.minimum_filter(base, size=2 * tolerance + 1)
             rim_px &= ~(z - ground > clearance)
+    allowed = zone
+    if swept is not shaded:
+        # Beyond the tolerance, a shadow the clearance shortened goes on from the predicted
+        # shadow along the sun's direction: a cell there is shadow only when the cell next to
+        # it towards the sun is, and it is unmixed only next to such a cell.
+        step = _toward_sun(ray)
+        extra = rim_px & ~near
+        taken = core_px | (rim_px & near)
+        for _ in range(int(math.ceil(reach)) + tolerance):
+            grow = extra & ~taken & _shift(taken, step)
+            if not grow.any():
+                break
+            taken |= grow
+        rim_px = taken & ~core_px
+        allowed = near | (zone & _shift(taken, step))
     # Away from the predicted edges (by more than the tolerance) the model's shade is whole.
     deep = core_px & ndimage.binary_erosion(shaded, iterations=tolerance + 1)
     with np.errstate(invalid="ignore"):
         whole = deep | (d <= core)
-    f = _unmix(d, ok, core_px | rim_px, edge_pixels, window, allowed=zone, whole=whole)
+    f = _unmix(d, ok, core_px | rim_px, edge_pixels, window, allowed=allowed, whole=whole)
     f[deep] = np.maximum(f[deep], p[deep]).astype(np.float32)
     if unseen is not None:
         u = np.asarray(unseen, bool)
@@ -683,6 +715,42 @@ def dsm_shadow_fraction(
             )
             f[u] = np.fmax(f[u], f0[u])
     return f
+
+
+def _toward_sun(ray) -> tuple[int, int]:
+    """The neighbouring cell (Δrow, Δcol) nearest the sun's direction (``ray``'s)."""
+    drow, dcol = float(ray[0]), float(ray[1])
+    n = max(abs(drow), abs(dcol), 1e-12)
+    return int(np.floor(drow / n + 0.5)) if abs(drow) / n >= 0.5 else 0, (
+        int(np.floor(dcol / n + 0.5)) if abs(dcol) / n >= 0.5 else 0
+    )
+
+
+def _shift(mask: np.ndarray, step: tuple[int, int]) -> np.ndarray:
+    """``mask`` at the cell ``step`` away from each cell (False beyond the grid)."""
+    from .illumination import _shifted
+
+    return _shifted(mask, step[0], step[1], False)
+
+
+def _down_sun(mask, ray, reach, base=None):
+    """(``mask`` swept up to ``reach`` cells away from the sun along ``ray``'s direction, the
+    least ``base`` met on the way): a cell is in the sweep when a cell ``t ≤ reach`` cells
+    towards the sun is in ``mask``."""
+    if ray is None or not reach > 0:
+        return mask, base
+    from .illumination import _shifted
+
+    drow, dcol = float(ray[0]), float(ray[1])
+    out = mask.copy()
+    low = None if base is None else base.copy()
+    for k in range(1, int(math.ceil(2 * reach)) + 1):
+        t = min(k / 2, reach)
+        sr, sc = int(np.floor(t * drow + 0.5)), int(np.floor(t * dcol + 0.5))
+        out |= _shifted(mask, sr, sc, False)
+        if low is not None:
+            low = np.fmin(low, _shifted(base, sr, sc, np.inf))
+    return out, low
 
 
 def prior_agreement(
@@ -791,6 +859,7 @@ def shadow_map_block(
     clearance: float = 0.0,
     unseen: np.ndarray | None = None,
     ray: tuple[float, float, int] | None = None,
+    reach: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Shadow classes and shadow mask of a block of lines: the shadow map's per-pixel pipeline.
 
@@ -833,7 +902,8 @@ def shadow_map_block(
         (m), so that the top of a caster beside its shadow is not taken for shadow, and
         ``unseen`` the pixels a caster beyond the surface model could shade, where the
         spectral estimate holds if the way to the edge along ``ray`` is not lit
-        (:func:`dsm_shadow_fraction`).
+        (:func:`dsm_shadow_fraction`). ``reach``: how far (cells) the clearance shortens a
+        shadow's far end, down-sun along ``ray`` (:func:`dsm_shadow_fraction`).
 
     Returns
     -------
@@ -862,6 +932,7 @@ def shadow_map_block(
         clearance=clearance,
         unseen=unseen,
         ray=ray,
+        reach=reach,
     )
     return shadow_classes(f, calibration.table), shadow_mask(f)
 
@@ -880,10 +951,11 @@ def shadow_fraction_block(
     clearance: float = 0.0,
     unseen: np.ndarray | None = None,
     ray: tuple[float, float, int] | None = None,
+    reach: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(shadow fraction, darkness) of a block: steps 1–4 of :func:`shadow_map_block`; with
     ``prior`` (a surface model's cast-shadow fraction on the block; ``heights``,
-    ``clearance``, ``unseen`` and ``ray``, the surface model's) by
+    ``clearance``, ``unseen``, ``ray`` and ``reach``, the surface model's) by
     :func:`dsm_shadow_fraction` instead of :func:`shadow_fraction_estimate`."""
     from ..dem.coregister import coregister
 
@@ -915,6 +987,7 @@ def shadow_fraction_block(
             unseen=unseen,
             ray=ray,
             core=calibration.core,
+            reach=reach,
         )
     else:
         f = shadow_fraction_estimate(
