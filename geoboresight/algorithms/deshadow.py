@@ -88,8 +88,9 @@ DESHADOW = Algorithm(
         Flag(
             name="additive",
             description="Also estimate each band's additive signal (path radiance, a dark level "
-            "that differs from band to band) from the intercept of the pairs' line, and scale "
-            "only the signal above it (not the default: see docs/deshadow.md)",
+            "that differs from band to band) from the intercept of the pairs' line (with the "
+            "surface model's slopes) and the dark object, and scale only the signal above it "
+            "(not the default: see docs/deshadow.md)",
         ),
         BLOCK_ROWS,
         RasterOut(name="output", description="De-shadowed cube (float32, all bands)"),

@@ -120,12 +120,16 @@ def deshadow_file(
         Boresight offset of the SWIR (px); both None = measured.
     additive : bool
         Also estimate each band's additive signal (path radiance, and what is left of a dark
-        level that differs from band to band when one level per instrument is subtracted)
-        from the pairs of one surface (:func:`geoboresight.shadow.deshadow.same_surface`), as
-        the intercept of their line (:func:`geoboresight.shadow.deshadow.additive_signal`);
-        the ratio is then measured, and the signal scaled, above it (it is added back). Off
-        by default: on the validation scenes it helps some and breaks dark materials in
-        others (docs/deshadow.md).
+        level that differs from band to band when one level per instrument is subtracted):
+        the intercept of the line of the pairs of one surface
+        (:func:`geoboresight.shadow.deshadow.same_surface`,
+        :func:`geoboresight.shadow.deshadow.additive_signal`; with a surface model each sunlit
+        side's slope, cos i, enters it), combined band by band with the dark object (an upper
+        bound, :func:`geoboresight.shadow.deshadow.combine_additive`) by their estimated
+        errors; the ratio is then measured, and the signal scaled, above it (it is added
+        back). Off by default: on the validation scenes it helps model 2 with a surface model
+        and harms the simulator, where the pairs of one surface are not found
+        (docs/deshadow.md).
     block_rows : int
     progress : Progress, optional
 
@@ -200,13 +204,25 @@ def deshadow_file(
         keep_per_mille = max(1, min(1000, round(1000 * PAIR_PIXELS / (dual.height * dual.width))))
         lv = levels[:, None, None]
 
-        # Pass 1: pairs across shadow edges, on the VNIR grid (the SWIR resampled onto it).
+        # Pass 1: pairs across shadow edges, on the VNIR grid (the SWIR resampled onto it),
+        # and each instrument's darkest pixels (on its own grid) for the dark object.
+        n_dark = ds.DARK_PIXELS
+
+        def darkest(sig, ok, own):
+            """The n_dark darkest pixels (by their mean over the bands) of the strip's lines."""
+            use = ok & own & np.isfinite(sig).all(axis=0)
+            x = sig[:, use].T
+            if x.shape[0] > n_dark:
+                x = x[np.argpartition(x.mean(axis=1), n_dark - 1)[:n_dark]]
+            return x.astype(np.float32)
+
         def pairs(x, x_ok, f, z, v, block):
             sig = x.astype(np.float64) - lv
-            for i in range(nv, sig.shape[0]):
-                sig[i], _ = coregister(sig[i], along, across, x_ok, order=1, fill=0.0)
             own = np.zeros(f.shape, bool)
             own[block.inner] = True
+            dark_v, dark_s = darkest(sig[:nv], x_ok, own), darkest(sig[nv:], x_ok, own)
+            for i in range(nv, sig.shape[0]):
+                sig[i], _ = coregister(sig[i], along, across, x_ok, order=1, fill=0.0)
             # Shadowed pixels of the strip's own lines, a fixed share of them on a long line
             # (chosen by their position, so strips give the pairs of the whole image).
             rr, cc = np.mgrid[block.row0 : block.row0 + f.shape[0], 0 : f.shape[1]]
@@ -221,23 +237,46 @@ def deshadow_file(
             )
             flat = sig.reshape(sig.shape[0], -1)
             sky = np.ones(f.size) if v is None else v.reshape(-1)
+            if z is None:
+                cos_i = np.ones(f.size)
+            else:
+                cos_i = ill.plane_incidence(
+                    z,
+                    np.isfinite(z),
+                    sun_zenith=dsm.zenith,
+                    sun_azimuth=dsm.azimuth,
+                    transform=dsm.matrix,
+                ).reshape(-1)
             return (
                 flat[:, ia].T.astype(np.float32),
                 flat[:, ib].T.astype(np.float32),
-                np.stack([sky[ia], sky[ib]]).astype(np.float32),
+                np.stack([sky[ia], sky[ib], cos_i[ib]]).astype(np.float32),
+                dark_v,
+                dark_s,
             )
 
-        a, b, pv = io.reduce_windows(
+        def merge(u, w):
+            a_, b_, p_ = (
+                np.concatenate([p, q], axis=-1 if i == 2 else 0)  # sky views: (3, n)
+                for i, (p, q) in enumerate(zip(u[:3], w[:3], strict=True))
+            )
+            dv_, ds_ = (np.concatenate([p, q]) for p, q in zip(u[3:], w[3:], strict=True))
+            if dv_.shape[0] > n_dark:
+                dv_ = dv_[np.argsort(dv_.mean(axis=1), kind="stable")[:n_dark]]
+            if ds_.shape[0] > n_dark:
+                ds_ = ds_[np.argsort(ds_.mean(axis=1), kind="stable")[:n_dark]]
+            return a_, b_, p_, dv_, ds_
+
+        a, b, pv, dark_v, dark_s = io.reduce_windows(
             read,
             pairs,
-            lambda u, w: tuple(
-                np.concatenate([p, q], axis=-1 if i == 2 else 0)
-                for i, (p, q) in enumerate(zip(u, w, strict=True))  # sky views: (2, n)
-            ),
+            merge,
             (
                 np.zeros((0, len(wl)), np.float32),
                 np.zeros((0, len(wl)), np.float32),
-                np.zeros((2, 0), np.float32),
+                np.zeros((3, 0), np.float32),
+                np.zeros((0, nv), np.float32),
+                np.zeros((0, len(wl) - nv), np.float32),
             ),
             halo=(max(ds.DISTANCES) + 1 + shift_halo,) * 2,
             pass_block=True,
@@ -246,24 +285,36 @@ def deshadow_file(
             **strips,
         )
         sky = None if dsm is None else (pv[0], pv[1])
+        direct = None if dsm is None else pv[2]
         keep = ds.KEEP if dsm is None else ds.KEEP_WITH_SURFACE
         k, n_pairs, spread = ds.illumination_ratio(a, b, sky_view=sky, keep=keep)
         c = np.zeros(len(wl))
         c_err = np.full(len(wl), np.inf)
+        c_line, e_line, dark_obj = c, c_err, np.full(len(wl), np.nan)
         if additive:
             # Pairs of one surface (a smooth ratio spectrum) give the additive signal (their
-            # line's intercept); the ratio is then that of all the pairs' signal above it
-            # (the pairs of one surface alone: m2 seeds 0-4 with the DSM and the truth
-            # fraction 15.7/23, 6.6/4, 7.9/20, 61.4/51, 5.5/10 worst SA/brightness; all
-            # pairs 13.7/28, 3.7/4, 8.1/20, 60.7/53, 3.7/8).
+            # line's intercept, with the direct light on the sunlit side's slope); the dark
+            # object bounds it and measures it where the line cannot (combine_additive); the
+            # ratio is then that of all the pairs' signal above it.
             one = ds.same_surface(a, b, wl)
             sky1 = None if sky is None else (sky[0][one], sky[1][one])
-            c, c_err = ds.additive_signal(a[one], b[one], k, sky_view=sky1)
-            k, n_pairs, spread = ds.illumination_ratio(a - c, b - c, sky_view=sky, keep=keep)
+            c_line, e_line = ds.additive_signal(
+                a[one], b[one], k, sky_view=sky1, direct=None if direct is None else direct[one]
+            )
+            dark_obj = np.concatenate(
+                [
+                    ds.dark_object(dark_v.T.astype(np.float64), min(n_dark, len(dark_v))),
+                    ds.dark_object(dark_s.T.astype(np.float64), min(n_dark, len(dark_s))),
+                ]
+            )
+            c, c_err = ds.combine_additive(c_line, e_line, dark_obj, np.median(a, axis=0))
+            k, n_pairs, spread = ds.illumination_ratio(
+                a - c, b - c, sky_view=sky, direct=direct, keep=keep
+            )
             progress.info(
-                f"additive signal (intercept of the line of {int(one.sum())} pairs of one "
-                f"surface) in {int(np.isfinite(c_err).sum())} bands: {np.min(c):.1f} to "
-                f"{np.max(c):.1f} DN"
+                f"additive signal (the line of {int(one.sum())} pairs of one surface in "
+                f"{int(np.isfinite(e_line).sum())} bands, with the dark object): "
+                f"{np.min(c):.1f} to {np.max(c):.1f} DN"
             )
 
         # A band whose pairs do not say the sun brightens it (noise, absorption bands) is
@@ -365,8 +416,13 @@ def deshadow_file(
                         "dark_level_dn": float(lvl),
                         "additive_signal_dn": float(cc),
                         "additive_signal_error_dn": float(ce) if np.isfinite(ce) else None,
+                        "additive_signal_line_dn": float(cl) if np.isfinite(el) else None,
+                        "additive_signal_line_error_dn": float(el) if np.isfinite(el) else None,
+                        "dark_object_dn": float(do) if np.isfinite(do) else None,
                     }
-                    for w, kk, lvl, cc, ce in zip(wl, k, levels, c, c_err, strict=True)
+                    for w, kk, lvl, cc, ce, cl, el, do in zip(
+                        wl, k, levels, c, c_err, c_line, e_line, dark_obj, strict=True
+                    )
                 ],
                 "formula": "L_sun = L / (1 - f * (1 - 1/k)), L = DN - dark level - additive "
                 "signal (both added back)",

@@ -69,6 +69,9 @@ UP_SUN_DEG = 60.0
 #: the smallest wall of :mod:`geoboresight.shadow.surface`, over 3 × the 0.3 m noise of a
 #: good DSM's difference of two cells.
 SAME_HEIGHT_M = 1.0
+#: Smallest direct light on a sunlit side's slope (cos i / cos Z) for a pair to measure the
+#: ratio or the additive signal: below it the side is in its slope's own shadow, not sunlit.
+MIN_DIRECT = 0.05
 #: Smallest sky-view factor a pixel is de-shadowed with (its factor stays finite).
 MIN_SKY = 0.01
 #: Tukey's bisquare tuning constant (in robust standard deviations of the residuals): 95 %
@@ -76,6 +79,8 @@ MIN_SKY = 0.01
 BISQUARE = 4.685
 #: Iterations of the reweighted line fit of :func:`additive_signal`.
 ADDITIVE_ITERATIONS = 20
+#: Pixels averaged into the dark object of :func:`dark_object` (as ``shadow-map``'s).
+DARK_PIXELS = 20
 #: Wavelengths (nm) over which a pair's ratio spectrum must be smooth to be one surface
 #: (:func:`same_surface`): silicon's range with signal in shadow, the blue to the NIR …
 SMOOTH_NM = (420.0, 900.0)
@@ -196,6 +201,7 @@ def illumination_ratio(
     valid=None,
     *,
     sky_view: tuple[np.ndarray, np.ndarray] | None = None,
+    direct: np.ndarray | None = None,
     keep: float = KEEP,
     iterations: int = 5,
     min_pairs: int = MIN_PAIRS,
@@ -212,6 +218,11 @@ def illumination_ratio(
     pixel gets ``V_a·E_sky``, a sunlit one ``E_dir + V_b·E_sky``, so a pair's ratio ``r``
     gives the open-ground ratio ``k = (E_dir + E_sky)/E_sky = V_a·r − V_b + 1``; that is
     what is averaged and returned (without ``sky_view`` every V is 1: ``k = r``).
+
+    ``direct`` (n,): the direct light on each sunlit side's slope relative to level ground,
+    ``cos i / cos Z`` (:func:`geoboresight.shadow.illumination.plane_incidence`); the sunlit
+    side then gets ``cos i/cos Z·E_dir + V_b·E_sky`` and ``k = (V_a·r − V_b)·cos Z/cos i + 1``
+    (pairs with no direct light on the sunlit side are not used).
 
     Returns
     -------
@@ -237,13 +248,17 @@ def illumination_ratio(
     good = (a > MIN_SIGNAL) & (b > MIN_SIGNAL)
     with np.errstate(invalid="ignore", divide="ignore"):
         lr = np.where(good, np.log(b) - np.log(a), np.nan)
-        if sky_view is not None:
-            va, vb = (np.asarray(v, np.float64).reshape(-1, 1) for v in sky_view)
+        if sky_view is not None or direct is not None:
+            if sky_view is None:
+                va = vb = np.ones((a.shape[0], 1))
+            else:
+                va, vb = (np.asarray(v, np.float64).reshape(-1, 1) for v in sky_view)
             if va.shape[0] != a.shape[0] or vb.shape[0] != a.shape[0]:
                 raise InputError(
                     f"{va.shape[0]} and {vb.shape[0]} sky-view factors for {a.shape[0]} pairs"
                 )
-            k_open = va * np.exp(lr) - vb + 1.0
+            d = _direct(direct, a.shape[0])
+            k_open = (va * np.exp(lr) - vb) / d + 1.0
             lr = np.where(k_open > MIN_SIGNAL, np.log(k_open), np.nan)
     usable = np.isfinite(lr).mean(axis=1) >= 0.8
     if valid is not None:
@@ -270,6 +285,17 @@ def illumination_ratio(
             k = np.where(np.isfinite(lr[kept]).any(axis=0), np.nanmedian(lr[kept], axis=0), k)
     spread = float(np.median(np.sqrt(np.nanmean((lr[kept] - k) ** 2, axis=1))))
     return np.exp(k), int(kept.sum()), spread
+
+
+def _direct(direct, n: int) -> np.ndarray:
+    """The pairs' ``cos i / cos Z`` as (n, 1); 1 without; NaN where the sunlit side's slope gets
+    no direct light (the pair is not used)."""
+    if direct is None:
+        return np.ones((n, 1))
+    d = np.asarray(direct, np.float64).reshape(-1, 1)
+    if d.shape[0] != n:
+        raise InputError(f"{d.shape[0]} direct-light factors for {n} pairs")
+    return np.where(d > MIN_DIRECT, d, np.nan)
 
 
 def same_surface(
@@ -320,6 +346,7 @@ def additive_signal(
     ratio: np.ndarray,
     *,
     sky_view: tuple[np.ndarray, np.ndarray] | None = None,
+    direct: np.ndarray | None = None,
     iterations: int = ADDITIVE_ITERATIONS,
     min_pairs: int = MIN_PAIRS,
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -345,7 +372,13 @@ def additive_signal(
     ``sky_view`` (V_shaded, V_sunlit) the pair's relation is
     ``V_a·(x_sun − c) = (k − 1 + V_b)·(x_shade − c)``, fitted as
     ``V_a·x_sun − (V_b − 1)·x_shade = k·x_shade + (1 − k)·c + (V_a − V_b)·c`` (the last term
-    from the previous iteration's ``c``).
+    from the previous iteration's ``c``). With ``direct`` (each sunlit side's ``cos i/cos Z``,
+    as :func:`illumination_ratio`) the sunlit side's direct light is scaled by its slope:
+    ``V_a·(x_sun − c) = ((k − 1)·cos i/cos Z + V_b)·(x_shade − c)``, the same fit with both
+    V divided by ``cos i/cos Z``. Without it, pairs on slopes facing the sun more or less than
+    level ground lie off the line by their direct light, and where slope and brightness go
+    together (relief) the intercept follows them (model 2, relief 15 m: c 200 DN too low in
+    the VNIR without, 45 DN too high with the slope).
 
     The fit needs pairs of surfaces of different brightness (one material alone fixes a point,
     not the line), and pairs of one surface (:func:`same_surface`). Its standard error is
@@ -375,6 +408,8 @@ def additive_signal(
             raise InputError(
                 f"{va.shape[0]} and {vb.shape[0]} sky-view factors for {a.shape[0]} pairs"
             )
+    d = _direct(direct, a.shape[0])
+    va, vb = va / d, vb / d
     ok = np.isfinite(a) & np.isfinite(b) & np.isfinite(va) & np.isfinite(vb)
     n_bands = a.shape[1]
     c = np.zeros(n_bands)
@@ -421,6 +456,62 @@ def additive_signal(
     err = np.where(np.isfinite(err) & (c < floor), err, np.inf)
     c = np.where(np.isfinite(err), c, 0.0)
     return c, err
+
+
+def dark_object(signal: np.ndarray, n: int = DARK_PIXELS) -> np.ndarray:
+    """Each band's mean over the ``n`` darkest pixels (by their mean over the bands) of
+    ``signal`` (bands, pixels): Chavez's (1988) dark object, per band. Every pixel reads
+    ``c`` plus its own positive signal, so this is an upper bound of the additive signal
+    ``c``, high by the dark object's own (shadowed) signal. NaN pixels are left out; NaN
+    with fewer than ``n`` pixels."""
+    x = np.asarray(signal, np.float64)
+    x = x[:, np.isfinite(x).all(axis=0)]
+    if x.shape[1] < n:
+        return np.full(x.shape[0], np.nan)
+    idx = np.argpartition(x.mean(axis=0), n - 1)[:n]
+    return x[:, idx].mean(axis=1)
+
+
+def combine_additive(
+    line: np.ndarray, line_error: np.ndarray, dark: np.ndarray, shadowed: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each band's additive signal from the line's intercept and the dark object, each
+    weighted by its estimated error.
+
+    ``line``, ``line_error``: :func:`additive_signal` (error inf where not measured).
+    ``dark``: :func:`dark_object`, c plus the dark object's own signal ``ρ_d·S_b`` (S_b the
+    light in shadow times the gain). ``shadowed``: a typical shadowed signal per band (the
+    median of the pairs' shadowed sides), ``c + ρ̄·S_b``. The dark object's own signal is
+    taken as a share ``α`` of the typical shadowed signal above c, ``α·(shadowed − c)``: the
+    bias of a dark surface is its reflectance times the shadow's light, small where the
+    shadow gets little light (the SWIR: k 10–30) and large where the sky lights the shadow
+    (the blue). ``α`` is the median of ``(dark − c_line)/(shadowed − c_line)`` over the
+    bands, weighted by the line's precision there; its scatter over the bands (robust
+    standard deviation, the dark object's spectrum differs from the typical shadow's) times
+    ``shadowed − c`` is that estimate's error. Per band the two estimates are averaged with
+    inverse-variance weights, and the result is kept at or below ``dark`` (no pixel's
+    signal above c may be negative). With fewer than 3 bands measured by the line,
+    ``dark`` is not used (``line``, 0 where not measured). Returns (c, standard error)."""
+    c_l = np.asarray(line, np.float64)
+    e_l = np.asarray(line_error, np.float64)
+    d = np.asarray(dark, np.float64)
+    s = np.asarray(shadowed, np.float64)
+    meas = np.isfinite(e_l) & (e_l > 0) & np.isfinite(c_l)
+    if meas.sum() < 3 or not np.isfinite(d).all() or not np.isfinite(s).all():
+        return np.where(meas, c_l, 0.0), np.where(meas, e_l, np.inf)
+    above = np.maximum(s - np.where(meas, c_l, d), MIN_SIGNAL)
+    share = (d - c_l)[meas] / above[meas]
+    w = (above[meas] / e_l[meas]) ** 2
+    order = np.argsort(share)
+    cw = np.cumsum(w[order])
+    alpha = float(share[order][np.searchsorted(cw, cw[-1] / 2.0)])
+    scatter = 1.4826 * float(np.median(np.abs(share - alpha)))
+    c_d = d - alpha * above
+    e_d = np.maximum(scatter * above, MIN_SIGNAL)
+    w_l = np.where(meas, 1.0 / np.where(meas, e_l, 1.0) ** 2, 0.0)
+    w_d = 1.0 / e_d**2
+    c = (w_l * np.where(meas, c_l, 0.0) + w_d * c_d) / (w_l + w_d)
+    return np.minimum(c, d), 1.0 / np.sqrt(w_l + w_d)
 
 
 def deshadow(

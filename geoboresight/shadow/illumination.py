@@ -26,6 +26,7 @@ import math
 from typing import Any
 
 import numpy as np
+from scipy import ndimage
 
 from ..errors import ParameterError
 
@@ -173,6 +174,48 @@ def hillshade(
     sun = (math.sin(zr) * math.sin(ar), math.sin(zr) * math.cos(ar), math.cos(zr))
     cos_i = (-zx * sun[0] - zy * sun[1] + sun[2]) / np.sqrt(1.0 + zx * zx + zy * zy)
     return np.where(ok, cos_i, np.nan).astype(np.float32)
+
+
+#: Half-width (cells) of the window whose least-squares plane gives a slope for
+#: :func:`plane_incidence`: 5 × 5 cells. Horn's 3 × 3 gradient of a DSM with 0.3 m of height
+#: noise on 1 m cells has a slope noise of 0.13 (7°, cos i ± 0.1 at 45°), as large as the
+#: relief it should measure; the 5 × 5 plane's is σ_z / (cell·√(5·Σr²)) = 0.04.
+PLANE_HALF = 2
+
+
+def plane_incidence(
+    dsm: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    sun_zenith: float,
+    sun_azimuth: float,
+    transform: Any = None,
+    cell_size: float | None = None,
+    half: int = PLANE_HALF,
+) -> np.ndarray:
+    """Direct light on each cell's slope relative to level ground, ``cos i / cos Z``
+    (float64; NaN where invalid; ≥ 0, 0 where the slope faces away from the sun), the slope
+    from the least-squares plane of the ``(2·half + 1)²`` cells around it (a smoother slope
+    than :func:`hillshade`'s 3 × 3, whose noise on a noisy DSM is as large as the relief).
+    Invalid cells are filled with the mean valid height."""
+    z, a = check_sun(sun_zenith, sun_azimuth)
+    m = grid_matrix(transform, cell_size)
+    d = np.asarray(dsm, np.float64)
+    ok = np.isfinite(d) if valid is None else (np.asarray(valid, bool) & np.isfinite(d))
+    if not ok.all():
+        d = np.where(ok, d, float(np.mean(d[ok])) if ok.any() else 0.0)
+    r = np.arange(-half, half + 1, dtype=np.float64)
+    w = np.tile(r, (r.size, 1)) / (r.size * float((r**2).sum()))
+    dcol = ndimage.correlate(d, w, mode="nearest")
+    drow = ndimage.correlate(d, w.T, mode="nearest")
+    inv_t = np.linalg.inv(m.T)
+    zx = inv_t[0, 0] * dcol + inv_t[0, 1] * drow
+    zy = inv_t[1, 0] * dcol + inv_t[1, 1] * drow
+    zr, ar = math.radians(z), math.radians(a)
+    sun = (math.sin(zr) * math.sin(ar), math.sin(zr) * math.cos(ar), math.cos(zr))
+    cos_i = (-zx * sun[0] - zy * sun[1] + sun[2]) / np.sqrt(1.0 + zx * zx + zy * zy)
+    rel = np.clip(cos_i, 0.0, None) / max(math.cos(zr), 1e-6)
+    return np.where(ok, rel, np.nan)
 
 
 def sun_step(
