@@ -388,3 +388,37 @@ def test_a_glt_places_the_raw_pixels_and_the_dsm(mapped, tmp_path):
             output=str(tmp_path / "x.tif"),
             surface=SurfaceModel(dsm_path, *on_map, igm=igm, glt=path),
         )
+
+
+@pytest.mark.parametrize("lat", [0.0, 31.6, 60.0])
+def test_sun_shadow_on_a_geographic_dsm_is_cast_in_metres(tmp_path, lat):
+    # A DSM in longitude/latitude (SRTM, Copernicus DEM): its cells are degrees, its heights
+    # metres. A 10 m block under a sun 45° from the zenith in the south shades 10 m north of
+    # it: 10 m over the metres per 1e-5° of latitude (the textbook series for the WGS 84
+    # meridian arc, independent of the code's ellipsoid computation).
+    from geoboresight.operations.shadow_truth import sun_shadow_file
+
+    z = np.zeros((100, 100), np.float32)
+    z[60:80, 40:60] = 10.0
+    dsm = str(tmp_path / "dsm.tif")
+    write_gtiff(
+        dsm, z[None], crs=CRS.from_epsg(4326), transform=from_origin(35.0, lat + 5e-4, 1e-5, 1e-5)
+    )
+    sun_shadow_file(dsm, output=str(tmp_path / "s.tif"), sun_zenith=45.0, sun_azimuth=180.0)
+    with rasterio.open(tmp_path / "s.tif") as src:
+        shaded = src.read(1)[:60, 45] > 0.5
+    phi = math.radians(lat)
+    m_per_deg = 111_132.92 - 559.82 * math.cos(2 * phi) + 1.175 * math.cos(4 * phi)
+    assert abs(shaded.sum() - 10.0 / (m_per_deg * 1e-5)) <= 1.0
+    assert shaded[-int(shaded.sum()) :].all()  # the rows next to the block, none beyond
+
+
+def test_a_dsm_in_feet_is_refused(tmp_path):
+    from geoboresight.operations.shadow_truth import sun_shadow_file
+
+    dsm = str(tmp_path / "ft.tif")
+    t = from_origin(980_000.0, 200_000.0, 3.0, 3.0)
+    write_gtiff(dsm, np.zeros((1, 20, 20), np.float32), crs=CRS.from_epsg(2263), transform=t)
+    with pytest.raises(InputError, match="ft.tif.*US survey feet.*metres"):
+        sun_shadow_file(dsm, output=str(tmp_path / "x.tif"), sun_zenith=30.0, sun_azimuth=90.0)
+    assert not os.path.exists(tmp_path / "x.tif")

@@ -177,6 +177,46 @@ def true_north_bearing(lon: float, lat: float, crs) -> float:
     return float(np.degrees(np.arctan2(x[1] - x[0], y[1] - y[0])))
 
 
+def metric_matrix(grid: Grid, label: str) -> np.ndarray | None:
+    """The 2 × 2 matrix taking a step of (Δcol, Δrow) on ``grid`` to (Δeast, Δnorth) in
+    metres, for casting shadows with heights in metres; None when the grid has no
+    geotransform.
+
+    * No CRS, or a projected CRS in metres: the geotransform's own matrix.
+    * Geographic (longitude, latitude: SRTM, Copernicus DEM): degrees scaled to metres at the
+      grid's centre on the CRS's ellipsoid, as ``gdaldem``'s ``-s`` does for the whole
+      raster, but exact at the centre and for rotated grids. Over a raster 1° high the east
+      scale changes by about 2 % at 45° of latitude; reproject larger ones.
+    * A projected CRS in feet or any other unit is refused (``label`` names the file): the
+      heights are then most likely in feet too, which the shadow's length depends on.
+    """
+    t = grid.transform
+    if t is None:
+        return None
+    m = np.array([[t.a, t.b], [t.d, t.e]], dtype=float)
+    if grid.crs is None:
+        return m
+    crs = _pyproj(grid.crs)
+    if crs.is_geographic:
+        c, r = grid.width / 2.0, grid.height / 2.0
+        lon, lat = t.a * c + t.b * r + t.c, t.d * c + t.e * r + t.f
+        if not (-90.0 < lat < 90.0):
+            raise InputError(f"{label}: its centre is at latitude {lat:g}°, not on the Earth")
+        geod = crs.get_geod()
+        step = 1e-4  # degrees: about 11 m, where the ellipsoid is flat to 1e-9
+        _, _, east = geod.inv(lon - step / 2, lat, lon + step / 2, lat)
+        _, _, north = geod.inv(lon, lat - step / 2, lon, lat + step / 2)
+        return np.diag([east / step, north / step]) @ m
+    factor = crs.axis_info[0].unit_conversion_factor if crs.axis_info else 1.0
+    if abs(factor - 1.0) > 1e-9:
+        raise InputError(
+            f"{label}: its CRS ({crs_name(grid.crs)}) is in {crs_units(grid.crs)}, but cells "
+            "and heights must be in metres: reproject it to a CRS in metres (gdalwarp -t_srs "
+            "EPSG:326xx, or QGIS's Warp) and give the heights in metres"
+        )
+    return m
+
+
 def utm_crs(x, y, crs):
     """The UTM zone (pyproj's ``query_utm_crs_info``) holding the median position of
     coordinates ``x``, ``y`` given in ``crs``: on the CRS's datum when it is NAD83 or NAD27

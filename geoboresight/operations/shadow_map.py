@@ -298,14 +298,14 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
                 "the line's IGM ('igm') to read a DSM on a map grid at the image's pixels"
             )
         grid = io.Grid.of(src)
-        if grid.georeferenced:
-            matrix = ill.grid_matrix(grid.transform)
+        if grid.transform is not None:
+            matrix = ill.grid_matrix(georef.metric_matrix(grid, f"surface model {surface.dsm}"))
             place = grid_place(grid)
         elif surface.cell_size:
             matrix = ill.grid_matrix(None, surface.cell_size)
             place = None
-        elif dual.grid.georeferenced:
-            matrix = ill.grid_matrix(dual.grid.transform)
+        elif dual.grid.transform is not None:
+            matrix = ill.grid_matrix(georef.metric_matrix(dual.grid, f"image {dual.vnir.path}"))
             place = grid_place(dual.grid)
         else:
             raise ParameterError(

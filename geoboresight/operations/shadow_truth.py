@@ -12,6 +12,7 @@ import numpy as np
 from .. import io
 from ..errors import ParameterError
 from ..io.dual import TOLERANCE_NM
+from ..io.georef import metric_matrix
 from ..io.masks import mask_raster
 from ..io.wavelengths import nearest_band, wavelengths_of
 from ..io.windows import Sample
@@ -145,7 +146,7 @@ def sun_shadow_file(
             progress.info(
                 "the surface model has a geotransform: its cell size is used, not --cell-size"
             )
-        matrix = ill.grid_matrix(grid.transform, cell_size)
+        matrix = ill.grid_matrix(metric_matrix(grid, f"surface model {dsm}"), cell_size)
         zen, az, how = sun_angles(
             sun_zenith, sun_azimuth, acquisition_time, grid_place(grid), needed_by="dsm"
         )
