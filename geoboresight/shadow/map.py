@@ -580,7 +580,12 @@ def dsm_shadow_fraction(
       fraction (1 inside a cast shadow), and shadow pixels as dark as core shadow (``core``)
       at least 0.5; the others (the predicted shadow's edges and the
       rim) keep their unmixed fraction, so that a mixed edge pixel is shadow when more than
-      half of it is shaded, not because it is darker than ``lit``.
+      half of it is shaded, not because it is darker than ``lit``;
+    * a pixel beside the predicted shadow (within the zone, not shaded by the model) is
+      shaded at most as much as its signal says against the darkest pixel next to it outside
+      the zone, taken as its sunlit end: registered within ``tolerance``, no shadow reaches
+      that pixel, so a dark material running on past the zone is as dark there in the sun and
+      its pixel beside the shadow is not taken for shade.
 
     With ``ray`` and ``reach`` (cells), the zone of the rim also reaches ``reach`` cells
     down-sun of the predicted shadow, then ``tolerance``: the clearance shortens a shadow by
