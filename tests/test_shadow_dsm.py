@@ -81,6 +81,35 @@ def test_the_prior_is_refined_within_a_pixel_and_lit_predictions_dropped():
     assert (smap.dsm_shadow_fraction(d3, prior)[shade] < 0.5).all()
 
 
+@pytest.mark.parametrize("longer", [False, True])
+def test_a_dark_road_running_past_the_rim_is_not_rim_shadow(longer):
+    """A road (reflectance a quarter of the sunlit mode's: as dark as the rim rule takes)
+    runs north through the building's cast shadow and on, sunlit, beyond it. Signals are
+    written from L = (E_dir·(1 − f) + E_diff)·ρ with skylight a tenth of the sun's light.
+    The road's pixel just beyond the predicted shadow is lit (truth f = 0): its darkness is
+    its material's, as the lit road beyond the rim shows, so it is not shadow. With
+    ``longer`` the image's shadow is a pixel longer than the model's (registration): then
+    that pixel is shaded, on the road and on the grass beside it, and is found."""
+    z, prior, _, shade, _ = _town()
+    frac = shade.astype(float)
+    top = np.nonzero(shade.any(axis=1))[0].min()
+    if longer:
+        frac[top - 1, 10:22] = 1.0
+    rho = np.full(z.shape, 0.9)
+    road = np.zeros(z.shape, bool)
+    road[:30, 14:18] = True  # up to the building, through its shadow and beyond
+    rho[road] = 0.25
+    d = np.log(rho * (1 - frac + 0.1 * frac))
+    assert (d[top - 1, 14:18] <= smap.RIM_DARKNESS).all()  # dark enough for the rim rule
+    f = smap.dsm_shadow_fraction(d, prior, heights=z, clearance=1.0)
+    mask = f >= 0.5
+    truth = frac >= 0.5
+    assert (mask[top - 1, 14:18] == truth[top - 1, 14:18]).all()  # the road beside the shadow
+    assert (mask[top - 1, 10:22] == truth[top - 1, 10:22]).all()  # road and grass
+    assert (mask[shade]).all()  # the predicted shadow, road and grass
+    assert not mask[road & ~truth].any()  # no sunlit road pixel anywhere
+
+
 def test_the_top_of_a_caster_beside_its_shadow_is_not_rim_shadow():
     z, prior, d, shade, roof = _town()
     from scipy import ndimage
@@ -90,7 +119,9 @@ def test_the_top_of_a_caster_beside_its_shadow_is_not_rim_shadow():
     beside = roof & ndimage.binary_dilation(shade, iterations=smap.DSM_TOLERANCE)
     assert beside.sum() >= 10
     without = smap.dsm_shadow_fraction(d, prior)
-    assert (without[beside] >= 0.5).mean() > 0.9  # the failure the heights remove
+    # Without the heights the roof beyond that row, lit and as dark, already says the row is
+    # not shaded (its fraction against it as the sunlit end); the heights also say so.
+    assert (without[beside] >= 0.5).mean() <= 0.5
     f = smap.dsm_shadow_fraction(d, prior, heights=z, clearance=1.0)
     # Not rim shadow any more; it is still unmixed against its neighbourhood, where its own
     # dark roof is the sunlit reference (fraction ~0), except within the unmixing window

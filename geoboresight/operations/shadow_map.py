@@ -632,8 +632,9 @@ def shadow_map_file(
                 f"{dsm.reach:.2f} cells the clearance shortens a shadow, where connected to it "
                 "along the sun's direction) and unmixed within "
                 f"{edge_pixels} px (at least half shaded only where as dark as core shadow or "
-                "deep in the prediction); no shadow away from the predicted shadow except "
-                "where a caster beyond the surface model's edge could shade (spectral "
+                "deep in the prediction; beside it, no more shaded than the signal says against "
+                "the darkest lit pixel next to the zone); no shadow away from the predicted "
+                "shadow except where a caster beyond the surface model's edge could shade (spectral "
                 "estimate there); classes by Table 2's fraction intervals",
             )
         counts = np.zeros(256, np.int64)

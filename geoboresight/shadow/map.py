@@ -580,7 +580,12 @@ def dsm_shadow_fraction(
       fraction (1 inside a cast shadow), and shadow pixels as dark as core shadow (``core``)
       at least 0.5; the others (the predicted shadow's edges and the
       rim) keep their unmixed fraction, so that a mixed edge pixel is shadow when more than
-      half of it is shaded, not because it is darker than ``lit``.
+      half of it is shaded, not because it is darker than ``lit``;
+    * a pixel beside the predicted shadow (within the zone, not shaded by the model) is
+      shaded at most as much as its signal says against the darkest pixel next to it outside
+      the zone, taken as its sunlit end: registered within ``tolerance``, no shadow reaches
+      that pixel, so a dark material running on past the zone is as dark there in the sun and
+      its pixel beside the shadow is not taken for shade.
 
     With ``ray`` and ``reach`` (cells), the zone of the rim also reaches ``reach`` cells
     down-sun of the predicted shadow, then ``tolerance``: the clearance shortens a shadow by
@@ -700,6 +705,23 @@ def dsm_shadow_fraction(
         whole = deep | (d <= core)
     f = _unmix(d, ok, core_px | rim_px, edge_pixels, window, allowed=allowed, whole=whole)
     f[deep] = np.maximum(f[deep], p[deep]).astype(np.float32)
+    # Outside the zone no shadow reaches (registration within the tolerance): a pixel there is
+    # lit. A rim pixel is shaded at most as much as its signal says against the darkest such
+    # pixel beside it, taken as its sunlit end: a dark material running on past the zone is
+    # as dark there, in the sun, so it is not taken for shade; a shaded pixel beside brighter
+    # lit ground keeps its fraction.
+    beside = ok & ~zone
+    if beside.any():
+        ref = ndimage.minimum_filter(
+            np.where(beside, d, np.inf), size=3, mode="constant", cval=np.inf
+        )
+        s = np.exp(np.where(ok, d, 0.0))
+        sun = np.exp(np.where(np.isfinite(ref), ref, 0.0))
+        shade = _local_mean(s, core_px | rim_px, window)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            beside_est = np.clip((sun - s) / (sun - shade), 0.0, 1.0)
+            cap = ok & zone & ~shaded & np.isfinite(ref) & (sun > shade) & np.isfinite(beside_est)
+        f[cap] = np.minimum(f[cap], beside_est[cap]).astype(np.float32)
     if unseen is not None:
         u = np.asarray(unseen, bool)
         if u.shape != d.shape:
