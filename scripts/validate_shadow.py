@@ -35,12 +35,14 @@ against ``shadow-map`` without, and ``deshadow`` with the truth fraction and wit
 each without and with the DSM (the same noisy one, and the sun).
 Its hold-out groups (``--dsm --holdout 4`` to ``11``) are drawn as the others, with other seeds;
 ``--no-deshadow`` leaves the de-shadow columns empty; ``--additive`` de-shadows with the
-additive signal estimated from the pairs (``deshadow_file(additive=True)``).
+additive signal estimated from the pairs (``deshadow_file(additive=True)``); ``--adjacency``
+adds the light of the sunlit surroundings to the columns with the surface model
+(``deshadow_file(adjacency=True)``).
 
 Usage::
 
     python scripts/validate_shadow.py [--lines 128] [--quick | --holdout N] [--dsm
-        [--no-deshadow | --additive]] [--out FOLDER] [--markdown FILE]
+        [--no-deshadow | --additive] [--adjacency]] [--out FOLDER] [--markdown FILE]
 """
 
 from __future__ import annotations
@@ -385,7 +387,9 @@ def spectra_check(cube_path, dark, f_truth, material, names):
     return out
 
 
-def run_dsm_case(label, model, opts, lines, folder, index, deshadow=True, additive=False):
+def run_dsm_case(
+    label, model, opts, lines, folder, index, deshadow=True, additive=False, adjacency=False
+):
     """The surface-model prior and de-shadowing on one scene (see the module's doc);
     ``deshadow`` False leaves the de-shadow columns empty (the shadow map only)."""
     t0 = time.perf_counter()
@@ -445,6 +449,7 @@ def run_dsm_case(label, model, opts, lines, folder, index, deshadow=True, additi
                     report=j(f"ds_{key}.json"),
                     surface=surf,
                     additive=additive,
+                    adjacency=adjacency and surf.dsm is not None,
                 )
         except Exception as e:  # reported, not hidden
             row[key] = {"error": str(e)}
@@ -537,6 +542,12 @@ def main(argv=None):
         action="store_true",
         help="with --dsm: deshadow with the additive signal from the pairs' line (additive=True)",
     )
+    ap.add_argument(
+        "--adjacency",
+        action="store_true",
+        help="with --dsm: the columns with the surface model light each pixel by its sunlit "
+        "surroundings too (adjacency=True)",
+    )
     ap.add_argument("--out", help="keep the scenes and products in this (new) folder")
     ap.add_argument("--markdown", help="also write the table to this file")
     args = ap.parse_args(argv)
@@ -564,6 +575,7 @@ def main(argv=None):
                     i,
                     deshadow=not args.no_deshadow,
                     additive=args.additive,
+                    adjacency=args.adjacency,
                 )
                 rows.append(r)
                 print(

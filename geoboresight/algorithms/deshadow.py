@@ -92,6 +92,13 @@ DESHADOW = Algorithm(
             "surface model's slopes) and the dark object, and scale only the signal above it "
             "(not the default: see docs/deshadow.md)",
         ),
+        Flag(
+            name="adjacency",
+            description="Also light each pixel by its sunlit surroundings (the light they "
+            "reflect into the part of its sky they hide, 1 − its sky-view factor; their share "
+            "fitted per band on the pairs), so each pixel gets its own ratio; needs the surface "
+            "model (not the default: see docs/deshadow.md)",
+        ),
         BLOCK_ROWS,
         RasterOut(name="output", description="De-shadowed cube (float32, all bands)"),
         FileOut(

@@ -16,7 +16,7 @@ import numpy as np
 
 from .. import io
 from ..dem.coregister import coregister
-from ..errors import InputError
+from ..errors import InputError, ParameterError
 from ..io.bands import BoresightOffset
 from ..io.dark import DarkLevels, dark_level_of
 from ..io.dual import DualLayout
@@ -78,6 +78,7 @@ def deshadow_file(
     dark=DarkLevels(),
     offset=BoresightOffset(),
     additive=False,
+    adjacency=False,
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
 ) -> dict:
@@ -130,6 +131,13 @@ def deshadow_file(
         back). Off by default: on the validation scenes it helps model 2 with a surface model
         and harms the simulator, where the pairs of one surface are not found
         (docs/deshadow.md).
+    adjacency : bool
+        Also light each pixel by its sunlit surroundings (ATCOR-4's terrain-reflected term,
+        ``(1 − V)·ρ̄·E_global``: ρ̄·E_global the mean sunlit signal within
+        :data:`~geoboresight.shadow.deshadow.ADJACENCY_M` around it), its share fitted per
+        band on the pairs with the ratio (:func:`geoboresight.shadow.deshadow.adjacency_ratio`),
+        so each pixel gets its own ratio. Needs the surface model (V). Off by default
+        (docs/deshadow.md).
     block_rows : int
     progress : Progress, optional
 
@@ -163,6 +171,16 @@ def deshadow_file(
                 "(shadow-map --fraction, or sun-shadow on its grid)"
             )
         dsm = _open_surface(surface, dual, block_rows, stack, progress)
+        if adjacency and dsm is None:
+            raise ParameterError(
+                "parameter 'adjacency': the light of the surroundings needs a surface model "
+                "(--dsm and the sun): a shadow gets it from the part of its sky that the "
+                "surroundings hide, 1 − its sky-view factor"
+            )
+        adj_half = 0
+        if adjacency:
+            cell = float(np.sqrt(abs(np.linalg.det(dsm.matrix))))
+            adj_half = max(1, int(ds.ADJACENCY_M / (2.0 * cell)))
         toward_sun = None
         if dsm is not None:
             toward_sun = ill.sun_step(dsm.zenith, dsm.azimuth, dsm.matrix)[:2]
@@ -247,12 +265,21 @@ def deshadow_file(
                     sun_azimuth=dsm.azimuth,
                     transform=dsm.matrix,
                 ).reshape(-1)
+            if adjacency:
+                with np.errstate(invalid="ignore"):
+                    lit_px = x_ok & (f <= ds.LIT)
+                sur = ds.surround_signal(sig, lit_px, 2 * adj_half + 1).reshape(sig.shape[0], -1)
+                sur_a, sur_b = sur[:, ia].T, sur[:, ib].T
+            else:
+                sur_a = sur_b = np.zeros((ia.size, 0))
             return (
                 flat[:, ia].T.astype(np.float32),
                 flat[:, ib].T.astype(np.float32),
                 np.stack([sky[ia], sky[ib], cos_i[ib]]).astype(np.float32),
                 dark_v,
                 dark_s,
+                sur_a.astype(np.float32),
+                sur_b.astype(np.float32),
             )
 
         def merge(u, w):
@@ -260,14 +287,15 @@ def deshadow_file(
                 np.concatenate([p, q], axis=-1 if i == 2 else 0)  # sky views: (3, n)
                 for i, (p, q) in enumerate(zip(u[:3], w[:3], strict=True))
             )
-            dv_, ds_ = (np.concatenate([p, q]) for p, q in zip(u[3:], w[3:], strict=True))
+            dv_, ds_, sa_, sb_ = (np.concatenate([p, q]) for p, q in zip(u[3:], w[3:], strict=True))
             if dv_.shape[0] > n_dark:
                 dv_ = dv_[np.argsort(dv_.mean(axis=1), kind="stable")[:n_dark]]
             if ds_.shape[0] > n_dark:
                 ds_ = ds_[np.argsort(ds_.mean(axis=1), kind="stable")[:n_dark]]
-            return a_, b_, p_, dv_, ds_
+            return a_, b_, p_, dv_, ds_, sa_, sb_
 
-        a, b, pv, dark_v, dark_s = io.reduce_windows(
+        n_sur = len(wl) if adjacency else 0
+        a, b, pv, dark_v, dark_s, sur_a, sur_b = io.reduce_windows(
             read,
             pairs,
             merge,
@@ -277,8 +305,10 @@ def deshadow_file(
                 np.zeros((3, 0), np.float32),
                 np.zeros((0, nv), np.float32),
                 np.zeros((0, len(wl) - nv), np.float32),
+                np.zeros((0, n_sur), np.float32),
+                np.zeros((0, n_sur), np.float32),
             ),
-            halo=(max(ds.DISTANCES) + 1 + shift_halo,) * 2,
+            halo=(max(ds.DISTANCES) + 1 + shift_halo + adj_half,) * 2,
             pass_block=True,
             progress=progress.sub(0.1, 0.4),
             message="shadow edges",
@@ -316,6 +346,22 @@ def deshadow_file(
                 f"{int(np.isfinite(e_line).sum())} bands, with the dark object): "
                 f"{np.min(c):.1f} to {np.max(c):.1f} DN"
             )
+        adj_scale = np.zeros(len(wl))
+        eta = np.zeros(len(wl))
+        if adjacency:
+            # The light of the sunlit surroundings (1 − V)·ρ̄·E_global, its share per band
+            # fitted on the pairs with the ratio (above the additive signal).
+            k, adj_scale, eta = ds.adjacency_ratio(
+                a - c,
+                b - c,
+                (sur_a - c, sur_b - c),
+                sky_view=sky,
+                direct=direct if additive else None,
+            )
+            progress.info(
+                f"light of the surroundings: share η {np.min(eta):.2f}–{np.max(eta):.2f} "
+                f"(median {np.median(eta):.2f}) over the bands"
+            )
 
         # A band whose pairs do not say the sun brightens it (noise, absorption bands) is
         # left as it is: ratio 1.
@@ -337,13 +383,25 @@ def deshadow_file(
         # Pass 2: the de-shadowed cube, each instrument on its own grid.
         base = lv + c[:, None, None]
 
+        def surroundings(sig, frac, ok, vv, scale):
+            """Each pixel's light from its sunlit surroundings, scale·(1 − V)·S̄."""
+            if not adjacency:
+                return None
+            with np.errstate(invalid="ignore"):
+                lit_px = ok & (frac <= ds.LIT)
+            s_bar = ds.surround_signal(sig, lit_px, 2 * adj_half + 1)
+            return scale[:, None, None] * (1.0 - vv)[None] * s_bar
+
         def kernel(x, x_ok, f, z, v):
             f_ok = np.isfinite(f)
             fs = _fraction_grid(f, along, across, f_ok)
             vs = None if v is None else _fraction_grid(v, along, across, np.isfinite(v))
             bv, bs = base[:nv], base[nv:]
-            out_v = ds.deshadow(x[:nv] - bv, f, x_ok, ratio=k[:nv], sky_view=v) + bv
-            out_s = ds.deshadow(x[nv:] - bs, fs, x_ok, ratio=k[nv:], sky_view=vs) + bs
+            sv, ss = x[:nv] - bv, x[nv:] - bs
+            av = surroundings(sv, f, x_ok, v, adj_scale[:nv])
+            as_ = surroundings(ss, fs, x_ok, vs, adj_scale[nv:])
+            out_v = ds.deshadow(sv, f, x_ok, ratio=k[:nv], sky_view=v, adjacency=av) + bv
+            out_s = ds.deshadow(ss, fs, x_ok, ratio=k[nv:], sky_view=vs, adjacency=as_) + bs
             with np.errstate(invalid="ignore"):
                 shaded = x_ok & (f > 0)
             return np.concatenate([out_v, out_s]), shaded
@@ -365,6 +423,10 @@ def deshadow_file(
             "illumination_ratio": ",".join(f"{v:.4f}" for v in k),
             "dark_level_dn": ",".join(f"{v:.2f}" for v in levels),
             "additive_signal_dn": ",".join(f"{v:.2f}" for v in c),
+            "adjacency": "(1 − V)·η·k·S̄/S_ref added to V, S̄ the mean sunlit signal within "
+            f"{ds.ADJACENCY_M:g} m; η per band in the report"
+            if adjacency
+            else "none",
             "pairs_used": str(n_pairs),
             "offset_along_px": f"{along:.3f}",
             "offset_across_px": f"{across:.3f}",
@@ -384,7 +446,7 @@ def deshadow_file(
             for win, (cube, n) in io.map_windows(
                 read,
                 kernel,
-                halo=(shift_halo,) * 2,
+                halo=(shift_halo + adj_half,) * 2,
                 progress=progress.sub(0.4, 1.0),
                 message="de-shadowing",
                 **strips,
@@ -419,9 +481,10 @@ def deshadow_file(
                         "additive_signal_line_dn": float(cl) if np.isfinite(el) else None,
                         "additive_signal_line_error_dn": float(el) if np.isfinite(el) else None,
                         "dark_object_dn": float(do) if np.isfinite(do) else None,
+                        "adjacency_share": float(et),
                     }
-                    for w, kk, lvl, cc, ce, cl, el, do in zip(
-                        wl, k, levels, c, c_err, c_line, e_line, dark_obj, strict=True
+                    for w, kk, lvl, cc, ce, cl, el, do, et in zip(
+                        wl, k, levels, c, c_err, c_line, e_line, dark_obj, eta, strict=True
                     )
                 ],
                 "formula": "L_sun = L / (1 - f * (1 - 1/k)), L = DN - dark level - additive "

@@ -86,6 +86,15 @@ DARK_PIXELS = 20
 SMOOTH_NM = (420.0, 900.0)
 #: … without the O2 A band (its ratio dips: the direct beam's path is longer than the sky's).
 O2_NM = (745.0, 775.0)
+#: Side (m) of the square of surroundings whose mean sunlit signal is the light they reflect
+#: into a shadow (:func:`surround_signal`): the ground around a shadow that its casters'
+#: heights (4–14 m on the validation scenes) hide part of the sky behind, of the order of
+#: that height on either side; model 2's own term averages 15 m as well.
+ADJACENCY_M = 15.0
+#: The adjacency term's share η = A·ρ̄ (the hemisphere's share the surroundings fill times
+#: their reflectance, relative to the typical sunlit surface) is searched on this grid,
+#: 0–1 (:func:`adjacency_ratio`), then refined.
+ADJACENCY_GRID = np.linspace(0.0, 1.0, 26)
 
 _DIRECTIONS = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
 
@@ -514,6 +523,123 @@ def combine_additive(
     return np.minimum(c, d), 1.0 / np.sqrt(w_l + w_d)
 
 
+def surround_signal(cube: np.ndarray, sunlit: np.ndarray, size: int) -> np.ndarray:
+    """Each band's mean signal of the sunlit pixels (``sunlit``, rows × cols) in the
+    ``size`` × ``size`` window around each pixel (bands × rows × cols; NaN where the window
+    holds no sunlit pixel): the surroundings' ρ̄·E_global·g of ATCOR's terrain-reflected
+    light. Pixels beyond the array are not counted (a strip read with ``size // 2`` lines of
+    halo gives the whole image's values on its own lines)."""
+    x = np.asarray(cube, np.float64)
+    m = np.asarray(sunlit, bool) & np.isfinite(x).all(axis=0)
+    n = ndimage.uniform_filter(m.astype(np.float64), int(size), mode="constant")
+    out = np.empty(x.shape)
+    for i in range(x.shape[0]):
+        out[i] = ndimage.uniform_filter(np.where(m, x[i], 0.0), int(size), mode="constant")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out /= n
+    out[:, n < 0.5 / float(size) ** 2] = np.nan
+    return out
+
+
+def adjacency_ratio(
+    shaded: np.ndarray,
+    sunlit: np.ndarray,
+    surround: tuple[np.ndarray, np.ndarray],
+    *,
+    sky_view: tuple[np.ndarray, np.ndarray],
+    direct: np.ndarray | None = None,
+    grid: np.ndarray = ADJACENCY_GRID,
+    min_pairs: int = MIN_PAIRS,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The open-ground ratio ``k`` and the light reflected by the sunlit surroundings into
+    each pixel (ATCOR-4's terrain-reflected term, Richter & Müller 2005), per band, from the
+    pairs.
+
+    A pixel of sky-view factor V gets ``V·E_sky`` from the sky and ``(1 − V)·ρ̄·E_global``
+    from the surroundings that hide the rest of its hemisphere, ρ̄ their reflectance. The
+    surroundings' mean sunlit signal S̄ (:func:`surround_signal`, above any additive signal)
+    is ``ρ̄·E_global·g``; relative to a typical sunlit signal S_ref (the median of the
+    pairs' sunlit sides, ``ρ_ref·E_global·g``) and with ``E_global/E_sky = k``, the term in
+    units of the open sky's light is ``η·k·(1 − V)·S̄/S_ref``, ``η = A·ρ_ref`` (A ≤ 1 the
+    share of that light the model gives; ATCOR's A is 1). A pair's ratio is then
+    ``r = ((k − 1)·cos i/cos Z + V_b + η·t_b)/(V_a + η·t_a)``, ``t = k·(1 − V)·S̄/S_ref``
+    (k from the pairs without the term). For each η of ``grid`` (0–1, then refined about the
+    best) the open-ground ratio is the median over the pairs, and η is the one whose
+    predicted log ratios leave the least median absolute residual: each band its own.
+
+    ``shaded``, ``sunlit`` (n, bands): signals above the dark level (and additive signal);
+    ``surround`` (S̄ at the shadowed and sunlit pixel, each (n, bands); NaN: no term);
+    ``sky_view`` (V_a, V_b), ``direct`` as :func:`illumination_ratio`.
+
+    Returns
+    -------
+    k : array (bands,)
+        The open-ground ratio (1 where no pair measures it).
+    scale : array (bands,)
+        ``η·k₀/S_ref``: the term at a pixel is ``scale·(1 − V)·S̄`` (:func:`deshadow`'s
+        ``adjacency``).
+    eta : array (bands,)
+    """
+    a = np.asarray(shaded, np.float64)
+    b = np.asarray(sunlit, np.float64)
+    n, nb = a.shape
+    va, vb = (np.asarray(v, np.float64).reshape(-1, 1) for v in sky_view)
+    if va.shape[0] != n or vb.shape[0] != n:
+        raise InputError(f"{va.shape[0]} and {vb.shape[0]} sky-view factors for {n} pairs")
+    s_a, s_b = (np.asarray(s, np.float64) for s in surround)
+    if s_a.shape != a.shape or s_b.shape != a.shape:
+        raise InputError(f"surroundings of shapes {s_a.shape}, {s_b.shape} for pairs {a.shape}")
+    d = _direct(direct, n)
+    good = (a > MIN_SIGNAL) & (b > MIN_SIGNAL) & np.isfinite(d)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        lr = np.where(good, np.log(b) - np.log(a), np.nan)
+    r = np.exp(lr)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        s_ref = np.nanmedian(np.where(good, b, np.nan), axis=0)
+        k0 = np.nanmedian((va * r - vb) / d, axis=0) + 1.0
+    k0 = np.where(np.isfinite(k0) & (k0 > 1.0), k0, 1.0)
+    ok_ref = np.isfinite(s_ref) & (s_ref > MIN_SIGNAL)
+    unit = np.where(ok_ref, k0 / np.where(ok_ref, s_ref, 1.0), 0.0)
+    t_a = np.nan_to_num((1.0 - va) * np.clip(s_a, 0.0, None) * unit, nan=0.0)
+    t_b = np.nan_to_num((1.0 - vb) * np.clip(s_b, 0.0, None) * unit, nan=0.0)
+
+    def fit(eta):
+        pa, pb = va + eta * t_a, vb + eta * t_b
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            rr = np.nanmedian((pa * r - pb) / d, axis=0)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                pred = np.log(np.maximum(rr * d + pb, MIN_SIGNAL)) - np.log(pa)
+            return rr, np.nanmedian(np.abs(lr - pred), axis=0)
+
+    if np.isfinite(lr).any(axis=1).sum() < min_pairs:
+        raise InputError(
+            f"only {int(np.isfinite(lr).any(axis=1).sum())} pairs of shadowed and sunlit "
+            f"pixels to measure the light of the surroundings (need {min_pairs})"
+        )
+    grid = np.asarray(grid, np.float64)
+    best = np.full(nb, np.inf)
+    eta = np.zeros(nb)
+    step = float(grid[1] - grid[0]) if grid.size > 1 else 0.0
+    for e in grid:
+        _, disp = fit(np.full(nb, e))
+        better = np.nan_to_num(disp, nan=np.inf) < best
+        best = np.where(better, disp, best)
+        eta = np.where(better, e, eta)
+    lo, hi = float(grid.min()), float(grid.max())
+    for j in np.linspace(-1.0, 1.0, 11):
+        e = np.clip(eta + j * step, lo, hi)
+        _, disp = fit(e)
+        better = np.nan_to_num(disp, nan=np.inf) < best
+        best = np.where(better, disp, best)
+        eta = np.where(better, e, eta)
+    rr, _ = fit(eta)
+    k = np.where(np.isfinite(rr), rr + 1.0, 1.0)
+    eta = np.where(ok_ref & np.isfinite(rr), eta, 0.0)
+    return k, eta * unit, eta
+
+
 def deshadow(
     cube: np.ndarray,
     fraction: np.ndarray,
@@ -521,6 +647,7 @@ def deshadow(
     *,
     ratio: np.ndarray,
     sky_view: np.ndarray | None = None,
+    adjacency: np.ndarray | None = None,
 ) -> np.ndarray:
     """The sunlit signal of each pixel: ``L / (1 − f·(1 − 1/k))`` per band (float32; NaN
     where invalid; unchanged where ``f`` is 0).
@@ -543,6 +670,10 @@ def deshadow(
     sky_view : array (rows, cols), optional
         Sky-view factor of each pixel, 0–1
         (:func:`geoboresight.shadow.illumination.sky_view_factor`; NaN = invalid).
+    adjacency : array (n_bands, rows, cols), optional
+        The light the sunlit surroundings reflect into each pixel, in units of the open sky's
+        (:func:`adjacency_ratio`: ``scale·(1 − V)·S̄``; NaN = none): added to V in both the
+        shadowed and the sunlit illumination, so each pixel gets its own ratio.
     """
     x = np.asarray(cube, np.float64)
     k = np.asarray(ratio, np.float64).reshape(-1)
@@ -562,6 +693,11 @@ def deshadow(
         ok &= np.isfinite(v[0])
         # A cell that sees no sky gets nothing from it: a floor keeps the factor finite.
         v = np.clip(np.where(np.isfinite(v), v, 1.0), MIN_SKY, 1.0)
+    if adjacency is not None:
+        extra = np.asarray(adjacency, np.float64)
+        if extra.shape != x.shape:
+            raise InputError(f"adjacency term of shape {extra.shape} for a {x.shape} cube")
+        v = v + np.clip(np.nan_to_num(extra, nan=0.0), 0.0, None)
     r = (k - 1.0)[:, None, None]
     ff = np.where(ok, f, 0.0)[None]
     g = (r + v) / (r * (1.0 - ff) + v)
