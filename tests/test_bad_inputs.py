@@ -17,7 +17,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 import rasterio
-from hostile import COLS, ROWS, UTM36, cli, error_line, make_inputs, read_only_folder, snapshot
+from hostile import (
+    COLS,
+    GRID,
+    ROWS,
+    UTM36,
+    cli,
+    error_line,
+    make_inputs,
+    read_only_folder,
+    snapshot,
+)
+from rasterio.transform import Affine
 from synth import write_gtiff
 
 from geoboresight.algorithms import registry
@@ -945,7 +956,118 @@ def _georef_cases() -> list[Case]:
                 setup=_percent_fraction,
             )
         )
+    c += _surface_cases()
     return c
+
+
+def _dsm(name: str, fill=None, dtype="float32", nodata=None, transform=GRID):
+    """A DSM on hostile's UTM grid (a 20 m block on level ground at 100 m), its first three
+    lines ``fill`` (a hole), written as ``dtype`` with ``nodata`` (None: none declared)."""
+
+    def setup(d):
+        z = np.full((1, ROWS, COLS), 100.0)
+        z[:, 10:20, 10:18] = 120.0
+        if fill is not None:
+            z[:, :3] = fill
+        if transform.e > 0:  # south-up: the same ground, its rows the other way round
+            z = z[:, ::-1]
+        profile = dict(driver="GTiff", width=COLS, height=ROWS, count=1, dtype=dtype)
+        profile.update(crs=UTM36, transform=transform, nodata=nodata)
+        with rasterio.open(d / name, "w", **profile) as dst:
+            dst.write(z.astype(dtype))
+
+    return setup
+
+
+def _surface_cases() -> list[Case]:
+    """Surface models and shadow fractions of a GIS analyst's folder: holes filled with a
+    value the file does not declare as nodata, grids of the image's size but not its grid."""
+    c = []
+    sun = {"sun_zenith": "60", "sun_azimuth": "180"}
+    on_grid = {"vnir": "vg.img", "swir": "sg.img"}
+    for fill, dtype in ((-9999, "float32"), (-32768, "int16")):
+        c.append(
+            Case(
+                f"sun-shadow-dsm-undeclared-fill-{-fill}",
+                "sun-shadow",
+                {"dsm": "fill.tif"},
+                ("fill.tif", f"{fill} m", "nodata"),
+                setup=_dsm("fill.tif", fill, dtype),
+            )
+        )
+        c.append(
+            Case(
+                f"shadow-map-dsm-undeclared-fill-{-fill}",
+                "shadow-map",
+                {**on_grid, **sun, "dsm": "fill.tif"},
+                ("fill.tif", f"{fill} m", "nodata"),
+                setup=_dsm("fill.tif", fill, dtype),
+            )
+        )
+    c.append(
+        Case(
+            "shadow-map-dsm-declared-fill-works",
+            "shadow-map",
+            {**on_grid, **sun, "dsm": "fill.tif"},
+            (),
+            setup=_dsm("fill.tif", -32768, "int16", nodata=-32768),
+            code=0,
+        )
+    )
+    south_up = Affine(2.0, 0.0, 700000.0, 0.0, 2.0, 3500000.0 - 2.0 * ROWS)
+    rotated = GRID @ Affine.rotation(30.0)
+    for cid, transform in (("south-up", south_up), ("rotated", rotated)):
+        c.append(
+            Case(
+                f"shadow-map-dsm-{cid}-of-the-image-size",
+                "shadow-map",
+                {**on_grid, **sun, "dsm": "other.tif"},
+                ("other.tif", "geotransform"),
+                setup=_dsm("other.tif", transform=transform),
+            )
+        )
+    c.append(
+        Case(
+            "shadow-map-dsm-other-crs",
+            "shadow-map",
+            {**on_grid, **sun, "dsm": "dem37.tif"},
+            ("dem37.tif", "EPSG:32637"),
+        )
+    )
+    c.append(
+        Case(
+            "deshadow-fraction-other-crs",
+            "deshadow",
+            {**on_grid, "shadow": "truth37.tif"},
+            ("truth37.tif", "EPSG:32637"),
+        )
+    )
+    c.append(
+        Case(
+            "deshadow-fraction-shifted-grid",
+            "deshadow",
+            {**on_grid, "shadow": "truth_shift.tif"},
+            ("truth_shift.tif", "geotransform"),
+        )
+    )
+    c.append(
+        Case(
+            "deshadow-fraction-in-bytes",
+            "deshadow",
+            {"shadow": "bytes.tif"},
+            ("bytes.tif", "divide it by 255"),
+            setup=_byte_fraction,
+        )
+    )
+    return c
+
+
+def _byte_fraction(d: Path) -> None:
+    with rasterio.open(d / "truth.tif") as src:
+        f, profile = src.read(), src.profile
+    profile.update(dtype="uint8")
+    with rasterio.open(d / "bytes.tif", "w", **profile) as dst:
+        dst.write(np.round(f * 255.0).astype("uint8"))
 
 
 def _percent_fraction(d: Path) -> None:

@@ -162,6 +162,9 @@ def deshadow_file(
                 f"image {dual.height} × {dual.width}: give the fraction of this image "
                 "(shadow-map --fraction, or sun-shadow on its grid)"
             )
+        dual.grid.require_same(
+            io.Grid.of(f_src), f"image {dual.vnir.path}", f"shadow fraction {shadow}"
+        )
         dsm = _open_surface(surface, dual, block_rows, stack, progress)
         toward_sun = None
         if dsm is not None:

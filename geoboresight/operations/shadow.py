@@ -38,6 +38,26 @@ def no_valid_error(path: str, what: str = "ratio raster") -> InputError:
     )
 
 
+#: Heights (m) beyond any surface a surface model shows (dry land reaches −430 m at the Dead
+#: Sea and 8,849 m at Everest): a fill value not declared as nodata (−9999, −32768, 3.4e38),
+#: or heights not in metres.
+LOWEST_HEIGHT_M, HIGHEST_HEIGHT_M = -1_000.0, 9_000.0
+
+
+def check_heights(lo: float, hi: float, path: str, what: str = "surface model") -> None:
+    """Refuse a surface model whose lowest or highest valid height (m) is not a height on
+    Earth: an undeclared fill value (−9999 in the holes of a DSM whose nodata is unset) would
+    be taken for a pit 10 km deep, and the shadows cast into it and the relief (how far every
+    shadow is searched) would silently be wrong."""
+    for value, bad in ((lo, lo < LOWEST_HEIGHT_M), (hi, hi > HIGHEST_HEIGHT_M)):
+        if bad:
+            raise InputError(
+                f"{what} {path} holds a height of {value:g} m, beyond the Earth's surface (−430 to 8,849 m): "
+                f"if {value:g} marks missing cells, declare it the file's nodata value (e.g. "
+                f"gdal_edit.py -a_nodata {value:g}); else give heights in metres"
+            )
+
+
 #: How far an estimated shadow fraction may stray outside 0–1 (an unmixed or fitted fraction's
 #: noise) before the file is taken for something else: a percentage, classes, a ratio.
 FRACTION_SLACK = 0.05
@@ -53,11 +73,14 @@ def check_fraction(f: np.ndarray, ok: np.ndarray, path: str, what: str = "shadow
     lo, hi = float(v.min()), float(v.max())
     if lo >= -FRACTION_SLACK and hi <= 1.0 + FRACTION_SLACK:
         return
-    hint = (
-        "a percentage? divide it by 100 (e.g. gdal_calc.py, or QGIS's Raster calculator)"
-        if lo >= -FRACTION_SLACK and hi <= 100.0 + FRACTION_SLACK
-        else "give a fraction: shadow-map's 'fraction' or sun-shadow's output"
-    )
+    if lo >= -FRACTION_SLACK and hi <= 100.0 + FRACTION_SLACK:
+        hint = "a percentage? divide it by 100 (e.g. gdal_calc.py, or QGIS's Raster calculator)"
+    elif lo >= 0 and hi <= 255 and float(hi).is_integer():
+        hint = (
+            "bytes scaled 0–255? divide it by 255 (e.g. gdal_calc.py, or QGIS's Raster calculator)"
+        )
+    else:
+        hint = "give a fraction: shadow-map's 'fraction' or sun-shadow's output"
     raise InputError(
         f"{what} {path} holds values from {lo:g} to {hi:g}, but a shadow fraction is 0–1 "
         f"(nodata aside): {hint}"

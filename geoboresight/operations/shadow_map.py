@@ -29,7 +29,7 @@ from ..shadow import classes as cls
 from ..shadow import illumination as ill
 from ..shadow import map as smap
 from ._operation import operation
-from .shadow import class_table, grid_place, no_valid_error, sun_angles
+from .shadow import check_heights, class_table, grid_place, no_valid_error, sun_angles
 
 #: Pixels drawn at random to calibrate the map.
 SAMPLE_SIZE = 200_000
@@ -298,6 +298,9 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
                 "the line's IGM ('igm') to read a DSM on a map grid at the image's pixels"
             )
         grid = io.Grid.of(src)
+        # Of the image's size but on another map grid (shifted, rotated, south-up, another
+        # CRS): its cells are not the image's pixels.
+        dual.grid.require_same(grid, f"image {dual.vnir.path}", f"surface model {surface.dsm}")
         if grid.transform is not None:
             matrix = ill.grid_matrix(georef.metric_matrix(grid, f"surface model {surface.dsm}"))
             place = grid_place(grid)
@@ -328,6 +331,7 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
     )
     if n_valid == 0:
         raise no_valid_error(surface.dsm, "surface model")
+    check_heights(lo, hi, surface.dsm)
     kind = choose_surface(walls, pairs)
     relief = float(hi - lo)
     halo = ill.halo_rows(relief, zen, az, matrix, (dual.height, dual.width))

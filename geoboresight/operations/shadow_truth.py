@@ -26,7 +26,7 @@ from ..shadow.darkpixel import (
 )
 from ..shadow.surface import AUTO, choose_surface, surface_walls
 from ._operation import operation
-from .shadow import grid_place, no_valid_error, sun_angles
+from .shadow import check_heights, grid_place, no_valid_error, sun_angles
 
 #: The dark-pixel bands as the text parameter gives them (nm, comma-separated).
 BANDS_NM = ",".join(f"{b:g}" for b in DEFAULT_BANDS_NM)
@@ -161,6 +161,7 @@ def sun_shadow_file(
         )
         if n_valid == 0:
             raise no_valid_error(dsm, "surface model")
+        check_heights(lo, hi, dsm)
         if surface == AUTO:
             surface = choose_surface(walls, pairs)
             progress.info(
