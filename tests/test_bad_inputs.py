@@ -1034,6 +1034,47 @@ def _surface_cases() -> list[Case]:
             ("dem37.tif", "EPSG:32637"),
         )
     )
+    # A DSM on a map grid read through the line's IGM or GLT.
+    via = {"vnir": "v.img", "swir": "s.img", **sun, "dsm": "dem_g.tif"}
+    c.append(
+        Case(
+            "shadow-map-igm-without-crs-given-igm-crs",
+            "shadow-map",
+            {**via, "igm": "igm.tif", "igm_crs": UTM36},
+            (),
+            code=0,
+        )
+    )
+    c.append(
+        Case(
+            "shadow-map-igm-crs-without-igm",
+            "shadow-map",
+            {**via, "igm_crs": UTM36},
+            ("igm_crs", "'igm' or 'glt'"),
+        )
+    )
+    for op, args in (
+        ("shadow-map", {**via, "igm": "igm0.tif", "igm_crs": UTM36}),
+        ("geolocate", {"igm": "igm0.tif"}),
+    ):
+        c.append(
+            Case(
+                f"{op}-igm-zero-fill-without-nodata",
+                op,
+                args,
+                ("igm0.tif", "(0, 0)", "nodata"),
+                setup=_igm("igm0.tif", _zero_rows),
+            )
+        )
+    c.append(
+        Case(
+            "shadow-map-glt-of-another-product",
+            "shadow-map",
+            {**via, "glt": "glt_big.tif"},
+            ("glt_big.tif", "point outside image", "another product"),
+            setup=_glt("glt_big.tif", ROWS + 5),
+        )
+    )
     c.append(
         Case(
             "deshadow-fraction-other-crs",
@@ -1060,6 +1101,23 @@ def _surface_cases() -> list[Case]:
         )
     )
     return c
+
+
+def _zero_rows(xy):
+    xy = xy.copy()
+    xy[:, 5:8] = 0.0
+    return xy
+
+
+def _glt(name: str, lines: int):
+    """A GLT on hostile's UTM grid showing a product of ``lines`` lines (COLS samples)."""
+
+    def setup(d):
+        sample, line = np.meshgrid(np.arange(COLS) + 1, np.arange(ROWS) + 1)
+        line = np.minimum(line * lines // ROWS, lines)
+        write_gtiff(d / name, np.stack([sample, line]).astype("int32"), crs=UTM36, transform=GRID)
+
+    return setup
 
 
 def _byte_fraction(d: Path) -> None:

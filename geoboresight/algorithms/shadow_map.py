@@ -92,6 +92,12 @@ SURFACE = Group(
             advanced=True,
         ),
         Text(
+            name="igm_crs",
+            description="CRS of the IGM or GLT when its header carries none (e.g. EPSG:32636)",
+            optional=True,
+            advanced=True,
+        ),
+        Text(
             name="acquisition_time",
             description="Acquisition date and time, ISO 8601 (e.g. 2009-06-20T10:32:00Z; UTC without an offset): the sun's zenith and azimuth are computed from it at the scene's centre (instead of giving them)",
             optional=True,

@@ -420,7 +420,31 @@ def read_coordinates(path, *, crs=None, label: str = "IGM") -> Coordinates:
     return coords
 
 
+def _check_zero_fill(coords: Coordinates, label: str) -> None:
+    """Refuse pixels at exactly (0, 0) far from all the others: a fill value the file does not
+    declare as nodata (IGMs of pixels the processor could not locate), which would be taken
+    for positions thousands of kilometres away (a map grid of the size of a continent, or an
+    affine fit of the line pulled towards them)."""
+    x, y = coords.x, coords.y
+    finite = np.isfinite(x) & np.isfinite(y)
+    zero = finite & (x == 0) & (y == 0)
+    n = int(zero.sum())
+    rest = finite & ~zero
+    if not n or not rest.any():
+        return
+    x0, x1, y0, y1 = x[rest].min(), x[rest].max(), y[rest].min(), y[rest].max()
+    w, h = x1 - x0, y1 - y0
+    if x0 - w <= 0 <= x1 + w and y0 - h <= 0 <= y1 + h:
+        return  # a line that does pass near (0, 0)
+    raise InputError(
+        f"{label} {coords.path}: {n} pixel(s) sit at (0, 0), far from the others (x "
+        f"{x0:.10g} … {x1:.10g}, y {y0:.10g} … {y1:.10g}): 0 marks pixels without a position; "
+        "declare it the file's nodata value (e.g. gdal_edit.py -a_nodata 0)"
+    )
+
+
 def _check(coords: Coordinates, label: str, origin: str) -> None:
+    _check_zero_fill(coords, label)
     fix = (
         "give the right CRS with --igm-crs (e.g. EPSG:32636 for UTM 36N metres, EPSG:4326 for "
         "longitude/latitude)"
@@ -580,6 +604,22 @@ def read_glt(path, *, crs=None) -> GLT:
         grid,
         path,
     )
+
+
+def glt_for(path, product: str, *, width: int, height: int, crs=None) -> GLT:
+    """:func:`read_glt`, refused when any of its cells points outside ``product`` (a label,
+    e.g. "input x.tif", of ``width`` × ``height`` pixels): the GLT of another product, whose
+    cells beyond this one would be dropped in silence and the rest misplaced."""
+    from ..georef.geoloc import glt_indices
+
+    glt = read_glt(path, crs=crs)
+    outside = glt_indices(glt.sample, glt.line, glt.valid, width=width, height=height)[3]
+    if outside:
+        raise InputError(
+            f"GLT {path}: {outside} cell(s) point outside {product} ({width} × {height}, "
+            "columns × lines): the GLT belongs to another product"
+        )
+    return glt
 
 
 # ---------------------------------------------------------------------------------- GCP files

@@ -69,7 +69,8 @@ class SurfaceModel:
     The DSM is on the image's grid, or on a map grid with ``igm``, the line's IGM (each raw
     pixel's map coordinates: the DSM is read at every raw pixel, and the sun's azimuth is
     from north), or with ``glt``, its GLT (each raw pixel at the mean of the map cells that
-    show it: :func:`geoboresight.georef.geoloc.glt_coordinates`). ``sun_zenith`` 0–90° (< 90), ``sun_azimuth`` clockwise from north towards
+    show it: :func:`geoboresight.georef.geoloc.glt_coordinates`); ``igm_crs``, their CRS when
+    the file carries none (or to override it). ``sun_zenith`` 0–90° (< 90), ``sun_azimuth`` clockwise from north towards
     the sun (as ``sun-shadow``); or ``acquisition_time`` (ISO 8601, UTC without an offset),
     from which they are computed at the scene's centre (NREL's SPA:
     :func:`geoboresight.shadow.solar.sun_position`). ``cell_size`` (m) for a DSM without a
@@ -85,6 +86,7 @@ class SurfaceModel:
     igm: str | None = None
     acquisition_time: str | None = None
     glt: str | None = None
+    igm_crs: str | None = None
 
 
 #: Bands per instrument read for the dark level besides the signal bands (evenly spaced).
@@ -197,7 +199,13 @@ def _surface_via_geolocation(surface: SurfaceModel, dual, stack, progress):
     if surface.glt:
         from ..georef.geoloc import glt_coordinates
 
-        glt = georef.read_glt(surface.glt)
+        glt = georef.glt_for(
+            surface.glt,
+            f"image {dual.vnir.path}",
+            width=dual.width,
+            height=dual.height,
+            crs=surface.igm_crs,
+        )
         x, y = glt_coordinates(
             glt.sample,
             glt.line,
@@ -213,7 +221,7 @@ def _surface_via_geolocation(surface: SurfaceModel, dual, stack, progress):
             )
         coords = georef.Coordinates(x, y, glt.grid.crs, surface.glt, f"GLT {surface.glt}")
     else:
-        coords = georef.coordinates_for(dual.vnir.path, igm=surface.igm)
+        coords = georef.coordinates_for(dual.vnir.path, igm=surface.igm, crs=surface.igm_crs)
     source = f"GLT {surface.glt}" if surface.glt else f"IGM {surface.igm}"
     if coords.x.shape != (dual.height, dual.width):
         raise InputError(
@@ -274,6 +282,7 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
                 ("acquisition_time", surface.acquisition_time),
                 ("igm", surface.igm),
                 ("glt", surface.glt),
+                ("igm_crs", surface.igm_crs),
             )
             if v is not None
         ]
@@ -290,6 +299,11 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
     if surface.igm or surface.glt:
         src, matrix, place = _surface_via_geolocation(surface, dual, stack, progress)
     else:
+        if surface.igm_crs:
+            raise ParameterError(
+                "parameter 'igm_crs' is the CRS of the line's IGM or GLT: give 'igm' or 'glt' "
+                "too, or leave it empty"
+            )
         src = stack.enter_context(io.open_raster(surface.dsm, "surface model"))
         if (src.height, src.width) != (dual.height, dual.width):
             raise InputError(
