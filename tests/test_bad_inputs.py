@@ -956,8 +956,89 @@ def _georef_cases() -> list[Case]:
                 setup=_percent_fraction,
             )
         )
-    c += _surface_cases()
+    c += _surface_cases() + _cube_cases()
     return c
+
+
+def _cube_cases() -> list[Case]:
+    """Cubes and options of the detectors that were ignored or misreported: a line too small
+    for the boresight offset, wavelengths in micrometres labelled nanometres, a merged cube
+    split at the wrong seam, an offset given where nothing uses it."""
+    c = []
+    for op in ("rx", "svdd", "boresight-offset", "boresight-indicator"):
+        args = {"vnir": "v1.img", "swir": "s1.img"}
+        if op == "boresight-indicator":
+            args["ratio"] = None
+        c.append(
+            Case(
+                f"{op}-one-line-image",
+                op,
+                args,
+                ("30 × 1 pixels", "8 × 8"),
+                setup=_one_line,
+            )
+        )
+    c.append(
+        Case(
+            "ratio-micrometres-labelled-nanometres",
+            "ratio",
+            {},
+            ("v.img", "micrometres", "Micrometers"),
+            setup=_wavelength_header(
+                "v.hdr", ", ".join(f"{w / 1000:.3f}" for w in range(400, 970, 50)), "Nanometers"
+            ),
+        )
+    )
+    c.append(
+        Case(
+            "ratio-merged-seam-too-low",
+            "ratio",
+            {"vnir": "m.img", "swir": None, "seam_nm": "700"},
+            ("m.img", "seam_nm 700", "920 nm"),
+            setup=_merged,
+        )
+    )
+    c.append(
+        Case(
+            "rx-merged-cube-offset-given",
+            "rx",
+            {"vnir": "m.img", "swir": None, "offset_along": "0.5"},
+            ("'offset_along'", "m.img", "SWIR file"),
+            setup=_merged,
+        )
+    )
+    c.append(
+        Case(
+            "svdd-offset-given-coregister-off",
+            "svdd",
+            {"offset_along": "0.5"},
+            ("'offset_along'", "'coregister'"),
+            extra=["--no-coregister"],
+        )
+    )
+    c.append(
+        Case(
+            "boresight-indicator-eq3-offset-given",
+            "boresight-indicator",
+            {"offset_along": "0.5"},
+            ("'offset_along'", "method 'physical'"),
+        )
+    )
+    return c
+
+
+def _one_line(d: Path) -> None:
+    from synth import SWIR_WL, VNIR_WL, cube, write_envi
+
+    write_envi(d / "v1.img", cube(len(VNIR_WL), 1, COLS, seed=1), VNIR_WL)
+    write_envi(d / "s1.img", cube(len(SWIR_WL), 1, COLS, seed=2), SWIR_WL)
+
+
+def _merged(d: Path) -> None:
+    from synth import SWIR_WL, VNIR_WL, cube, write_envi
+
+    vn, sw = cube(len(VNIR_WL), ROWS, COLS, seed=1), cube(len(SWIR_WL), ROWS, COLS, seed=2)
+    write_envi(d / "m.img", np.concatenate([vn, sw]), np.concatenate([VNIR_WL, SWIR_WL]))
 
 
 def _dsm(name: str, fill=None, dtype="float32", nodata=None, transform=GRID):
