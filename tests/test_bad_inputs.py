@@ -1147,6 +1147,40 @@ def _surface_cases() -> list[Case]:
                 setup=_igm("igm0.tif", _zero_rows),
             )
         )
+    # A cell size the geotransform contradicts was ignored (one of the two is wrong).
+    c.append(
+        Case(
+            "sun-shadow-cell-size-contradicts-geotransform",
+            "sun-shadow",
+            {"cell_size": "0.5"},
+            ("'cell_size'", "0.5 m", "2 × 2 m", "dem_g.tif"),
+        )
+    )
+    c.append(
+        Case(
+            "sun-shadow-cell-size-of-the-geotransform-works",
+            "sun-shadow",
+            {"cell_size": "2"},
+            (),
+            code=0,
+        )
+    )
+    c.append(
+        Case(
+            "shadow-map-cell-size-contradicts-image-geotransform",
+            "shadow-map",
+            {**on_grid, **sun, "dsm": "dem.tif", "cell_size": "0.5"},
+            ("'cell_size'", "0.5 m", "vg.img"),
+        )
+    )
+    c.append(
+        Case(
+            "shadow-map-cell-size-with-igm",
+            "shadow-map",
+            {**via, "igm": "igm.tif", "igm_crs": UTM36, "cell_size": "2"},
+            ("'cell_size'", "IGM or GLT"),
+        )
+    )
     c.append(
         Case(
             "shadow-map-glt-of-another-product",

@@ -58,6 +58,22 @@ def check_heights(lo: float, hi: float, path: str, what: str = "surface model") 
             )
 
 
+def check_cell_size(cell_size, matrix, what: str) -> None:
+    """Refuse a ``cell_size`` (m) the user gave for a grid whose geotransform already gives its
+    cells (``matrix``: :func:`geoboresight.shadow.illumination.grid_matrix`, metres) and says
+    otherwise: one of the two is wrong, and using either silently would scale every shadow."""
+    if not cell_size:
+        return
+    sides = np.hypot(*np.asarray(matrix, float).reshape(2, 2))  # column and row steps (m)
+    if np.all(np.abs(sides - float(cell_size)) <= 0.01 * sides):
+        return
+    raise ParameterError(
+        f"parameter 'cell_size': {float(cell_size):g} m, but {what} has cells of "
+        f"{sides[0]:.4g} × {sides[1]:.4g} m from its geotransform: leave 'cell_size' empty (it "
+        "is for a surface model without a geotransform), or fix the geotransform"
+    )
+
+
 #: How far an estimated shadow fraction may stray outside 0–1 (an unmixed or fitted fraction's
 #: noise) before the file is taken for something else: a percentage, classes, a ratio.
 FRACTION_SLACK = 0.05

@@ -29,7 +29,14 @@ from ..shadow import classes as cls
 from ..shadow import illumination as ill
 from ..shadow import map as smap
 from ._operation import operation
-from .shadow import check_heights, class_table, grid_place, no_valid_error, sun_angles
+from .shadow import (
+    check_cell_size,
+    check_heights,
+    class_table,
+    grid_place,
+    no_valid_error,
+    sun_angles,
+)
 
 #: Pixels drawn at random to calibrate the map.
 SAMPLE_SIZE = 200_000
@@ -297,6 +304,11 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
     angles = surface.sun_zenith is not None or surface.sun_azimuth is not None
     sun = _sun(surface, None) if surface.acquisition_time is None or angles else None
     if surface.igm or surface.glt:
+        if surface.cell_size:
+            raise ParameterError(
+                "parameter 'cell_size' is for a surface model without a geotransform: with the "
+                "line's IGM or GLT the pixels' size comes from it; leave 'cell_size' empty"
+            )
         src, matrix, place = _surface_via_geolocation(surface, dual, stack, progress)
     else:
         if surface.igm_crs:
@@ -317,13 +329,15 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
         dual.grid.require_same(grid, f"image {dual.vnir.path}", f"surface model {surface.dsm}")
         if grid.transform is not None:
             matrix = ill.grid_matrix(georef.metric_matrix(grid, f"surface model {surface.dsm}"))
+            check_cell_size(surface.cell_size, matrix, f"surface model {surface.dsm}")
             place = grid_place(grid)
+        elif dual.grid.transform is not None:
+            matrix = ill.grid_matrix(georef.metric_matrix(dual.grid, f"image {dual.vnir.path}"))
+            check_cell_size(surface.cell_size, matrix, f"image {dual.vnir.path}")
+            place = grid_place(dual.grid)
         elif surface.cell_size:
             matrix = ill.grid_matrix(None, surface.cell_size)
             place = None
-        elif dual.grid.transform is not None:
-            matrix = ill.grid_matrix(georef.metric_matrix(dual.grid, f"image {dual.vnir.path}"))
-            place = grid_place(dual.grid)
         else:
             raise ParameterError(
                 f"surface model {surface.dsm} and the image have no geotransform: give "
