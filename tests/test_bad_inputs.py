@@ -725,6 +725,15 @@ def _georef_cases() -> list[Case]:
     )
     c.append(
         Case(
+            "geolocate-igm-easting-and-northing-swapped",
+            "geolocate",
+            {"igm": "igm_yx.tif"},
+            ("igm_yx.tif", "x and y swapped", "easting first"),
+            setup=_igm("igm_yx.tif", lambda xy: xy[::-1]),
+        )
+    )
+    c.append(
+        Case(
             "geolocate-igm-offset-1e20",
             "geolocate",
             {"igm": "igm_far.tif"},

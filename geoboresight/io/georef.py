@@ -343,6 +343,13 @@ def check_coordinates(x, y, crs, *, what: str, fix: str, valid=None, spacing: bo
             if x0 is not None and np.all(np.isfinite([x0, y0, x1, y1])):
                 dx, dy = x1 - x0, y1 - y0
                 if not (x0 - dx <= mx <= x1 + dx and y0 - dy <= my <= y1 + dy):
+                    if x0 - dx <= my <= x1 + dx and y0 - dy <= mx <= y1 + dy:
+                        raise InputError(
+                            f"{what} holds {span}, far outside the area where {name} is used "
+                            f"({aou.name.split('.')[0]}), but inside it with x and y swapped: "
+                            "put the easting first (an IGM's band 1, a GCP file's x column) "
+                            "and the northing second"
+                        )
                     raise InputError(
                         f"{what} holds {span}, far outside the area where {name} is used "
                         f"({aou.name.split('.')[0]}): the coordinates are in another CRS; {fix}"
