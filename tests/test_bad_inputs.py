@@ -732,6 +732,15 @@ def _georef_cases() -> list[Case]:
             setup=_igm("igm_yx.tif", lambda xy: xy[::-1]),
         )
     )
+    for op in ("geolocate", "georeference"):
+        c.append(
+            Case(
+                f"{op}-output-crs-of-another-continent",
+                op,
+                {"crs": "EPSG:32611"},  # UTM 11N (California) for a line in UTM 36N
+                ("'crs'", "EPSG:32611", "far outside", "product's area"),
+            )
+        )
     c.append(
         Case(
             "geolocate-igm-offset-1e20",

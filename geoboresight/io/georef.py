@@ -256,7 +256,24 @@ def output_crs(crs, src_crs, x, y):
     in WGS 84) the UTM zone of the data (:func:`utm_crs`), so that the grid is metric and
     ``--resolution`` is in metres."""
     if crs:
-        return parse_crs(crs)
+        out = parse_crs(crs)
+        if src_crs is not None:
+            # A CRS for another part of the world (a zone picked from a list) would still
+            # give a raster, skewed and scaled by a projection used far beyond its area.
+            x, y = np.ravel(x), np.ravel(y)
+            ok = np.flatnonzero(np.isfinite(x) & np.isfinite(y))
+            ok = ok[:: max(1, ok.size // 10_000)]
+            if ok.size:
+                xo, yo = transform_xy(x[ok], y[ok], src_crs, out)
+                check_coordinates(
+                    xo,
+                    yo,
+                    out,
+                    what=f"parameter 'crs': the product, at {crs_name(out)},",
+                    fix="choose a CRS for the product's area (or leave 'crs' empty for its UTM "
+                    "zone)",
+                )
+        return out
     if src_crs is None or not _pyproj(src_crs).is_geographic:
         return src_crs
     return utm_crs(x, y, src_crs)
