@@ -732,6 +732,26 @@ def _georef_cases() -> list[Case]:
             setup=_igm("igm_yx.tif", lambda xy: xy[::-1]),
         )
     )
+    c.append(
+        Case(
+            "geolocate-glt-float-nan-holes-work",
+            "geolocate",
+            {"igm": None, "igm_crs": None, "glt": "glt_nan.tif"},
+            (),
+            setup=_glt_filled("glt_nan.tif", np.nan, "float32"),
+            code=0,
+            check=_raster_output_ok,
+        )
+    )
+    c.append(
+        Case(
+            "geolocate-glt-undeclared-fill",
+            "geolocate",
+            {"igm": None, "igm_crs": None, "glt": "glt_fill.tif"},
+            ("glt_fill.tif", "hold -9999", "nodata"),
+            setup=_glt_filled("glt_fill.tif", -9999, "int32"),
+        )
+    )
     for op in ("geolocate", "georeference"):
         c.append(
             Case(
@@ -1249,6 +1269,19 @@ def _glt(name: str, lines: int):
         sample, line = np.meshgrid(np.arange(COLS) + 1, np.arange(ROWS) + 1)
         line = np.minimum(line * lines // ROWS, lines)
         write_gtiff(d / name, np.stack([sample, line]).astype("int32"), crs=UTM36, transform=GRID)
+
+    return setup
+
+
+def _glt_filled(name: str, fill, dtype: str):
+    """hostile's grid as a GLT of the catalogue's rasters, its first 5 lines ``fill`` (cells
+    that show no pixel) without a declared nodata."""
+
+    def setup(d):
+        sample, line = np.meshgrid(np.arange(COLS) + 1.0, np.arange(ROWS) + 1.0)
+        glt = np.stack([sample, line])
+        glt[:, :5] = fill
+        write_gtiff(d / name, glt.astype(dtype), crs=UTM36, transform=GRID)
 
     return setup
 

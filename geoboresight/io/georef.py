@@ -601,6 +601,12 @@ def read_glt(path, *, crs=None) -> GLT:
         s = src.read(1, masked=True)
         line = src.read(2, masked=True)
         valid = ~(np.ma.getmaskarray(s) | np.ma.getmaskarray(line))
+        # NaN (a float GLT without a declared nodata) shows no pixel, as 0 does.
+        nan = ~(np.isfinite(np.ma.getdata(s)) & np.isfinite(np.ma.getdata(line)))
+        if nan.any():
+            valid &= ~nan
+            s = np.ma.masked_where(nan, s)
+            line = np.ma.masked_where(nan, line)
         grid = Grid(
             src.width, src.height, parse_crs(crs, "parameter 'igm_crs'") or src.crs, src.transform
         )
@@ -639,6 +645,20 @@ def glt_for(path, product: str, *, width: int, height: int, crs=None) -> GLT:
     glt = read_glt(path, crs=crs)
     outside = glt_indices(glt.sample, glt.line, glt.valid, width=width, height=height)[3]
     if outside:
+        s, r = np.abs(glt.sample), np.abs(glt.line)
+        beyond = glt.valid & (s > 0) & (r > 0) & ((s > width) | (r > height))
+        fills = np.unique(np.concatenate([glt.sample[beyond], glt.line[beyond]]))
+        fills = fills[(np.abs(fills) > width) & (np.abs(fills) > height)]
+        if fills.size == 1 and np.all(
+            (glt.sample[beyond] == fills[0]) | (glt.line[beyond] == fills[0])
+        ):
+            v = int(fills[0])
+            raise InputError(
+                f"GLT {path}: {outside} cell(s) hold {v}, beyond {product} ({width} × "
+                f"{height}, columns × lines): if {v} marks cells that show no pixel, declare "
+                f"it the GLT's nodata value (e.g. gdal_edit.py -a_nodata {v}); else the GLT "
+                "belongs to another product"
+            )
         raise InputError(
             f"GLT {path}: {outside} cell(s) point outside {product} ({width} × {height}, "
             "columns × lines): the GLT belongs to another product"
