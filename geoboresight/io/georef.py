@@ -636,6 +636,11 @@ def read_glt(path, *, crs=None) -> GLT:
     )
 
 
+#: Positive values GLT writers fill empty cells with (a negative index beyond the product is
+#: a fill too: ENVI's negative indices, infill from a neighbour, lie within it).
+GLT_FILL_VALUES = (9999, 32767, 65535, 99999, 2147483647)
+
+
 def glt_for(path, product: str, *, width: int, height: int, crs=None) -> GLT:
     """:func:`read_glt`, refused when any of its cells points outside ``product`` (a label,
     e.g. "input x.tif", of ``width`` × ``height`` pixels): the GLT of another product, whose
@@ -649,6 +654,7 @@ def glt_for(path, product: str, *, width: int, height: int, crs=None) -> GLT:
         beyond = glt.valid & (s > 0) & (r > 0) & ((s > width) | (r > height))
         fills = np.unique(np.concatenate([glt.sample[beyond], glt.line[beyond]]))
         fills = fills[(np.abs(fills) > width) & (np.abs(fills) > height)]
+        fills = fills[(fills < 0) | np.isin(fills, GLT_FILL_VALUES)]
         if fills.size == 1 and np.all(
             (glt.sample[beyond] == fills[0]) | (glt.line[beyond] == fills[0])
         ):
