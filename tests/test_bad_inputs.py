@@ -1246,6 +1246,15 @@ def _surface_cases() -> list[Case]:
     )
     c.append(
         Case(
+            "deshadow-fraction-nodata-zero",
+            "deshadow",
+            {"shadow": "nd0.tif"},
+            ("nd0.tif", "declares 0 as its nodata", "sunlit"),
+            setup=_fraction_nodata_zero,
+        )
+    )
+    c.append(
+        Case(
             "deshadow-fraction-in-bytes",
             "deshadow",
             {"shadow": "bytes.tif"},
@@ -1284,6 +1293,14 @@ def _glt_filled(name: str, fill, dtype: str):
         write_gtiff(d / name, glt.astype(dtype), crs=UTM36, transform=GRID)
 
     return setup
+
+
+def _fraction_nodata_zero(d: Path) -> None:
+    with rasterio.open(d / "truth.tif") as src:
+        f, profile = src.read(), src.profile
+    profile.update(nodata=0)
+    with rasterio.open(d / "nd0.tif", "w", **profile) as dst:
+        dst.write(f)
 
 
 def _byte_fraction(d: Path) -> None:

@@ -79,6 +79,19 @@ def check_cell_size(cell_size, matrix, what: str) -> None:
 FRACTION_SLACK = 0.05
 
 
+def check_fraction_nodata(src, path: str, what: str = "shadow fraction") -> None:
+    """Refuse a shadow-fraction raster whose declared nodata is a fraction (0–1): with nodata
+    0, every sunlit pixel would be read as missing (no shadow edge next to sunlit ground is
+    left, or the sunlit ground is written as nodata)."""
+    nd = src.nodata
+    if nd is not None and np.isfinite(nd) and 0.0 <= nd <= 1.0:
+        raise InputError(
+            f"{what} {path} declares {nd:g} as its nodata value, but {nd:g} is a shadow fraction "
+            "(0 sunlit, 1 full shadow): its pixels would be read as missing; remove the nodata "
+            "value or set one outside 0–1 (e.g. gdal_edit.py -unsetnodata, or -a_nodata -9999)"
+        )
+
+
 def check_fraction(f: np.ndarray, ok: np.ndarray, path: str, what: str = "shadow fraction"):
     """Refuse a shadow-fraction strip with values outside 0–1 (beyond :data:`FRACTION_SLACK`):
     a percentage or a class raster given as a fraction would otherwise be clipped to 0–1 and
