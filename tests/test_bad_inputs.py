@@ -1016,6 +1016,20 @@ def _cube_cases() -> list[Case]:
                 setup=_one_line,
             )
         )
+    # Cloud masks that are not masks: a probability, a clear-sky mask (1 = clear).
+    for cid, mask, expect in (
+        ("probability", lambda m: 0.01 + 0.3 * m, ("fractional values", "probability")),
+        ("clear-sky", lambda m: np.ones_like(m), ("100 %", "inverted")),
+    ):
+        c.append(
+            Case(
+                f"boresight-offset-cloud-mask-{cid}",
+                "boresight-offset",
+                {"cloud_mask": "cm.tif"},
+                ("cm.tif", *expect),
+                setup=_cloud_mask("cm.tif", mask),
+            )
+        )
     c.append(
         Case(
             "ratio-micrometres-labelled-nanometres",
@@ -1063,6 +1077,14 @@ def _cube_cases() -> list[Case]:
         )
     )
     return c
+
+
+def _cloud_mask(name: str, edit):
+    def setup(d):
+        m = np.random.default_rng(7).uniform(size=(1, ROWS, COLS))
+        write_gtiff(d / name, edit(m).astype("float32"))
+
+    return setup
 
 
 def _one_line(d: Path) -> None:

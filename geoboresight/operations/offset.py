@@ -60,6 +60,13 @@ def line_offset(pair, profile_rows: int = 0, progress=None, *, given: str = ""):
             total = power if total is None else total + power
         blocks.append((line, off.along, off.across, off.error, fraction))
     if total is None:
+        read, cloudy = getattr(pair, "pixels_read", 0), getattr(pair, "cloud_pixels", 0)
+        if read and cloudy > 0.5 * read:
+            raise InputError(
+                f"cloud mask {pair.cloud_mask} marks {100 * cloudy / read:.0f} % of the pixels "
+                "as cloud (non-zero), too many to measure the boresight offset on: a clear-sky "
+                "mask (1 = clear) must be inverted; a cloud mask holds 1 for cloud, 0 for clear"
+            )
         raise InputError(
             "no block of lines of the matching images has 64 valid pixels: the boresight offset "
             "cannot be measured (check the nodata values and the cloud mask)"
