@@ -1243,6 +1243,15 @@ def _surface_cases() -> list[Case]:
     )
     c.append(
         Case(
+            "geolocate-igm-9999-fill-without-nodata",
+            "geolocate",
+            {"igm": "igm9.tif"},
+            ("igm9.tif", "(-9999, -9999)", "nodata"),
+            setup=_igm("igm9.tif", lambda xy: np.where(_zero_rows(xy) == 0, -9999.0, xy)),
+        )
+    )
+    c.append(
+        Case(
             "shadow-map-glt-of-another-product",
             "shadow-map",
             {**via, "glt": "glt_big.tif"},

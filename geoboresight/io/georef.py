@@ -445,25 +445,29 @@ def read_coordinates(path, *, crs=None, label: str = "IGM") -> Coordinates:
 
 
 def _check_zero_fill(coords: Coordinates, label: str) -> None:
-    """Refuse pixels at exactly (0, 0) far from all the others: a fill value the file does not
-    declare as nodata (IGMs of pixels the processor could not locate), which would be taken
-    for positions thousands of kilometres away (a map grid of the size of a continent, or an
-    affine fit of the line pulled towards them)."""
+    """Refuse pixels whose x and y hold one same value far from all the others: a fill value
+    the file does not declare as nodata ((0, 0), (−9999, −9999): IGMs of pixels the processor
+    could not locate), which would be taken for positions thousands of kilometres away (a map
+    grid of the size of a continent, or an affine fit of the line pulled towards them)."""
     x, y = coords.x, coords.y
     finite = np.isfinite(x) & np.isfinite(y)
-    zero = finite & (x == 0) & (y == 0)
-    n = int(zero.sum())
-    rest = finite & ~zero
-    if not n or not rest.any():
+    same = finite & (x == y)
+    if not same.any():
         return
+    values = np.unique(x[same])
+    rest = finite & ~same
+    if values.size != 1 or not rest.any():
+        return
+    v = float(values[0])
     x0, x1, y0, y1 = x[rest].min(), x[rest].max(), y[rest].min(), y[rest].max()
     w, h = x1 - x0, y1 - y0
-    if x0 - w <= 0 <= x1 + w and y0 - h <= 0 <= y1 + h:
-        return  # a line that does pass near (0, 0)
+    if x0 - w <= v <= x1 + w and y0 - h <= v <= y1 + h:
+        return  # a line that does pass near (v, v)
     raise InputError(
-        f"{label} {coords.path}: {n} pixel(s) sit at (0, 0), far from the others (x "
-        f"{x0:.10g} … {x1:.10g}, y {y0:.10g} … {y1:.10g}): 0 marks pixels without a position; "
-        "declare it the file's nodata value (e.g. gdal_edit.py -a_nodata 0)"
+        f"{label} {coords.path}: {int(same.sum())} pixel(s) sit at ({v:g}, {v:g}), far from "
+        f"the others (x {x0:.10g} … {x1:.10g}, y {y0:.10g} … {y1:.10g}): {v:g} marks pixels "
+        f"without a position; declare it the file's nodata value (e.g. gdal_edit.py "
+        f"-a_nodata {v:g})"
     )
 
 
