@@ -601,17 +601,32 @@ def shadow_map_file(
         def kernel(values, valid, z=None, z_ok=None, r0=0):
             if z is None:
                 f, _ = fraction_of(values, valid)
-                return smap.shadow_classes(f, cal.table), smap.shadow_mask(f), f, None, None, None
+                return (
+                    smap.shadow_classes(f, cal.table),
+                    smap.shadow_mask(f),
+                    f,
+                    None,
+                    None,
+                    None,
+                    None,
+                )
             prior = dsm.prior(z, z_ok)
             unseen = dsm.unseen(z, z_ok, r0)
             f, d = fraction_of(values, valid, prior, z, z_ok, unseen)
+            # Pixels the surface model has no height for (beyond its extent, its nodata): no
+            # prior says anything there, so the spectra alone judge them, as without a model
+            # (the prior's "no shadow away from the predicted shadow" would drop them all).
+            holes = valid & ~z_ok
+            if holes.any():
+                f_spectral, _ = fraction_of(values, valid)
+                f = np.where(holes, f_spectral, f)
             c = smap.shadow_classes(f, cal.table)
             m = smap.shadow_mask(f)
             # Predicted shadow away from its edges, and the part of it spectrally lit.
             deep = ndimage.binary_erosion(prior >= 0.5) & np.isfinite(f)
             with np.errstate(invalid="ignore"):
                 lit = deep & (d > smap.LIT_DARKNESS)
-            return c, m, f, deep, lit, unseen & np.isfinite(f)
+            return c, m, f, deep, lit, unseen & np.isfinite(f), holes & np.isfinite(f)
 
         halo = smap.shadow_map_halo(cal, edge_pixels)
         if dsm is None:
@@ -694,8 +709,8 @@ def shadow_map_file(
                     band_names=["shadow fraction"],
                 )
             )
-        n_deep = n_lit = n_unseen = 0
-        for win, (c, m, f, deep, lit, unseen) in io.map_windows(
+        n_deep = n_lit = n_unseen = n_holes = 0
+        for win, (c, m, f, deep, lit, unseen, holes) in io.map_windows(
             read,
             kernel,
             halo=halo,
@@ -716,6 +731,7 @@ def shadow_map_file(
                 n_deep += int(deep.sum())
                 n_lit += int(lit.sum())
                 n_unseen += int(unseen.sum())
+                n_holes += int(holes.sum())
         n_valid = int(counts[: cls.NODATA_CLASS].sum())
         if n_valid == 0:
             raise no_valid_error(vnir, "VNIR/SWIR image")
@@ -733,7 +749,13 @@ def shadow_map_file(
             dsm_predicted_shadow_pixels=n_deep,
             dsm_predicted_shadow_lit_share=round(lit_share, 4),
             dsm_unseen_share=round(n_unseen / n_valid, 4),
+            dsm_missing_share=round(n_holes / n_valid, 4),
         )
+        if n_holes:
+            warnings.append(
+                f"the surface model has no height for {100 * n_holes / n_valid:.1f} % of the "
+                "valid pixels (beyond its extent or nodata): the spectra alone judge them"
+            )
         progress.info(
             f"surface model against the image: {100 * lit_share:.1f} % of the predicted shadow "
             "(away from its edges) is spectrally lit; best shift of the predicted shadow "
