@@ -17,7 +17,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 import rasterio
-from hostile import COLS, ROWS, UTM36, cli, error_line, make_inputs, read_only_folder, snapshot
+from hostile import (
+    COLS,
+    GRID,
+    ROWS,
+    UTM36,
+    cli,
+    error_line,
+    make_inputs,
+    read_only_folder,
+    snapshot,
+)
+from rasterio.transform import Affine
 from synth import write_gtiff
 
 from geoboresight.algorithms import registry
@@ -714,6 +725,44 @@ def _georef_cases() -> list[Case]:
     )
     c.append(
         Case(
+            "geolocate-igm-easting-and-northing-swapped",
+            "geolocate",
+            {"igm": "igm_yx.tif"},
+            ("igm_yx.tif", "x and y swapped", "easting first"),
+            setup=_igm("igm_yx.tif", lambda xy: xy[::-1]),
+        )
+    )
+    c.append(
+        Case(
+            "geolocate-glt-float-nan-holes-work",
+            "geolocate",
+            {"igm": None, "igm_crs": None, "glt": "glt_nan.tif"},
+            (),
+            setup=_glt_filled("glt_nan.tif", np.nan, "float32"),
+            code=0,
+            check=_raster_output_ok,
+        )
+    )
+    c.append(
+        Case(
+            "geolocate-glt-undeclared-fill",
+            "geolocate",
+            {"igm": None, "igm_crs": None, "glt": "glt_fill.tif"},
+            ("glt_fill.tif", "hold -9999", "nodata"),
+            setup=_glt_filled("glt_fill.tif", -9999, "int32"),
+        )
+    )
+    for op in ("geolocate", "georeference"):
+        c.append(
+            Case(
+                f"{op}-output-crs-of-another-continent",
+                op,
+                {"crs": "EPSG:32611"},  # UTM 11N (California) for a line in UTM 36N
+                ("'crs'", "EPSG:32611", "far outside", "product's area"),
+            )
+        )
+    c.append(
+        Case(
             "geolocate-igm-offset-1e20",
             "geolocate",
             {"igm": "igm_far.tif"},
@@ -945,7 +994,352 @@ def _georef_cases() -> list[Case]:
                 setup=_percent_fraction,
             )
         )
+    c += _surface_cases() + _cube_cases()
     return c
+
+
+def _cube_cases() -> list[Case]:
+    """Cubes and options of the detectors that were ignored or misreported: a line too small
+    for the boresight offset, wavelengths in micrometres labelled nanometres, a merged cube
+    split at the wrong seam, an offset given where nothing uses it."""
+    c = []
+    for op in ("rx", "svdd", "boresight-offset", "boresight-indicator"):
+        args = {"vnir": "v1.img", "swir": "s1.img"}
+        if op == "boresight-indicator":
+            args["ratio"] = None
+        c.append(
+            Case(
+                f"{op}-one-line-image",
+                op,
+                args,
+                ("30 × 1 pixels", "8 × 8"),
+                setup=_one_line,
+            )
+        )
+    # Cloud masks that are not masks: a probability, a clear-sky mask (1 = clear).
+    for cid, mask, expect in (
+        ("probability", lambda m: 0.01 + 0.3 * m, ("fractional values", "probability")),
+        ("clear-sky", lambda m: np.ones_like(m), ("100 %", "inverted")),
+    ):
+        c.append(
+            Case(
+                f"boresight-offset-cloud-mask-{cid}",
+                "boresight-offset",
+                {"cloud_mask": "cm.tif"},
+                ("cm.tif", *expect),
+                setup=_cloud_mask("cm.tif", mask),
+            )
+        )
+    c.append(
+        Case(
+            "ratio-micrometres-labelled-nanometres",
+            "ratio",
+            {},
+            ("v.img", "micrometres", "Micrometers"),
+            setup=_wavelength_header(
+                "v.hdr", ", ".join(f"{w / 1000:.3f}" for w in range(400, 970, 50)), "Nanometers"
+            ),
+        )
+    )
+    c.append(
+        Case(
+            "ratio-merged-seam-too-low",
+            "ratio",
+            {"vnir": "m.img", "swir": None, "seam_nm": "700"},
+            ("m.img", "seam_nm 700", "920 nm"),
+            setup=_merged,
+        )
+    )
+    c.append(
+        Case(
+            "rx-merged-cube-offset-given",
+            "rx",
+            {"vnir": "m.img", "swir": None, "offset_along": "0.5"},
+            ("'offset_along'", "m.img", "SWIR file"),
+            setup=_merged,
+        )
+    )
+    c.append(
+        Case(
+            "svdd-offset-given-coregister-off",
+            "svdd",
+            {"offset_along": "0.5"},
+            ("'offset_along'", "'coregister'"),
+            extra=["--no-coregister"],
+        )
+    )
+    c.append(
+        Case(
+            "boresight-indicator-eq3-offset-given",
+            "boresight-indicator",
+            {"offset_along": "0.5"},
+            ("'offset_along'", "method 'physical'"),
+        )
+    )
+    return c
+
+
+def _cloud_mask(name: str, edit):
+    def setup(d):
+        m = np.random.default_rng(7).uniform(size=(1, ROWS, COLS))
+        write_gtiff(d / name, edit(m).astype("float32"))
+
+    return setup
+
+
+def _one_line(d: Path) -> None:
+    from synth import SWIR_WL, VNIR_WL, cube, write_envi
+
+    write_envi(d / "v1.img", cube(len(VNIR_WL), 1, COLS, seed=1), VNIR_WL)
+    write_envi(d / "s1.img", cube(len(SWIR_WL), 1, COLS, seed=2), SWIR_WL)
+
+
+def _merged(d: Path) -> None:
+    from synth import SWIR_WL, VNIR_WL, cube, write_envi
+
+    vn, sw = cube(len(VNIR_WL), ROWS, COLS, seed=1), cube(len(SWIR_WL), ROWS, COLS, seed=2)
+    write_envi(d / "m.img", np.concatenate([vn, sw]), np.concatenate([VNIR_WL, SWIR_WL]))
+
+
+def _dsm(name: str, fill=None, dtype="float32", nodata=None, transform=GRID):
+    """A DSM on hostile's UTM grid (a 20 m block on level ground at 100 m), its first three
+    lines ``fill`` (a hole), written as ``dtype`` with ``nodata`` (None: none declared)."""
+
+    def setup(d):
+        z = np.full((1, ROWS, COLS), 100.0)
+        z[:, 10:20, 10:18] = 120.0
+        if fill is not None:
+            z[:, :3] = fill
+        if transform.e > 0:  # south-up: the same ground, its rows the other way round
+            z = z[:, ::-1]
+        profile = dict(driver="GTiff", width=COLS, height=ROWS, count=1, dtype=dtype)
+        profile.update(crs=UTM36, transform=transform, nodata=nodata)
+        with rasterio.open(d / name, "w", **profile) as dst:
+            dst.write(z.astype(dtype))
+
+    return setup
+
+
+def _surface_cases() -> list[Case]:
+    """Surface models and shadow fractions of a GIS analyst's folder: holes filled with a
+    value the file does not declare as nodata, grids of the image's size but not its grid."""
+    c = []
+    sun = {"sun_zenith": "60", "sun_azimuth": "180"}
+    on_grid = {"vnir": "vg.img", "swir": "sg.img"}
+    for fill, dtype in ((-9999, "float32"), (-32768, "int16")):
+        c.append(
+            Case(
+                f"sun-shadow-dsm-undeclared-fill-{-fill}",
+                "sun-shadow",
+                {"dsm": "fill.tif"},
+                ("fill.tif", f"{fill} m", "nodata"),
+                setup=_dsm("fill.tif", fill, dtype),
+            )
+        )
+        c.append(
+            Case(
+                f"shadow-map-dsm-undeclared-fill-{-fill}",
+                "shadow-map",
+                {**on_grid, **sun, "dsm": "fill.tif"},
+                ("fill.tif", f"{fill} m", "nodata"),
+                setup=_dsm("fill.tif", fill, dtype),
+            )
+        )
+    c.append(
+        Case(
+            "shadow-map-dsm-declared-fill-works",
+            "shadow-map",
+            {**on_grid, **sun, "dsm": "fill.tif"},
+            (),
+            setup=_dsm("fill.tif", -32768, "int16", nodata=-32768),
+            code=0,
+        )
+    )
+    south_up = Affine(2.0, 0.0, 700000.0, 0.0, 2.0, 3500000.0 - 2.0 * ROWS)
+    rotated = GRID @ Affine.rotation(30.0)
+    for cid, transform in (("south-up", south_up), ("rotated", rotated)):
+        c.append(
+            Case(
+                f"shadow-map-dsm-{cid}-of-the-image-size",
+                "shadow-map",
+                {**on_grid, **sun, "dsm": "other.tif"},
+                ("other.tif", "geotransform"),
+                setup=_dsm("other.tif", transform=transform),
+            )
+        )
+    c.append(
+        Case(
+            "shadow-map-dsm-other-crs",
+            "shadow-map",
+            {**on_grid, **sun, "dsm": "dem37.tif"},
+            ("dem37.tif", "EPSG:32637"),
+        )
+    )
+    # A DSM on a map grid read through the line's IGM or GLT.
+    via = {"vnir": "v.img", "swir": "s.img", **sun, "dsm": "dem_g.tif"}
+    c.append(
+        Case(
+            "shadow-map-igm-without-crs-given-igm-crs",
+            "shadow-map",
+            {**via, "igm": "igm.tif", "igm_crs": UTM36},
+            (),
+            code=0,
+        )
+    )
+    c.append(
+        Case(
+            "shadow-map-igm-crs-without-igm",
+            "shadow-map",
+            {**via, "igm_crs": UTM36},
+            ("igm_crs", "'igm' or 'glt'"),
+        )
+    )
+    for op, args in (
+        ("shadow-map", {**via, "igm": "igm0.tif", "igm_crs": UTM36}),
+        ("geolocate", {"igm": "igm0.tif"}),
+    ):
+        c.append(
+            Case(
+                f"{op}-igm-zero-fill-without-nodata",
+                op,
+                args,
+                ("igm0.tif", "(0, 0)", "nodata"),
+                setup=_igm("igm0.tif", _zero_rows),
+            )
+        )
+    # A cell size the geotransform contradicts was ignored (one of the two is wrong).
+    c.append(
+        Case(
+            "sun-shadow-cell-size-contradicts-geotransform",
+            "sun-shadow",
+            {"cell_size": "0.5"},
+            ("'cell_size'", "0.5 m", "2 × 2 m", "dem_g.tif"),
+        )
+    )
+    c.append(
+        Case(
+            "sun-shadow-cell-size-of-the-geotransform-works",
+            "sun-shadow",
+            {"cell_size": "2"},
+            (),
+            code=0,
+        )
+    )
+    c.append(
+        Case(
+            "shadow-map-cell-size-contradicts-image-geotransform",
+            "shadow-map",
+            {**on_grid, **sun, "dsm": "dem.tif", "cell_size": "0.5"},
+            ("'cell_size'", "0.5 m", "vg.img"),
+        )
+    )
+    c.append(
+        Case(
+            "shadow-map-cell-size-with-igm",
+            "shadow-map",
+            {**via, "igm": "igm.tif", "igm_crs": UTM36, "cell_size": "2"},
+            ("'cell_size'", "IGM or GLT"),
+        )
+    )
+    c.append(
+        Case(
+            "geolocate-igm-9999-fill-without-nodata",
+            "geolocate",
+            {"igm": "igm9.tif"},
+            ("igm9.tif", "(-9999, -9999)", "nodata"),
+            setup=_igm("igm9.tif", lambda xy: np.where(_zero_rows(xy) == 0, -9999.0, xy)),
+        )
+    )
+    c.append(
+        Case(
+            "shadow-map-glt-of-another-product",
+            "shadow-map",
+            {**via, "glt": "glt_big.tif"},
+            ("glt_big.tif", "point outside image", "another product"),
+            setup=_glt("glt_big.tif", ROWS + 5),
+        )
+    )
+    c.append(
+        Case(
+            "deshadow-fraction-other-crs",
+            "deshadow",
+            {**on_grid, "shadow": "truth37.tif"},
+            ("truth37.tif", "EPSG:32637"),
+        )
+    )
+    c.append(
+        Case(
+            "deshadow-fraction-shifted-grid",
+            "deshadow",
+            {**on_grid, "shadow": "truth_shift.tif"},
+            ("truth_shift.tif", "geotransform"),
+        )
+    )
+    c.append(
+        Case(
+            "deshadow-fraction-nodata-zero",
+            "deshadow",
+            {"shadow": "nd0.tif"},
+            ("nd0.tif", "declares 0 as its nodata", "sunlit"),
+            setup=_fraction_nodata_zero,
+        )
+    )
+    c.append(
+        Case(
+            "deshadow-fraction-in-bytes",
+            "deshadow",
+            {"shadow": "bytes.tif"},
+            ("bytes.tif", "divide it by 255"),
+            setup=_byte_fraction,
+        )
+    )
+    return c
+
+
+def _zero_rows(xy):
+    xy = xy.copy()
+    xy[:, 5:8] = 0.0
+    return xy
+
+
+def _glt(name: str, lines: int):
+    """A GLT on hostile's UTM grid showing a product of ``lines`` lines (COLS samples)."""
+
+    def setup(d):
+        sample, line = np.meshgrid(np.arange(COLS) + 1, np.arange(ROWS) + 1)
+        line = np.minimum(line * lines // ROWS, lines)
+        write_gtiff(d / name, np.stack([sample, line]).astype("int32"), crs=UTM36, transform=GRID)
+
+    return setup
+
+
+def _glt_filled(name: str, fill, dtype: str):
+    """hostile's grid as a GLT of the catalogue's rasters, its first 5 lines ``fill`` (cells
+    that show no pixel) without a declared nodata."""
+
+    def setup(d):
+        sample, line = np.meshgrid(np.arange(COLS) + 1.0, np.arange(ROWS) + 1.0)
+        glt = np.stack([sample, line])
+        glt[:, :5] = fill
+        write_gtiff(d / name, glt.astype(dtype), crs=UTM36, transform=GRID)
+
+    return setup
+
+
+def _fraction_nodata_zero(d: Path) -> None:
+    with rasterio.open(d / "truth.tif") as src:
+        f, profile = src.read(), src.profile
+    profile.update(nodata=0)
+    with rasterio.open(d / "nd0.tif", "w", **profile) as dst:
+        dst.write(f)
+
+
+def _byte_fraction(d: Path) -> None:
+    with rasterio.open(d / "truth.tif") as src:
+        f, profile = src.read(), src.profile
+    profile.update(dtype="uint8")
+    with rasterio.open(d / "bytes.tif", "w", **profile) as dst:
+        dst.write(np.round(f * 255.0).astype("uint8"))
 
 
 def _percent_fraction(d: Path) -> None:

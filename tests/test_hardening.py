@@ -523,3 +523,26 @@ def test_the_demo_never_deletes_a_folder_it_did_not_write(tmp_path):
     (own / "ratio.tif").write_text("old product")
     demo.prepare_folder(own)
     assert sorted(p.name for p in own.iterdir()) == [demo.MARKER]
+
+
+# --- warnings about a result go into the result, not Python's warnings ----------------------
+
+
+def test_low_detectability_is_a_result_warning_not_a_python_warning(tmp_path):
+    """A low d′ was a Python UserWarning: the command line printed the library's source file
+    and line under the log. It is in the result's warnings now (shown by every face)."""
+    import warnings
+
+    from geoboresight.algorithms import registry
+
+    d = make_inputs(tmp_path / "in")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        res = registry()["svdd"](
+            vnir=str(d / "v.img"),
+            swir=str(d / "s.img"),
+            output=str(tmp_path / "svdd.tif"),
+            coregister=False,
+        )
+    assert res["dprime_low"]  # random cubes: no target stands out
+    assert any("d′" in w and "below 3" in w for w in res["warnings"])

@@ -422,3 +422,37 @@ def test_a_dsm_in_feet_is_refused(tmp_path):
     with pytest.raises(InputError, match="ft.tif.*US survey feet.*metres"):
         sun_shadow_file(dsm, output=str(tmp_path / "x.tif"), sun_zenith=30.0, sun_azimuth=90.0)
     assert not os.path.exists(tmp_path / "x.tif")
+
+
+def test_pixels_without_a_surface_model_height_are_judged_by_the_spectra(tmp_path):
+    """A surface model covering part of the line (or with nodata holes) left every pixel it
+    does not cover 'no shadow': the prior's 'nothing away from the predicted shadow' dropped
+    them all. There the map is now the spectral map's, exactly (independent run without a
+    surface model: its calibration does not depend on the surface model)."""
+    folder = str(tmp_path / "scene")
+    sc = simulate2(rows=96, cols=128, seed=1, sun_zenith=45.0, buildings=12, trees=4)
+    write_scene2(sc, folder)
+    sun = sc.truth["sun"]
+    v, s = os.path.join(folder, "vnir.hdr"), os.path.join(folder, "swir.hdr")
+    with rasterio.open(os.path.join(folder, "truth_dsm.tif")) as src:
+        z = src.read(1).astype("float32")
+    half = z.shape[1] // 2
+    z[:, :half] = np.nan  # the surface model covers the right half of the line only
+    part = write_gtiff(str(tmp_path / "part.tif"), z[None], nodata=float("nan"))
+    spectral, with_part = tmp_path / "f0.tif", tmp_path / "f1.tif"
+    shadow_map_file(v, s, output=str(tmp_path / "c0.tif"), fraction=str(spectral))
+    r = shadow_map_file(
+        v,
+        s,
+        output=str(tmp_path / "c1.tif"),
+        fraction=str(with_part),
+        surface=SurfaceModel(part, sun["zenith_deg"], sun["azimuth_deg"], sc.truth["gsd_m"]),
+    )
+    with rasterio.open(spectral) as a, rasterio.open(with_part) as b:
+        f0, f1 = a.read(1)[:, :half], b.read(1)[:, :half]
+    truth = sc.shadow_fraction[:, :half] >= 0.5
+    assert truth.sum() > 300  # the uncovered half has shadow to find
+    np.testing.assert_array_equal(f1, f0)
+    assert _f1(f1 >= 0.5, truth) > 0.5
+    assert r["dsm_missing_share"] == pytest.approx(0.5, abs=0.02)
+    assert any("no height" in w for w in r["warnings"])

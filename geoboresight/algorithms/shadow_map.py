@@ -92,6 +92,12 @@ SURFACE = Group(
             advanced=True,
         ),
         Text(
+            name="igm_crs",
+            description="CRS of the IGM or GLT when its header carries none (e.g. EPSG:32636)",
+            optional=True,
+            advanced=True,
+        ),
+        Text(
             name="acquisition_time",
             description="Acquisition date and time, ISO 8601 (e.g. 2009-06-20T10:32:00Z; UTC without an offset): the sun's zenith and azimuth are computed from it at the scene's centre (instead of giving them)",
             optional=True,
@@ -178,6 +184,11 @@ SHADOW_MAP = Algorithm(
             "number",
             "Share of pixels a caster beyond the surface model's edge could shade",
         ),
+        Result(
+            "dsm_missing_share",
+            "number",
+            "Share of pixels without a surface-model height (judged by the spectra alone)",
+        ),
     ),
     display_name="Boresight shadow map (VNIR + SWIR): mask and shadow-fraction classes",
     group=GROUP,
@@ -209,7 +220,8 @@ SHADOW_MAP = Algorithm(
         "edges (within a pixel) and fraction, a predicted shadow that is spectrally lit is "
         "dropped, and nothing away from it is shadow (a black roof in the sun is not), except "
         "near the DSM's sunward edge, where a caster beyond it could shade: there a dark pixel "
-        "whose way to the edge is dark too is judged by its spectrum. How far "
+        "whose way to the edge is dark too is judged by its spectrum, as is a pixel the DSM "
+        "has no height for (beyond its extent, its nodata). How far "
         "the DSM and the image disagree (best shift, share of predicted shadow spectrally lit) "
         "is reported. Validated on two independent "
         "scene models (docs/shadow.md): it still misses shadow under strong skylight (hazy "

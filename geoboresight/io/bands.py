@@ -171,12 +171,15 @@ class MatchingReader:
     cloud-free. Use :func:`open_matching_pair` (a context manager: the files stay open).
     """
 
-    def __init__(self, dual, vbs, sbs, read_bands, read_cloud):
+    def __init__(self, dual, vbs, sbs, read_bands, read_cloud, cloud_mask=None):
         self.dual = dual
         self.vnir_bands, self.swir_bands = vbs, sbs
         self.height, self.width = dual.grid.shape
         self._bands, self._c = read_bands, read_cloud
         self._lock = threading.Lock()
+        #: The cloud mask's file, and the pixels read and those it marked cloud.
+        self.cloud_mask = cloud_mask
+        self.pixels_read = self.cloud_pixels = 0
 
     def read(self, row0: int, row1: int):
         # One open dataset per file: worker threads of map_windows read one at a time.
@@ -187,7 +190,20 @@ class MatchingReader:
         s, _ = band_mean(s, ok_s)
         ok = ok_v & ok_s
         if cloud is not None:
-            ok &= ~((cloud[0] != 0) & cloud[1])
+            values = cloud[0][cloud[1]]
+            if values.size and np.any(values % 1):
+                lo, hi = float(values.min()), float(values.max())
+                raise InputError(
+                    f"cloud mask {self.cloud_mask} holds fractional values ({lo:g} to {hi:g}): "
+                    "a mask marks cloud with a non-zero whole number and clear sky with 0, and "
+                    "every pixel above 0 here would be cloud; give a mask (a cloud "
+                    "probability thresholded, e.g. > 0.5)"
+                )
+            cloudy = (cloud[0] != 0) & cloud[1]
+            ok &= ~cloudy
+            with self._lock:
+                self.pixels_read += cloudy.size
+                self.cloud_pixels += int(cloudy.sum())
         return v.astype(np.float64), s.astype(np.float64), ok
 
     def info(self) -> dict:
@@ -298,7 +314,12 @@ def open_matching_pair(
                 return read_v(row0, row1), read_s(row0, row1)
 
         yield MatchingReader(
-            dual, vbs, sbs, raw, band_reader(c_src, 1) if c_src is not None else None
+            dual,
+            vbs,
+            sbs,
+            raw,
+            band_reader(c_src, 1) if c_src is not None else None,
+            cloud_mask,
         )
 
 

@@ -75,6 +75,8 @@ class SensorFile:
     dark_source: str = ""
     #: What the values are: "DN" or a radiance unit.
     units: str = "DN"
+    #: The seam wavelength (nm) a merged cube was split at into this sensor's bands, or None.
+    seam_nm: float | None = None
 
     @property
     def reads(self) -> str:
@@ -84,6 +86,11 @@ class SensorFile:
     def band_for(self, target_nm: float, tolerance_nm: float) -> int:
         """1-based file band nearest ``target_nm`` among this sensor's bands."""
         label = f"{self.path} ({self.name} bands)"
+        if self.seam_nm is not None:
+            side = "below" if self.name == "VNIR" else "at or above"
+            label = (
+                f"{self.path} ({self.name} bands: those {side} the seam, seam_nm {self.seam_nm:g})"
+            )
         i = nearest_band(self.wavelengths, target_nm, tolerance_nm, label)
         return self.bands[i]
 
@@ -191,7 +198,7 @@ def _image(path: str, label: str, user: str | None, sensor: str):
     return images, grid, product
 
 
-def _sensor(path: str, name: str, image, pick: np.ndarray) -> SensorFile:
+def _sensor(path: str, name: str, image, pick: np.ndarray, seam_nm=None) -> SensorFile:
     """The bands ``pick`` (0-based, of ``image``) as one sensor of a dual dataset."""
     return SensorFile(
         path,
@@ -204,6 +211,7 @@ def _sensor(path: str, name: str, image, pick: np.ndarray) -> SensorFile:
         dark=None if image.dark is None else np.asarray(image.dark)[pick],
         dark_source=image.dark_source,
         units=image.units,
+        seam_nm=seam_nm,
     )
 
 
@@ -265,8 +273,8 @@ def open_dual(
                 "SWIR; give the SWIR file separately or change the seam wavelength"
             )
         return DualSensor(
-            _sensor(vnir, "VNIR", cube, below),
-            _sensor(vnir, "SWIR", cube, above),
+            _sensor(vnir, "VNIR", cube, below, seam_nm),
+            _sensor(vnir, "SWIR", cube, above, seam_nm),
             grid_v,
             True,
             product,

@@ -256,7 +256,24 @@ def output_crs(crs, src_crs, x, y):
     in WGS 84) the UTM zone of the data (:func:`utm_crs`), so that the grid is metric and
     ``--resolution`` is in metres."""
     if crs:
-        return parse_crs(crs)
+        out = parse_crs(crs)
+        if src_crs is not None:
+            # A CRS for another part of the world (a zone picked from a list) would still
+            # give a raster, skewed and scaled by a projection used far beyond its area.
+            x, y = np.ravel(x), np.ravel(y)
+            ok = np.flatnonzero(np.isfinite(x) & np.isfinite(y))
+            ok = ok[:: max(1, ok.size // 10_000)]
+            if ok.size:
+                xo, yo = transform_xy(x[ok], y[ok], src_crs, out)
+                check_coordinates(
+                    xo,
+                    yo,
+                    out,
+                    what=f"parameter 'crs': the product, at {crs_name(out)},",
+                    fix="choose a CRS for the product's area (or leave 'crs' empty for its UTM "
+                    "zone)",
+                )
+        return out
     if src_crs is None or not _pyproj(src_crs).is_geographic:
         return src_crs
     return utm_crs(x, y, src_crs)
@@ -343,6 +360,13 @@ def check_coordinates(x, y, crs, *, what: str, fix: str, valid=None, spacing: bo
             if x0 is not None and np.all(np.isfinite([x0, y0, x1, y1])):
                 dx, dy = x1 - x0, y1 - y0
                 if not (x0 - dx <= mx <= x1 + dx and y0 - dy <= my <= y1 + dy):
+                    if x0 - dx <= my <= x1 + dx and y0 - dy <= mx <= y1 + dy:
+                        raise InputError(
+                            f"{what} holds {span}, far outside the area where {name} is used "
+                            f"({aou.name.split('.')[0]}), but inside it with x and y swapped: "
+                            "put the easting first (an IGM's band 1, a GCP file's x column) "
+                            "and the northing second"
+                        )
                     raise InputError(
                         f"{what} holds {span}, far outside the area where {name} is used "
                         f"({aou.name.split('.')[0]}): the coordinates are in another CRS; {fix}"
@@ -420,7 +444,35 @@ def read_coordinates(path, *, crs=None, label: str = "IGM") -> Coordinates:
     return coords
 
 
+def _check_zero_fill(coords: Coordinates, label: str) -> None:
+    """Refuse pixels whose x and y hold one same value far from all the others: a fill value
+    the file does not declare as nodata ((0, 0), (−9999, −9999): IGMs of pixels the processor
+    could not locate), which would be taken for positions thousands of kilometres away (a map
+    grid of the size of a continent, or an affine fit of the line pulled towards them)."""
+    x, y = coords.x, coords.y
+    finite = np.isfinite(x) & np.isfinite(y)
+    same = finite & (x == y)
+    if not same.any():
+        return
+    values = np.unique(x[same])
+    rest = finite & ~same
+    if values.size != 1 or not rest.any():
+        return
+    v = float(values[0])
+    x0, x1, y0, y1 = x[rest].min(), x[rest].max(), y[rest].min(), y[rest].max()
+    w, h = x1 - x0, y1 - y0
+    if x0 - w <= v <= x1 + w and y0 - h <= v <= y1 + h:
+        return  # a line that does pass near (v, v)
+    raise InputError(
+        f"{label} {coords.path}: {int(same.sum())} pixel(s) sit at ({v:g}, {v:g}), far from "
+        f"the others (x {x0:.10g} … {x1:.10g}, y {y0:.10g} … {y1:.10g}): {v:g} marks pixels "
+        f"without a position; declare it the file's nodata value (e.g. gdal_edit.py "
+        f"-a_nodata {v:g})"
+    )
+
+
 def _check(coords: Coordinates, label: str, origin: str) -> None:
+    _check_zero_fill(coords, label)
     fix = (
         "give the right CRS with --igm-crs (e.g. EPSG:32636 for UTM 36N metres, EPSG:4326 for "
         "longitude/latitude)"
@@ -553,6 +605,12 @@ def read_glt(path, *, crs=None) -> GLT:
         s = src.read(1, masked=True)
         line = src.read(2, masked=True)
         valid = ~(np.ma.getmaskarray(s) | np.ma.getmaskarray(line))
+        # NaN (a float GLT without a declared nodata) shows no pixel, as 0 does.
+        nan = ~(np.isfinite(np.ma.getdata(s)) & np.isfinite(np.ma.getdata(line)))
+        if nan.any():
+            valid &= ~nan
+            s = np.ma.masked_where(nan, s)
+            line = np.ma.masked_where(nan, line)
         grid = Grid(
             src.width, src.height, parse_crs(crs, "parameter 'igm_crs'") or src.crs, src.transform
         )
@@ -580,6 +638,42 @@ def read_glt(path, *, crs=None) -> GLT:
         grid,
         path,
     )
+
+
+#: Positive values GLT writers fill empty cells with (a negative index beyond the product is
+#: a fill too: ENVI's negative indices, infill from a neighbour, lie within it).
+GLT_FILL_VALUES = (9999, 32767, 65535, 99999, 2147483647)
+
+
+def glt_for(path, product: str, *, width: int, height: int, crs=None) -> GLT:
+    """:func:`read_glt`, refused when any of its cells points outside ``product`` (a label,
+    e.g. "input x.tif", of ``width`` × ``height`` pixels): the GLT of another product, whose
+    cells beyond this one would be dropped in silence and the rest misplaced."""
+    from ..georef.geoloc import glt_indices
+
+    glt = read_glt(path, crs=crs)
+    outside = glt_indices(glt.sample, glt.line, glt.valid, width=width, height=height)[3]
+    if outside:
+        s, r = np.abs(glt.sample), np.abs(glt.line)
+        beyond = glt.valid & (s > 0) & (r > 0) & ((s > width) | (r > height))
+        fills = np.unique(np.concatenate([glt.sample[beyond], glt.line[beyond]]))
+        fills = fills[(np.abs(fills) > width) & (np.abs(fills) > height)]
+        fills = fills[(fills < 0) | np.isin(fills, GLT_FILL_VALUES)]
+        if fills.size == 1 and np.all(
+            (glt.sample[beyond] == fills[0]) | (glt.line[beyond] == fills[0])
+        ):
+            v = int(fills[0])
+            raise InputError(
+                f"GLT {path}: {outside} cell(s) hold {v}, beyond {product} ({width} × "
+                f"{height}, columns × lines): if {v} marks cells that show no pixel, declare "
+                f"it the GLT's nodata value (e.g. gdal_edit.py -a_nodata {v}); else the GLT "
+                "belongs to another product"
+            )
+        raise InputError(
+            f"GLT {path}: {outside} cell(s) point outside {product} ({width} × {height}, "
+            "columns × lines): the GLT belongs to another product"
+        )
+    return glt
 
 
 # ---------------------------------------------------------------------------------- GCP files

@@ -61,6 +61,25 @@ def unit_scale(units: str | None, values: np.ndarray | None = None, where: str =
     )
 
 
+def labelled_scale(units: str | None, values: np.ndarray, where: str, fix: str) -> float:
+    """:func:`unit_scale` of band centres whose unit is stated, refused when the values
+    contradict it: micrometres labelled nanometres (all within 0.3–2.6) would match no band,
+    nanometres labelled micrometres (all within 300–2600) would be read as 300 µm and more.
+    ``fix`` says how to correct the label."""
+    scale = unit_scale(units, values, where)
+    if len(values) and (units or "").strip():
+        lo, hi = float(np.nanmin(values)), float(np.nanmax(values))
+        um = _NM_RANGE[0] / 1000 <= lo and hi <= _NM_RANGE[1] / 1000
+        nm = _NM_RANGE[0] <= lo and hi <= _NM_RANGE[1]
+        if (scale == 1.0 and um) or (scale == 1000.0 and nm):
+            real = "micrometres" if um else "nanometres"
+            raise InputError(
+                f"{where}: wavelengths {lo:g}–{hi:g} are labelled {units!r} but are {real} "
+                f"(VNIR and SWIR bands lie within 300–2600 nm): {fix}"
+            )
+    return scale
+
+
 def parse_list(text: str, where: str = "wavelength list") -> np.ndarray:
     """Parse "{400.1, 402.3}" / "400,402" / "400 402" into a float array, strictly.
 
@@ -94,7 +113,7 @@ def parse_user_wavelengths(text: str, count: int, path: str, units: str = "nm") 
             f"{path} has {count} bands but {len(values)} wavelengths were given: give one "
             "wavelength (nm) per band, comma-separated"
         )
-    return values * unit_scale(units, values, path)
+    return values * labelled_scale(units, values, path, "give them in nm")
 
 
 def read_wavelengths(src) -> tuple[np.ndarray | None, np.ndarray | None]:
@@ -109,7 +128,12 @@ def read_wavelengths(src) -> tuple[np.ndarray | None, np.ndarray | None]:
                 f"{name}: its header lists {len(wl)} wavelengths for {n} bands: fix the "
                 "'wavelength' list (one centre per band)"
             )
-        scale = unit_scale(envi.get("wavelength_units"), wl, name)
+        scale = labelled_scale(
+            envi.get("wavelength_units"),
+            wl,
+            name,
+            "fix the header's 'wavelength units' (Nanometers or Micrometers)",
+        )
         fw = parse_list(envi.get("fwhm", ""), f"{name}: ENVI header 'fwhm'")
         return wl * scale, (fw * scale if len(fw) == n else None)
     band_tags = [src.tags(b) for b in range(1, n + 1)]
@@ -123,7 +147,9 @@ def read_wavelengths(src) -> tuple[np.ndarray | None, np.ndarray | None]:
         if len(wl) != n:
             raise InputError(f"{name}: each band's 'wavelength' tag must hold one number")
         units = band_tags[0].get("wavelength_units") or src.tags().get("wavelength_units")
-        scale = unit_scale(units, wl, name)
+        scale = labelled_scale(
+            units, wl, name, "fix the bands' 'wavelength_units' tag (Nanometers or Micrometers)"
+        )
         fw = None
         if all("fwhm" in t for t in band_tags):
             fw = np.concatenate(

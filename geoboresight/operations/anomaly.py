@@ -22,7 +22,7 @@ from ..anomaly.polygons import FIELDS
 from ..anomaly.roc import PFA, TITLE
 from ..anomaly.rx import RXBackground
 from ..anomaly.svdd import NU, SAMPLE_SIZE
-from ..errors import InputError
+from ..errors import InputError, ParameterError
 from ..io.bands import BoresightOffset, Coregistration
 from ..io.dark import DarkLevels
 from ..io.dual import DualLayout
@@ -107,16 +107,23 @@ def _cube_index(dual, sensor):
     return starts[reads.index(sensor.reads)] + np.asarray(sensor.bands, int) - 1
 
 
-def measured_offset(dual, given: BoresightOffset, progress) -> tuple[float, float, str]:
+#: How the user gives the offset instead of measuring it (the error of a line too small).
+GIVE_OFFSET = ": give it ('offset_along', 'offset_across')"
+
+
+def measured_offset(
+    dual, given: BoresightOffset, progress, hint: str = GIVE_OFFSET
+) -> tuple[float, float, str]:
     """The boresight offset δ: given, else measured as ``boresight-offset`` measures it (the
-    ratio's bands, Fourier cross-correlation over the whole line)."""
+    ratio's bands, Fourier cross-correlation over the whole line); ``hint`` ends the error of
+    a line too small to measure it on."""
     if given.offset_along is not None or given.offset_across is not None:
         return float(given.offset_along or 0.0), float(given.offset_across or 0.0), "given"
     from ..io.bands import MatchBands, open_matching_pair
     from .offset import line_offset
 
     with open_matching_pair(dual, MatchBands()) as pair:
-        off, _ = line_offset(pair, 0, progress)
+        off, _ = line_offset(pair, 0, progress, given=hint)
     return off.along, off.across, "measured (boresight-offset)"
 
 
@@ -157,11 +164,11 @@ def _detectability_result(name, dprime, target, progress, grey=None) -> dict:
         progress.info(
             f"{name}: expected d′ {grey:.2f} for a grey target of the same fill and contrast"
         )
-    if low:
-        import warnings
-
-        warnings.warn(msg, stacklevel=3)
+    # A low d′ is a warning about the result (the result's "warnings", which every face shows
+    # as a warning), not a Python warning: that printed the library's source line.
     extra = {} if grey is None else {"dprime_grey": round(float(grey), 4)}
+    if low:
+        extra["warnings"] = [msg]
     return {
         "dprime": round(float(dprime), 4),
         **extra,
@@ -238,8 +245,30 @@ def _prepare_image(vnir, swir, layout, spectral, dark, offset, coregistered, pro
         if dual is not None:
             is_swir = np.isin(bands, _cube_index(dual, dual.swir))
         read = cube.reader(bands, None)
+        given = [
+            n for n in ("offset_along", "offset_across") if getattr(offset, n, None) is not None
+        ]
+        if given and not (coregistered and dual is not None and is_swir.any()):
+            # The offset only shifts the SWIR: ignored, it would be a silent no-op.
+            named = " and ".join(repr(n) for n in given)
+            raise ParameterError(
+                f"parameter{'s' if len(given) > 1 else ''} {named}: the offset shifts the SWIR onto the VNIR grid, but "
+                + (
+                    "co-registration is off ('coregister'): leave the offset empty, or turn "
+                    "co-registration on"
+                    if not coregistered
+                    else f"{vnir} is one file whose VNIR and SWIR bands cannot be told apart: "
+                    "give the SWIR file separately (or a sensor product), or leave the offset "
+                    "empty"
+                )
+            )
         if coregistered and dual is not None and is_swir.any():
-            along, across, how = measured_offset(dual, offset, progress.sub(0.0, 0.1))
+            along, across, how = measured_offset(
+                dual,
+                offset,
+                progress.sub(0.0, 0.1),
+                GIVE_OFFSET + ", or leave the SWIR unshifted ('coregister' off)",
+            )
             progress.info(
                 f"co-registering: SWIR shifted by {along:+.3f} px along-track, "
                 f"{across:+.3f} px across-track ({how})"
@@ -726,6 +755,25 @@ def boresight_indicator_file(
             target=detectability,
             block_rows=block_rows,
             progress=progress,
+        )
+    unused = [
+        n
+        for n, v in (
+            ("vnir", vnir),
+            ("swir", swir),
+            ("offset_along", dipole.offset_along),
+            ("offset_across", dipole.offset_across),
+            ("vnir_dark", dark.vnir_dark),
+            ("swir_dark", dark.swir_dark),
+        )
+        if v is not None and v != ""
+    ]
+    if unused:
+        # Ignored by eq3: a user who set them would believe they were used.
+        raise ParameterError(
+            f"parameter{'s' if len(unused) > 1 else ''} {', '.join(repr(n) for n in unused)} "
+            f"only used by method 'physical': leave {'them' if len(unused) > 1 else 'it'} empty "
+            "for method 'eq3' (the ratio raster), or use method 'physical'"
         )
     if not ratio:
         raise ParameterError(

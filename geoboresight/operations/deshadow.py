@@ -23,7 +23,7 @@ from ..io.dual import DualLayout
 from ..shadow import deshadow as ds
 from ..shadow import illumination as ill
 from ._operation import operation
-from .shadow import check_fraction, no_valid_error
+from .shadow import check_fraction, check_fraction_nodata, no_valid_error
 from .shadow_map import DARK_BANDS, SurfaceModel, _dark_level, _offset, _open_surface, _spread
 
 #: Pixels sampled for the dark level estimate.
@@ -170,6 +170,10 @@ def deshadow_file(
                 f"image {dual.height} × {dual.width}: give the fraction of this image "
                 "(shadow-map --fraction, or sun-shadow on its grid)"
             )
+        dual.grid.require_same(
+            io.Grid.of(f_src), f"image {dual.vnir.path}", f"shadow fraction {shadow}"
+        )
+        check_fraction_nodata(f_src, shadow)
         dsm = _open_surface(surface, dual, block_rows, stack, progress)
         if adjacency and dsm is None:
             raise ParameterError(

@@ -137,15 +137,10 @@ def geolocate_file(
         raise ParameterError("give either --igm or --glt, not both")
     width, height = _product_size(input)
     if glt:
-        table = gio.read_glt(glt, crs=igm_crs)
-        rows, cols, ok, outside = glt_indices(
+        table = gio.glt_for(glt, f"input {input}", width=width, height=height, crs=igm_crs)
+        rows, cols, ok, _ = glt_indices(
             table.sample, table.line, table.valid, width=width, height=height
         )
-        if outside:
-            raise InputError(
-                f"GLT {glt}: {outside} cell(s) point outside input {input} ({width} × {height}, "
-                "columns × lines): the GLT belongs to another product"
-            )
         if grid.crs or grid.resolution:
             raise ParameterError(
                 "--crs and --resolution do not apply to a GLT (its map grid is fixed): use "

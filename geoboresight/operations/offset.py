@@ -27,7 +27,11 @@ from ._operation import operation
 CONVENTION = "a feature at VNIR (line r, column c) appears at SWIR (r + along, c + across)"
 
 
-def line_offset(pair, profile_rows: int = 0, progress=None):
+#: The smallest block the offset is measured on (lines and columns; dem.offset.block_power).
+MIN_BLOCK = 8
+
+
+def line_offset(pair, profile_rows: int = 0, progress=None, *, given: str = ""):
     """The global offset of a flight line and its drift, block by block through
     :func:`~geoboresight.io.map_windows` (memory bounded by a block, whatever the line's length).
 
@@ -37,9 +41,16 @@ def line_offset(pair, profile_rows: int = 0, progress=None):
     ``profile_rows`` > 0 the offset of each block of that many lines is the drift profile
     (:func:`~geoboresight.dem.offset.offset_profile`; the same pass when it is
     ``PROFILE_ROWS``). ``pair`` is a :class:`~geoboresight.io.bands.MatchingReader`.
-    Returns ``(Offset, OffsetProfile or None)``.
+    ``given`` says how the caller's user can give the offset instead (added to the error of
+    images too small to measure it). Returns ``(Offset, OffsetProfile or None)``.
     """
     progress = as_progress(progress)
+    if min(pair.height, pair.width) < MIN_BLOCK:
+        raise InputError(
+            f"the images are {pair.width} × {pair.height} pixels (columns × lines): the "
+            f"boresight offset is measured on blocks of at least {MIN_BLOCK} × {MIN_BLOCK} "
+            f"pixels{given}"
+        )
     same = profile_rows == PROFILE_ROWS
     total, blocks = None, []
     for line, off, fraction, power in _blocks(
@@ -49,6 +60,13 @@ def line_offset(pair, profile_rows: int = 0, progress=None):
             total = power if total is None else total + power
         blocks.append((line, off.along, off.across, off.error, fraction))
     if total is None:
+        read, cloudy = getattr(pair, "pixels_read", 0), getattr(pair, "cloud_pixels", 0)
+        if read and cloudy > 0.5 * read:
+            raise InputError(
+                f"cloud mask {pair.cloud_mask} marks {100 * cloudy / read:.0f} % of the pixels "
+                "as cloud (non-zero), too many to measure the boresight offset on: a clear-sky "
+                "mask (1 = clear) must be inverted; a cloud mask holds 1 for cloud, 0 for clear"
+            )
         raise InputError(
             "no block of lines of the matching images has 64 valid pixels: the boresight offset "
             "cannot be measured (check the nodata values and the cloud mask)"
@@ -296,7 +314,10 @@ def coregister_file(
     if along is None:
         with open_matching_pair(dual, match, cloud_mask) as pair:
             off, prof = line_offset(
-                pair, profile_rows if follow_drift else 0, progress.sub(0.0, 0.2)
+                pair,
+                profile_rows if follow_drift else 0,
+                progress.sub(0.0, 0.2),
+                given=": give it ('along', 'across')",
             )
         if follow_drift:
             along = profile_to_lines(prof.rows, prof.along, dual.height)

@@ -29,7 +29,14 @@ from ..shadow import classes as cls
 from ..shadow import illumination as ill
 from ..shadow import map as smap
 from ._operation import operation
-from .shadow import class_table, grid_place, no_valid_error, sun_angles
+from .shadow import (
+    check_cell_size,
+    check_heights,
+    class_table,
+    grid_place,
+    no_valid_error,
+    sun_angles,
+)
 
 #: Pixels drawn at random to calibrate the map.
 SAMPLE_SIZE = 200_000
@@ -69,7 +76,8 @@ class SurfaceModel:
     The DSM is on the image's grid, or on a map grid with ``igm``, the line's IGM (each raw
     pixel's map coordinates: the DSM is read at every raw pixel, and the sun's azimuth is
     from north), or with ``glt``, its GLT (each raw pixel at the mean of the map cells that
-    show it: :func:`geoboresight.georef.geoloc.glt_coordinates`). ``sun_zenith`` 0–90° (< 90), ``sun_azimuth`` clockwise from north towards
+    show it: :func:`geoboresight.georef.geoloc.glt_coordinates`); ``igm_crs``, their CRS when
+    the file carries none (or to override it). ``sun_zenith`` 0–90° (< 90), ``sun_azimuth`` clockwise from north towards
     the sun (as ``sun-shadow``); or ``acquisition_time`` (ISO 8601, UTC without an offset),
     from which they are computed at the scene's centre (NREL's SPA:
     :func:`geoboresight.shadow.solar.sun_position`). ``cell_size`` (m) for a DSM without a
@@ -85,6 +93,7 @@ class SurfaceModel:
     igm: str | None = None
     acquisition_time: str | None = None
     glt: str | None = None
+    igm_crs: str | None = None
 
 
 #: Bands per instrument read for the dark level besides the signal bands (evenly spaced).
@@ -197,7 +206,13 @@ def _surface_via_geolocation(surface: SurfaceModel, dual, stack, progress):
     if surface.glt:
         from ..georef.geoloc import glt_coordinates
 
-        glt = georef.read_glt(surface.glt)
+        glt = georef.glt_for(
+            surface.glt,
+            f"image {dual.vnir.path}",
+            width=dual.width,
+            height=dual.height,
+            crs=surface.igm_crs,
+        )
         x, y = glt_coordinates(
             glt.sample,
             glt.line,
@@ -213,7 +228,7 @@ def _surface_via_geolocation(surface: SurfaceModel, dual, stack, progress):
             )
         coords = georef.Coordinates(x, y, glt.grid.crs, surface.glt, f"GLT {surface.glt}")
     else:
-        coords = georef.coordinates_for(dual.vnir.path, igm=surface.igm)
+        coords = georef.coordinates_for(dual.vnir.path, igm=surface.igm, crs=surface.igm_crs)
     source = f"GLT {surface.glt}" if surface.glt else f"IGM {surface.igm}"
     if coords.x.shape != (dual.height, dual.width):
         raise InputError(
@@ -274,6 +289,7 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
                 ("acquisition_time", surface.acquisition_time),
                 ("igm", surface.igm),
                 ("glt", surface.glt),
+                ("igm_crs", surface.igm_crs),
             )
             if v is not None
         ]
@@ -288,8 +304,18 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
     angles = surface.sun_zenith is not None or surface.sun_azimuth is not None
     sun = _sun(surface, None) if surface.acquisition_time is None or angles else None
     if surface.igm or surface.glt:
+        if surface.cell_size:
+            raise ParameterError(
+                "parameter 'cell_size' is for a surface model without a geotransform: with the "
+                "line's IGM or GLT the pixels' size comes from it; leave 'cell_size' empty"
+            )
         src, matrix, place = _surface_via_geolocation(surface, dual, stack, progress)
     else:
+        if surface.igm_crs:
+            raise ParameterError(
+                "parameter 'igm_crs' is the CRS of the line's IGM or GLT: give 'igm' or 'glt' "
+                "too, or leave it empty"
+            )
         src = stack.enter_context(io.open_raster(surface.dsm, "surface model"))
         if (src.height, src.width) != (dual.height, dual.width):
             raise InputError(
@@ -298,15 +324,20 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
                 "the line's IGM ('igm') to read a DSM on a map grid at the image's pixels"
             )
         grid = io.Grid.of(src)
+        # Of the image's size but on another map grid (shifted, rotated, south-up, another
+        # CRS): its cells are not the image's pixels.
+        dual.grid.require_same(grid, f"image {dual.vnir.path}", f"surface model {surface.dsm}")
         if grid.transform is not None:
             matrix = ill.grid_matrix(georef.metric_matrix(grid, f"surface model {surface.dsm}"))
+            check_cell_size(surface.cell_size, matrix, f"surface model {surface.dsm}")
             place = grid_place(grid)
+        elif dual.grid.transform is not None:
+            matrix = ill.grid_matrix(georef.metric_matrix(dual.grid, f"image {dual.vnir.path}"))
+            check_cell_size(surface.cell_size, matrix, f"image {dual.vnir.path}")
+            place = grid_place(dual.grid)
         elif surface.cell_size:
             matrix = ill.grid_matrix(None, surface.cell_size)
             place = None
-        elif dual.grid.transform is not None:
-            matrix = ill.grid_matrix(georef.metric_matrix(dual.grid, f"image {dual.vnir.path}"))
-            place = grid_place(dual.grid)
         else:
             raise ParameterError(
                 f"surface model {surface.dsm} and the image have no geotransform: give "
@@ -328,6 +359,7 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
     )
     if n_valid == 0:
         raise no_valid_error(surface.dsm, "surface model")
+    check_heights(lo, hi, surface.dsm)
     kind = choose_surface(walls, pairs)
     relief = float(hi - lo)
     halo = ill.halo_rows(relief, zen, az, matrix, (dual.height, dual.width))
@@ -569,17 +601,32 @@ def shadow_map_file(
         def kernel(values, valid, z=None, z_ok=None, r0=0):
             if z is None:
                 f, _ = fraction_of(values, valid)
-                return smap.shadow_classes(f, cal.table), smap.shadow_mask(f), f, None, None, None
+                return (
+                    smap.shadow_classes(f, cal.table),
+                    smap.shadow_mask(f),
+                    f,
+                    None,
+                    None,
+                    None,
+                    None,
+                )
             prior = dsm.prior(z, z_ok)
             unseen = dsm.unseen(z, z_ok, r0)
             f, d = fraction_of(values, valid, prior, z, z_ok, unseen)
+            # Pixels the surface model has no height for (beyond its extent, its nodata): no
+            # prior says anything there, so the spectra alone judge them, as without a model
+            # (the prior's "no shadow away from the predicted shadow" would drop them all).
+            holes = valid & ~z_ok
+            if holes.any():
+                f_spectral, _ = fraction_of(values, valid)
+                f = np.where(holes, f_spectral, f)
             c = smap.shadow_classes(f, cal.table)
             m = smap.shadow_mask(f)
             # Predicted shadow away from its edges, and the part of it spectrally lit.
             deep = ndimage.binary_erosion(prior >= 0.5) & np.isfinite(f)
             with np.errstate(invalid="ignore"):
                 lit = deep & (d > smap.LIT_DARKNESS)
-            return c, m, f, deep, lit, unseen & np.isfinite(f)
+            return c, m, f, deep, lit, unseen & np.isfinite(f), holes & np.isfinite(f)
 
         halo = smap.shadow_map_halo(cal, edge_pixels)
         if dsm is None:
@@ -663,8 +710,8 @@ def shadow_map_file(
                     band_names=["shadow fraction"],
                 )
             )
-        n_deep = n_lit = n_unseen = 0
-        for win, (c, m, f, deep, lit, unseen) in io.map_windows(
+        n_deep = n_lit = n_unseen = n_holes = 0
+        for win, (c, m, f, deep, lit, unseen, holes) in io.map_windows(
             read,
             kernel,
             halo=halo,
@@ -685,6 +732,7 @@ def shadow_map_file(
                 n_deep += int(deep.sum())
                 n_lit += int(lit.sum())
                 n_unseen += int(unseen.sum())
+                n_holes += int(holes.sum())
         n_valid = int(counts[: cls.NODATA_CLASS].sum())
         if n_valid == 0:
             raise no_valid_error(vnir, "VNIR/SWIR image")
@@ -702,7 +750,13 @@ def shadow_map_file(
             dsm_predicted_shadow_pixels=n_deep,
             dsm_predicted_shadow_lit_share=round(lit_share, 4),
             dsm_unseen_share=round(n_unseen / n_valid, 4),
+            dsm_missing_share=round(n_holes / n_valid, 4),
         )
+        if n_holes:
+            warnings.append(
+                f"the surface model has no height for {100 * n_holes / n_valid:.1f} % of the "
+                "valid pixels (beyond its extent or nodata): the spectra alone judge them"
+            )
         progress.info(
             f"surface model against the image: {100 * lit_share:.1f} % of the predicted shadow "
             "(away from its edges) is spectrally lit; best shift of the predicted shadow "

@@ -26,7 +26,7 @@ from ..shadow.darkpixel import (
 )
 from ..shadow.surface import AUTO, choose_surface, surface_walls
 from ._operation import operation
-from .shadow import grid_place, no_valid_error, sun_angles
+from .shadow import check_cell_size, check_heights, grid_place, no_valid_error, sun_angles
 
 #: The dark-pixel bands as the text parameter gives them (nm, comma-separated).
 BANDS_NM = ",".join(f"{b:g}" for b in DEFAULT_BANDS_NM)
@@ -142,11 +142,9 @@ def sun_shadow_file(
         )
     with io.open_raster(dsm, "surface model") as src:
         grid = io.Grid.of(src)
-        if cell_size and grid.georeferenced:
-            progress.info(
-                "the surface model has a geotransform: its cell size is used, not --cell-size"
-            )
         matrix = ill.grid_matrix(metric_matrix(grid, f"surface model {dsm}"), cell_size)
+        if grid.georeferenced:
+            check_cell_size(cell_size, matrix, f"surface model {dsm}")
         zen, az, how = sun_angles(
             sun_zenith, sun_azimuth, acquisition_time, grid_place(grid), needed_by="dsm"
         )
@@ -161,6 +159,7 @@ def sun_shadow_file(
         )
         if n_valid == 0:
             raise no_valid_error(dsm, "surface model")
+        check_heights(lo, hi, dsm)
         if surface == AUTO:
             surface = choose_surface(walls, pairs)
             progress.info(
