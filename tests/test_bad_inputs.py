@@ -1101,18 +1101,18 @@ def _merged(d: Path) -> None:
     write_envi(d / "m.img", np.concatenate([vn, sw]), np.concatenate([VNIR_WL, SWIR_WL]))
 
 
-def _dsm(name: str, fill=None, dtype="float32", nodata=None, transform=GRID):
+def _dsm(name: str, fill=None, dtype="float32", nodata=None, transform=GRID, count=1):
     """A DSM on hostile's UTM grid (a 20 m block on level ground at 100 m), its first three
     lines ``fill`` (a hole), written as ``dtype`` with ``nodata`` (None: none declared)."""
 
     def setup(d):
-        z = np.full((1, ROWS, COLS), 100.0)
+        z = np.full((count, ROWS, COLS), 100.0)
         z[:, 10:20, 10:18] = 120.0
         if fill is not None:
             z[:, :3] = fill
         if transform.e > 0:  # south-up: the same ground, its rows the other way round
             z = z[:, ::-1]
-        profile = dict(driver="GTiff", width=COLS, height=ROWS, count=1, dtype=dtype)
+        profile = dict(driver="GTiff", width=COLS, height=ROWS, count=count, dtype=dtype)
         profile.update(crs=UTM36, transform=transform, nodata=nodata)
         with rasterio.open(d / name, "w", **profile) as dst:
             dst.write(z.astype(dtype))
@@ -1155,6 +1155,17 @@ def _surface_cases() -> list[Case]:
             code=0,
         )
     )
+    # A DSM and a DTM in one file: band 1 would be used without a word.
+    for op in ("shadow-map", "deshadow"):
+        c.append(
+            Case(
+                f"{op}-dsm-of-two-bands",
+                op,
+                {**on_grid, **sun, "dsm": "two.tif"},
+                ("two.tif", "2 bands", "gdal_translate -b 1"),
+                setup=_dsm("two.tif", count=2),
+            )
+        )
     south_up = Affine(2.0, 0.0, 700000.0, 0.0, 2.0, 3500000.0 - 2.0 * ROWS)
     rotated = GRID @ Affine.rotation(30.0)
     for cid, transform in (("south-up", south_up), ("rotated", rotated)):

@@ -236,7 +236,7 @@ def _surface_via_geolocation(surface: SurfaceModel, dual, stack, progress):
             f"image {dual.height} × {dual.width}: give the IGM of this flight line"
         )
     matrix, crs, rms = raw_grid_matrix(coords)
-    src = stack.enter_context(io.open_raster(surface.dsm, "surface model"))
+    src = _open_dsm(surface.dsm, stack)
     folder = stack.enter_context(tempfile.TemporaryDirectory(prefix="geoboresight-dsm-"))
     path = f"{folder}/dsm_raw.tif"
     profile = dict(
@@ -272,6 +272,18 @@ def _surface_via_geolocation(surface: SurfaceModel, dual, stack, progress):
     lon, lat = georef.centre_lonlat(coords.x, coords.y, coords.crs)
     raw = stack.enter_context(io.open_raster(path, "surface model"))
     return raw, matrix, (lon, lat, crs)
+
+
+def _open_dsm(path, stack):
+    """The surface model opened; refused when it has more than one band: its first band would
+    be used without a word (a DSM and a DTM in one file, or an image given for the DSM)."""
+    src = stack.enter_context(io.open_raster(path, "surface model"))
+    if src.count != 1:
+        raise InputError(
+            f"surface model {path} has {src.count} bands: give a single-band DSM (heights in "
+            f"metres), e.g. its band 1 with gdal_translate -b 1 {path} dsm.tif"
+        )
+    return src
 
 
 def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _Surface | None:
@@ -316,7 +328,7 @@ def _open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> _
                 "parameter 'igm_crs' is the CRS of the line's IGM or GLT: give 'igm' or 'glt' "
                 "too, or leave it empty"
             )
-        src = stack.enter_context(io.open_raster(surface.dsm, "surface model"))
+        src = _open_dsm(surface.dsm, stack)
         if (src.height, src.width) != (dual.height, dual.width):
             raise InputError(
                 f"surface model {surface.dsm} has {src.height} × {src.width} cells but the "
