@@ -479,6 +479,15 @@ def _specific_cases() -> list[Case]:
             extra=["--overwrite"],
         )
     )
+    # The default method with the cube given is 'physical', which does not read the ratio.
+    c.append(
+        Case(
+            "boresight-indicator-ratio-with-the-cube",
+            "boresight-indicator",
+            {"ratio": "ratio.tif", "vnir": "v.img", "swir": "s.img"},
+            ("'ratio'", "not used by method 'physical'", "'eq3'"),
+        )
+    )
     c.append(
         Case(
             "unmix-output-is-endmembers",

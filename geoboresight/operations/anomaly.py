@@ -741,6 +741,14 @@ def boresight_indicator_file(
                 "method 'physical' needs the cube: give 'vnir' (and 'swir'), or use method 'eq3' "
                 "with the ratio raster"
             )
+        if ratio:
+            # The physical statistic is computed from the cube alone: a ratio raster given
+            # with it would be believed used.
+            raise ParameterError(
+                "parameter 'ratio' is not used by method 'physical' (the default when the cube "
+                "is given): leave 'ratio' empty, or choose method 'eq3' for the paper's Eq. 3 "
+                "on the ratio raster"
+            )
         return _physical_indicator_file(
             vnir,
             swir,
