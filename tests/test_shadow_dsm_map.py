@@ -456,3 +456,24 @@ def test_pixels_without_a_surface_model_height_are_judged_by_the_spectra(tmp_pat
     assert _f1(f1 >= 0.5, truth) > 0.5
     assert r["dsm_missing_share"] == pytest.approx(0.5, abs=0.02)
     assert any("no height" in w for w in r["warnings"])
+
+
+def test_a_time_without_offset_is_said_to_be_read_as_utc(tmp_path):
+    # A local time typed without its offset gives another sun without any error: the result
+    # says how it was read, and says nothing when the offset is stated.
+    from geoboresight.operations.shadow_truth import sun_shadow_file
+
+    z = np.zeros((20, 20), np.float32)
+    dsm = str(tmp_path / "dsm.tif")
+    write_gtiff(dsm, z[None], crs=UTM36N, transform=from_origin(*ORIGIN, 1.0, 1.0))
+    naive = sun_shadow_file(
+        dsm, output=str(tmp_path / "a.tif"), acquisition_time="2010-06-21T07:00"
+    )
+    aware = sun_shadow_file(
+        dsm, output=str(tmp_path / "b.tif"), acquisition_time="2010-06-21T07:00+00:00"
+    )
+    with rasterio.open(tmp_path / "a.tif") as a, rasterio.open(tmp_path / "b.tif") as b:
+        assert "read as UTC" in a.tags()["SUN_POSITION"]
+        assert "read as UTC" not in b.tags()["SUN_POSITION"]
+        assert a.tags()["SUN_ZENITH_DEG"] == b.tags()["SUN_ZENITH_DEG"]
+    assert naive["shadow_pixels"] == aware["shadow_pixels"]

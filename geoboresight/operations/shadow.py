@@ -135,7 +135,7 @@ def sun_angles(
     on), or None when unknown) with NREL's SPA (:func:`geoboresight.shadow.solar.sun_position`),
     the azimuth turned from true north to the grid's north (meridian convergence)."""
     from ..shadow import illumination as ill
-    from ..shadow.solar import sun_position
+    from ..shadow.solar import states_offset, sun_position
 
     given = [sun_zenith is not None, sun_azimuth is not None]
     if acquisition_time is None:
@@ -170,8 +170,10 @@ def sun_angles(
             "time without an offset is UTC)"
         )
     bearing = georef.true_north_bearing(lon, lat, crs)
+    # A local time given without its offset gives a wrong sun without any error: say so.
+    utc = "" if states_offset(acquisition_time) else " (no UTC offset given: read as UTC)"
     how = (
-        f"computed for {acquisition_time} at {lat:.4f}°, {lon:.4f}° (NREL SPA; azimuth "
+        f"computed for {acquisition_time}{utc} at {lat:.4f}°, {lon:.4f}° (NREL SPA; azimuth "
         f"{az:.2f}° from true north, {(az + bearing) % 360.0:.2f}° from grid north)"
     )
     return zen, (az + bearing) % 360.0, how

@@ -52,6 +52,16 @@ def parse_time(value, label: str = "parameter 'acquisition_time'") -> dt.datetim
     return t.astimezone(dt.UTC)
 
 
+def states_offset(value) -> bool:
+    """Whether an acquisition time (as :func:`parse_time` takes it) states its UTC offset."""
+    if isinstance(value, dt.datetime):
+        return value.tzinfo is not None
+    try:
+        return dt.datetime.fromisoformat(str(value).strip()).tzinfo is not None
+    except ValueError:
+        return False
+
+
 def sun_position(
     time,
     longitude: float,
