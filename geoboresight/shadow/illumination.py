@@ -97,11 +97,32 @@ def horn_gradient(dsm: np.ndarray, matrix: np.ndarray) -> tuple[np.ndarray, np.n
     drow = (
         (z[2:, :-2] + 2 * z[2:, 1:-1] + z[2:, 2:]) - (z[:-2, :-2] + 2 * z[:-2, 1:-1] + z[:-2, 2:])
     ) / 8.0
+    return _ground_gradient(dcol, drow, matrix)
+
+
+def _ground_gradient(dcol, drow, matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(∂z/∂east, ∂z/∂north) from the height's change per column and per row."""
     # dz/dcol = a·zx + d·zy, dz/drow = b·zx + e·zy  →  solve with Mᵀ.
     inv_t = np.linalg.inv(matrix.T)
     zx = inv_t[0, 0] * dcol + inv_t[0, 1] * drow
     zy = inv_t[1, 0] * dcol + inv_t[1, 1] * drow
     return zx, zy
+
+
+def _filled(dsm: np.ndarray, valid) -> tuple[np.ndarray, np.ndarray]:
+    """(heights, ok): invalid cells (``valid`` False or not finite) filled with the mean valid
+    height, so that they do not tilt their neighbours' gradients."""
+    ok = np.isfinite(dsm) if valid is None else (np.asarray(valid, bool) & np.isfinite(dsm))
+    if not ok.all():
+        dsm = np.where(ok, dsm, dsm.dtype.type(np.mean(dsm[ok])) if ok.any() else 0)
+    return dsm, ok
+
+
+def _cos_incidence(zx, zy, zenith: float, azimuth: float) -> np.ndarray:
+    """cos i of surfaces of gradient (zx, zy) for the sun at (zenith, azimuth) degrees."""
+    zr, ar = math.radians(zenith), math.radians(azimuth)
+    sun = (math.sin(zr) * math.sin(ar), math.sin(zr) * math.cos(ar), math.cos(zr))
+    return (-zx * sun[0] - zy * sun[1] + sun[2]) / np.sqrt(1.0 + zx * zx + zy * zy)
 
 
 def hillshade(
@@ -163,16 +184,11 @@ def hillshade(
     """
     z, a = check_sun(sun_zenith, sun_azimuth)
     m = grid_matrix(transform, cell_size)
-    dsm = np.asarray(dsm)
-    ok = np.isfinite(dsm) if valid is None else (np.asarray(valid, bool) & np.isfinite(dsm))
-    if not ok.all():
-        dsm = np.where(ok, dsm, dsm.dtype.type(np.mean(dsm[ok])) if ok.any() else 0)
+    dsm, ok = _filled(np.asarray(dsm), valid)
     zx, zy = horn_gradient(dsm, m)
     zx *= z_factor
     zy *= z_factor
-    zr, ar = math.radians(z), math.radians(a)
-    sun = (math.sin(zr) * math.sin(ar), math.sin(zr) * math.cos(ar), math.cos(zr))
-    cos_i = (-zx * sun[0] - zy * sun[1] + sun[2]) / np.sqrt(1.0 + zx * zx + zy * zy)
+    cos_i = _cos_incidence(zx, zy, z, a)
     return np.where(ok, cos_i, np.nan).astype(np.float32)
 
 
@@ -200,21 +216,14 @@ def plane_incidence(
     Invalid cells are filled with the mean valid height."""
     z, a = check_sun(sun_zenith, sun_azimuth)
     m = grid_matrix(transform, cell_size)
-    d = np.asarray(dsm, np.float64)
-    ok = np.isfinite(d) if valid is None else (np.asarray(valid, bool) & np.isfinite(d))
-    if not ok.all():
-        d = np.where(ok, d, float(np.mean(d[ok])) if ok.any() else 0.0)
+    d, ok = _filled(np.asarray(dsm, np.float64), valid)
     r = np.arange(-half, half + 1, dtype=np.float64)
     w = np.tile(r, (r.size, 1)) / (r.size * float((r**2).sum()))
     dcol = ndimage.correlate(d, w, mode="nearest")
     drow = ndimage.correlate(d, w.T, mode="nearest")
-    inv_t = np.linalg.inv(m.T)
-    zx = inv_t[0, 0] * dcol + inv_t[0, 1] * drow
-    zy = inv_t[1, 0] * dcol + inv_t[1, 1] * drow
-    zr, ar = math.radians(z), math.radians(a)
-    sun = (math.sin(zr) * math.sin(ar), math.sin(zr) * math.cos(ar), math.cos(zr))
-    cos_i = (-zx * sun[0] - zy * sun[1] + sun[2]) / np.sqrt(1.0 + zx * zx + zy * zy)
-    rel = np.clip(cos_i, 0.0, None) / max(math.cos(zr), 1e-6)
+    zx, zy = _ground_gradient(dcol, drow, m)
+    cos_i = _cos_incidence(zx, zy, z, a)
+    rel = np.clip(cos_i, 0.0, None) / max(math.cos(math.radians(z)), 1e-6)
     return np.where(ok, rel, np.nan)
 
 
