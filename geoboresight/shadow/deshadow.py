@@ -248,24 +248,14 @@ def illumination_ratio(
     InputError
         With fewer than ``min_pairs`` pairs (no shadow edges in the scene).
     """
-    a = np.asarray(shaded, np.float64)
-    b = np.asarray(sunlit, np.float64)
-    if a.shape != b.shape or a.ndim != 2:
-        raise InputError(f"pairs must be two (n, bands) arrays, got {a.shape} and {b.shape}")
+    a, b = _pair_arrays(shaded, sunlit)
     if not 0 < keep <= 1:
         raise ParameterError(f"parameter 'keep': {keep} is not in (0, 1]")
     good = (a > MIN_SIGNAL) & (b > MIN_SIGNAL)
     with np.errstate(invalid="ignore", divide="ignore"):
         lr = np.where(good, np.log(b) - np.log(a), np.nan)
         if sky_view is not None or direct is not None:
-            if sky_view is None:
-                va = vb = np.ones((a.shape[0], 1))
-            else:
-                va, vb = (np.asarray(v, np.float64).reshape(-1, 1) for v in sky_view)
-            if va.shape[0] != a.shape[0] or vb.shape[0] != a.shape[0]:
-                raise InputError(
-                    f"{va.shape[0]} and {vb.shape[0]} sky-view factors for {a.shape[0]} pairs"
-                )
+            va, vb = _sky_views(sky_view, a.shape[0])
             d = _direct(direct, a.shape[0])
             k_open = (va * np.exp(lr) - vb) / d + 1.0
             lr = np.where(k_open > MIN_SIGNAL, np.log(k_open), np.nan)
@@ -294,6 +284,25 @@ def illumination_ratio(
             k = np.where(np.isfinite(lr[kept]).any(axis=0), np.nanmedian(lr[kept], axis=0), k)
     spread = float(np.median(np.sqrt(np.nanmean((lr[kept] - k) ** 2, axis=1))))
     return np.exp(k), int(kept.sum()), spread
+
+
+def _pair_arrays(shaded, sunlit) -> tuple[np.ndarray, np.ndarray]:
+    """The pairs' shadowed and sunlit signals as float64 (n, bands) arrays of one shape."""
+    a = np.asarray(shaded, np.float64)
+    b = np.asarray(sunlit, np.float64)
+    if a.shape != b.shape or a.ndim != 2:
+        raise InputError(f"pairs must be two (n, bands) arrays, got {a.shape} and {b.shape}")
+    return a, b
+
+
+def _sky_views(sky_view, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The pairs' sky-view factors (V_a, V_b), each as (n, 1); 1 without."""
+    if sky_view is None:
+        return np.ones((n, 1)), np.ones((n, 1))
+    va, vb = (np.asarray(v, np.float64).reshape(-1, 1) for v in sky_view)
+    if va.shape[0] != n or vb.shape[0] != n:
+        raise InputError(f"{va.shape[0]} and {vb.shape[0]} sky-view factors for {n} pairs")
+    return va, vb
 
 
 def _direct(direct, n: int) -> np.ndarray:
@@ -402,21 +411,11 @@ def additive_signal(
     error : array (n_bands,)
         Its standard error (inf where not measured).
     """
-    a = np.asarray(shaded, np.float64)
-    b = np.asarray(sunlit, np.float64)
-    if a.shape != b.shape or a.ndim != 2:
-        raise InputError(f"pairs must be two (n, bands) arrays, got {a.shape} and {b.shape}")
+    a, b = _pair_arrays(shaded, sunlit)
     k0 = np.asarray(ratio, np.float64).reshape(-1)
     if k0.size != a.shape[1]:
         raise InputError(f"{k0.size} illumination ratios for {a.shape[1]} bands")
-    if sky_view is None:
-        va = vb = np.ones((a.shape[0], 1))
-    else:
-        va, vb = (np.asarray(v, np.float64).reshape(-1, 1) for v in sky_view)
-        if va.shape[0] != a.shape[0] or vb.shape[0] != a.shape[0]:
-            raise InputError(
-                f"{va.shape[0]} and {vb.shape[0]} sky-view factors for {a.shape[0]} pairs"
-            )
+    va, vb = _sky_views(sky_view, a.shape[0])
     d = _direct(direct, a.shape[0])
     va, vb = va / d, vb / d
     ok = np.isfinite(a) & np.isfinite(b) & np.isfinite(va) & np.isfinite(vb)
@@ -583,9 +582,7 @@ def adjacency_ratio(
     a = np.asarray(shaded, np.float64)
     b = np.asarray(sunlit, np.float64)
     n, nb = a.shape
-    va, vb = (np.asarray(v, np.float64).reshape(-1, 1) for v in sky_view)
-    if va.shape[0] != n or vb.shape[0] != n:
-        raise InputError(f"{va.shape[0]} and {vb.shape[0]} sky-view factors for {n} pairs")
+    va, vb = _sky_views(sky_view, n)
     s_a, s_b = (np.asarray(s, np.float64) for s in surround)
     if s_a.shape != a.shape or s_b.shape != a.shape:
         raise InputError(f"surroundings of shapes {s_a.shape}, {s_b.shape} for pairs {a.shape}")
