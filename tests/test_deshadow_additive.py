@@ -22,6 +22,7 @@ from geoboresight.shadow import deshadow as ds
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "validation"))
 from scene_model2 import simulate2, write_scene2  # noqa: E402
+from synth import write_gtiff  # noqa: E402
 
 WL = np.linspace(420.0, 2400.0, 40)
 
@@ -153,10 +154,7 @@ def test_deshadow_subtracts_the_headers_per_band_dark_levels(scene, tmp_path):
     _with_dark(folder, "swir.hdr", dark_s)
     frac = str(tmp_path / "f.tif")
     f = np.nan_to_num(sc.shadow_fraction.astype("float32"), nan=0.0)
-    with rasterio.open(
-        frac, "w", driver="GTiff", width=f.shape[1], height=f.shape[0], count=1, dtype="float32"
-    ) as dst:
-        dst.write(f, 1)
+    write_gtiff(frac, f[None])
     out, rep = str(tmp_path / "d.tif"), str(tmp_path / "d.json")
     deshadow_file(
         os.path.join(folder, "vnir.hdr"),
@@ -187,10 +185,7 @@ def test_deshadow_file_with_the_additive_signal_scales_only_the_signal_above_it(
     sc, folder = scene
     frac = str(tmp_path / "f.tif")
     f = np.nan_to_num(sc.shadow_fraction.astype("float32"), nan=0.0)
-    with rasterio.open(
-        frac, "w", driver="GTiff", width=f.shape[1], height=f.shape[0], count=1, dtype="float32"
-    ) as dst:
-        dst.write(f, 1)
+    write_gtiff(frac, f[None])
     out, rep = str(tmp_path / "d.tif"), str(tmp_path / "d.json")
     deshadow_file(
         os.path.join(folder, "vnir.hdr"),
@@ -345,16 +340,7 @@ def test_additive_signal_on_relief_against_model_2s_truth(tmp_path):
     write_scene2(sc, folder)
     f = np.nan_to_num(sc.shadow_fraction.astype("float32"), nan=0.0)
     for name, arr in (("f.tif", f), ("z.tif", sc.dsm.astype("float32"))):
-        with rasterio.open(
-            str(tmp_path / name),
-            "w",
-            driver="GTiff",
-            width=arr.shape[1],
-            height=arr.shape[0],
-            count=1,
-            dtype="float32",
-        ) as dst:
-            dst.write(arr, 1)
+        write_gtiff(str(tmp_path / name), arr[None])
     from geoboresight.operations.shadow_map import SurfaceModel
 
     rep = str(tmp_path / "r.json")

@@ -22,6 +22,7 @@ from geoboresight.shadow import deshadow as ds
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "validation"))
 from scene_model2 import simulate2, write_scene2  # noqa: E402
+from synth import write_gtiff  # noqa: E402
 
 WL = np.linspace(420.0, 2400.0, 40)
 
@@ -112,25 +113,15 @@ def test_the_term_enters_the_factor_with_the_sky_view():
     np.testing.assert_allclose(out[:, 0, 2], 10.0 * (k - 1 + 0.8) / 0.8, rtol=1e-6)
 
 
-def _write(path, arr):
-    with rasterio.open(
-        path,
-        "w",
-        driver="GTiff",
-        width=arr.shape[1],
-        height=arr.shape[0],
-        count=1,
-        dtype="float32",
-    ) as dst:
-        dst.write(arr.astype("float32"), 1)
-
-
 def _model2(tmp_path, name, adjacency):
     sc = simulate2(rows=96, cols=120, seed=0, sun_zenith=35.0, adjacency=adjacency)
     folder = str(tmp_path / name)
     write_scene2(sc, folder)
-    _write(os.path.join(folder, "f.tif"), np.nan_to_num(sc.shadow_fraction, nan=0.0))
-    _write(os.path.join(folder, "z.tif"), sc.dsm)
+    write_gtiff(
+        os.path.join(folder, "f.tif"),
+        np.nan_to_num(sc.shadow_fraction, nan=0.0).astype("float32")[None],
+    )
+    write_gtiff(os.path.join(folder, "z.tif"), sc.dsm.astype("float32")[None])
     return folder
 
 
