@@ -147,11 +147,8 @@ def _with_dark(folder, name, levels):
         fh.write("dark level = {" + ", ".join(f"{v:.2f}" for v in levels) + "}\n")
 
 
-def test_deshadow_subtracts_the_headers_per_band_dark_levels(scene, tmp_path):
-    sc, folder = scene
-    dark_v, dark_s = sc.truth["vnir_dark_dn"], sc.truth["swir_dark_dn"]
-    _with_dark(folder, "vnir.hdr", dark_v)
-    _with_dark(folder, "swir.hdr", dark_s)
+def _deshadow_truth_fraction(sc, folder, tmp_path, **kwargs):
+    """deshadow_file on the scene with its truth fraction: (fraction, output, report's bands)."""
     frac = str(tmp_path / "f.tif")
     f = np.nan_to_num(sc.shadow_fraction.astype("float32"), nan=0.0)
     write_gtiff(frac, f[None])
@@ -162,9 +159,18 @@ def test_deshadow_subtracts_the_headers_per_band_dark_levels(scene, tmp_path):
         shadow=frac,
         output=out,
         report=rep,
+        **kwargs,
     )
     with open(rep) as fh:
-        bands = json.load(fh)["bands"]
+        return f, out, json.load(fh)["bands"]
+
+
+def test_deshadow_subtracts_the_headers_per_band_dark_levels(scene, tmp_path):
+    sc, folder = scene
+    dark_v, dark_s = sc.truth["vnir_dark_dn"], sc.truth["swir_dark_dn"]
+    _with_dark(folder, "vnir.hdr", dark_v)
+    _with_dark(folder, "swir.hdr", dark_s)
+    f, out, bands = _deshadow_truth_fraction(sc, folder, tmp_path)
     levels = np.array([b["dark_level_dn"] for b in bands])
     k = np.array([b["illumination_ratio"] for b in bands])
     # The header's level of every band, not one per instrument.
@@ -183,20 +189,7 @@ def test_deshadow_subtracts_the_headers_per_band_dark_levels(scene, tmp_path):
 
 def test_deshadow_file_with_the_additive_signal_scales_only_the_signal_above_it(scene, tmp_path):
     sc, folder = scene
-    frac = str(tmp_path / "f.tif")
-    f = np.nan_to_num(sc.shadow_fraction.astype("float32"), nan=0.0)
-    write_gtiff(frac, f[None])
-    out, rep = str(tmp_path / "d.tif"), str(tmp_path / "d.json")
-    deshadow_file(
-        os.path.join(folder, "vnir.hdr"),
-        os.path.join(folder, "swir.hdr"),
-        shadow=frac,
-        output=out,
-        report=rep,
-        additive=True,
-    )
-    with open(rep) as fh:
-        bands = json.load(fh)["bands"]
+    f, out, bands = _deshadow_truth_fraction(sc, folder, tmp_path, additive=True)
     d = np.array([b["dark_level_dn"] for b in bands])
     c = np.array([b["additive_signal_dn"] for b in bands])
     k = np.array([b["illumination_ratio"] for b in bands])
