@@ -509,3 +509,32 @@ def test_ray_tracing_by_blocks_agrees_with_one_block():
             assert np.median(np.abs(fp[inst].y - ref_fp[inst].y)) < 0.001
             direct, ref_direct = fp[inst].direct.sum(0), ref_fp[inst].direct.sum(0)
             assert direct.mean() == pytest.approx(ref_direct.mean(), rel=0.005)
+
+
+def test_sunlit_twin_lights_cast_shadow_and_changes_nothing_else():
+    # cast_shadows=False: the reference a de-shadowing is checked against (each shadowed
+    # pixel's own sunlit signal). Same layout; only pixels near a cast shadow change.
+    from scipy import ndimage
+
+    kw = dict(lines=64, seed=3, targets=0, noise_free=True, sun_zenith=45.0)
+    real = simulate_scene("urban", **kw)
+    twin = simulate_scene("urban", cast_shadows=False, **kw)
+    assert np.array_equal(real.abundances, twin.abundances)
+    assert np.array_equal(real.dsm, twin.dsm)
+    f, g = real.shadow_fraction, twin.shadow_fraction
+    assert (g <= f + 1e-6).all()
+    assert f.mean() > 0.05 and g.mean() < f.mean() / 3  # what is left is self-shade
+    # The SWIR sees the ground through the residual boresight offset and the roofs' parallax
+    # (truth is on the VNIR grid): a wider margin there, and its first and last lines see
+    # ground beyond the VNIR's.
+    for cube, margin in (("vnir", 3), ("swir", 8)):
+        far = ~ndimage.binary_dilation(f > 0, iterations=margin)
+        far[:margin] = far[-margin:] = False
+        assert far.sum() > 1000
+        a, b = getattr(real, cube), getattr(twin, cube)
+        # (float32 sums over the materials: equal to their rounding)
+        np.testing.assert_allclose(a[:, far], b[:, far], rtol=1e-5)
+    full = ndimage.binary_erosion(f >= 0.999) & (g < 0.02)
+    assert full.sum() > 50
+    for nm in (450.0, 650.0, 850.0, 1650.0, 2200.0):
+        assert (band(twin, nm)[full] > band(real, nm)[full]).mean() > 0.95

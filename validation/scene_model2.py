@@ -260,12 +260,19 @@ def simulate2(
     noise=True,
     target_abundance=None,
     target_reflectance=0.30,
+    cast_shadows=True,
 ) -> Scene2:
     """One scene. Azimuth clockwise from north (row 0) towards the sun; offsets in pixels.
 
     ``target_abundance`` (rows, cols), optional: sub-pixel targets of flat reflectance
     ``target_reflectance`` mixed linearly into each pixel's reflectance with that fill
-    fraction, before illumination and the sensors (the SWIR sees them through its offset)."""
+    fraction, before illumination and the sensors (the SWIR sees them through its offset).
+
+    ``cast_shadows`` False: the scene's sunlit twin (no cast shadow; the same layout, spectra,
+    sky view and adjacency light; the noise and the SWIR's dark pattern are other draws, as
+    the Poisson draws use the generator differently, so take its dark levels from its own
+    truth): each shadowed pixel's own sunlit signal, the reference a de-shadowing is checked
+    against."""
     rng = np.random.default_rng(seed)
     dsm, mat, terrain = _layout(rng, rows, cols, relief_m, buildings, trees)
     spectra = material_spectra(rng)
@@ -278,6 +285,8 @@ def simulate2(
         a = np.asarray(target_abundance, np.float32)[None]
         refl = (1 - a) * refl + a * np.float32(target_reflectance)
     shadow = _cast(dsm, gsd, sun_zenith, sun_azimuth)
+    if not cast_shadows:
+        shadow = np.zeros_like(shadow)
     svf = _sky_view(dsm, gsd)
     # self-shading of terrain slopes (cos i / cos z), roofs flat
     gy, gx = np.gradient(terrain, gsd)

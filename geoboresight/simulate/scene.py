@@ -293,6 +293,7 @@ def simulate_scene(
     supersample: int = SUPERSAMPLE,
     surface: Surface | None = None,
     texture: bool = True,
+    cast_shadows: bool = True,
     progress: Progress | None = None,
 ) -> Scene:
     """Simulate a VNIR + SWIR pushbroom scene with its ground truth.
@@ -332,6 +333,11 @@ def simulate_scene(
         stones, grass density, sand patches, stains; :data:`.presets.TEXTURE`, drawn from
         its own generator so the scene's layout is the same either way). False gives
         uniform materials (each exactly its library spectrum): for tests and comparisons.
+    cast_shadows : bool
+        False gives the scene's sunlit twin: no surface casts a shadow, so every surface that
+        faces the sun gets its direct light (self-shade, clouds and everything else as with
+        True, same layout). A shadowed pixel's twin is its own sunlit signal, under its own
+        sky view: the reference a de-shadowing is checked against.
     progress : Progress, optional
 
     Returns
@@ -391,7 +397,15 @@ def simulate_scene(
 
     # 2–4. Ray tracing, block by block; then the targets.
     footprints, truth = trace_footprints(
-        geo, surface, names, lines, sun, cloud, int(supersample), progress.sub(0.05, 0.65)
+        geo,
+        surface,
+        names,
+        lines,
+        sun,
+        cloud,
+        int(supersample),
+        progress.sub(0.05, 0.65),
+        cast_shadows=cast_shadows,
     )
     target_list, target_abundance = [], np.zeros((lines, COLS), "float32")
     if n_targets:
@@ -605,6 +619,7 @@ def trace_footprints(
     sub: int,
     progress: Progress | None = None,
     block_lines: int = BLOCK_LINES,
+    cast_shadows: bool = True,
 ) -> tuple[dict[str, Footprints], GroundTruth]:
     """Stages 2–4 for the whole flight line, in blocks of ``block_lines`` lines (each block
     has its own fine grid, so the block size moves the grid by a fraction of a cell).
@@ -624,7 +639,8 @@ def trace_footprints(
             inst: geo.rays(inst, np.arange(l0, l1), np.arange(COLS), sub) for inst in INSTRUMENTS
         }
         win = block_window(rays, geo, z_top, sun, cell)
-        return trace_block(rays, geo, sun_maps(surface, win, names, sun, clouds), K, clouds, sun)
+        maps = sun_maps(surface, win, names, sun, clouds, cast_shadows)
+        return trace_block(rays, geo, maps, K, clouds, sun)
 
     progress = as_progress(progress)
     for l0 in range(0, lines, block_lines):
@@ -660,9 +676,15 @@ def block_window(rays: dict, geo: Geometry, z_top: float, sun: Sun, cell: float)
 
 
 def sun_maps(
-    surface: Surface, win: Window, names: list[str], sun: Sun, clouds: Clouds | None
+    surface: Surface,
+    win: Window,
+    names: list[str],
+    sun: Sun,
+    clouds: Clouds | None,
+    cast_shadows: bool = True,
 ) -> SunMaps:
-    """Stage 2, the sun geometry on the fine grid ``win`` (see :class:`SunMaps`)."""
+    """Stage 2, the sun geometry on the fine grid ``win`` (see :class:`SunMaps`); without
+    ``cast_shadows`` only self-shade (cos i ≤ 0) and clouds keep the sun off a cell."""
     has_target = names[-1] == TARGET
     cell = win.cell
     dsm, frac, ground_z = surface.rasterize(win, names[:-1] if has_target else names)
@@ -671,7 +693,9 @@ def sun_maps(
         frac = np.concatenate([frac, np.zeros((1, *dsm.shape), "float32")])
     zen, azi = sun.zenith_deg, sun.azimuth_deg
     cos_i = incidence(dsm, cell, zen, azi, ground_z)
-    lit = (~cast_shadow(dsm, cell, zen, azi)) & (cos_i > 0)
+    lit = cos_i > 0
+    if cast_shadows:
+        lit &= ~cast_shadow(dsm, cell, zen, azi)
     if clouds is not None:
         s = sun.vector
         gx, gy = win.xy(np.arange(win.ny)[:, None], np.arange(win.nx)[None, :])
