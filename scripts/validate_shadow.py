@@ -39,8 +39,10 @@ of the material (the issue's wording), and against each shadowed pixel's own sun
 from the scene simulated again without cast shadows (:func:`sunlit_twin`). The first check
 also compares pixels at shadow edges (mixed with their neighbours, and with the SWIR seeing
 the ground a boresight offset away) with pixels inside sunlit patches: the "perfect" column is
-what it gives the twin itself, a perfect de-shadowing. ``--no-deshadow`` leaves the de-shadow
-columns empty; ``--additive`` de-shadows with the
+what it gives the twin itself, a perfect de-shadowing. With the de-shadow columns the
+simulator's scenes are made with ``sky_obstruction`` (walls and crowns hide sky, as model 2's
+do; without it its street canyons see the whole sky). ``--no-deshadow`` leaves the de-shadow
+columns empty (and the simulator's scenes as the shadow map's other groups have them); ``--additive`` de-shadows with the
 additive signal estimated from the pairs (``deshadow_file(additive=True)``); ``--adjacency``
 adds the light of the sunlit surroundings to the columns with the surface model
 (``deshadow_file(adjacency=True)``).
@@ -249,9 +251,10 @@ def fraction_class(f):
     return out
 
 
-def make_scene(model, opts, lines, folder):
+def make_scene(model, opts, lines, folder, sky_obstruction=False):
     """Write the scene; return (dark-material mask, material names of sunlit dark pixels,
-    material map, sun zenith, sun azimuth as sun-shadow takes it, cell size)."""
+    material map, sun zenith, sun azimuth as sun-shadow takes it, cell size).
+    ``sky_obstruction``: the simulator's walls and crowns hide sky (model 2's always do)."""
     if model == 1:
         o = dict(opts)
         sc = simulate_scene(
@@ -260,6 +263,7 @@ def make_scene(model, opts, lines, folder):
             seed=o.get("seed", 0),
             sun_zenith=o["zenith"],
             sun_azimuth=o.get("azimuth"),
+            sky_obstruction=sky_obstruction,
             **({"aot550": o["aot550"]} if "aot550" in o else {}),
         )
         dark, gain = o.get("dark", SIM_DARK), o.get("gain", (1.0, 1.0))
@@ -411,7 +415,8 @@ def material_errors(x, has, f_truth, material, names, twin=None):
 
 def sunlit_twin(model, opts, lines):
     """The scene simulated again without cast shadows (``cast_shadows=False``: the same layout,
-    sky view and, in model 2, adjacency light): (signal above the true dark level, float64
+    sky view, with the simulator's sky obstruction as :func:`run_dsm_case` simulates it, and,
+    in model 2, adjacency light): (signal above the true dark level, float64
     (bands, rows, cols); mask of the pixels the twin has in full sun, fraction < 0.02). A
     fully shadowed pixel's twin is its own sunlit signal, which a perfect de-shadowing
     returns; self-shaded (and cloud-shadowed) pixels stay shaded in the twin and are left
@@ -425,6 +430,7 @@ def sunlit_twin(model, opts, lines):
             sun_zenith=o["zenith"],
             sun_azimuth=o.get("azimuth"),
             cast_shadows=False,
+            sky_obstruction=True,
             **({"aot550": o["aot550"]} if "aot550" in o else {}),
         )
         gain = o.get("gain", (1.0, 1.0))
@@ -468,7 +474,11 @@ def run_dsm_case(
     ``deshadow`` False leaves the de-shadow columns empty (the shadow map only)."""
     t0 = time.perf_counter()
     os.makedirs(os.path.dirname(folder), exist_ok=True)
-    material, names, dark_ids, zen, az, gsd = make_scene(model, opts, lines, folder)
+    # De-shadowing is checked on scenes whose shadows get the sky their surroundings leave
+    # them (model 2's always do): without it the simulator's street canyons see the whole sky.
+    material, names, dark_ids, zen, az, gsd = make_scene(
+        model, opts, lines, folder, sky_obstruction=deshadow
+    )
     j = lambda name: os.path.join(folder, name)  # noqa: E731
     vnir, swir = j("vnir.hdr"), j("swir.hdr")
     rng = np.random.default_rng([DSM_SEED, index])

@@ -538,3 +538,30 @@ def test_sunlit_twin_lights_cast_shadow_and_changes_nothing_else():
     assert full.sum() > 50
     for nm in (450.0, 650.0, 850.0, 1650.0, 2200.0):
         assert (band(twin, nm)[full] > band(real, nm)[full]).mean() > 0.95
+
+
+def test_horizon_sky_is_one_on_flat_ground_and_the_trench_value_in_a_trench():
+    from geoboresight.simulate.shadow import horizon_sky
+
+    assert np.allclose(horizon_sky(np.zeros((40, 40)), 1.0, 20.0), 1.0)
+    # A long trench 2a wide between walls d high: at its middle, the sky of a horizontal
+    # surface is a/√(a² + d²) (the 2-D view factor), within the 16 azimuths' quadrature.
+    z = np.zeros((200, 400))
+    z[:, :180] = z[:, 220:] = 10.0
+    v = horizon_sky(z, 0.5, 50.0)
+    assert v[100, 200] == pytest.approx(10.0 / np.hypot(10.0, 10.0), rel=0.03)
+
+
+def test_sky_obstruction_darkens_street_shadow_more_than_open_ground():
+    kw = dict(lines=64, seed=3, targets=0, noise_free=True, sun_zenith=45.0)
+    a = simulate_scene("urban", **kw)
+    b = simulate_scene("urban", sky_obstruction=True, **kw)
+    f = a.shadow_fraction
+    full, lit = f >= 0.999, f == 0
+    nm = 450.0  # where shadow is lit mostly by the sky
+    from geoboresight.simulate.sensor import VNIR
+
+    dark = VNIR.dark_dn
+    shade = (band(b, nm)[full] - dark).mean() / (band(a, nm)[full] - dark).mean()
+    sun = (band(b, nm)[lit] - dark).mean() / (band(a, nm)[lit] - dark).mean()
+    assert shade < 0.9 and sun > 0.9 and shade < sun - 0.05

@@ -41,7 +41,7 @@ from . import presets as _presets
 from .atmosphere import AOT550, WATER_VAPOUR_CM, Illumination, illumination
 from .geometry import COLS, IFOV_MRAD, Geometry, Heights, Instrument, intersect
 from .sensor import SWIR, VNIR, Detector
-from .shadow import cast_shadow, incidence, sky_view, sun_vector
+from .shadow import cast_shadow, horizon_sky, incidence, sky_view, sun_vector
 from .spectra import MATERIAL_IDS, MATERIALS, aisa_dual_bands, band_average, material_spectrum
 from .surface import Surface, Window, smooth_field
 
@@ -65,6 +65,9 @@ CLOUD_HEIGHT_FRACTION = 0.4
 #: distance (m) at which an object is allowed to cast a shadow into the image.
 Z_BOUND_M = 100.0
 MAX_SHADOW_REACH_M = 400.0
+#: How far (m) :func:`.shadow.horizon_sky` looks for surfaces hiding the sky (``sky_obstruction``):
+#: a 20 m building 50 m away still hides 14 % of the sky in its direction.
+SKY_REACH_M = 50.0
 
 
 @dataclass(frozen=True)
@@ -294,6 +297,7 @@ def simulate_scene(
     surface: Surface | None = None,
     texture: bool = True,
     cast_shadows: bool = True,
+    sky_obstruction: bool = False,
     progress: Progress | None = None,
 ) -> Scene:
     """Simulate a VNIR + SWIR pushbroom scene with its ground truth.
@@ -338,6 +342,11 @@ def simulate_scene(
         faces the sun gets its direct light (self-shade, clouds and everything else as with
         True, same layout). A shadowed pixel's twin is its own sunlit signal, under its own
         sky view: the reference a de-shadowing is checked against.
+    sky_obstruction : bool
+        True: the sky light of each cell is also cut by the surfaces around it that hide part
+        of the sky (walls, crowns, slopes within :data:`SKY_REACH_M`; horizon-elevation sky
+        view, :func:`.shadow.horizon_sky`), as in street canyons. False (the default, with
+        which the bundled sample was made): only the cell's own tilt, ``(1 + cos slope)/2``.
     progress : Progress, optional
 
     Returns
@@ -406,6 +415,7 @@ def simulate_scene(
         int(supersample),
         progress.sub(0.05, 0.65),
         cast_shadows=cast_shadows,
+        sky_obstruction=sky_obstruction,
     )
     target_list, target_abundance = [], np.zeros((lines, COLS), "float32")
     if n_targets:
@@ -620,6 +630,7 @@ def trace_footprints(
     progress: Progress | None = None,
     block_lines: int = BLOCK_LINES,
     cast_shadows: bool = True,
+    sky_obstruction: bool = False,
 ) -> tuple[dict[str, Footprints], GroundTruth]:
     """Stages 2–4 for the whole flight line, in blocks of ``block_lines`` lines (each block
     has its own fine grid, so the block size moves the grid by a fraction of a cell).
@@ -638,8 +649,8 @@ def trace_footprints(
         rays = {
             inst: geo.rays(inst, np.arange(l0, l1), np.arange(COLS), sub) for inst in INSTRUMENTS
         }
-        win = block_window(rays, geo, z_top, sun, cell)
-        maps = sun_maps(surface, win, names, sun, clouds, cast_shadows)
+        win = block_window(rays, geo, z_top, sun, cell, SKY_REACH_M if sky_obstruction else 0.0)
+        maps = sun_maps(surface, win, names, sun, clouds, cast_shadows, sky_obstruction)
         return trace_block(rays, geo, maps, K, clouds, sun)
 
     progress = as_progress(progress)
@@ -653,9 +664,12 @@ def trace_footprints(
     return footprints, truth
 
 
-def block_window(rays: dict, geo: Geometry, z_top: float, sun: Sun, cell: float) -> Window:
+def block_window(
+    rays: dict, geo: Geometry, z_top: float, sun: Sun, cell: float, around: float = 0.0
+) -> Window:
     """Stage 2, the fine grid of a block: every ray of the block at heights 0 to ``z_top``,
-    extended towards the sun (objects there cast shadows into the block)."""
+    extended towards the sun (objects there cast shadows into the block) and by ``around``
+    metres on every side (objects there hide part of the sky)."""
     H = geo.flying_height
     s = sun.vector
     px, py = [], []
@@ -665,7 +679,7 @@ def block_window(rays: dict, geo: Geometry, z_top: float, sun: Sun, cell: float)
             py.append((t * geo.line_spacing + (H - z) * v).ravel())
     px, py = np.concatenate(px), np.concatenate(py)
     reach = min(z_top * sun.tan_zenith, MAX_SHADOW_REACH_M)
-    m = 3 * cell
+    m = 3 * cell + around
     wx0 = px.min() - m - reach * (s[0] < 0)
     wx1 = px.max() + m + reach * (s[0] > 0)
     wy0 = py.min() - m - reach * (s[1] < 0)
@@ -682,6 +696,7 @@ def sun_maps(
     sun: Sun,
     clouds: Clouds | None,
     cast_shadows: bool = True,
+    sky_obstruction: bool = False,
 ) -> SunMaps:
     """Stage 2, the sun geometry on the fine grid ``win`` (see :class:`SunMaps`); without
     ``cast_shadows`` only self-shade (cos i ≤ 0) and clouds keep the sun off a cell."""
@@ -707,7 +722,10 @@ def sun_maps(
     else:
         sunlit = lit.astype("float32")
     direct = (np.clip(cos_i, 0, None) * sunlit).astype("float32")
-    sky = sky_view(dsm, cell, ground_z).astype("float32")
+    sky = sky_view(dsm, cell, ground_z)
+    if sky_obstruction:
+        sky = sky * horizon_sky(dsm, cell, SKY_REACH_M)
+    sky = sky.astype("float32")
     bright = surface.brightness_on(win, frac, names)
     maps = np.concatenate(
         [

@@ -13,7 +13,12 @@
 The sub-pixel **shadow fraction** is the mean of this per-cell shadow over each pixel's ground
 footprint: the fine grid supersamples the pixel (see :mod:`.scene`).
 
-Not modelled: sky obstruction by neighbouring objects (street canyons get the full sky),
+* **Sky obstruction** (:func:`horizon_sky`, with ``sky_obstruction``): the surfaces around a
+  cell that rise above it hide the sky behind them; the sky view of a horizontal surface under
+  a horizon of elevation ``h(φ)`` is the mean over azimuth of ``cos² h(φ)`` (Dozier & Frew
+  1990), multiplied into the tilt's share.
+
+Not modelled: sky obstruction unless asked for (by default street canyons get the full sky),
 penumbra (the sun is a point), light reflected from sunlit walls into shadows, transparency of
 tree crowns.
 """
@@ -79,6 +84,38 @@ def incidence(dsm, cell: float, zenith_deg: float, azimuth_deg: float, ground=No
 def sky_view(dsm: np.ndarray, cell: float, ground=None) -> np.ndarray:
     """Fraction of an isotropic sky seen by each cell's tilted plane, (1 + cos slope) / 2."""
     return 0.5 * (1.0 + normals(dsm, cell, ground)[2])
+
+
+def horizon_sky(
+    dsm: np.ndarray, cell: float, reach_m: float, directions: int = 16, step_m: float = 1.0
+) -> np.ndarray:
+    """Share of the open sky's light on a horizontal surface that the surroundings leave each
+    cell: the mean over ``directions`` azimuths of ``cos²`` of the horizon's elevation, the
+    horizon being the steepest rise of the DSM seen from the cell centre, sampled every
+    ``step_m`` out to ``reach_m`` (nearest cell; beyond the array nothing hides the sky).
+
+    References
+    ----------
+    Dozier, J.; Frew, J. Rapid calculation of terrain parameters for radiation modeling from
+    digital elevation data. IEEE Trans. Geosci. Remote Sens. 1990, 28, 963–969.
+    """
+    z = np.asarray(dsm, dtype="float64")
+    ny, nx = z.shape
+    total = np.zeros(z.shape)
+    for k in range(int(directions)):
+        phi = 2.0 * np.pi * (k + 0.5) / directions
+        dx, dy = np.cos(phi), np.sin(phi)
+        best = np.zeros(z.shape)  # tan of the horizon's elevation (0: open horizon)
+        for d in np.arange(step_m, reach_m + 1e-9, step_m):
+            di, dj = int(round(d * dy / cell)), int(round(d * dx / cell))
+            if abs(di) >= ny or abs(dj) >= nx:
+                break
+            other = np.full(z.shape, -np.inf)
+            src = z[max(di, 0) : ny + min(di, 0), max(dj, 0) : nx + min(dj, 0)]
+            other[max(-di, 0) : ny + min(-di, 0), max(-dj, 0) : nx + min(-dj, 0)] = src
+            np.maximum(best, (other - z) / d, out=best)
+        total += 1.0 / (1.0 + best * best)  # cos² of the elevation whose tan is ``best``
+    return total / directions
 
 
 def cast_shadow(
