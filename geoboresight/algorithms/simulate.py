@@ -162,6 +162,13 @@ SIMULATE = Algorithm(
                     unit="cm",
                     advanced=True,
                 ),
+                Flag(
+                    name="sky_obstruction",
+                    description="Walls, tree crowns and slopes hide part of the sky from the "
+                    "ground around them (street canyons get less skylight; off: every cell sees "
+                    "the sky of its own tilt, as the bundled sample)",
+                    advanced=True,
+                ),
             ),
         ),
         Number(

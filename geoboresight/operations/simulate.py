@@ -129,6 +129,7 @@ def simulate_file(
         sun_azimuth=sky.sun_azimuth,
         aot550=sky.aot550,
         water_vapour_cm=sky.water_vapour_cm,
+        sky_obstruction=sky.sky_obstruction,
         targets=targets,
         clouds=clouds,
         cloud_height=cloud_height,

@@ -90,12 +90,14 @@ class SimulatedFlight:
 class Sky:
     """The sun and the atmosphere of a simulated flight: sun zenith and azimuth (degrees,
     azimuth clockwise from the flight direction; None: the paper's scene for the preset), the
-    aerosol optical depth at 550 nm and the water-vapour column (cm)."""
+    aerosol optical depth at 550 nm, the water-vapour column (cm), and whether the
+    surroundings hide part of the sky (``sky_obstruction``, :func:`simulate_scene`)."""
 
     sun_zenith: float | None = None
     sun_azimuth: float | None = None
     aot550: float = AOT550
     water_vapour_cm: float = WATER_VAPOUR_CM
+    sky_obstruction: bool = False
 
 
 @dataclass(frozen=True)
