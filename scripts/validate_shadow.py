@@ -45,12 +45,15 @@ do; without it its street canyons see the whole sky). ``--no-deshadow`` leaves t
 columns empty (and the simulator's scenes as the shadow map's other groups have them); ``--additive`` de-shadows with the
 additive signal estimated from the pairs (``deshadow_file(additive=True)``); ``--adjacency``
 adds the light of the sunlit surroundings to the columns with the surface model
-(``deshadow_file(adjacency=True)``).
+(``deshadow_file(adjacency=True)``). ``--dark-reference`` writes
+each band's true dark level into the ENVI headers before de-shadowing, as a sensor product's
+dark frames give it (model 2's dark levels differ from band to band by 3 %).
 
 Usage::
 
     python scripts/validate_shadow.py [--lines 128] [--quick | --holdout N] [--dsm
-        [--no-deshadow | --additive] [--adjacency]] [--out FOLDER] [--markdown FILE]
+        [--no-deshadow | --additive] [--adjacency] [--dark-reference]] [--out FOLDER]
+        [--markdown FILE]
 """
 
 from __future__ import annotations
@@ -452,6 +455,15 @@ def sunlit_twin(model, opts, lines):
     return signal, np.ones(sc.material.shape, bool)
 
 
+def write_dark_reference(folder, dark):
+    """Append each band's dark level to vnir.hdr and swir.hdr (ENVI ``dark level = {…}``)."""
+    with quiet_georef(), rasterio.open(os.path.join(folder, "vnir.img")) as v:
+        nv = v.count
+    for name, levels in (("vnir.hdr", dark[:nv]), ("swir.hdr", dark[nv:])):
+        with open(os.path.join(folder, name), "a", encoding="utf-8") as fh:
+            fh.write("dark level = {" + ", ".join(f"{x:.2f}" for x in levels) + "}\n")
+
+
 def true_dark(model, opts, folder):
     """Each band's true dark level (DN) of the scene written in ``folder``."""
     with open(os.path.join(folder, "truth.json")) as fh:
@@ -468,10 +480,21 @@ def true_dark(model, opts, folder):
 
 
 def run_dsm_case(
-    label, model, opts, lines, folder, index, deshadow=True, additive=False, adjacency=False
+    label,
+    model,
+    opts,
+    lines,
+    folder,
+    index,
+    deshadow=True,
+    additive=False,
+    adjacency=False,
+    dark_reference=False,
 ):
     """The surface-model prior and de-shadowing on one scene (see the module's doc);
-    ``deshadow`` False leaves the de-shadow columns empty (the shadow map only)."""
+    ``deshadow`` False leaves the de-shadow columns empty (the shadow map only);
+    ``dark_reference`` writes each band's true dark level into the ENVI headers (``dark level
+    = {…}``), as a sensor product's dark reference gives it, before de-shadowing."""
     t0 = time.perf_counter()
     os.makedirs(os.path.dirname(folder), exist_ok=True)
     # De-shadowing is checked on scenes whose shadows get the sky their surroundings leave
@@ -517,6 +540,8 @@ def run_dsm_case(
     row["warnings"] = sm["warnings"]
     write_tif(j("truth_fraction.tif"), np.nan_to_num(f, nan=0.0))
     surface = SurfaceModel(j("dsm_noisy.tif"), zen, az, gsd)
+    if dark_reference:
+        write_dark_reference(folder, true_dark(model, opts, folder))
     if deshadow:
         # The reference a perfect de-shadowing reaches: each shadowed pixel's own sunlit
         # signal; and the floor of the material-mean check (that twin, checked as the output).
@@ -696,6 +721,12 @@ def main(argv=None):
         help="with --dsm: the columns with the surface model light each pixel by its sunlit "
         "surroundings too (adjacency=True)",
     )
+    ap.add_argument(
+        "--dark-reference",
+        action="store_true",
+        help="with --dsm: write each band's true dark level into the scenes' ENVI headers (as "
+        "a sensor's dark frames give it) before de-shadowing",
+    )
     ap.add_argument("--out", help="keep the scenes and products in this (new) folder")
     ap.add_argument("--markdown", help="also write the table to this file")
     args = ap.parse_args(argv)
@@ -723,6 +754,7 @@ def main(argv=None):
                     i,
                     deshadow=not args.no_deshadow,
                     additive=args.additive,
+                    dark_reference=args.dark_reference,
                     adjacency=args.adjacency,
                 )
                 rows.append(r)
