@@ -254,21 +254,32 @@ def fraction_class(f):
     return out
 
 
+def simulate(model, opts, lines, **kw):
+    """One scene of ``model`` (1: the simulator, 2: model 2) with the case's options; ``kw``
+    goes to the model (``cast_shadows``, and the simulator's ``sky_obstruction``)."""
+    if model == 1:
+        o = dict(opts)
+        return simulate_scene(
+            o["preset"],
+            lines=lines,
+            seed=o.get("seed", 0),
+            sun_zenith=o["zenith"],
+            sun_azimuth=o.get("azimuth"),
+            **({"aot550": o["aot550"]} if "aot550" in o else {}),
+            **kw,
+        )
+    return simulate2(
+        rows=lines, seed=opts.get("seed", 0), **{k: v for k, v in opts.items() if k != "seed"}, **kw
+    )
+
+
 def make_scene(model, opts, lines, folder, sky_obstruction=False):
     """Write the scene; return (dark-material mask, material names of sunlit dark pixels,
     material map, sun zenith, sun azimuth as sun-shadow takes it, cell size).
     ``sky_obstruction``: the simulator's walls and crowns hide sky (model 2's always do)."""
     if model == 1:
         o = dict(opts)
-        sc = simulate_scene(
-            o["preset"],
-            lines=lines,
-            seed=o.get("seed", 0),
-            sun_zenith=o["zenith"],
-            sun_azimuth=o.get("azimuth"),
-            sky_obstruction=sky_obstruction,
-            **({"aot550": o["aot550"]} if "aot550" in o else {}),
-        )
+        sc = simulate(1, opts, lines, sky_obstruction=sky_obstruction)
         dark, gain = o.get("dark", SIM_DARK), o.get("gain", (1.0, 1.0))
         if dark != SIM_DARK or gain != (1.0, 1.0):
 
@@ -288,9 +299,7 @@ def make_scene(model, opts, lines, folder, sky_obstruction=False):
         dark_ids = [k for k, v in names.items() if v in DARK1]
         az = raw_grid_azimuth(t["sun"]["azimuth_deg"])
         return sc.material, names, dark_ids, o["zenith"], az, float(t["gsd_m"])
-    sc = simulate2(
-        rows=lines, seed=opts.get("seed", 0), **{k: v for k, v in opts.items() if k != "seed"}
-    )
+    sc = simulate(2, opts, lines)
     write_scene2(sc, folder)
     dark_ids = [k for k, v in MATERIALS2.items() if v in DARK2]
     t = sc.truth
@@ -425,18 +434,8 @@ def sunlit_twin(model, opts, lines):
     returns; self-shaded (and cloud-shadowed) pixels stay shaded in the twin and are left
     out."""
     if model == 1:
-        o = dict(opts)
-        sc = simulate_scene(
-            o["preset"],
-            lines=lines,
-            seed=o.get("seed", 0),
-            sun_zenith=o["zenith"],
-            sun_azimuth=o.get("azimuth"),
-            cast_shadows=False,
-            sky_obstruction=True,
-            **({"aot550": o["aot550"]} if "aot550" in o else {}),
-        )
-        gain = o.get("gain", (1.0, 1.0))
+        sc = simulate(1, opts, lines, cast_shadows=False, sky_obstruction=True)
+        gain = opts.get("gain", (1.0, 1.0))
         signal = np.concatenate(
             [
                 (sc.vnir.astype(np.float64) - SIM_DARK[0]) * gain[0],
@@ -444,12 +443,7 @@ def sunlit_twin(model, opts, lines):
             ]
         )
         return signal, sc.shadow_fraction < 0.02
-    sc = simulate2(
-        rows=lines,
-        seed=opts.get("seed", 0),
-        cast_shadows=False,
-        **{k: v for k, v in opts.items() if k != "seed"},
-    )
+    sc = simulate(2, opts, lines, cast_shadows=False)
     dark = np.concatenate([sc.truth["vnir_dark_dn"], sc.truth["swir_dark_dn"]])
     signal = np.concatenate([sc.vnir, sc.swir]).astype(np.float64) - dark[:, None, None]
     return signal, np.ones(sc.material.shape, bool)
