@@ -450,27 +450,25 @@ def sunlit_twin(model, opts, lines):
 
 
 def write_dark_reference(folder, dark):
-    """Append each band's dark level to vnir.hdr and swir.hdr (ENVI ``dark level = {…}``)."""
-    with quiet_georef(), rasterio.open(os.path.join(folder, "vnir.img")) as v:
-        nv = v.count
-    for name, levels in (("vnir.hdr", dark[:nv]), ("swir.hdr", dark[nv:])):
+    """Append each instrument's band dark levels (``dark``: VNIR, SWIR, as :func:`true_dark`)
+    to vnir.hdr and swir.hdr (ENVI ``dark level = {…}``)."""
+    for name, levels in zip(("vnir.hdr", "swir.hdr"), dark, strict=True):
         with open(os.path.join(folder, name), "a", encoding="utf-8") as fh:
             fh.write("dark level = {" + ", ".join(f"{x:.2f}" for x in levels) + "}\n")
 
 
 def true_dark(model, opts, folder):
-    """Each band's true dark level (DN) of the scene written in ``folder``."""
+    """Each band's true dark level (DN) of the scene written in ``folder``: (VNIR, SWIR)."""
     with open(os.path.join(folder, "truth.json")) as fh:
         t = json.load(fh)
     if model == 2:
-        return np.concatenate([t["vnir_dark_dn"], t["swir_dark_dn"]])
-    dark = opts.get("dark", SIM_DARK)
+        return np.asarray(t["vnir_dark_dn"]), np.asarray(t["swir_dark_dn"])
+    out = []
     with quiet_georef():
-        with rasterio.open(os.path.join(folder, "vnir.img")) as v:
-            nv = v.count
-        with rasterio.open(os.path.join(folder, "swir.img")) as w:
-            ns = w.count
-    return np.concatenate([np.full(nv, dark[0]), np.full(ns, dark[1])])
+        for name, level in zip(("vnir.img", "swir.img"), opts.get("dark", SIM_DARK), strict=True):
+            with rasterio.open(os.path.join(folder, name)) as src:
+                out.append(np.full(src.count, level))
+    return tuple(out)
 
 
 def run_dsm_case(
@@ -534,13 +532,14 @@ def run_dsm_case(
     row["warnings"] = sm["warnings"]
     write_tif(j("truth_fraction.tif"), np.nan_to_num(f, nan=0.0))
     surface = SurfaceModel(j("dsm_noisy.tif"), zen, az, gsd)
+    dark_true = true_dark(model, opts, folder)
     if dark_reference:
-        write_dark_reference(folder, true_dark(model, opts, folder))
+        write_dark_reference(folder, dark_true)
+    dark_true = np.concatenate(dark_true)
     if deshadow:
         # The reference a perfect de-shadowing reaches: each shadowed pixel's own sunlit
         # signal; and the floor of the material-mean check (that twin, checked as the output).
         twin = sunlit_twin(model, opts, lines)
-        dark_true = true_dark(model, opts, folder)
         row["floor"] = material_errors(twin[0], np.ones(f.shape, bool), f, material, names)
     for key, frac, surf in (
         ("truth", j("truth_fraction.tif"), SurfaceModel()),
@@ -617,7 +616,7 @@ def dsm_table(rows) -> str:
     return "\n".join(out)
 
 
-#: The de-shadow columns of run_dsm_case: (key, label).
+#: The keys of run_dsm_case's de-shadow columns.
 DESHADOW = ("truth", "mapf", "truth_dsm", "mapf_dsm")
 
 
@@ -626,6 +625,12 @@ def within(d, angle=5.0, brightness=0.10):
     if not d or "error" in d:
         return 0, 0
     return sum(v[0] <= angle and abs(v[1]) <= brightness for v in d.values()), len(d)
+
+
+def all_within(d) -> bool:
+    """Every material of one column's result within both goals (and at least one checked)."""
+    ok, n = within(d)
+    return n > 0 and ok == n
 
 
 def goal_counts(rows) -> str:
@@ -645,16 +650,10 @@ def goal_counts(rows) -> str:
             for key in DESHADOW:
                 n = [within(r.get(key + suffix, {})) for r in rs]
                 cells.append(f"{sum(a for a, _ in n)}/{sum(b for _, b in n)}")
-            whole = sum(
-                any(
-                    within(r.get(k + suffix, {}))[0] == within(r.get(k + suffix, {}))[1] > 0
-                    for k in DESHADOW
-                )
-                for r in rs
-            )
+            whole = sum(any(all_within(r.get(k + suffix, {})) for k in DESHADOW) for r in rs)
             out.append(f"| {name} | {check} | {' | '.join(cells)} | {whole}/{len(rs)} |")
         n = [within(r.get("floor", {})) for r in rs]
-        whole = sum(a == b > 0 for a, b in n)
+        whole = sum(all_within(r.get("floor", {})) for r in rs)
         out.append(
             f"| {name} | perfect de-shadowing, sunlit pixels | "
             f"{sum(a for a, _ in n)}/{sum(b for _, b in n)} (every column) | | | | "

@@ -284,9 +284,7 @@ def simulate2(
     if target_abundance is not None:
         a = np.asarray(target_abundance, np.float32)[None]
         refl = (1 - a) * refl + a * np.float32(target_reflectance)
-    shadow = _cast(dsm, gsd, sun_zenith, sun_azimuth)
-    if not cast_shadows:
-        shadow = np.zeros_like(shadow)
+    shadow = _cast(dsm, gsd, sun_zenith, sun_azimuth) if cast_shadows else np.zeros(dsm.shape)
     svf = _sky_view(dsm, gsd)
     # self-shading of terrain slopes (cos i / cos z), roofs flat
     gy, gx = np.gradient(terrain, gsd)
