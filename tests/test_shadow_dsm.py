@@ -340,9 +340,9 @@ def _surface(sc, folder):
     )
 
 
-def test_shadow_map_with_a_dsm_in_strips_equals_the_whole_image(scene, tmp_path):
-    sc, folder = scene
-    surface = _surface(sc, folder)
+def _in_strips_and_whole(folder, surface, tmp_path):
+    """shadow-map --dsm in strips of 16 lines and whole: (the whole run's result, [(classes,
+    fraction) of each])."""
     outs = []
     for rows in (16, 1000):
         r = shadow_map_file(
@@ -354,6 +354,12 @@ def test_shadow_map_with_a_dsm_in_strips_equals_the_whole_image(scene, tmp_path)
             block_rows=rows,
         )
         outs.append((_read(tmp_path / f"c{rows}.tif"), _read(tmp_path / f"f{rows}.tif")))
+    return r, outs
+
+
+def test_shadow_map_with_a_dsm_in_strips_equals_the_whole_image(scene, tmp_path):
+    sc, folder = scene
+    r, outs = _in_strips_and_whole(folder, _surface(sc, folder), tmp_path)
     assert (outs[0][0] == outs[1][0]).all()
     assert np.array_equal(outs[0][1], outs[1][1], equal_nan=True)
     # The true DSM: registered (best shift 0) and little predicted shadow spectrally lit.
@@ -377,18 +383,8 @@ def test_strips_equal_the_whole_image_with_the_far_end_swept(azimuth, tmp_path):
     sc = simulate2(rows=72, cols=96, seed=0, sun_zenith=60.0, sun_azimuth=azimuth)
     write_scene2(sc, folder)
     surface = SurfaceModel(_j(folder, "truth_dsm.tif"), 60.0, azimuth, sc.truth["gsd_m"])
-    outs = []
-    for rows in (16, 1000):
-        shadow_map_file(
-            _j(folder, "vnir.hdr"),
-            _j(folder, "swir.hdr"),
-            output=str(tmp_path / f"c{rows}.tif"),
-            fraction=str(tmp_path / f"f{rows}.tif"),
-            surface=surface,
-            block_rows=rows,
-        )
-        outs.append(_read(tmp_path / f"f{rows}.tif"))
-    assert np.array_equal(outs[0], outs[1], equal_nan=True)
+    _, outs = _in_strips_and_whole(folder, surface, tmp_path)
+    assert np.array_equal(outs[0][1], outs[1][1], equal_nan=True)
 
 
 def test_deshadow_file_strips_equal_whole_and_report(scene, tmp_path):
