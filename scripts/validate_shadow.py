@@ -162,6 +162,10 @@ HOLDOUT = {
     # session; group 12 is the shadow map's, group 13 de-shadowing's; each run once, at the end.
     12: (1781929714, range(55, 60), (31, 32, 33)),
     13: (702303436, range(60, 65), (34, 35, 36)),
+    # Issue 24, sixth session: drawn the same way and fixed here before any change of the
+    # session; group 14 is the shadow map's, group 15 de-shadowing's; each run once, at the end.
+    14: (328270496, range(65, 70), (37, 38, 39)),
+    15: (342945452, range(70, 75), (40, 41, 42)),
 }
 #: Height noise (m) and largest sub-pixel shift (px) of the DSM given to shadow-map --dsm.
 DSM_NOISE_M = 0.3
