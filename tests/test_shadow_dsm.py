@@ -265,6 +265,51 @@ def test_prior_agreement_finds_the_shift():
     assert a["dsm_iou_at_shift"] > 0.95 > a["dsm_iou"]
 
 
+def test_a_cast_moved_by_whole_cells_is_the_cast_of_the_moved_surface():
+    z, *_ = _town()
+    moved = np.zeros_like(z)
+    moved[2:, :-1] = z[:-2, 1:]  # the town 2 rows down, 1 column left (flat ground beyond)
+    want = ill.shadow_fraction(moved, **SUN, cell_size=1.0)
+    got = ill.shadow_fraction(z, **SUN, cell_size=1.0, shift=(2, -1))
+    inner = np.s_[3:-3, 3:-3]  # away from the grid's edge (nothing shaded beyond it)
+    assert np.array_equal(got[inner], want[inner])
+    # A quarter cell: one sub-cell of four, so fractions move by multiples of 1/4.
+    q = ill.shadow_fraction(z, **SUN, cell_size=1.0, shift=(0.25, 0.0))
+    assert np.allclose(q.sum(), want.sum(), rtol=0.02)
+    assert set(np.unique(q * 16).round(6)) <= set(range(17))
+
+
+@pytest.mark.parametrize("sub", [(1, 0), (0, -1), (-1, 1), (0, 0)])
+def test_prior_registration_finds_a_half_pixel_shift(sub):
+    """The image's shadow is cast from the surface moved by half a cell (one cell of a
+    surface twice as fine, on which the truth is computed independently: cast, then averaged
+    2 × 2); the DSM given is the unmoved one. Noise and a black roof (dark, unshaded) are in
+    the evidence."""
+    rng = np.random.default_rng(5)
+    z = np.zeros((80, 80))
+    for r0, c0, h in ((12, 10, 6.0), (40, 30, 8.0), (20, 52, 5.0), (55, 60, 7.0)):
+        z[r0 : r0 + 10, c0 : c0 + 9] = h
+    fine = np.kron(z, np.ones((2, 2)))
+    moved = np.roll(fine, sub, axis=(0, 1))
+    cast = ill.cast_shadow(moved, **SUN, cell_size=0.5)
+    truth = cast.reshape(80, 2, 80, 2).mean(axis=(1, 3))
+    evidence = 1.5 * truth + rng.normal(0, 0.15, truth.shape)
+    evidence[60:70, 10:20] += 1.5  # a black roof in the sun
+    sub_cells = ill.sub_cell_shadow(z, **SUN, cell_size=1.0)
+    r = smap.prior_registration(evidence, sub_cells, ill.SUPERSAMPLE)
+    assert (r["dsm_registration_rows"], r["dsm_registration_columns"]) == (
+        sub[0] / 2,
+        sub[1] / 2,
+    )
+    if sub != (0, 0):
+        assert r["dsm_registration_r"] > r["dsm_registration_r0"]
+    # Within its bound: a shift of 1.5 cells is reported at the 1-cell limit, not beyond.
+    far = np.roll(fine, (3, 0), axis=(0, 1))
+    ev = ill.cast_shadow(far, **SUN, cell_size=0.5).reshape(80, 2, 80, 2).mean(axis=(1, 3))
+    r = smap.prior_registration(ev, sub_cells, ill.SUPERSAMPLE, max_shift=1)
+    assert r["dsm_registration_rows"] == 1.0
+
+
 def _lit_scene(k, rows=60, cols=70, seed=1):
     """Cube (bands, rows, cols) of two materials under a cast shadow with fraction f, from
     L = (E_dir·(1 − f) + E_diff)·ρ with E_diff = 1, E_dir = k − 1."""
@@ -373,6 +418,50 @@ def test_shadow_map_with_a_dsm_in_strips_equals_the_whole_image(scene, tmp_path)
     tp = (pred & truth).sum()
     f1 = 2 * tp / (2 * tp + (pred & ~truth).sum() + (~pred & truth).sum())
     assert f1 > 0.8
+
+
+def test_a_dsm_off_by_a_fraction_of_a_pixel_is_registered_in_strips_as_whole(tmp_path):
+    """Model 2 (sun 35° from the south-south-east) with its DSM moved 0.4 px down and 0.6 px
+    left (bilinear, as a resampled DSM is) and given 0.3 m of height noise: shadow-map moves
+    its predicted shadow back up (rows), the same in strips as whole, within a pixel, and its
+    mask matches the scene's truth better than with the prediction where the DSM puts it."""
+    from dataclasses import replace
+
+    from scipy import ndimage
+
+    folder = str(tmp_path / "scene")
+    sc = simulate2(rows=96, cols=96, seed=0, sun_zenith=35.0, buildings=8, trees=6)
+    write_scene2(sc, folder)
+    with rasterio.open(_j(folder, "truth_dsm.tif")) as src:
+        z, profile = src.read(1), src.profile
+    moved = ndimage.shift(z, (0.4, -0.6), order=1, mode="nearest")
+    moved = moved + np.random.default_rng(0).normal(0, 0.3, z.shape)
+    off = str(tmp_path / "dsm_off.tif")
+    with rasterio.open(off, "w", **profile) as dst:
+        dst.write(moved.astype("float32"), 1)
+    t = sc.truth
+    surface = SurfaceModel(off, t["sun"]["zenith_deg"], t["sun"]["azimuth_deg"], t["gsd_m"])
+    r, outs = _in_strips_and_whole(folder, surface, tmp_path)
+    assert np.array_equal(outs[0][1], outs[1][1], equal_nan=True)
+    assert -1.0 <= r["dsm_registration_rows"] < 0
+    assert abs(r["dsm_registration_columns"]) <= 1.0
+    assert r["dsm_registration_t"] > smap.REGISTRATION_T
+    fixed = shadow_map_file(
+        _j(folder, "vnir.hdr"),
+        _j(folder, "swir.hdr"),
+        output=str(tmp_path / "fixed.tif"),
+        fraction=str(tmp_path / "fixed_f.tif"),
+        surface=replace(surface, register=False),
+    )
+    assert (fixed["dsm_registration_rows"], fixed["dsm_registration_columns"]) == (0.0, 0.0)
+
+    def f1(path):
+        pred = _read(path)[0] >= 0.5
+        truth = sc.shadow_fraction >= 0.5
+        tp = (pred & truth).sum()
+        return 2 * tp / (2 * tp + (pred & ~truth).sum() + (~pred & truth).sum())
+
+    assert f1(tmp_path / "f1000.tif") > f1(tmp_path / "fixed_f.tif")
 
 
 @pytest.mark.parametrize("azimuth", [0.0, 180.0])

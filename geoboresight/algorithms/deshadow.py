@@ -13,7 +13,8 @@ from .spec import Algorithm, FileOut, Flag, RasterIn, RasterOut, Result
 
 #: The shadow map's surface model and sun (SurfaceModel), described for de-shadowing: the same
 #: members (a DSM on a map grid through the line's IGM, the sun from the acquisition time),
-#: two of them with their de-shadowing meaning.
+#: two of them with their de-shadowing meaning; the shadow map's registration of the DSM to
+#: the image is not offered (de-shadowing uses the DSM where it is).
 _DESCRIPTIONS = {
     "dsm": "Surface model (DSM, m) on the image's grid, or on a map grid with the line's IGM: "
     "pairs chosen by geometry and each pixel's sky-view factor (empty = one ratio for all)",
@@ -25,6 +26,7 @@ SURFACE_DESHADOW = replace(
     params=tuple(
         replace(p, description=_DESCRIPTIONS[p.name]) if p.name in _DESCRIPTIONS else p
         for p in SURFACE.params
+        if p.name != "register"
     ),
 )
 

@@ -24,7 +24,7 @@ from ._common import (
     sample_size,
     seed,
 )
-from .spec import Algorithm, FileIn, Group, Number, RasterIn, RasterOut, Result, Text
+from .spec import Algorithm, FileIn, Flag, Group, Number, RasterIn, RasterOut, Result, Text
 
 GROUP = "Shadow"
 
@@ -135,6 +135,12 @@ SURFACE = Group(
             unit="m",
             advanced=True,
         ),
+        Flag(
+            name="register",
+            description="Register the predicted shadow to the image first: move it by the sub-pixel shift (up to 1 px each way) that best matches the image's NIR darkness, where the image's parts agree on it (reported); off = the prediction where the DSM puts it",
+            default=True,
+            advanced=True,
+        ),
     ),
 )
 
@@ -175,8 +181,22 @@ SHADOW_MAP = Algorithm(
             "number",
             "Share of the predicted shadow that is spectrally lit",
         ),
-        Result("dsm_shift_rows", "number", "Best shift of the predicted shadow (rows)"),
-        Result("dsm_shift_columns", "number", "Best shift of the predicted shadow (columns)"),
+        Result(
+            "dsm_registration_rows",
+            "number",
+            "Sub-pixel shift applied to the predicted shadow to register the DSM (rows)",
+        ),
+        Result(
+            "dsm_registration_columns",
+            "number",
+            "Sub-pixel shift applied to the predicted shadow to register the DSM (columns)",
+        ),
+        Result("dsm_shift_rows", "number", "Best whole-pixel shift left after registration (rows)"),
+        Result(
+            "dsm_shift_columns",
+            "number",
+            "Best whole-pixel shift left after registration (columns)",
+        ),
         Result("dsm_iou", "number", "IoU of predicted shadow and dark pixels"),
         Result("dsm_iou_at_shift", "number", "IoU at the best shift"),
         Result(

@@ -11,6 +11,7 @@ offset; then the map is written strip by strip, each strip by the kernel
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -83,7 +84,11 @@ class SurfaceModel:
     :func:`geoboresight.shadow.solar.sun_position`). ``cell_size`` (m) for a DSM without a
     geotransform (else the image's); ``clearance`` (m): a caster must rise this far above the
     sun line to cast shadow (the DSM's height noise: about 3 × its standard deviation; 0 =
-    exact, as ``sun-shadow``)."""
+    exact, as ``sun-shadow``); ``register``: first move the cast shadow by the sub-pixel
+    shift, within :data:`geoboresight.shadow.map.DSM_TOLERANCE` pixels, that best matches the
+    image's NIR darkness, where the image's parts agree on it
+    (:func:`geoboresight.shadow.map.prior_registration`; False = the prediction where the DSM
+    puts it)."""
 
     dsm: str | None = None
     sun_zenith: float | None = None
@@ -94,6 +99,7 @@ class SurfaceModel:
     acquisition_time: str | None = None
     glt: str | None = None
     igm_crs: str | None = None
+    register: bool = True
 
 
 #: Bands per instrument read for the dark level besides the signal bands (evenly spaced).
@@ -156,6 +162,7 @@ class _Surface:
     ray: tuple = (0.0, 0.0, 0)  # (Δrow, Δcol) per cell towards the sun, steps over the relief
     sun: str = "given"  # where the sun's angles came from
     reach: float = 0.0  # cells down-sun by which the clearance shortens a shadow on level ground
+    shift: tuple = (0.0, 0.0)  # rows, columns by which the cast shadow is moved (registration)
 
     def unseen(self, z, valid, row0):
         """Pixels a caster beyond the surface model's edge could shade."""
@@ -181,7 +188,33 @@ class _Surface:
             relief=self.relief,
             interpolation=ill.SURFACES[self.surface],
             clearance=self.clearance,
+            shift=self.shift,
         )
+
+    def sub_cells(self, z, valid):
+        """The cast shadow on the sub-cell grid (unmoved), as the prior casts it (with the
+        clearance): what is registered is the prior the refinement starts from."""
+        return ill.sub_cell_shadow(
+            z,
+            valid,
+            sun_zenith=self.zenith,
+            sun_azimuth=self.azimuth,
+            transform=self.matrix,
+            relief=self.relief,
+            interpolation=ill.SURFACES[self.surface],
+            clearance=self.clearance,
+        )
+
+    def heights(self, z, valid):
+        """The heights moved with the cast shadow (bilinear; NaN where the nearest source
+        cell has none), so that a caster's top stays beside its shadow."""
+        z = np.where(valid, z, np.nan)
+        if self.shift == (0.0, 0.0):
+            return z
+        ok = ndimage.shift(np.isfinite(z).astype(np.float64), self.shift, order=0, cval=0.0)
+        filled = np.where(np.isfinite(z), z, np.nanmean(z) if np.isfinite(z).any() else 0.0)
+        moved = ndimage.shift(filled, self.shift, order=1, mode="nearest")
+        return np.where(ok > 0.5, moved, np.nan)
 
 
 def _sun(surface: SurfaceModel, place) -> tuple[float, float, str]:
@@ -603,7 +636,7 @@ def shadow_map_file(
                 dark_levels=levels,
                 edge_pixels=edge_pixels,
                 prior=prior,
-                heights=None if z is None else np.where(z_ok, z, np.nan),
+                heights=None if z is None else dsm.heights(z, z_ok),
                 clearance=0.0 if dsm is None else dsm.clearance,
                 unseen=unseen,
                 ray=None if dsm is None else dsm.ray,
@@ -650,14 +683,38 @@ def shadow_map_file(
             halo = (halo + dsm.halo[0] + up, halo + dsm.halo[1] + down)
         agreement = {}
         if dsm is not None:
-            # Registration: the best shift of the predicted shadow onto the image's dark
-            # pixels, on a central block of lines (as the boresight offset).
+            # Registration, on a central block of lines (as the boresight offset): the cast
+            # shadow is moved by the sub-pixel shift that best matches the NIR's darkness
+            # (applied), then the best whole-pixel shift of what remains onto the dark pixels
+            # is reported (a DSM more than a pixel off, another date).
             r0 = max(0, dual.height // 2 - OFFSET_ROWS // 2)
             r1 = min(dual.height, r0 + OFFSET_ROWS)
             values, valid, z, z_ok, _ = read(r0, r1)
+            if surface.register:
+                nir = smap.signal(values[at_nir:at_swir], nir_lv)
+                agreement = smap.prior_registration(
+                    smap.nir_darkness(nir, cal, valid & z_ok),
+                    dsm.sub_cells(z, z_ok),
+                    ill.SUPERSAMPLE,
+                )
+                dsm = dataclasses.replace(
+                    dsm,
+                    shift=(
+                        agreement["dsm_registration_rows"],
+                        agreement["dsm_registration_columns"],
+                    ),
+                )
+            else:
+                agreement = {
+                    "dsm_registration_rows": 0.0,
+                    "dsm_registration_columns": 0.0,
+                    "dsm_registration_r": None,
+                    "dsm_registration_r0": None,
+                    "dsm_registration_t": None,
+                }
             prior_c = dsm.prior(z, z_ok)
             _, d_c = fraction_of(values, valid, prior_c, z, z_ok, dsm.unseen(z, z_ok, r0))
-            agreement = smap.prior_agreement(d_c, prior_c, valid)
+            agreement.update(smap.prior_agreement(d_c, prior_c, valid))
 
         tags = {
             "product": "boresight shadow map: mask and scene-calibrated Table 2 classes "
@@ -683,8 +740,17 @@ def shadow_map_file(
                 **({"igm": surface.igm} if surface.igm else {}),
                 **({"glt": surface.glt} if surface.glt else {}),
                 dsm_surface=dsm.surface,
+                dsm_registration_rows=str(dsm.shift[0]),
+                dsm_registration_columns=str(dsm.shift[1]),
                 method="surface model prior: cast shadow from the DSM and the sun (ray march, "
-                f"{dsm.surface} surface), refined by SWIR/NIR darkness within "
+                f"{dsm.surface} surface"
+                + (
+                    f", moved by {dsm.shift[0]:+.2f} rows and {dsm.shift[1]:+.2f} columns to "
+                    "match the NIR's darkness"
+                    if surface.register
+                    else ""
+                )
+                + "), refined by SWIR/NIR darkness within "
                 f"{smap.DSM_TOLERANCE} px (lit above ln 1/2 of the sunlit mode, rim shadow at "
                 f"or below ln 1/3 unless more than the clearance ({dsm.clearance:g} m) above the "
                 "shadow: a caster's top; beyond it, down-sun of the predicted shadow by the "
@@ -768,6 +834,14 @@ def shadow_map_file(
             warnings.append(
                 f"the surface model has no height for {100 * n_holes / n_valid:.1f} % of the "
                 "valid pixels (beyond its extent or nodata): the spectra alone judge them"
+            )
+        if surface.register:
+            progress.info(
+                "predicted shadow registered to the image: moved by "
+                f"{agreement['dsm_registration_rows']:+.2f} rows, "
+                f"{agreement['dsm_registration_columns']:+.2f} columns (correlation with the "
+                f"NIR's darkness {agreement['dsm_registration_r0']} → "
+                f"{agreement['dsm_registration_r']}, t = {agreement['dsm_registration_t']})"
             )
         progress.info(
             f"surface model against the image: {100 * lit_share:.1f} % of the predicted shadow "

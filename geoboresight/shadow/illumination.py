@@ -405,6 +405,7 @@ def shadow_fraction(
     relief: float | None = None,
     interpolation: str = "nearest",
     clearance: float = 0.0,
+    shift: tuple[float, float] = (0.0, 0.0),
 ) -> np.ndarray:
     """Fraction (0–1, float32) of each cell in shadow: the ground-truth shadow map.
 
@@ -438,6 +439,10 @@ def shadow_fraction(
         (smooth terrain); the march samples the surface the same way.
     clearance : float
         As :func:`cast_shadow` (a noisy surface model's height tolerance).
+    shift : (float, float)
+        Rows and columns (cells) by which the cast shadow is moved before it is counted, to
+        the nearest sub-cell (:func:`cell_fraction`): a surface model's registration error
+        undone without resampling (and so smoothing) its walls.
 
     Returns
     -------
@@ -459,6 +464,40 @@ def shadow_fraction(
     elevation raster map. GRASS GIS Reference Manual.
     https://grass.osgeo.org/grass-stable/manuals/r.sunmask.html
     """
+    n = int(supersample)
+    z = np.asarray(dsm, dtype=np.float64)
+    ok = np.isfinite(z) if valid is None else (np.asarray(valid, bool) & np.isfinite(z))
+    fine = sub_cell_shadow(
+        z,
+        ok,
+        sun_zenith=sun_zenith,
+        sun_azimuth=sun_azimuth,
+        transform=transform,
+        cell_size=cell_size,
+        supersample=n,
+        relief=relief,
+        interpolation=interpolation,
+        clearance=clearance,
+    )
+    frac = cell_fraction(fine, n, shift)
+    return np.where(ok, frac, np.nan).astype(np.float32)
+
+
+def sub_cell_shadow(
+    dsm: np.ndarray,
+    valid: np.ndarray | None = None,
+    *,
+    sun_zenith: float,
+    sun_azimuth: float,
+    transform: Any = None,
+    cell_size: float | None = None,
+    supersample: int = SUPERSAMPLE,
+    relief: float | None = None,
+    interpolation: str = "nearest",
+    clearance: float = 0.0,
+) -> np.ndarray:
+    """The cast shadow on the grid of sub-cells (bool, ``supersample`` times the rows and
+    columns) that :func:`shadow_fraction` counts; same parameters."""
     n = int(supersample)
     if n < 1:
         raise ParameterError(f"parameter 'supersample': {supersample!r} must be at least 1")
@@ -490,8 +529,22 @@ def shadow_fraction(
         interpolation=interpolation,
         clearance=clearance,
     )
-    frac = cast.reshape(z.shape[0], n, z.shape[1], n).mean(axis=(1, 3))
-    return np.where(ok, frac, np.nan).astype(np.float32)
+    return cast
+
+
+def cell_fraction(
+    fine: np.ndarray, supersample: int, shift: tuple[float, float] = (0.0, 0.0)
+) -> np.ndarray:
+    """Each cell's share of shaded sub-cells (float64) in ``fine`` (:func:`sub_cell_shadow`),
+    with the shadow first moved by ``shift`` (rows, columns; cells) rounded to whole sub-cells;
+    nothing is shaded beyond the grid."""
+    n = int(supersample)
+    sr, sc = (int(round(float(v) * n)) for v in shift)
+    if sr or sc:
+        # _shifted samples at (r + sr, c + sc): moving the shadow by +s samples at −s.
+        fine = _shifted(np.asarray(fine, bool), -sr, -sc, False)
+    rows, cols = fine.shape[0] // n, fine.shape[1] // n
+    return fine.reshape(rows, n, cols, n).mean(axis=(1, 3))
 
 
 def unseen_casters(

@@ -79,6 +79,10 @@ RIM_DARKNESS = math.log(1 / 3)
 #: A pixel brighter than half the sunlit mode is spectrally lit, whatever the surface model
 #: predicts: sky and adjacency light give a shadow at most about a third of the sunlit signal.
 LIT_DARKNESS = math.log(1 / 2)
+#: Tiles per side of the block the registration is checked on, and how many standard errors
+#: the mean gain in correlation over the tiles must reach for the move to be kept.
+TILES = 4
+REGISTRATION_T = 2.0
 #: How far (px) a cast shadow predicted from a surface model may be off (registration).
 DSM_TOLERANCE = 1
 #: The sunlit ratio of the paper's scenes: Figure 5(B)'s line at shadow fraction 0 (1.31).
@@ -820,6 +824,124 @@ def prior_agreement(
         "dsm_iou_at_shift": round(best[2], 4) if best[2] >= 0 else None,
         "dsm_iou": round(iou0, 4) if np.isfinite(iou0) else None,
     }
+
+
+def nir_darkness(nir: np.ndarray, calibration: SceneCalibration, valid=None) -> np.ndarray:
+    """How far below its sunlit mode the NIR signal is (``max(ln(nir / nir mode), …)``
+    negated, ≥ 0; NaN where invalid): shadow evidence on the VNIR's own grid, without the
+    SWIR's resampling by the boresight offset and its relief parallax."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        e = -np.minimum(np.log(np.maximum(nir, MIN_SIGNAL)) - calibration.nir_mode, 0.0)
+    ok = np.isfinite(e)
+    if valid is not None:
+        ok &= np.asarray(valid, bool)
+    return np.where(ok, e, np.nan)
+
+
+def prior_registration(
+    evidence: np.ndarray,
+    fine: np.ndarray,
+    supersample: int,
+    valid: np.ndarray | None = None,
+    *,
+    max_shift: float = DSM_TOLERANCE,
+) -> dict:
+    """The sub-pixel shift of a surface model's cast shadow onto the image: the move (rows,
+    columns; whole sub-cells, within ``max_shift`` cells each way) of the shadow cast on the
+    sub-cell grid (``fine``, :func:`geoboresight.shadow.illumination.sub_cell_shadow`) whose
+    cell fractions correlate best (Pearson) with the shadow ``evidence`` on the image's grid
+    (:func:`nir_darkness`: the SWIR's darkness would bring in its own registration, the
+    boresight offset and the relief's parallax).
+
+    Moving the cast on its own sub-cell grid undoes a registration error without resampling
+    the surface model, which would smooth its walls. At a high sun a shadow is a pixel or two
+    wide, and half a pixel of registration is a large share of it. What is matched is the
+    prior as the refinement uses it, cast with the clearance, whose far ends are shortened:
+    the move also takes up part of that shortening (it goes further down-sun than the DSM's
+    own offset, by up to half the ``clearance · tan(zenith)`` the far end loses).
+
+    The move is kept only when the image's parts agree on it: on each of :data:`TILES` ×
+    :data:`TILES` tiles the gain in correlation over the unmoved prediction is taken, and
+    their mean must exceed :data:`REGISTRATION_T` standard errors (else the move is 0).
+
+    Returns
+    -------
+    dict
+        ``dsm_registration_rows`` / ``_columns`` (cells, the move kept), the correlation there
+        and unmoved (``dsm_registration_r`` / ``dsm_registration_r0``), and the tiles' t
+        (``dsm_registration_t``); None where undefined.
+    """
+    n = int(supersample)
+    e = np.asarray(evidence, np.float64)
+    ok = np.isfinite(e)
+    if valid is not None:
+        ok &= np.asarray(valid, bool)
+    m = int(math.floor(float(max_shift) * n + 1e-9))
+    edge = int(math.ceil(float(max_shift))) + 1
+    inner = np.zeros(e.shape, bool)
+    inner[edge : e.shape[0] - edge, edge : e.shape[1] - edge] = True
+    inner &= ok
+    x = e[inner]
+    x = x - x.mean() if x.size else x
+    sx = float(np.sqrt(x @ x)) if x.size else 0.0
+    from .illumination import cell_fraction
+
+    def corr(sr, sc):
+        p = cell_fraction(fine, n, (sr / n, sc / n))[inner]
+        p = p - p.mean()
+        sp = float(np.sqrt(p @ p))
+        return float(p @ x) / (sp * sx) if sp > 0 and sx > 0 else float("nan")
+
+    r0 = corr(0, 0)
+    best = (0, 0, r0)
+    if np.isfinite(r0):
+        shifts = sorted(
+            ((a, b) for a in range(-m, m + 1) for b in range(-m, m + 1)),
+            key=lambda t: t[0] ** 2 + t[1] ** 2,
+        )
+        for a, b in shifts[1:]:  # nearest first: a tie keeps the smaller move
+            r = corr(a, b)
+            if np.isfinite(r) and r > best[2] + 1e-9:
+                best = (a, b, r)
+    # The move is kept only where the image's parts agree that it helps: the gain in
+    # correlation on each of TILES × TILES tiles, its mean over twice its standard error.
+    t = float("nan")
+    if best[:2] != (0, 0):
+        moved = cell_fraction(fine, n, (best[0] / n, best[1] / n))
+        still = cell_fraction(fine, n)
+        gains = []
+        for rows in np.array_split(np.arange(edge, e.shape[0] - edge), TILES):
+            for cols in np.array_split(np.arange(edge, e.shape[1] - edge), TILES):
+                if rows.size == 0 or cols.size == 0:
+                    continue
+                tile = np.ix_(rows, cols)
+                ok_t = inner[tile]
+                g = _pearson(moved[tile][ok_t], e[tile][ok_t]) - _pearson(
+                    still[tile][ok_t], e[tile][ok_t]
+                )
+                if np.isfinite(g):
+                    gains.append(g)
+        if len(gains) >= 3:
+            g = np.asarray(gains)
+            se = g.std(ddof=1) / math.sqrt(g.size)
+            t = float(g.mean() / se) if se > 0 else (math.inf if g.mean() > 0 else 0.0)
+        if not t > REGISTRATION_T:
+            best = (0, 0, r0)
+    fin = lambda v: round(v, 4) if np.isfinite(v) else None  # noqa: E731
+    return {
+        "dsm_registration_rows": best[0] / n,
+        "dsm_registration_columns": best[1] / n,
+        "dsm_registration_r": fin(best[2]),
+        "dsm_registration_r0": fin(r0),
+        "dsm_registration_t": fin(t),
+    }
+
+
+def _pearson(a: np.ndarray, b: np.ndarray) -> float:
+    a = a - a.mean() if a.size else a
+    b = b - b.mean() if b.size else b
+    den = float(np.sqrt((a @ a) * (b @ b))) if a.size else 0.0
+    return float(a @ b) / den if den > 0 else float("nan")
 
 
 def shadow_mask(fraction: np.ndarray, threshold: float = 0.5) -> np.ndarray:
