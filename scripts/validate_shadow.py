@@ -533,6 +533,7 @@ def run_dsm_case(
         row[key + "_fa"] = float(m[sunlit_dark].mean()) if sunlit_dark.any() else float("nan")
     row["lit_share"] = sm["dsm_predicted_shadow_lit_share"]
     row["best_shift"] = (sm["dsm_shift_rows"], sm["dsm_shift_columns"])
+    row["moved"] = (sm["dsm_registration_rows"], sm["dsm_registration_columns"])
     row["warnings"] = sm["warnings"]
     write_tif(j("truth_fraction.tif"), np.nan_to_num(f, nan=0.0))
     surface = SurfaceModel(j("dsm_noisy.tif"), zen, az, gsd)
@@ -594,7 +595,8 @@ def _worst(d):
 def dsm_table(rows) -> str:
     out = [
         "| scene | truth shadow | no DSM: F1 wide / flagged | DSM: P / R / F1 | DSM F1 wide | "
-        "DSM sunlit dark flagged | predicted shadow lit | best shift (DSM shift) | deshadow, "
+        "DSM sunlit dark flagged | predicted shadow lit | registration move; best shift after it "
+        "(DSM shift) | deshadow, "
         "truth f: worst SA / brightness | deshadow, map f: worst SA / brightness | "
         "deshadow with the DSM, truth f | deshadow with the DSM, map f | "
         "with the DSM, map f, by material (SA / brightness) | against each pixel's own sunlit "
@@ -609,7 +611,8 @@ def dsm_table(rows) -> str:
             f"| {r['label']} | {100 * r['truth_share']:.1f} % | {fmt(r['map0_wide'])} / "
             f"{fmt(100 * r['map0_fa'], 1)} % | {' / '.join(fmt(v) for v in r['dsm'])} | "
             f"{fmt(r['dsm_wide'])} | {fmt(100 * r['dsm_fa'], 1)} % | "
-            f"{100 * r['lit_share']:.1f} % | {r['best_shift'][0]:+d}, {r['best_shift'][1]:+d} "
+            f"{100 * r['lit_share']:.1f} % | {r['moved'][0]:+.2f}, {r['moved'][1]:+.2f}; "
+            f"{r['best_shift'][0]:+d}, {r['best_shift'][1]:+d} "
             f"({r['shift'][0]:+.2f}, {r['shift'][1]:+.2f}) | {t[0]} / {t[1]} | {m[0]} / {m[1]} "
             f"| {td[0]} / {td[1]} | {md[0]} / {md[1]} | {md[2]} | "
             + " · ".join("{} / {}".format(*_worst(r.get(k + "_own", {}))[:2]) for k in DESHADOW)
