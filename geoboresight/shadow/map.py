@@ -857,8 +857,8 @@ def prior_registration(
     the surface model, which would smooth its walls. At a high sun a shadow is a pixel or two
     wide, and half a pixel of registration is a large share of it. What is matched is the
     prior as the refinement uses it, cast with the clearance, whose far ends are shortened:
-    the move also takes up part of that shortening (it goes further down-sun than the DSM's
-    own offset, by up to half the ``clearance · tan(zenith)`` the far end loses).
+    the move also takes up that shortening, so it is not the DSM's own offset (on model 2 it
+    went 0.5–1 px further down-sun, where ``clearance · tan(zenith)`` was 0.5–0.7 px).
 
     The move is kept only when the image's parts agree on it: on each of :data:`TILES` ×
     :data:`TILES` tiles the gain in correlation over the unmoved prediction is taken, and
