@@ -191,6 +191,21 @@ SHADOW_MAP = Algorithm(
             "number",
             "Sub-pixel shift applied to the predicted shadow to register the DSM (columns)",
         ),
+        Result(
+            "dsm_registration_r0",
+            "number",
+            "Correlation of the unmoved predicted shadow with the NIR's darkness",
+        ),
+        Result(
+            "dsm_registration_r",
+            "number",
+            "Correlation of the registered predicted shadow with the NIR's darkness",
+        ),
+        Result(
+            "dsm_registration_t",
+            "number",
+            "Agreement of the image's tiles on the registration (mean gain over its standard error)",
+        ),
         Result("dsm_shift_rows", "number", "Best whole-pixel shift left after registration (rows)"),
         Result(
             "dsm_shift_columns",

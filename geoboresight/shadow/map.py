@@ -881,16 +881,10 @@ def prior_registration(
     inner = np.zeros(e.shape, bool)
     inner[edge : e.shape[0] - edge, edge : e.shape[1] - edge] = True
     inner &= ok
-    x = e[inner]
-    x = x - x.mean() if x.size else x
-    sx = float(np.sqrt(x @ x)) if x.size else 0.0
     from .illumination import cell_fraction
 
     def corr(sr, sc):
-        p = cell_fraction(fine, n, (sr / n, sc / n))[inner]
-        p = p - p.mean()
-        sp = float(np.sqrt(p @ p))
-        return float(p @ x) / (sp * sx) if sp > 0 and sx > 0 else float("nan")
+        return _pearson(cell_fraction(fine, n, (sr / n, sc / n))[inner], e[inner])
 
     r0 = corr(0, 0)
     best = (0, 0, r0)
@@ -905,8 +899,9 @@ def prior_registration(
                 best = (a, b, r)
     # The move is kept only where the image's parts agree that it helps: the gain in
     # correlation on each of TILES × TILES tiles, its mean over twice its standard error.
-    t = float("nan")
+    t = 0.0  # no move found that gains: nothing to agree on
     if best[:2] != (0, 0):
+        t = float("nan")
         moved = cell_fraction(fine, n, (best[0] / n, best[1] / n))
         still = cell_fraction(fine, n)
         gains = []
@@ -923,8 +918,8 @@ def prior_registration(
                     gains.append(g)
         if len(gains) >= 3:
             g = np.asarray(gains)
-            se = g.std(ddof=1) / math.sqrt(g.size)
-            t = float(g.mean() / se) if se > 0 else (math.inf if g.mean() > 0 else 0.0)
+            se = max(float(g.std(ddof=1)) / math.sqrt(g.size), 1e-12)
+            t = float(g.mean()) / se
         if not t > REGISTRATION_T:
             best = (0, 0, r0)
     fin = lambda v: round(v, 4) if np.isfinite(v) else None  # noqa: E731
