@@ -166,6 +166,9 @@ HOLDOUT = {
     # session; group 14 is the shadow map's, group 15 de-shadowing's; each run once, at the end.
     14: (328270496, range(65, 70), (37, 38, 39)),
     15: (342945452, range(70, 75), (40, 41, 42)),
+    # Drawn the same way after group 14's run, before the session's second change of the
+    # shadow map (cells the model shades in part); run once, at the end.
+    16: (62679417, range(75, 80), (43, 44, 45)),
 }
 #: Height noise (m) and largest sub-pixel shift (px) of the DSM given to shadow-map --dsm.
 DSM_NOISE_M = 0.3
