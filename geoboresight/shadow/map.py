@@ -568,7 +568,10 @@ def dsm_shadow_fraction(
 
     Shadow can only be where the surface model puts it, give or take ``tolerance`` pixels of
     registration: outside that zone the fraction is 0, however dark the pixel (a black roof
-    or road in the sun). Inside it:
+    or road in the sun), except in a cell the model shades in part (``prior`` > 0: a shaded
+    sub-cell) that is as dark as core shadow (``core``), which is at least half shaded: shade
+    below the model's resolution (a crown beside a taller one) that it cannot rule out.
+    Inside it:
 
     * a pixel the model shades (``prior`` ≥ 0.5) is shadow unless it is spectrally lit
       (``dark`` > ``lit``, more than half the sunlit mode: the surface model is wrong there,
@@ -684,6 +687,14 @@ def dsm_shadow_fraction(
         rim_px = ok & zone & ~shaded & (d <= rim)
     if water is not None:
         rim_px &= ~np.asarray(water, bool)
+    # Outside the zone, a cell the model shades in part (a shaded sub-cell: a crown beside a
+    # taller one, below the model's resolution) and as dark as core shadow is shadow: the
+    # model cannot rule that shade out, and the spectrum says it is there. A dark surface the
+    # model does not shade at all stays lit.
+    with np.errstate(invalid="ignore"):
+        part_px = ok & (p > 0) & ~zone & (d <= core)
+    if water is not None:
+        part_px &= ~np.asarray(water, bool)
     if z is not None:
         with np.errstate(invalid="ignore"):
             ground = ndimage.minimum_filter(base, size=2 * tolerance + 1)
@@ -707,7 +718,7 @@ def dsm_shadow_fraction(
     deep = core_px & ndimage.binary_erosion(shaded, iterations=tolerance + 1)
     with np.errstate(invalid="ignore"):
         whole = deep | (d <= core)
-    f = _unmix(d, ok, core_px | rim_px, edge_pixels, window, allowed=allowed, whole=whole)
+    f = _unmix(d, ok, core_px | rim_px | part_px, edge_pixels, window, allowed=allowed, whole=whole)
     f[deep] = np.maximum(f[deep], p[deep]).astype(np.float32)
     # Outside the zone no shadow reaches (registration within the tolerance): a pixel there is
     # lit. A rim pixel is shaded at most as much as its signal says against the darkest such
