@@ -613,7 +613,7 @@ def dsm_table(rows) -> str:
         out.append(
             f"| {r['label']} | {100 * r['truth_share']:.1f} % | {fmt(r['map0_wide'])} / "
             f"{fmt(100 * r['map0_fa'], 1)} % | {' / '.join(fmt(v) for v in r['dsm'])} | "
-            f"{fmt(r['dsm_wide'])} | {fmt(100 * r['dsm_fa'], 1)} % | "
+            f"{fmt(r['dsm_wide'], 3)} | {fmt(100 * r['dsm_fa'], 1)} % | "
             f"{100 * r['lit_share']:.1f} % | {r['moved'][0]:+.2f}, {r['moved'][1]:+.2f}; "
             f"{r['best_shift'][0]:+d}, {r['best_shift'][1]:+d} "
             f"({r['shift'][0]:+.2f}, {r['shift'][1]:+.2f}) | {t[0]} / {t[1]} | {m[0]} / {m[1]} "
@@ -763,7 +763,7 @@ def main(argv=None):
                 rows.append(r)
                 print(
                     f"    no DSM F1 wide {fmt(r['map0_wide'])} flagged {fmt(100 * r['map0_fa'], 1)} %;"
-                    f" DSM F1 wide {fmt(r['dsm_wide'])} flagged {fmt(100 * r['dsm_fa'], 1)} %; "
+                    f" DSM F1 wide {fmt(r['dsm_wide'], 3)} flagged {fmt(100 * r['dsm_fa'], 1)} %; "
                     f"deshadow truth {_worst(r['truth'])[:2]} map {_worst(r['mapf'])[:2]}, "
                     f"with the DSM truth {_worst(r['truth_dsm'])[:2]} map "
                     f"{_worst(r['mapf_dsm'])[:2]}; own sunlit "
