@@ -265,6 +265,23 @@ def test_prior_agreement_finds_the_shift():
     assert a["dsm_iou_at_shift"] > 0.95 > a["dsm_iou"]
 
 
+def test_a_cell_the_model_shades_in_part_is_shadow_when_as_dark_as_core_shadow():
+    """Away from any cell the model shades half or more: a cell with a shaded sub-cell
+    (prior 0.25: a crown beside a taller one) as dark as core shadow is shadow; the same
+    darkness where the model shades nothing (a black roof) is not; a cell shaded in part but
+    only as dark as the rim is not either."""
+    d = np.full((40, 40), -0.1)
+    prior = np.zeros(d.shape)
+    prior[10, 10] = prior[10, 30] = 0.25  # shaded in part, far from any full shadow
+    d[10, 10] = math.log(1 / 10)  # as dark as core shadow (ln 1/6 or below)
+    d[10, 30] = math.log(1 / 4)  # rim-dark only
+    d[30, 10] = math.log(1 / 10)  # black roof: the model shades nothing there
+    f = smap.dsm_shadow_fraction(d, prior)
+    assert f[10, 10] >= 0.5
+    assert f[10, 30] == 0.0
+    assert f[30, 10] == 0.0
+
+
 def test_a_cast_moved_by_whole_cells_is_the_cast_of_the_moved_surface():
     z, *_ = _town()
     moved = np.zeros_like(z)

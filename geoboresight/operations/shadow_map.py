@@ -760,7 +760,8 @@ def shadow_map_file(
                 "deep in the prediction; beside it, no more shaded than the signal says against "
                 "the darkest lit pixel next to the zone); no shadow away from the predicted "
                 "shadow except where a caster beyond the surface model's edge could shade (spectral "
-                "estimate there); classes by Table 2's fraction intervals",
+                "estimate there) and in cells the model shades in part that are as dark as core "
+                "shadow; classes by Table 2's fraction intervals",
             )
         counts = np.zeros(256, np.int64)
         n_shadow = 0
