@@ -178,32 +178,24 @@ class _Surface:
             clearance=self.clearance,
         )
 
-    def prior(self, z, valid):
-        return ill.shadow_fraction(
-            z,
-            valid,
+    def _cast(self) -> dict:
+        """The cast's keywords: the sun, the grid, the relief, the surface, the clearance."""
+        return dict(
             sun_zenith=self.zenith,
             sun_azimuth=self.azimuth,
             transform=self.matrix,
             relief=self.relief,
             interpolation=ill.SURFACES[self.surface],
             clearance=self.clearance,
-            shift=self.shift,
         )
+
+    def prior(self, z, valid):
+        return ill.shadow_fraction(z, valid, shift=self.shift, **self._cast())
 
     def sub_cells(self, z, valid):
         """The cast shadow on the sub-cell grid (unmoved), as the prior casts it (with the
         clearance): what is registered is the prior the refinement starts from."""
-        return ill.sub_cell_shadow(
-            z,
-            valid,
-            sun_zenith=self.zenith,
-            sun_azimuth=self.azimuth,
-            transform=self.matrix,
-            relief=self.relief,
-            interpolation=ill.SURFACES[self.surface],
-            clearance=self.clearance,
-        )
+        return ill.sub_cell_shadow(z, valid, **self._cast())
 
     def heights(self, z, valid):
         """The heights moved with the cast shadow (bilinear; NaN where the nearest source
