@@ -402,6 +402,13 @@ def _surface(sc, folder):
     )
 
 
+def _f1(fraction, truth_fraction):
+    """F1 of the shadow mask (fraction ≥ 0.5) against the truth's."""
+    pred, truth = fraction >= 0.5, truth_fraction >= 0.5
+    tp = (pred & truth).sum()
+    return 2 * tp / (2 * tp + (pred & ~truth).sum() + (~pred & truth).sum())
+
+
 def _in_strips_and_whole(folder, surface, tmp_path):
     """shadow-map --dsm in strips of 16 lines and whole: (the whole run's result, [(classes,
     fraction) of each])."""
@@ -429,12 +436,7 @@ def test_shadow_map_with_a_dsm_in_strips_equals_the_whole_image(scene, tmp_path)
     assert r["dsm_predicted_shadow_lit_share"] < 0.1
     # Strips of 16 lines cut the band a caster beyond the edge could shade: still equal.
     assert 0 < r["dsm_unseen_share"] < 0.5
-    f = outs[1][1][0]
-    truth = sc.shadow_fraction >= 0.5
-    pred = f >= 0.5
-    tp = (pred & truth).sum()
-    f1 = 2 * tp / (2 * tp + (pred & ~truth).sum() + (~pred & truth).sum())
-    assert f1 > 0.8
+    assert _f1(outs[1][1][0], sc.shadow_fraction) > 0.8
 
 
 def test_a_dsm_off_by_a_fraction_of_a_pixel_is_registered_in_strips_as_whole(tmp_path):
@@ -471,14 +473,8 @@ def test_a_dsm_off_by_a_fraction_of_a_pixel_is_registered_in_strips_as_whole(tmp
         surface=replace(surface, register=False),
     )
     assert (fixed["dsm_registration_rows"], fixed["dsm_registration_columns"]) == (0.0, 0.0)
-
-    def f1(path):
-        pred = _read(path)[0] >= 0.5
-        truth = sc.shadow_fraction >= 0.5
-        tp = (pred & truth).sum()
-        return 2 * tp / (2 * tp + (pred & ~truth).sum() + (~pred & truth).sum())
-
-    assert f1(tmp_path / "f1000.tif") > f1(tmp_path / "fixed_f.tif")
+    registered, unmoved = _read(tmp_path / "f1000.tif")[0], _read(tmp_path / "fixed_f.tif")[0]
+    assert _f1(registered, sc.shadow_fraction) > _f1(unmoved, sc.shadow_fraction)
 
 
 @pytest.mark.parametrize("azimuth", [0.0, 180.0])

@@ -189,8 +189,13 @@ class _Surface:
             clearance=self.clearance,
         )
 
-    def prior(self, z, valid):
-        return ill.shadow_fraction(z, valid, shift=self.shift, **self._cast())
+    def prior(self, z, valid, sub_cells=None):
+        """The cast-shadow fraction (the prior), moved by the registration; from
+        ``sub_cells`` (:meth:`sub_cells` of the same block) when already cast."""
+        if sub_cells is None:
+            return ill.shadow_fraction(z, valid, shift=self.shift, **self._cast())
+        ok = np.asarray(valid, bool) & np.isfinite(z)
+        return ill.cell_fraction(sub_cells, ill.SUPERSAMPLE, self.shift, ok).astype(np.float32)
 
     def sub_cells(self, z, valid):
         """The cast shadow on the sub-cell grid (unmoved), as the prior casts it (with the
@@ -682,12 +687,12 @@ def shadow_map_file(
             r0 = max(0, dual.height // 2 - OFFSET_ROWS // 2)
             r1 = min(dual.height, r0 + OFFSET_ROWS)
             values, valid, z, z_ok, _ = read(r0, r1)
+            sub_cells = dsm.sub_cells(z, z_ok)  # cast once: registered, then the prior
+            agreement = smap.registration_result()
             if surface.register:
                 nir = smap.signal(values[at_nir:at_swir], nir_lv)
                 agreement = smap.prior_registration(
-                    smap.nir_darkness(nir, cal, valid & z_ok),
-                    dsm.sub_cells(z, z_ok),
-                    ill.SUPERSAMPLE,
+                    smap.nir_darkness(nir, cal, valid & z_ok), sub_cells, ill.SUPERSAMPLE
                 )
                 dsm = dataclasses.replace(
                     dsm,
@@ -696,15 +701,7 @@ def shadow_map_file(
                         agreement["dsm_registration_columns"],
                     ),
                 )
-            else:
-                agreement = {
-                    "dsm_registration_rows": 0.0,
-                    "dsm_registration_columns": 0.0,
-                    "dsm_registration_r": None,
-                    "dsm_registration_r0": None,
-                    "dsm_registration_t": None,
-                }
-            prior_c = dsm.prior(z, z_ok)
+            prior_c = dsm.prior(z, z_ok, sub_cells)
             _, d_c = fraction_of(values, valid, prior_c, z, z_ok, dsm.unseen(z, z_ok, r0))
             agreement.update(smap.prior_agreement(d_c, prior_c, valid))
 

@@ -479,8 +479,7 @@ def shadow_fraction(
         interpolation=interpolation,
         clearance=clearance,
     )
-    frac = cell_fraction(fine, n, shift)
-    return np.where(ok, frac, np.nan).astype(np.float32)
+    return cell_fraction(fine, n, shift, ok).astype(np.float32)
 
 
 def sub_cell_shadow(
@@ -533,18 +532,22 @@ def sub_cell_shadow(
 
 
 def cell_fraction(
-    fine: np.ndarray, supersample: int, shift: tuple[float, float] = (0.0, 0.0)
+    fine: np.ndarray,
+    supersample: int,
+    shift: tuple[float, float] = (0.0, 0.0),
+    valid: np.ndarray | None = None,
 ) -> np.ndarray:
     """Each cell's share of shaded sub-cells (float64) in ``fine`` (:func:`sub_cell_shadow`),
     with the shadow first moved by ``shift`` (rows, columns; cells) rounded to whole sub-cells;
-    nothing is shaded beyond the grid."""
+    nothing is shaded beyond the grid; NaN where ``valid`` (cells) is False."""
     n = int(supersample)
     sr, sc = (int(round(float(v) * n)) for v in shift)
     if sr or sc:
         # _shifted samples at (r + sr, c + sc): moving the shadow by +s samples at −s.
         fine = _shifted(np.asarray(fine, bool), -sr, -sc, False)
     rows, cols = fine.shape[0] // n, fine.shape[1] // n
-    return fine.reshape(rows, n, cols, n).mean(axis=(1, 3))
+    frac = fine.reshape(rows, n, cols, n).mean(axis=(1, 3))
+    return frac if valid is None else np.where(valid, frac, np.nan)
 
 
 def unseen_casters(

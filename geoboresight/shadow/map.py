@@ -436,17 +436,25 @@ def darkness(
     A shadow is dark in both (skylight is weak beyond 700 nm, weakest in the SWIR); sunlit
     vegetation is bright in the NIR though dark in the SWIR (leaf water), sunlit asphalt and
     dark roofs keep more of the SWIR. ``swir`` must already be on the VNIR grid."""
-    nir = np.asarray(nir, np.float64)
-    swir = np.asarray(swir, np.float64)
+    d = np.maximum(
+        _over_mode(nir, calibration.nir_mode) - NIR_ALLOWANCE,
+        _over_mode(swir, calibration.swir_mode),
+    )
+    return _where_valid(d, valid)
+
+
+def _over_mode(signal: np.ndarray, mode: float) -> np.ndarray:
+    """ln of a signal (at least :data:`MIN_SIGNAL`) over its sunlit mode (``mode``, ln)."""
     with np.errstate(invalid="ignore", divide="ignore"):
-        d = np.maximum(
-            np.log(np.maximum(nir, MIN_SIGNAL)) - calibration.nir_mode - NIR_ALLOWANCE,
-            np.log(np.maximum(swir, MIN_SIGNAL)) - calibration.swir_mode,
-        )
-    ok = np.isfinite(d)
+        return np.log(np.maximum(np.asarray(signal, np.float64), MIN_SIGNAL)) - mode
+
+
+def _where_valid(x: np.ndarray, valid=None) -> np.ndarray:
+    """``x`` where it is finite and ``valid``, NaN elsewhere."""
+    ok = np.isfinite(x)
     if valid is not None:
         ok &= np.asarray(valid, bool)
-    return np.where(ok, d, np.nan)
+    return np.where(ok, x, np.nan)
 
 
 def _local_mean(x: np.ndarray, weight: np.ndarray, size: int) -> np.ndarray:
@@ -682,19 +690,16 @@ def dsm_shadow_fraction(
     swept, base = _down_sun(shaded, ray, reach, base)
     near = ndimage.binary_dilation(shaded, iterations=tolerance) if tolerance else shaded
     zone = ndimage.binary_dilation(swept, iterations=tolerance) if tolerance else swept
+    # Water (too blue for skylight) is not shadow outside the prior.
+    dry = ok if water is None else ok & ~np.asarray(water, bool)
     with np.errstate(invalid="ignore"):
         core_px = ok & shaded & (d <= lit)
-        rim_px = ok & zone & ~shaded & (d <= rim)
-    if water is not None:
-        rim_px &= ~np.asarray(water, bool)
-    # Outside the zone, a cell the model shades in part (a shaded sub-cell: a crown beside a
-    # taller one, below the model's resolution) and as dark as core shadow is shadow: the
-    # model cannot rule that shade out, and the spectrum says it is there. A dark surface the
-    # model does not shade at all stays lit.
-    with np.errstate(invalid="ignore"):
-        part_px = ok & (p > 0) & ~zone & (d <= core)
-    if water is not None:
-        part_px &= ~np.asarray(water, bool)
+        rim_px = dry & zone & ~shaded & (d <= rim)
+        # Outside the zone, a cell the model shades in part (a shaded sub-cell: a crown
+        # beside a taller one, below the model's resolution) and as dark as core shadow is
+        # shadow: the model cannot rule that shade out, and the spectrum says it is there. A
+        # dark surface the model does not shade at all stays lit.
+        part_px = dry & (p > 0) & ~zone & (d <= core)
     if z is not None:
         with np.errstate(invalid="ignore"):
             ground = ndimage.minimum_filter(base, size=2 * tolerance + 1)
@@ -841,12 +846,7 @@ def nir_darkness(nir: np.ndarray, calibration: SceneCalibration, valid=None) -> 
     """How far below its sunlit mode the NIR signal is (``max(ln(nir / nir mode), …)``
     negated, ≥ 0; NaN where invalid): shadow evidence on the VNIR's own grid, without the
     SWIR's resampling by the boresight offset and its relief parallax."""
-    with np.errstate(invalid="ignore", divide="ignore"):
-        e = -np.minimum(np.log(np.maximum(nir, MIN_SIGNAL)) - calibration.nir_mode, 0.0)
-    ok = np.isfinite(e)
-    if valid is not None:
-        ok &= np.asarray(valid, bool)
-    return np.where(ok, e, np.nan)
+    return _where_valid(-np.minimum(_over_mode(nir, calibration.nir_mode), 0.0), valid)
 
 
 def prior_registration(
@@ -897,7 +897,8 @@ def prior_registration(
     def corr(sr, sc):
         return _pearson(cell_fraction(fine, n, (sr / n, sc / n))[inner], e[inner])
 
-    r0 = corr(0, 0)
+    still = cell_fraction(fine, n)
+    r0 = _pearson(still[inner], e[inner])
     best = (0, 0, r0)
     if np.isfinite(r0):
         shifts = sorted(
@@ -914,7 +915,6 @@ def prior_registration(
     if best[:2] != (0, 0):
         t = float("nan")
         moved = cell_fraction(fine, n, (best[0] / n, best[1] / n))
-        still = cell_fraction(fine, n)
         gains = []
         for rows in np.array_split(np.arange(edge, e.shape[0] - edge), TILES):
             for cols in np.array_split(np.arange(edge, e.shape[1] - edge), TILES):
@@ -934,12 +934,18 @@ def prior_registration(
         if not t > REGISTRATION_T:
             best = (0, 0, r0)
     fin = lambda v: round(v, 4) if np.isfinite(v) else None  # noqa: E731
+    return registration_result(best[0] / n, best[1] / n, fin(best[2]), fin(r0), fin(t))
+
+
+def registration_result(rows=0.0, columns=0.0, r=None, r0=None, t=None) -> dict:
+    """What :func:`prior_registration` reports; the defaults: no move, nothing measured (the
+    registration turned off)."""
     return {
-        "dsm_registration_rows": best[0] / n,
-        "dsm_registration_columns": best[1] / n,
-        "dsm_registration_r": fin(best[2]),
-        "dsm_registration_r0": fin(r0),
-        "dsm_registration_t": fin(t),
+        "dsm_registration_rows": rows,
+        "dsm_registration_columns": columns,
+        "dsm_registration_r": r,
+        "dsm_registration_r0": r0,
+        "dsm_registration_t": t,
     }
 
 
