@@ -14,7 +14,7 @@ PYTEST_ARGS ?=
 # (dynamic version) and plugin-zip stamps it into the plugin's metadata.txt.
 VERSION := $(shell sed -n 's/^__version__ = "\(.*\)"/\1/p' geoboresight/_version.py)
 
-.PHONY: demo test test-main test-qgis lint plugin-zip wheelhouse dist bench clean
+.PHONY: demo test test-main test-qgis lint plugin-zip wheelhouse dist bench validate clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -90,6 +90,11 @@ wheelhouse: $(VENV)/.installed
 dist: $(VENV)/.installed
 	$(VENV)/bin/python -m build --outdir dist .
 	@ls dist/geoboresight-$(VERSION)-*.whl dist/geoboresight-$(VERSION).tar.gz
+
+# The validation on the two scene models, written to one report (validation/REPORT.md; with
+# QUICK=1 fewer scenes, into out/validation-quick.md). SECTION=name reruns one section only.
+validate: $(VENV)/.installed
+	$(VENV)/bin/python -m validation $(if $(QUICK),--quick) $(if $(SECTION),--section $(SECTION))
 
 bench: $(VENV)/.installed
 	for b in benchmarks/*.py; do $(VENV)/bin/python $$b || exit 1; done

@@ -1,4 +1,3 @@
-#!/usr/bin/env python
 """Validate the shadow application (paper §3.1) on two scene models with known truth.
 
 Scenes come from two models that share no code: the project's simulator
@@ -24,25 +23,25 @@ Table 2 class; sun-shadow's IoU against the truth.
 The parameters of ``shadow-map`` were fixed on the first scene (simulator, urban, 30.8°)
 before the others were run (the "tuning" column says which).
 
-Hold-out groups (``--holdout 1``, ``2`` or ``3``; :func:`holdout_cases`: five model-2 seeds and
-three simulator scenes each, conditions drawn at random from stated ranges) are not looked at
-while the method is developed; each is run once.
+Hold-out scenes (``--set holdout`` and the others of :data:`SETS`; :func:`holdout_cases`:
+draws of five model-2 seeds and three simulator scenes, conditions drawn at random from
+stated ranges) are not looked at while the method is developed.
 
 ``--dsm``: the surface-model prior and de-shadowing instead (:func:`run_dsm_case`):
 ``shadow-map`` with a DSM (the model's own, with 0.3 m of Gaussian height noise and a random
 sub-pixel shift of up to half a pixel each way: registered within a pixel; seeds fixed below)
 against ``shadow-map`` without, and ``deshadow`` with the truth fraction and with the map's,
 each without and with the DSM (the same noisy one, and the sun).
-Its hold-out groups (``--dsm --holdout 4`` to ``11``) are drawn as the others, with other seeds;
-Each de-shadowed cube is checked twice (:func:`spectra_check`): against the mean sunlit spectrum
-of the material (the issue's wording), and against each shadowed pixel's own sunlit signal,
+Its scene sets (``--dsm --set dsm-holdout``, ``deshadow-holdout`` …) are drawn as the others,
+with other seeds. Each de-shadowed cube is checked twice (:func:`spectra_check`): against the mean sunlit spectrum
+of the material, and against each shadowed pixel's own sunlit signal,
 from the scene simulated again without cast shadows (:func:`sunlit_twin`). The first check
 also compares pixels at shadow edges (mixed with their neighbours, and with the SWIR seeing
 the ground a boresight offset away) with pixels inside sunlit patches: the "perfect" column is
 what it gives the twin itself, a perfect de-shadowing. With the de-shadow columns the
 simulator's scenes are made with ``sky_obstruction`` (walls and crowns hide sky, as model 2's
 do; without it its street canyons see the whole sky). ``--no-deshadow`` leaves the de-shadow
-columns empty (and the simulator's scenes as the shadow map's other groups have them); ``--additive`` de-shadows with the
+columns empty (and the simulator's scenes without sky obstruction, as the shadow map's other runs have them); ``--additive`` de-shadows with the
 additive signal estimated from the pairs (``deshadow_file(additive=True)``); ``--adjacency``
 adds the light of the sunlit surroundings to the columns with the surface model
 (``deshadow_file(adjacency=True)``). ``--dark-reference`` writes
@@ -51,7 +50,7 @@ dark frames give it (model 2's dark levels differ from band to band by 3 %).
 
 Usage::
 
-    python scripts/validate_shadow.py [--lines 128] [--quick | --holdout N] [--dsm
+    python -m validation shadow [--lines 128] [--set dev|quick|holdout|…] [--dsm
         [--no-deshadow | --additive] [--adjacency] [--dark-reference]] [--out FOLDER]
         [--markdown FILE]
 """
@@ -70,25 +69,23 @@ import numpy as np
 import rasterio
 from scipy import ndimage
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "validation"))
-
-from scene_model2 import DARK_MATERIALS as DARK2  # noqa: E402
-from scene_model2 import MATERIALS as MATERIALS2  # noqa: E402
-from scene_model2 import simulate2, write_scene2  # noqa: E402
-
-from geoboresight.io import quiet_georef  # noqa: E402
-from geoboresight.io.raster import writer_options  # noqa: E402
-from geoboresight.io.scene import write_scene  # noqa: E402
-from geoboresight.operations.deshadow import deshadow_file  # noqa: E402
-from geoboresight.operations.ratio import ratio_file  # noqa: E402
-from geoboresight.operations.shadow import shadow_classes_file, shadow_cluster_file  # noqa: E402
-from geoboresight.operations.shadow_map import SurfaceModel, shadow_map_file  # noqa: E402
-from geoboresight.operations.shadow_truth import (  # noqa: E402
+from geoboresight.io import quiet_georef
+from geoboresight.io.raster import writer_options
+from geoboresight.io.scene import write_scene
+from geoboresight.operations.deshadow import deshadow_file
+from geoboresight.operations.ratio import ratio_file
+from geoboresight.operations.shadow import shadow_classes_file, shadow_cluster_file
+from geoboresight.operations.shadow_map import SurfaceModel, shadow_map_file
+from geoboresight.operations.shadow_truth import (
     dark_pixel_shadow_file,
     sun_shadow_file,
 )
-from geoboresight.simulate import simulate_scene  # noqa: E402
-from geoboresight.simulate.shadow import raw_grid_azimuth  # noqa: E402
+from geoboresight.simulate import simulate_scene
+from geoboresight.simulate.shadow import raw_grid_azimuth
+
+from .scene_model2 import DARK_MATERIALS as DARK2
+from .scene_model2 import MATERIALS as MATERIALS2
+from .scene_model2 import simulate2, write_scene2
 
 DARK1 = ("asphalt", "roof_shingle", "roof_tile", "dark_soil")
 #: The simulator's dark offsets (geoboresight/simulate/sensor.py), to re-offset its DN.
@@ -130,68 +127,71 @@ CASES = (
 )
 QUICK = (0, 2, 7, 9)
 
-#: Hold-out groups: (seed of the draws, model-2 seeds, simulator seeds). Groups 1 and 2 were
-#: each run once with the method as it stood before issue 15's second session (its baseline);
-#: group 3 was added after that and before any change of the session, and is run once, at its
-#: end.
-HOLDOUT = {
-    1: (20261122, range(5, 10), (1, 2, 3)),
-    2: (20261123, range(10, 15), (4, 5, 6)),
-    3: (20261124, range(15, 20), (7, 8, 9)),
-    # Issue 24 (surface-model prior, de-shadowing): fixed before the first --dsm run.
-    4: (20261125, range(20, 25), (10, 11, 12)),
-    5: (20261126, range(25, 30), (13, 14, 15)),
-    # Issue 24, shadow with a surface model (second session): the seed was drawn from the
-    # system's random source and fixed here before the session's hold-out run.
-    6: (1977598514, range(30, 35), (16, 17, 18)),
-    # Drawn the same way after group 6's run, before any further change of the method.
-    7: (59352930, range(35, 40), (19, 20, 21)),
-    # Drawn the same way after group 7's run, before the last change of the method.
-    8: (1990625790, range(40, 45), (22, 23, 24)),
-    # Issue 24, de-shadowing with the sky-view factor: the seed of the draws from
-    # random.SystemRandom, fixed before the group was first run (run once). Drawn in parallel
-    # with groups 6–8 as "group 7" of that work; renumbered when the two were merged.
-    9: (650604672, range(40, 45), (22, 23, 24)),
-    # Issue 24, fourth session: drawn from random.SystemRandom and fixed here before any change
-    # of the session; other model-2 and simulator seeds than every earlier group. Group 10 is
-    # the shadow map's (--dsm --no-deshadow), group 11 de-shadowing's; each is run once, with
-    # the session's final method.
-    10: (1169926643, range(45, 50), (25, 26, 27)),
-    11: (1723010984, range(50, 55), (28, 29, 30)),
-    # Issue 24, fifth session: drawn the same way and fixed here before any change of the
-    # session; group 12 is the shadow map's, group 13 de-shadowing's; each run once, at the end.
-    12: (1781929714, range(55, 60), (31, 32, 33)),
-    13: (702303436, range(60, 65), (34, 35, 36)),
-    # Issue 24, sixth session: drawn the same way and fixed here before any change of the
-    # session; group 14 is the shadow map's, group 15 de-shadowing's; each run once, at the end.
-    14: (328270496, range(65, 70), (37, 38, 39)),
-    15: (342945452, range(70, 75), (40, 41, 42)),
-    # Drawn the same way after group 14's run, before the session's second change of the
-    # shadow map (cells the model shades in part); run once, at the end.
-    16: (62679417, range(75, 80), (43, 44, 45)),
+#: The draws of hold-out scenes: (seed of the draws, model-2 seeds, simulator seeds), each
+#: seed drawn from the system's random source and fixed here before the draw's first run.
+DRAWS = {
+    "map-a": (20261122, range(5, 10), (1, 2, 3)),
+    "map-b": (20261123, range(10, 15), (4, 5, 6)),
+    "map-c": (20261124, range(15, 20), (7, 8, 9)),
+    "dsm-a": (20261125, range(20, 25), (10, 11, 12)),
+    "deshadow-a": (20261126, range(25, 30), (13, 14, 15)),
+    "dsm-b": (1977598514, range(30, 35), (16, 17, 18)),
+    "dsm-c": (59352930, range(35, 40), (19, 20, 21)),
+    "dsm-d": (1990625790, range(40, 45), (22, 23, 24)),
+    "deshadow-b": (650604672, range(40, 45), (22, 23, 24)),
+    "dsm-e": (1169926643, range(45, 50), (25, 26, 27)),
+    "deshadow-c": (1723010984, range(50, 55), (28, 29, 30)),
+    "dsm-f": (1781929714, range(55, 60), (31, 32, 33)),
+    "deshadow-d": (702303436, range(60, 65), (34, 35, 36)),
+    "dsm-g": (328270496, range(65, 70), (37, 38, 39)),
+    "deshadow-e": (342945452, range(70, 75), (40, 41, 42)),
+    "dsm-h": (62679417, range(75, 80), (43, 44, 45)),
 }
+#: The scene sets (``--set``). ``dev``: the development scenes, on which the parameters are
+#: set; ``quick``: four of them. A hold-out set is run only after the method it scores is
+#: fixed; a "seen" set was looked at while the method was developed, so it measures how the
+#: method carries over to other conditions, not how it does on scenes never seen.
+SETS = {
+    "holdout": ("map-a", "map-b", "map-c"),
+    "dsm-seen": ("dsm-a", "dsm-b", "dsm-c", "dsm-d", "dsm-e", "dsm-f", "dsm-g"),
+    "dsm-holdout": ("dsm-h",),
+    "deshadow-seen": ("dsm-a", "deshadow-a", "deshadow-b", "deshadow-c"),
+    "deshadow-holdout": ("deshadow-d", "deshadow-e"),
+}
+
+
+def scene_set(name):
+    """The scenes of a set as (label, model, options, index); ``index`` seeds the DSM's noise
+    and shift (its place in the development list, or in its draw)."""
+    if name == "dev":
+        return [(*c, i) for i, c in enumerate(CASES)]
+    if name == "quick":
+        return [(*CASES[j], i) for i, j in enumerate(QUICK)]
+    return [(*c, i) for draw in SETS[name] for i, c in enumerate(holdout_cases(draw))]
+
+
 #: Height noise (m) and largest sub-pixel shift (px) of the DSM given to shadow-map --dsm.
 DSM_NOISE_M = 0.3
 DSM_SHIFT_PX = 0.5
 DSM_SEED = 24
 
 
-def holdout_cases(group=1):
-    """The hold-out scenes: not looked at while the method is developed (on ``CASES``), run
-    once. Conditions drawn at random (uniform unless stated) from these ranges:
+def holdout_cases(draw):
+    """The eight scenes of one draw (:data:`DRAWS`). Conditions drawn at random (uniform
+    unless stated) from these ranges:
 
-    * model 2, five seeds (group 1: 5–9, group 2: 10–14, group 3: 15–19; other layouts and
-      earthlib spectra than seeds 0–4): sun zenith 20–62°, azimuth 0–360°, aerosol optical
+    * model 2, five seeds (other layouts and earthlib spectra than the development seeds
+      0–4): sun zenith 20–62°, azimuth 0–360°, aerosol optical
       depth at 500 nm 0.05–0.5, relief 0 m (half of the scenes) or 5–30 m, VNIR / SWIR dark
       level 40–400 / 250–2,000 DN, gains ×0.4–1.6 each, adjacency 0–0.8, 6–14 buildings, 6–16
       trees, boresight offset 0–1.5 px along and −0.5–0.5 px across;
-    * simulator, three scenes: preset urban, mixed, glade (one each), simulator seeds (group 1:
-      1–3, group 2: 4–6, group 3: 7–9; other layouts and noise than seed 0), sun zenith
+    * simulator, three scenes: preset urban, mixed, glade (one each), simulator seeds
+      (other layouts and noise than the development seed 0), sun zenith
       20–62°, azimuth 0–360° (from the flight direction), aerosol optical depth at 550 nm
       0.05–0.4, VNIR / SWIR dark offset 40–400 / 250–1,600 DN, gains ×0.5–1.3 each (12-bit
       DN, clipped at 4,095).
     """
-    seed, m2_seeds, sim_seeds = HOLDOUT[group]
+    seed, m2_seeds, sim_seeds = DRAWS[draw]
     rng = np.random.default_rng(seed)
     u = lambda a, b: round(float(rng.uniform(a, b)), 2)  # noqa: E731
     cases = []
@@ -645,7 +645,7 @@ def all_within(d) -> bool:
 
 def goal_counts(rows) -> str:
     """Materials within 5° and 10 % per model and column, checked against the sunlit pixels
-    of the material (the issue's wording) and against each pixel's own sunlit signal, and
+    of the material and against each pixel's own sunlit signal, and
     what a perfect de-shadowing gets from the first check (its floor)."""
     out = [
         "| model | check | no DSM, truth f | no DSM, map f | DSM, truth f | DSM, map f | "
@@ -668,6 +668,32 @@ def goal_counts(rows) -> str:
             f"| {name} | perfect de-shadowing, sunlit pixels | "
             f"{sum(a for a, _ in n)}/{sum(b for _, b in n)} (every column) | | | | "
             f"{whole}/{len(rs)} |"
+        )
+    return "\n".join(out)
+
+
+def summary(rows, dsm=False) -> str:
+    """Per scene model: the range of F1 wide, the scenes reaching the goal, and the share of
+    sunlit dark materials flagged (the goals: F1 wide ≥ 0.85 without a DSM, ≥ 0.90 with one;
+    at most 10 % / 5 % flagged)."""
+    key, goal, limit = ("dsm_wide", 0.90, 0.05) if dsm else ("map_wide", 0.85, 0.10)
+    fa = "dsm_fa" if dsm else "map_fa"
+    out = [
+        f"| model | scenes | F1 wide: range, mean | F1 wide ≥ {goal:.2f} | sunlit dark flagged: "
+        f"range | flagged ≤ {round(100 * limit)} % |",
+        "|---|---|---|---|---|---|",
+    ]
+    for model in sorted({r["model"] for r in rows}):
+        rs = [r for r in rows if r["model"] == model]
+        f1 = np.array([r[key] for r in rs], float)
+        flagged = np.array([r[fa] for r in rs], float)
+        ok = np.isfinite(flagged)
+        out.append(
+            f"| {'simulator' if model == 1 else 'model 2'} | {len(rs)} | "
+            f"{np.nanmin(f1):.3f}–{np.nanmax(f1):.3f}, {np.nanmean(f1):.3f} | "
+            f"{int(np.sum(np.round(f1, 3) >= goal))} of {len(rs)} | "
+            f"{100 * np.nanmin(flagged):.1f}–{100 * np.nanmax(flagged):.1f} % | "
+            f"{int(np.sum(flagged[ok] <= limit))} of {int(ok.sum())} |"
         )
     return "\n".join(out)
 
@@ -698,14 +724,22 @@ def table(rows) -> str:
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    print(report(argv))
+    return 0
+
+
+def report(argv=None) -> str:
+    """Run the validation the arguments (``main``'s) select; the Markdown table."""
+    ap = argparse.ArgumentParser(
+        prog="python -m validation shadow", description=__doc__.split("\n\n")[0]
+    )
     ap.add_argument("--lines", type=int, default=128)
-    ap.add_argument("--quick", action="store_true", help="four scenes only")
     ap.add_argument(
-        "--holdout",
-        type=int,
-        choices=sorted(HOLDOUT),
-        help="a hold-out group (holdout_cases) instead of the development scenes",
+        "--set",
+        default="dev",
+        choices=("dev", "quick", *SETS),
+        help="the scenes: the development scenes (dev), four of them (quick), or a set of "
+        "hold-out or seen scenes (SETS)",
     )
     ap.add_argument(
         "--dsm", action="store_true", help="the surface-model prior and de-shadowing (run_dsm_case)"
@@ -737,15 +771,11 @@ def main(argv=None):
         os.makedirs(args.out, exist_ok=False)
         folder, ctx = args.out, None
     else:
-        ctx = tempfile.TemporaryDirectory(prefix="validate_shadow_")
+        ctx = tempfile.TemporaryDirectory(prefix="validation_shadow_")
         folder = ctx.name
-    if args.holdout is not None:
-        cases = holdout_cases(args.holdout)
-    else:
-        cases = [CASES[i] for i in QUICK] if args.quick else CASES
     try:
         rows = []
-        for i, (label, model, opts) in enumerate(cases):
+        for s, (label, model, opts, i) in enumerate(scene_set(args.set)):
             print(f"… {label}", file=sys.stderr)
             if args.dsm:
                 r = run_dsm_case(
@@ -753,7 +783,7 @@ def main(argv=None):
                     model,
                     opts,
                     args.lines,
-                    os.path.join(folder, f"s{i:02d}"),
+                    os.path.join(folder, f"s{s:02d}"),
                     i,
                     deshadow=not args.no_deshadow,
                     additive=args.additive,
@@ -772,7 +802,7 @@ def main(argv=None):
                     file=sys.stderr,
                 )
                 continue
-            rows.append(run_case(label, model, opts, args.lines, os.path.join(folder, f"s{i:02d}")))
+            rows.append(run_case(label, model, opts, args.lines, os.path.join(folder, f"s{s:02d}")))
             r = rows[-1]
             print(
                 f"    map F1 {fmt(r['map'][2])} (wide {fmt(r['map_wide'])}), sunlit dark flagged "
@@ -780,15 +810,14 @@ def main(argv=None):
                 f"{r['seconds']:.0f} s; warnings: {r['warnings']}",
                 file=sys.stderr,
             )
-        text = dsm_table(rows) if args.dsm else table(rows)
-        print(text)
+        text = summary(rows, args.dsm) + "\n\n" + (dsm_table(rows) if args.dsm else table(rows))
         if args.markdown:
             with open(args.markdown, "w", encoding="utf-8") as fh:
                 fh.write(text + "\n")
     finally:
         if ctx is not None:
             ctx.cleanup()
-    return 0
+    return text
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Validate the relative DEM (paper §3.2) against the simulator's true DSM.
 
-    .venv/bin/python scripts/validate_dem.py [--lines 256] [--also dunes]
+    python -m validation dem [--lines 256] [--also dunes]
         [--vnir-nm 920 --vnir-to-nm 970 --swir-nm 980 --swir-to-nm 1100] [--markdown out.md]
 
 1. Large-squint geometry (3°, ~1 px of parallax per 30 m), "mixed" preset (~30 m of relief;
@@ -28,7 +28,6 @@
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 
@@ -41,8 +40,7 @@ from geoboresight.dem.offset import estimate_offset
 from geoboresight.dem.relative import relative_dem
 from geoboresight.simulate import simulate_scene
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "validation"))
-from scene_model2 import simulate2  # noqa: E402
+from .scene_model2 import simulate2
 
 BANDS = {"vnir": (920.0, None), "swir": (1010.0, None)}  # (from nm, to nm or None)
 
@@ -203,7 +201,7 @@ def sweep_table(make, window, min_peak, emit):
 
 def relief_scenes(group):
     """Eight scenes for the relief test's goal, as (label, make(squint) -> (vnir, swir, k,
-    dsm)). ``dev``: the scenes the block test was designed on (issue 15, third session).
+    dsm)). ``dev``: the scenes the block test was designed on.
     ``holdout``: drawn at random (generator seed 20261123) and run once: model 2 seeds 20–24,
     relief 8–40 m, 0–35 trees, sun zenith 25–55°, 256 × 200 px; simulator mixed seeds 2 and
     3, dunes seed 1 (256 lines, large-squint geometry)."""
@@ -267,7 +265,15 @@ def relief_goal_table(group, window, min_peak, emit):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    report(argv, echo=True)
+    return 0
+
+
+def report(argv=None, echo=False) -> str:
+    """Run the validation the arguments (``main``'s) select; the Markdown tables."""
+    ap = argparse.ArgumentParser(
+        prog="python -m validation dem", description=__doc__.splitlines()[0]
+    )
     ap.add_argument("--lines", type=int, default=256)
     ap.add_argument("--preset", default="mixed")
     ap.add_argument("--seed", type=int, default=0)
@@ -301,7 +307,8 @@ def main(argv=None):
     out: list[str] = []
 
     def emit(line=""):
-        print(line)
+        if echo:
+            print(line, flush=True)
         out.append(line)
 
     # 1 + 2: large squint ------------------------------------------------------------------
@@ -499,7 +506,7 @@ def main(argv=None):
     if args.markdown:
         with open(args.markdown, "w", encoding="utf-8") as f:
             f.write("\n".join(out) + "\n")
-    return 0
+    return "\n".join(out)
 
 
 if __name__ == "__main__":
