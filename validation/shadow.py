@@ -344,7 +344,12 @@ def run_case(label, model, opts, lines, folder):
     wide = ndimage.binary_opening(truth, np.ones((2, 2), bool))
     domain = valid & ~(truth & ~wide)  # thin (≤ 1 px) shadow left out of the count
     sunlit_dark = np.isin(material, dark_ids) & (f < 0.1) & valid
-    row = {"label": label, "truth_share": float(truth[valid].mean()), "isolation": cl["isolation"]}
+    row = {
+        "label": label,
+        "model": model,
+        "truth_share": float(truth[valid].mean()),
+        "isolation": cl["isolation"],
+    }
     for key, path in (
         ("map", "map_mask.tif"),
         ("table2", "table2.tif"),
