@@ -684,7 +684,7 @@ def summary(rows, dsm=False) -> str:
     key, goal, limit = ("dsm_wide", 0.90, 0.05) if dsm else ("map_wide", 0.85, 0.10)
     fa = "dsm_fa" if dsm else "map_fa"
     out = [
-        f"| model | scenes | F1 wide: range, mean | F1 wide ≥ {goal:.2f} | sunlit dark flagged: "
+        f"| model | scenes | F1 wide: range, mean | F1 wide ≥ {goal:.2f} (unrounded) | sunlit dark flagged: "
         f"range | flagged ≤ {round(100 * limit)} % |",
         "|---|---|---|---|---|---|",
     ]
@@ -695,8 +695,8 @@ def summary(rows, dsm=False) -> str:
         ok = np.isfinite(flagged)
         out.append(
             f"| {'simulator' if model == 1 else 'model 2'} | {len(rs)} | "
-            f"{np.nanmin(f1):.3f}–{np.nanmax(f1):.3f}, {np.nanmean(f1):.3f} | "
-            f"{int(np.sum(np.round(f1, 3) >= goal))} of {len(rs)} | "
+            f"{np.nanmin(f1):.4f}–{np.nanmax(f1):.4f}, {np.nanmean(f1):.3f} | "
+            f"{int(np.sum(f1 >= goal))} of {len(rs)} | "
             f"{100 * np.nanmin(flagged):.1f}–{100 * np.nanmax(flagged):.1f} % | "
             f"{int(np.sum(flagged[ok] <= limit))} of {int(ok.sum())} |"
         )
