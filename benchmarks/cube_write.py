@@ -1,5 +1,5 @@
 """Writing a spectral cube strip by strip (what ``deshadow`` does): geoboresight's GeoTIFF
-writer (tiled, deflate, band-interleaved since issue 24) against the same writer with GDAL's
+writer (tiled, deflate, band-interleaved) against the same writer with GDAL's
 default pixel interleaving (what rasterio gives a user who writes a multi-band GeoTIFF with
 ``rasterio.open(..., "w", tiled=True, compress="deflate")``), and the read of 3 bands a map
 viewer draws. Each case in a fresh process (wall time and peak RSS); a case that passes the

@@ -1,5 +1,5 @@
-"""What running the operations in an engine process costs (issue 11): the boresight ratio run
-by the library in a warm Python (what the 0.1 plugin did inside QGIS), by the engine as a new
+"""What running the operations in an engine process costs: the boresight ratio run
+by the library in a warm Python (as a plugin running inside QGIS's own Python would), by the engine as a new
 process (``geoboresight engine run``: process start, imports, JSON lines), through
 ``processing.run`` in QGIS (the plugin starts the engine), and by ``qgis_process.bin`` (a new
 QGIS per call). On the sample scene and on a synthetic 20,000-line flight line. Run with the
