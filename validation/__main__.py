@@ -125,6 +125,8 @@ SECTIONS = (
             "980",
             "--swir-to-nm",
             "1100",
+            "--sweep-windows",
+            "11,15,21,31",
         ),
         (
             "--lines",
@@ -239,6 +241,11 @@ def _commit() -> str:
     return head + ("-dirty" if changed else "")
 
 
+def _demoted(markdown: str) -> str:
+    """A part's own headings one level below the section's."""
+    return re.sub(r"^(#+) ", r"#\1 ", markdown, flags=re.M)
+
+
 def run_section(section: Section, quick: bool) -> str:
     """Run one section; its Markdown, with the command, commit, date and run time."""
     args = section.quick if quick else section.args
@@ -257,7 +264,7 @@ def run_section(section: Section, quick: bool) -> str:
             "",
             f"Made by `{command}` on commit {_commit()}, {when}, in {seconds:.0f} s.",
             "",
-            body.strip(),
+            _demoted(body.strip()),
             _END.format(section.name),
         ]
     )
