@@ -318,16 +318,18 @@ def main(argv=None) -> int:
     ap.add_argument("--report", type=pathlib.Path, help="the report to write")
     args = ap.parse_args(argv)
     path = args.report or (QUICK_REPORT if args.quick else REPORT)
-    parts = _sections_of(path.read_text(encoding="utf-8")) if path.exists() else {}
     for s in SECTIONS:
         if args.section and s.name not in args.section:
             continue
         if args.quick and s.quick is None:
             continue
         print(f"validation: {s.name} …", file=sys.stderr, flush=True)
-        parts[s.name] = run_section(s, args.quick)
-        write_report(path, parts)  # after each section, so that a long run keeps its parts
-    write_report(path, parts)
+        new = run_section(s, args.quick)
+        # The report as it is now (another run may have written other sections meanwhile),
+        # with this section replaced: written after each section, so a long run keeps its parts.
+        parts = _sections_of(path.read_text(encoding="utf-8")) if path.exists() else {}
+        parts[s.name] = new
+        write_report(path, parts)
     print(f"wrote {path}", file=sys.stderr)
     return 0
 
