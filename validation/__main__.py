@@ -283,7 +283,13 @@ def _sections_of(text: str) -> dict[str, str]:
 
 def write_report(path: pathlib.Path, parts: dict[str, str]) -> None:
     """The protocol, then the sections in their order (a section not run says so)."""
-    blocks = [PROTOCOL.rstrip()]
+    seconds = [int(s) for part in parts.values() for s in re.findall(r", in (\d+) s\.\n", part)]
+    blocks = [
+        PROTOCOL.rstrip(),
+        f"The {len(seconds)} sections run took {sum(seconds) / 60:.0f} min together (one "
+        "process at a time, on a machine whose 2 cores were shared with other jobs); "
+        "`make validate QUICK=1` takes about 4 min.",
+    ]
     for s in SECTIONS:
         blocks.append(
             parts.get(s.name)
