@@ -101,6 +101,16 @@ SECTIONS = (
         "against the sunlit pixels. Goal: every material within 5° and 10 %.",
     ),
     Section(
+        "deshadow-options",
+        "De-shadowing with the additive signal and the surroundings' light: development scenes",
+        "shadow",
+        ("--dsm", "--set", "dev", "--additive", "--adjacency"),
+        None,
+        "The same scenes and columns with `deshadow(additive=True, adjacency=True)` (the "
+        "surroundings' light only where the surface model is given); both are options, not "
+        "the default.",
+    ),
+    Section(
         "deshadow-holdout",
         "De-shadowing: hold-out scenes",
         "shadow",
