@@ -158,6 +158,15 @@ SECTIONS = (
         "and RMSE ≤ 3 m; offset within 0.1 px; height error within 1.5 σ_h.",
     ),
     Section(
+        "dem-relief-dev",
+        "The relief test (single bands, 920 / 1,010 nm) on its development scenes",
+        "dem",
+        ("--relief-scenes", "dev"),
+        None,
+        "The relief test's verdict on the eight scenes it was designed on (four of each "
+        "model) at six squints each. Goal: as below.",
+    ),
+    Section(
         "dem-relief",
         "The relief test (single bands, 920 / 1,010 nm) on hold-out scenes",
         "dem",
