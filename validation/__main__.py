@@ -223,6 +223,19 @@ random source and fixed in the code before the draw's first run. A hold-out set 
 with the method it scores fixed; it is not used to set anything, so it measures how the
 method does on scenes it was not tuned on. Sets that were looked at while a method was
 developed are called *seen*: they show how it carries over to other conditions, no more.
+The sets (`python -m validation shadow --set NAME`; eight scenes per draw, five of model 2
+and three of the simulator):
+
+- `holdout`: 24 scenes for the shadow map without a surface model, drawn before the
+  method was last changed;
+- `dsm-holdout`: 8 scenes for the shadow map with a surface model, drawn before its last
+  change (the cells the DSM shades in part) and run only after it; `dsm-seen`: 56 scenes
+  looked at while that path was developed;
+- `deshadow-holdout`: 16 scenes for de-shadowing, run only with the method as it is;
+  `deshadow-seen`: 32 scenes looked at while it was developed;
+- the relief test: 8 hold-out scenes (model 2 with 8–40 m of relief, 0–35 trees, sun
+  25–55°; simulator mixed and dunes) besides the 8 it was designed on;
+- the anomaly detectors: four hold-out seeds per scene model besides the development seed.
 
 **Scores.** Shadow: truth shadow = the model's shadow fraction ≥ 0.5; "F1 wide" leaves out
 truth shadow that a 2 × 2 opening removes (shadow no wider than a pixel); "flagged" is the
@@ -305,9 +318,9 @@ def write_report(path: pathlib.Path, parts: dict[str, str]) -> None:
     seconds = [int(s) for part in parts.values() for s in re.findall(r", in (\d+) s\.\n", part)]
     blocks = [
         PROTOCOL.rstrip(),
-        f"The {len(seconds)} sections run took {sum(seconds) / 60:.0f} min together (one "
-        "process at a time, on a machine whose 2 cores were shared with other jobs); "
-        "`make validate QUICK=1` takes about 4 min.",
+        f"The {len(seconds)} sections run took {sum(seconds) / 60:.0f} min together, on a "
+        "machine whose 2 cores were shared with other jobs; `make validate QUICK=1` takes "
+        "about 4 min.",
     ]
     for s in SECTIONS:
         blocks.append(
