@@ -226,8 +226,8 @@ developed are called *seen*: they show how it carries over to other conditions, 
 The sets (`python -m validation shadow --set NAME`; eight scenes per draw, five of model 2
 and three of the simulator):
 
-- `holdout`: 24 scenes for the shadow map without a surface model, drawn before the
-  method was last changed;
+- `holdout`: 24 scenes for the shadow map without a surface model; no change of that
+  method was adopted after they were drawn;
 - `dsm-holdout`: 8 scenes for the shadow map with a surface model, drawn before its last
   change (the cells the DSM shades in part) and run only after it; `dsm-seen`: 56 scenes
   looked at while that path was developed;
