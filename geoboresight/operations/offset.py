@@ -3,6 +3,8 @@ a flight line from the images alone, then remove it by resampling SWIR onto the 
 
 from __future__ import annotations
 
+from dataclasses import astuple
+
 import numpy as np
 
 from .. import io
@@ -16,6 +18,8 @@ from ..dem.coregister import (
 from ..dem.height import FlightGeometry
 from ..dem.offset import (
     PROFILE_ROWS,
+    Offset,
+    OffsetProfile,
     block_power,
     offset_angles,
     offset_of,
@@ -25,6 +29,7 @@ from ..dem.offset import (
 )
 from ..errors import InputError, ParameterError
 from ..io.bands import MatchBands, open_matching_pair
+from ..io.cache import files_key, remembered
 from ..io.dual import DualLayout
 from ..progress import as_progress
 from ._operation import operation
@@ -38,6 +43,40 @@ MIN_BLOCK = 8
 
 
 def line_offset(pair, profile_rows: int = 0, progress=None, *, given: str = ""):
+    """:func:`measure_line_offset`, remembered between runs for the same files and bands
+    (:func:`geoboresight.remembered`): the operations of a flight line that need the
+    offset then read the line for it once."""
+    progress = as_progress(progress)
+    dual = getattr(pair, "dual", None)
+    files = None
+    if dual is not None:
+        files = files_key([dual.vnir.reads, dual.swir.reads, pair.cloud_mask])
+    key = None
+    if files is not None:
+        key = {
+            "files": files,
+            "bands": [list(map(int, pair.vnir_bands)), list(map(int, pair.swir_bands))],
+            "profile_rows": int(profile_rows),
+            "block_rows": PROFILE_ROWS,
+        }
+
+    def measure():
+        off, prof = measure_line_offset(pair, profile_rows, progress, given=given)
+        encoded = {"offset": [off.along, off.across, off.error]}
+        if prof is not None:
+            encoded["profile"] = [v.tolist() for v in astuple(prof)]
+        return encoded
+
+    value, cached = remembered("boresight-offset", key, measure)
+    if cached:
+        progress.info("boresight offset as measured earlier on these files (cached)")
+    prof = value.get("profile")
+    return Offset(*value["offset"]), None if prof is None else OffsetProfile(
+        *(np.asarray(v, dtype=float) for v in prof)
+    )
+
+
+def measure_line_offset(pair, profile_rows: int = 0, progress=None, *, given: str = ""):
     """The global offset of a flight line and its drift, block by block through
     :func:`~geoboresight.io.map_windows` (memory bounded by a block, whatever the line's length).
 
