@@ -107,3 +107,15 @@ def test_plugins_xml_is_written_from_the_zips_metadata(tmp_path):
     )
     assert (tmp_path / "repo" / node.findtext("file_name")).read_bytes() == zip_path.read_bytes()
     assert node.findtext("experimental") == meta["experimental"]
+
+
+def test_the_gallery_shows_each_command_as_a_shell_runs_it():
+    import shlex
+
+    gallery = site._gallery_module()
+    for figure in gallery.FIGURES:
+        for kind, text in figure["steps"]:
+            if kind == "sh":
+                shown = site._wrapped(text)
+                assert all(len(line) <= 100 for line in shown.splitlines()), shown
+                assert shlex.split(shown.replace("\\\n", "")) == shlex.split(text)

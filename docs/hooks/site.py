@@ -213,6 +213,22 @@ def run_gallery() -> dict[str, pathlib.Path]:
     return images
 
 
+def _wrapped(command: str, width: int = 92) -> str:
+    """A long command on several lines, broken before options (``\\`` continuations: the
+    same command for a shell)."""
+    segments = []  # each option with its values
+    for word in shlex.split(command):
+        if word.startswith("-") or not segments:
+            segments.append([])
+        segments[-1].append(shlex.quote(word))
+    lines = [""]
+    for segment in map(" ".join, segments):
+        if lines[-1] and len(lines[-1]) + len(segment) + 1 > width - 6:
+            lines.append("")
+        lines[-1] = f"{lines[-1]} {segment}".strip()
+    return " \\\n    ".join(lines)
+
+
 def gallery_page() -> str:
     gallery = _gallery_module()
     lines = [
@@ -228,8 +244,10 @@ def gallery_page() -> str:
         name = pathlib.PurePosixPath(figure["image"]).name
         lines += [f"## {figure['figure']}: {figure['title']}", "", figure["caption"], ""]
         for kind, text in figure["steps"]:
-            lang = "bash" if kind == "sh" else "python"
-            lines += [f"```{lang}", text.strip(), "```", ""]
+            if kind == "sh":
+                lines += ["```bash", _wrapped(text), "```", ""]
+            else:
+                lines += ["```python", text.strip(), "```", ""]
         lines += [f"![{figure['figure']}: {figure['title']}](gallery/{name})", ""]
     return "\n".join(lines)
 
