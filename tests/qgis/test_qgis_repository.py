@@ -29,7 +29,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 
 
 @pytest.fixture(scope="module")
-def session(tmp_path_factory):
+def qgis_run(tmp_path_factory):
     for tool in ("qgis", "xvfb-run"):
         if not shutil.which(tool):
             pytest.skip(f"{tool} not found (apt packages qgis, xvfb)")
@@ -92,8 +92,8 @@ def session(tmp_path_factory):
     return report, repo
 
 
-def test_plugins_xml_is_the_plugin_managers_format(session):
-    _, repo = session
+def test_plugins_xml_is_the_plugin_managers_format(qgis_run):
+    _, repo = qgis_run
     root = ET.parse(repo / "plugins.xml").getroot()
     (node,) = root.findall("pyqgis_plugin")
     assert node.get("version") == __version__
@@ -103,8 +103,8 @@ def test_plugins_xml_is_the_plugin_managers_format(session):
     assert node.findtext("download_url").endswith(node.findtext("file_name"))
 
 
-def test_qgis_installs_the_plugin_from_the_repository(session):
-    report, _ = session
+def test_qgis_installs_the_plugin_from_the_repository(qgis_run):
+    report, _ = qgis_run
     assert report["repository"]["state"] == 2, report["repository"]  # Repositories.STATE_LOADED
     assert not report.get("message_boxes"), report["message_boxes"]
     available = report["available"]
@@ -117,8 +117,8 @@ def test_qgis_installs_the_plugin_from_the_repository(session):
 
 
 @pytest.mark.parametrize("name", list(registry()))
-def test_the_dialog_fits_its_window(session, name):
-    report, _ = session
+def test_the_dialog_fits_its_window(qgis_run, name):
+    report, _ = qgis_run
     d = report["dialogs"][name]
     assert "error" not in d, d
     assert d["collapsed"] == [], d  # advanced parameters shown too
