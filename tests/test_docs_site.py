@@ -69,7 +69,7 @@ def test_links_leaving_docs_point_at_the_repository_and_a_missing_file_warns(cap
 def test_the_home_page_is_the_readme_with_links_from_docs():
     home = site.home_page()
     assert home.startswith("# geoboresight")
-    assert "](docs/" not in home and "[docs/qgis.md](qgis.md)" in home
+    assert "](docs/" not in home and "](qgis.md)" in home
 
 
 def test_the_gallery_shows_the_papers_figures_with_their_commands():
