@@ -91,6 +91,15 @@ PAPER_SUNLIT_RATIO = 1.31
 MIN_SIGNAL = 0.5
 
 
+def log_fraction_text(darkness: float) -> str:
+    """A darkness (natural log of a signal over its sunlit mode) as the provenance gives it:
+    ``"ln 1/3"`` for ``log(1/3)``, else the number (``"-0.800"``)."""
+    n = 1.0 / math.exp(darkness)
+    if abs(n - round(n)) < 1e-9 and round(n) >= 1:
+        return f"ln 1/{round(n)}"
+    return f"{darkness:.3f}"
+
+
 @dataclass(frozen=True)
 class DarkLevel:
     """The DN of zero signal of one instrument and how it was found."""
