@@ -178,43 +178,9 @@ def sun_shadow_file(
             cos_i = ill.hillshade(z, valid, **sun, z_factor=z_factor) if hillshade else None
             return frac, valid, cos_i
 
-        n_shadow = 0
-        with contextlib.ExitStack() as stack:
-            fdst = stack.enter_context(
-                io.create_raster(output, grid, tags=tags, band_names=["shadow fraction"])
-            )
-            mdst = hdst = None
-            if mask:
-                mdst = stack.enter_context(
-                    mask_raster(mask, grid, tags, "shadow mask (fraction ≥ 0.5)")
-                )
-            if hillshade:
-                hdst = stack.enter_context(
-                    io.create_raster(
-                        hillshade,
-                        grid,
-                        tags={**tags, "product": "cosine of the solar incidence angle"},
-                        band_names=["cos(incidence)"],
-                    )
-                )
-            for win, (frac, ok, cos_i) in io.map_windows(
-                read,
-                kernel,
-                halo=halo,
-                progress=progress.sub(0.1, 1.0),
-                message="marching towards the sun",
-                **strips,
-            ):
-                fdst.write(np.where(ok, frac, io.FLOAT_NODATA).astype("float32"), 1, window=win)
-                shadow = frac >= ill.MASK_FRACTION
-                n_shadow += int(shadow[ok].sum())
-                if mdst is not None:
-                    m = np.where(ok, shadow.astype(np.uint8), MASK_NODATA)
-                    mdst.write(m.astype(np.uint8), 1, window=win)
-                if hdst is not None:
-                    hdst.write(
-                        np.where(ok, cos_i, io.FLOAT_NODATA).astype("float32"), 1, window=win
-                    )
+        n_shadow = _write_sun_shadow(
+            read, kernel, grid, tags, (output, mask, hillshade), halo, strips, progress
+        )
     out = {
         "output": output,
         "shadow_pixels": n_shadow,
@@ -227,6 +193,47 @@ def sun_shadow_file(
     if hillshade:
         out["hillshade"] = hillshade
     return out
+
+
+def _write_sun_shadow(read, kernel, grid, tags, paths, halo, strips, progress) -> int:
+    """The shadow fraction (and mask, hillshade) written strip by strip; the shadow pixels."""
+    output, mask, hillshade = paths
+    n_shadow = 0
+    with contextlib.ExitStack() as stack:
+        fdst = stack.enter_context(
+            io.create_raster(output, grid, tags=tags, band_names=["shadow fraction"])
+        )
+        mdst = hdst = None
+        if mask:
+            mdst = stack.enter_context(
+                mask_raster(mask, grid, tags, "shadow mask (fraction ≥ 0.5)")
+            )
+        if hillshade:
+            hdst = stack.enter_context(
+                io.create_raster(
+                    hillshade,
+                    grid,
+                    tags={**tags, "product": "cosine of the solar incidence angle"},
+                    band_names=["cos(incidence)"],
+                )
+            )
+        for win, (frac, ok, cos_i) in io.map_windows(
+            read,
+            kernel,
+            halo=halo,
+            progress=progress.sub(0.1, 1.0),
+            message="marching towards the sun",
+            **strips,
+        ):
+            fdst.write(np.where(ok, frac, io.FLOAT_NODATA).astype("float32"), 1, window=win)
+            shadow = frac >= ill.MASK_FRACTION
+            n_shadow += int(shadow[ok].sum())
+            if mdst is not None:
+                m = np.where(ok, shadow.astype(np.uint8), MASK_NODATA)
+                mdst.write(m.astype(np.uint8), 1, window=win)
+            if hdst is not None:
+                hdst.write(np.where(ok, cos_i, io.FLOAT_NODATA).astype("float32"), 1, window=win)
+    return n_shadow
 
 
 # --------------------------------------------------------------------------- dark-pixel-shadow
