@@ -234,6 +234,21 @@ def boresight_offset_file(
     return {"output": output, **{k: v for k, v in result.items() if k != "profile"}}
 
 
+def _band_means(read, n: int, strips: dict, progress) -> np.ndarray:
+    """Each band's mean over its valid pixels (0 where none): invalid pixels are filled with
+    it before interpolation, the whole band's, so that every strip fills alike."""
+    sums, counts = io.reduce_windows(
+        read,
+        _valid_sums,
+        _add,
+        (np.zeros(n), np.zeros(n, np.int64)),
+        **strips,
+        progress=progress,
+        message="band means",
+    )
+    return np.where(counts > 0, sums / np.maximum(counts, 1), 0.0)
+
+
 def _valid_sums(values, valid):
     """Per band: the sum of the valid values (float64) and their number."""
     return (
@@ -359,18 +374,7 @@ def coregister_file(
         ) as dst,
     ):
         read = masked_bands_reader(src, sensor.bands)
-        # Invalid pixels are filled with their band's mean before interpolation: the whole
-        # band's, so that every strip fills alike.
-        sums, counts = io.reduce_windows(
-            read,
-            _valid_sums,
-            _add,
-            (np.zeros(n), np.zeros(n, np.int64)),
-            **strips,
-            progress=progress.sub(0.2, 0.4),
-            message="band means",
-        )
-        fill = np.where(counts > 0, sums / np.maximum(counts, 1), 0.0)
+        fill = _band_means(read, n, strips, progress.sub(0.2, 0.4))
 
         def shift(values, valid, *, block):
             lines = slice(block.row0, block.row0 + values.shape[1])

@@ -310,17 +310,7 @@ def shadow_cluster_file(
                 if pdst is not None:
                     pdst.write(np.where(np.isfinite(p), p, io.FLOAT_NODATA), 1, window=win)
             if plot:
-                from ..io.write import save_figure
-                from ..shadow.plots import cluster_figure
-
-                keep = np.flatnonzero(good)[:PLOT_POINTS]
-                pr = cluster.probability(pixels[0, keep], pixels[1, keep])
-                save_figure(
-                    cluster_figure(
-                        pixels[0, keep], pixels[1, keep], pr >= probability, cluster, nir_found
-                    ),
-                    plot,
-                )
+                _cluster_plot(plot, pixels[:, good], cluster, probability, nir_found)
     out = {
         "output": output,
         "components": cluster.n_components,
@@ -329,11 +319,18 @@ def shadow_cluster_file(
         "nir_band": nir_band,
         "warnings": [warning] if warning else [],
     }
-    if probability_output:
-        out["probability_output"] = probability_output
-    if plot:
-        out["plot"] = plot
+    out.update((k, v) for k, v in (("probability_output", probability_output), ("plot", plot)) if v)
     return out
+
+
+def _cluster_plot(plot, pixels, cluster, probability, nir_found) -> None:
+    """The cluster figure of at most :data:`PLOT_POINTS` of the sampled (ratio, NIR) pairs."""
+    from ..io.write import save_figure
+    from ..shadow.plots import cluster_figure
+
+    x, y = pixels[0, :PLOT_POINTS], pixels[1, :PLOT_POINTS]
+    shaded = cluster.probability(x, y) >= probability
+    save_figure(cluster_figure(x, y, shaded, cluster, nir_found), plot)
 
 
 # ------------------------------------------------------------------------- shadow-fraction-fit
