@@ -4,7 +4,10 @@ shadowed pixel scaled to its sunlit signal out (:mod:`geoboresight.shadow.deshad
 Two passes over the flight line: the pairs of shadowed and sunlit pixels across shadow edges
 give each band's illumination ratio (on the VNIR grid, the SWIR resampled by the boresight
 offset); then the cube is written strip by strip, each instrument on its own grid (the
-fraction shifted onto the SWIR's).
+fraction shifted onto the SWIR's). The steps are kernels of
+:mod:`geoboresight.shadow.deshadow_steps` (:func:`~geoboresight.shadow.deshadow_steps.edge_pairs`,
+:func:`~geoboresight.shadow.deshadow_steps.fit_illumination`,
+:func:`~geoboresight.shadow.deshadow_steps.deshadow_block`).
 """
 
 from __future__ import annotations

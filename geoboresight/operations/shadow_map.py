@@ -1,11 +1,15 @@
 """File-level shadow map (paper §3.1, made physical): VNIR + SWIR in, a shadow mask and the
 four shadow-fraction classes out, calibrated to the scene (:mod:`geoboresight.shadow.map`).
 
-Two passes over the flight line: a random sample calibrates the map (dark levels, sunlit
-modes, sunlit ratio, the scaled class table) and a central block of lines gives the boresight
-offset; then the map is written strip by strip, each strip by the kernel
-:func:`geoboresight.shadow.map.shadow_map_block`. The dark levels are found in
-:mod:`geoboresight.io.dark`.
+Read → kernel steps → write. A random sample calibrates the map (dark levels, sunlit modes,
+sunlit ratio, the scaled class table: :func:`geoboresight.shadow.map.calibrate_shadow_map`)
+and a central block of lines gives the boresight offset; with a surface model, the same
+block registers its cast shadow onto the image (:func:`geoboresight.shadow.prior.register_prior`).
+Then the map is written strip by strip, each strip's fraction by
+:func:`geoboresight.shadow.map.shadow_fraction_block`, or with the surface model by
+:func:`geoboresight.shadow.prior.prior_map_block`. What this shares with other operations
+(dark levels, the offset, opening the surface model, the sun) is in
+:mod:`geoboresight.operations._shared`.
 """
 
 from __future__ import annotations

@@ -193,9 +193,9 @@ def prior_halo(
     return halo + cast_halo[0] + up, halo + cast_halo[1] + down
 
 
-def _model_fraction(blue, nir, swir, valid, heights, heights_valid, prior, unseen, **kw):
-    """:func:`geoboresight.shadow.map.shadow_fraction_block` with the surface model."""
-    p = kw.pop("surface_prior")
+def _model_fraction(blue, nir, swir, valid, heights, heights_valid, prior, unseen, p, **block):
+    """:func:`geoboresight.shadow.map.shadow_fraction_block` with the surface model: the
+    ``prior`` and the ``unseen`` pixels of the block, ``p`` its :class:`SurfacePrior`."""
     return smap.shadow_fraction_block(
         blue,
         nir,
@@ -207,7 +207,7 @@ def _model_fraction(blue, nir, swir, valid, heights, heights_valid, prior, unsee
         unseen=unseen,
         ray=p.ray,
         reach=p.reach,
-        **kw,
+        **block,
     )
 
 
@@ -281,7 +281,7 @@ def prior_map_block(
         heights_valid,
         prior,
         unseen,
-        surface_prior=surface_prior,
+        surface_prior,
         **kw,
     )
     holes = ok & ~np.asarray(heights_valid, bool)
@@ -348,7 +348,7 @@ def register_prior(
         heights_valid,
         prior,
         unseen,
-        surface_prior=surface_prior,
+        surface_prior,
         calibration=calibration,
         dark_levels=dark_levels,
         edge_pixels=edge_pixels,
