@@ -85,6 +85,9 @@ TILES = 4
 REGISTRATION_T = 2.0
 #: How far (px) a cast shadow predicted from a surface model may be off (registration).
 DSM_TOLERANCE = 1
+#: A cell the surface model shades at least this much is in its predicted shadow: more than
+#: half of it shaded, the share at which the shadow mask counts a pixel as shadow.
+PREDICTED_SHADOW = 0.5
 #: The sunlit ratio of the paper's scenes: Figure 5(B)'s line at shadow fraction 0 (1.31).
 PAPER_SUNLIT_RATIO = 1.31
 #: Smallest signal (DN above the dark level) used in logarithms.
@@ -676,7 +679,7 @@ def dsm_shadow_fraction(
     (§3.1: the shadow simulated from a surface model and the sun).
     """
     d, ok, p, z = _checked_inputs(dark, valid, prior, heights, edge_pixels, window, tolerance)
-    shaded = p >= 0.5
+    shaded = p >= PREDICTED_SHADOW
     # Where the model shades at least half a pixel, give or take the tolerance (sub-cells
     # shaded by height noise on open ground stay out), and down-sun of it by the ``reach`` the
     # clearance takes off a shadow's far end (on level ground).
@@ -850,7 +853,7 @@ def prior_agreement(
         ok &= np.asarray(valid, bool)
     with np.errstate(invalid="ignore"):
         dk = ok & (d <= rim)
-    pr = np.nan_to_num(np.asarray(prior, np.float64), nan=0.0) >= 0.5
+    pr = np.nan_to_num(np.asarray(prior, np.float64), nan=0.0) >= PREDICTED_SHADOW
     m = int(max_shift)
     h, w = d.shape
     inner = np.zeros(d.shape, bool)

@@ -289,7 +289,7 @@ def prior_map_block(
         f_spectral, _ = smap.shadow_fraction_block(blue, nir, swir, ok, **kw)
         f = np.where(holes, f_spectral, f)
     defined = np.isfinite(f)
-    deep = ndimage.binary_erosion(prior >= 0.5) & defined
+    deep = ndimage.binary_erosion(prior >= smap.PREDICTED_SHADOW) & defined
     with np.errstate(invalid="ignore"):
         lit = deep & (d > smap.LIT_DARKNESS)
     return PriorBlock(f, deep, lit, unseen & defined, holes & defined)
