@@ -37,15 +37,49 @@ PAIR_BUCKETS = 1000
 
 
 def pair_share(shape: tuple[int, int], pixels: int = PAIR_PIXELS) -> int:
-    """Of :data:`PAIR_BUCKETS`, how many buckets of pixels a flight line of ``shape`` (lines,
-    columns) looks for pairs in: ``pixels`` of it, at least one bucket, at most all."""
+    """How many of the :data:`PAIR_BUCKETS` buckets of pixels a flight line looks for pairs
+    in, so that about ``pixels`` of it are looked at.
+
+    Parameters
+    ----------
+    shape : (int, int)
+        Lines and columns of the flight line.
+    pixels : int
+        Pixels to look at.
+
+    Returns
+    -------
+    int
+        At least 1, at most :data:`PAIR_BUCKETS` (every pixel).
+    """
     n = shape[0] * shape[1]
     return max(1, min(PAIR_BUCKETS, round(PAIR_BUCKETS * pixels / n)))
 
 
 def picked_pixels(row0: int, shape: tuple[int, int], share: int) -> np.ndarray:
-    """The pixels (bool, ``shape``) of a block starting at line ``row0`` whose hash
-    (:data:`PAIR_HASH`) falls in the first ``share`` of :data:`PAIR_BUCKETS` buckets."""
+    """The pixels of a block whose spatial hash falls in the first ``share`` buckets: the
+    same pixels whatever the strips a line is read in.
+
+    Parameters
+    ----------
+    row0 : int
+        The block's first line in the flight line.
+    shape : (int, int)
+        The block's lines and columns.
+    share : int
+        Buckets of :data:`PAIR_BUCKETS` kept (:func:`pair_share`).
+
+    Returns
+    -------
+    bool array (lines, columns)
+        ``(row·h₁ XOR column·h₂) mod`` :data:`PAIR_BUCKETS` ``< share``, ``(h₁, h₂)`` =
+        :data:`PAIR_HASH`.
+
+    References
+    ----------
+    Teschner, M.; Heidelberger, B.; Müller, M.; Pomeranets, D.; Gross, M. H. Optimized
+    spatial hashing for collision detection of deformable objects. VMV 2003, 47–54.
+    """
     rr, cc = np.mgrid[row0 : row0 + shape[0], 0 : shape[1]]
     return (rr * PAIR_HASH[0] ^ cc * PAIR_HASH[1]) % PAIR_BUCKETS < share
 
@@ -53,8 +87,21 @@ def picked_pixels(row0: int, shape: tuple[int, int], share: int) -> np.ndarray:
 def darkest_pixels(
     signal: np.ndarray, valid: np.ndarray | None = None, *, n: int = ds.DARK_PIXELS
 ) -> np.ndarray:
-    """The ``n`` darkest valid pixels of ``signal`` (bands, lines, columns) by their mean over
-    the bands, as rows (pixels, bands; float32): the dark object's candidates."""
+    """The dark object's candidates: the ``n`` darkest valid pixels by their mean over the
+    bands (:func:`geoboresight.shadow.deshadow.dark_object`).
+
+    Parameters
+    ----------
+    signal : array (bands, lines, columns)
+    valid : bool array (lines, columns), optional
+        Pixels to look at; a pixel with a non-finite band is always left out.
+    n : int
+
+    Returns
+    -------
+    float32 array (pixels, bands)
+        At most ``n`` rows, in no particular order.
+    """
     use = np.isfinite(signal).all(axis=0)
     if valid is not None:
         use &= np.asarray(valid, bool)
@@ -65,7 +112,8 @@ def darkest_pixels(
 
 
 def keep_darkest(pixels: np.ndarray, n: int = ds.DARK_PIXELS) -> np.ndarray:
-    """The ``n`` darkest rows of ``pixels`` (pixels, bands) by their mean (stable order)."""
+    """The ``n`` darkest rows of ``pixels`` (pixels, bands) by their mean over the bands
+    (a stable sort: ties keep their order); all of them when there are no more than ``n``."""
     if pixels.shape[0] <= n:
         return pixels
     return pixels[np.argsort(pixels.mean(axis=1), kind="stable")[:n]]
@@ -203,7 +251,9 @@ def _incidence(heights, surface_prior, n: int) -> np.ndarray:
 
 
 def merge_edge_pairs(a: EdgePairs, b: EdgePairs, n_dark: int = ds.DARK_PIXELS) -> EdgePairs:
-    """The pairs of two blocks together; the ``n_dark`` darkest pixels of both."""
+    """The pairs of two blocks together (``a``'s first) and the ``n_dark`` darkest pixels of
+    both instruments (:func:`keep_darkest`): the merge of
+    :func:`geoboresight.io.windows.reduce_windows` over :func:`edge_pairs`."""
     return EdgePairs(
         np.concatenate([a.shaded, b.shaded]),
         np.concatenate([a.sunlit, b.sunlit]),
@@ -251,6 +301,24 @@ def fit_illumination(
     With ``adjacency``, the light of the sunlit surroundings fitted with the ratio
     (:func:`geoboresight.shadow.deshadow.adjacency_ratio`). A band whose pairs do not say the
     sun brightens it (noise, absorption bands) is left as it is: ratio 1.
+
+    Parameters
+    ----------
+    pairs : EdgePairs
+        Of the whole flight line (:func:`edge_pairs`, :func:`merge_edge_pairs`).
+    wavelengths : array (bands,)
+        Band centres (nm): the pairs of one surface have a smooth ratio spectrum.
+    surface, additive, adjacency : bool
+        A surface model gave the pairs' sky views and incidence; estimate the additive
+        signal; the light of the surroundings.
+
+    Returns
+    -------
+    IlluminationFit
+
+    References
+    ----------
+    Richter, R.; Müller, A. Int. J. Remote Sens. 2005, 26, 3137–3148 (de-shadowing).
     """
     a, b, pv = pairs.shaded, pairs.sunlit, pairs.views
     wl = np.asarray(wavelengths, float)
@@ -302,8 +370,22 @@ def fit_illumination(
 
 
 def fraction_on_swir_grid(fraction: np.ndarray, offset: tuple[float, float], valid=None):
-    """A VNIR-grid raster (the shadow fraction, the sky view) moved onto the SWIR's grid by
-    the boresight ``offset`` (bilinear; NaN where it has no value)."""
+    """A raster of the VNIR grid (the shadow fraction, the sky view) on the SWIR's grid.
+
+    Parameters
+    ----------
+    fraction : array (lines, columns)
+    offset : (float, float)
+        Boresight offset of the SWIR (px, along and across): the raster is moved back by it
+        (:func:`geoboresight.dem.coregister.coregister`, bilinear).
+    valid : bool array (lines, columns), optional
+        Cells with a value (default: the finite ones).
+
+    Returns
+    -------
+    array (lines, columns)
+        NaN where the moved raster has no value.
+    """
     from ..dem.coregister import coregister
 
     ok = np.isfinite(fraction) if valid is None else valid

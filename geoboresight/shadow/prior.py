@@ -81,11 +81,42 @@ def surface_prior(
     clearance: float,
     shape: tuple[int, int],
 ) -> SurfacePrior:
-    """The :class:`SurfacePrior` of a surface model of ``shape`` (lines, columns) with
-    ``relief`` (m) and highest height ``top`` (m): the ray towards the sun, one cell a step,
-    and the steps it takes to clear the relief, and the ``reach`` of the clearance,
-    ``clearance / rise`` cells (the sun line rises ``rise`` m per cell towards the sun, so a
-    shadow on level ground ends that many cells short)."""
+    """The :class:`SurfacePrior` of a surface model: the ray towards the sun, one cell a
+    step, the steps it takes to clear the relief, and the ``reach`` of the clearance.
+
+    The sun line rises ``rise`` m per cell towards the sun
+    (:func:`geoboresight.shadow.illumination.sun_step`), so a caster that must clear it by
+    ``clearance`` m casts a shadow on level ground ``clearance / rise`` cells short
+    (``clearance · tan(zenith)`` metres).
+
+    Parameters
+    ----------
+    relief : float
+        Highest minus lowest height (m): how far a shadow can reach.
+    top : float
+        The highest valid height (m).
+    sun_zenith, sun_azimuth : float
+        Degrees; the azimuth clockwise from the grid's north towards the sun.
+    transform : array (2, 2)
+        The grid's geometry in metres (:func:`geoboresight.shadow.illumination.grid_matrix`).
+    surface : {"blocks", "smooth"}
+        Flat-topped cells or an interpolated surface
+        (:data:`geoboresight.shadow.illumination.SURFACES`).
+    clearance : float
+        Height (m) a caster must rise above the sun line to cast shadow.
+    shape : (int, int)
+        Lines and columns of the whole grid.
+
+    Returns
+    -------
+    SurfacePrior
+        Unmoved (``shift`` (0, 0)).
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484
+    (§3.1: the shadow simulated from a surface model and the sun).
+    """
     drow, dcol, rise = ill.sun_step(sun_zenith, sun_azimuth, transform, 1.0)
     steps = ill.march_steps(relief, rise, shape, drow, dcol)
     return SurfacePrior(
@@ -118,9 +149,22 @@ def _cast(surface_prior: SurfacePrior) -> dict:
 def sub_cell_cast(
     heights: np.ndarray, valid: np.ndarray | None = None, *, surface_prior: SurfacePrior
 ) -> np.ndarray:
-    """The cast shadow on the sub-cell grid (bool, unmoved), as the prior casts it (with the
-    clearance): :func:`geoboresight.shadow.illumination.sub_cell_shadow`. What is registered
-    is the prior the refinement starts from."""
+    """The cast shadow on the sub-cell grid, as the prior casts it (with the clearance),
+    unmoved: what is registered is the prior the refinement starts from.
+
+    Parameters
+    ----------
+    heights : array (lines, columns)
+        The surface model's heights (m).
+    valid : bool array (lines, columns), optional
+        Cells with a height.
+    surface_prior : SurfacePrior
+
+    Returns
+    -------
+    bool array (lines × :data:`~geoboresight.shadow.illumination.SUPERSAMPLE`, columns × it)
+        :func:`geoboresight.shadow.illumination.sub_cell_shadow`.
+    """
     return ill.sub_cell_shadow(heights, valid, **_cast(surface_prior))
 
 
@@ -131,9 +175,25 @@ def prior_fraction(
     surface_prior: SurfacePrior,
     sub_cells: np.ndarray | None = None,
 ) -> np.ndarray:
-    """The cast-shadow fraction of each cell (float32; NaN where invalid), the shadow moved
-    by ``surface_prior.shift``: :func:`geoboresight.shadow.illumination.shadow_fraction`, or
-    from ``sub_cells`` (:func:`sub_cell_cast` of the same block) when already cast."""
+    """The cast-shadow fraction of each cell: the shadow map's prior.
+
+    Parameters
+    ----------
+    heights : array (lines, columns)
+        The surface model's heights (m).
+    valid : bool array (lines, columns), optional
+        Cells with a height.
+    surface_prior : SurfacePrior
+        Its ``shift`` moves the cast shadow (the registration).
+    sub_cells : bool array, optional
+        :func:`sub_cell_cast` of the same block, when already cast.
+
+    Returns
+    -------
+    float32 array (lines, columns)
+        0–1, NaN where invalid: :func:`geoboresight.shadow.illumination.shadow_fraction`, or
+        :func:`geoboresight.shadow.illumination.cell_fraction` of ``sub_cells``.
+    """
     if sub_cells is None:
         return ill.shadow_fraction(
             heights, valid, shift=surface_prior.shift, **_cast(surface_prior)
@@ -145,9 +205,24 @@ def prior_fraction(
 def registered_heights(
     heights: np.ndarray, valid: np.ndarray | None = None, *, surface_prior: SurfacePrior
 ) -> np.ndarray:
-    """The heights moved with the cast shadow by ``surface_prior.shift`` (bilinear; NaN where
-    the nearest source cell has none, or is invalid), so that a caster's top stays beside its
-    shadow."""
+    """The heights moved with the cast shadow, so that a caster's top stays beside its
+    shadow.
+
+    Parameters
+    ----------
+    heights : array (lines, columns)
+        The surface model's heights (m).
+    valid : bool array (lines, columns), optional
+        Cells with a height.
+    surface_prior : SurfacePrior
+        Its ``shift`` (rows, columns) is the move.
+
+    Returns
+    -------
+    array (lines, columns)
+        Moved bilinearly (:func:`scipy.ndimage.shift`); NaN where the nearest source cell
+        has no height, or is invalid.
+    """
     z = np.asarray(heights, np.float64) if valid is None else np.where(valid, heights, np.nan)
     if tuple(surface_prior.shift) == (0.0, 0.0):
         return z
@@ -164,8 +239,24 @@ def unseen_pixels(
     surface_prior: SurfacePrior,
     row0: int = 0,
 ) -> np.ndarray:
-    """Pixels of the lines ``row0`` on that a caster beyond the surface model's edge could
-    shade: :func:`geoboresight.shadow.illumination.unseen_casters`."""
+    """The pixels a caster beyond the surface model's edge could shade.
+
+    Parameters
+    ----------
+    heights : array (lines, columns)
+        The surface model's heights (m) on lines ``row0`` on of the grid.
+    valid : bool array (lines, columns), optional
+        Cells with a height.
+    surface_prior : SurfacePrior
+        Its ``top``, ``clearance`` and ``height`` (the whole grid's lines) bound the casters.
+    row0 : int
+        The block's first line in the grid.
+
+    Returns
+    -------
+    bool array (lines, columns)
+        :func:`geoboresight.shadow.illumination.unseen_casters`.
+    """
     p = surface_prior
     return ill.unseen_casters(
         heights,
@@ -183,10 +274,23 @@ def unseen_pixels(
 def prior_halo(
     surface_prior: SurfacePrior, halo: int, cast_halo: tuple[int, int]
 ) -> tuple[int, int]:
-    """Lines (above, below) a block of the map with a surface model needs: the spectral
-    ``halo`` (:func:`geoboresight.shadow.map.shadow_map_halo`), the cast's ``cast_halo``
-    (:func:`geoboresight.shadow.illumination.halo_rows`), and the sweep of the predicted
-    shadow's far end, ``ceil(reach · |Δrow|) + 1`` lines towards the sun."""
+    """Lines a block of the map with a surface model needs around it.
+
+    Parameters
+    ----------
+    surface_prior : SurfacePrior
+    halo : int
+        The spectral halo (:func:`geoboresight.shadow.map.shadow_map_halo`).
+    cast_halo : (int, int)
+        The cast's (above, below) (:func:`geoboresight.shadow.illumination.halo_rows`).
+
+    Returns
+    -------
+    (int, int)
+        Lines above and below: both halos, and towards the sun the sweep of the predicted
+        shadow's far end, ``ceil(reach · |Δrow|) + 1`` lines
+        (:func:`geoboresight.shadow.map.dsm_shadow_fraction`).
+    """
     drow = surface_prior.ray[0]
     sweep = int(np.ceil(surface_prior.reach * abs(drow))) + 1
     up, down = (sweep, 0) if drow < 0 else (0, sweep)
