@@ -203,7 +203,7 @@ def edge_pairs(
     dark_v = darkest_pixels(sig[:n_vnir], ok & own)
     dark_s = darkest_pixels(sig[n_vnir:], ok & own)
     for i in range(n_vnir, sig.shape[0]):
-        sig[i], _ = coregister(sig[i], offset[0], offset[1], ok, order=1, fill=0.0)
+        sig[i], _ = coregister(sig[i], offset[0], offset[1], ok, order=1)
     toward_sun = None
     if surface_prior is not None:
         p = surface_prior
@@ -389,7 +389,7 @@ def fraction_on_swir_grid(fraction: np.ndarray, offset: tuple[float, float], val
     from ..dem.coregister import coregister
 
     ok = np.isfinite(fraction) if valid is None else valid
-    g, g_ok = coregister(np.where(ok, fraction, 0.0), -offset[0], -offset[1], ok, order=1, fill=0.0)
+    g, g_ok = coregister(np.where(ok, fraction, 0.0), -offset[0], -offset[1], ok, order=1)
     return np.where(g_ok, g, np.nan)
 
 
