@@ -196,14 +196,17 @@ def edge_pairs(
     -------
     EdgePairs
     """
-    from ..dem.coregister import coregister
+    from ..dem.coregister import coregister_stack
 
     sig = np.array(signal, np.float64)
     ok = np.ones(fraction.shape, bool) if valid is None else np.asarray(valid, bool)
     dark_v = darkest_pixels(sig[:n_vnir], ok & own)
     dark_s = darkest_pixels(sig[n_vnir:], ok & own)
-    for i in range(n_vnir, sig.shape[0]):
-        sig[i], _ = coregister(sig[i], offset[0], offset[1], ok, order=1)
+    # The SWIR bands onto the VNIR grid together (one mask): NaN where a tap is invalid.
+    swir = sig[n_vnir:]
+    s_ok = ok & np.isfinite(swir).all(axis=0)
+    shifted, s_ok = coregister_stack(np.where(s_ok, swir, 0.0), *offset[:2], s_ok, order=1)
+    sig[n_vnir:] = np.where(s_ok, shifted, np.nan)
     toward_sun = None
     if surface_prior is not None:
         p = surface_prior
