@@ -17,7 +17,7 @@ from ..shadow.classes import MASK_FRACTION
 from ..shadow.cluster import NIR_NM, PROBABILITY, SAMPLE_SIZE
 from ..shadow.fraction import PAPER_INTERCEPT, PAPER_SLOPE
 from ..shadow.polygons import MIN_PIXELS
-from ._common import BLOCK_ROWS, TOLERANCE, sample_size, seed
+from ._common import BAND_NM, BLOCK_ROWS, TOLERANCE, sample_size, seed
 from .spec import (
     Algorithm,
     Band,
@@ -37,7 +37,16 @@ from .spec import (
 GROUP = "Shadow"
 
 RATIO = RasterIn(name="ratio", description="Boresight ratio raster (output of 'ratio')")
-RATIO_BAND = Band(name="band", description="Band of the ratio raster", default=1, raster="ratio")
+RATIO_BAND = (
+    Band(
+        name="band",
+        description="Band of the ratio raster",
+        default=1,
+        raster="ratio",
+        wavelength="band_nm",
+    ),
+    BAND_NM,
+)
 
 
 CLASSES = Algorithm(
@@ -69,7 +78,7 @@ CLASSES = Algorithm(
     ),
     params=(
         RATIO,
-        RATIO_BAND,
+        *RATIO_BAND,
         FileIn(
             name="classes",
             description="Class table (CSV or JSON: class,min,max,fraction_min,fraction_max,name,colour); empty = Table 2",
@@ -115,7 +124,7 @@ CLUSTER = Algorithm(
     ),
     params=(
         RATIO,
-        RATIO_BAND,
+        *RATIO_BAND,
         RasterIn(
             name="vnir",
             description="VNIR image (or a merged cube) on the ratio's grid, with wavelengths",
@@ -199,7 +208,7 @@ FRACTION_FIT = Algorithm(
     ),
     params=(
         RATIO,
-        RATIO_BAND,
+        *RATIO_BAND,
         RasterIn(
             name="truth", description="Ground-truth shadow fraction (0–1) on the ratio's grid"
         ),
@@ -237,7 +246,7 @@ FRACTION_APPLY = Algorithm(
     ),
     params=(
         RATIO,
-        RATIO_BAND,
+        *RATIO_BAND,
         Number(
             name="slope", description="Slope a of ratio = a · fraction + b", default=PAPER_SLOPE
         ),

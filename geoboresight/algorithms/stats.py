@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..operations.stats import BINS, PERCENTILES, stats_file
-from ._common import BLOCK_ROWS
+from ._common import BAND_NM, BLOCK_ROWS
 from .spec import Algorithm, Band, FileOut, Number, RasterIn, Result, Text
 
 STATS = Algorithm(
@@ -31,7 +31,14 @@ STATS = Algorithm(
     ),
     params=(
         RasterIn(name="input", description="Raster to describe (typically the boresight ratio)"),
-        Band(name="band", description="Band number (1 = first)", default=1, raster="input"),
+        Band(
+            name="band",
+            description="Band number (1 = first)",
+            default=1,
+            raster="input",
+            wavelength="band_nm",
+        ),
+        BAND_NM,
         Number(
             name="bins",
             description="Number of histogram bins",

@@ -16,13 +16,12 @@ import numpy as np
 
 from ..errors import InputError
 from .dual import BandChoice, DualLayout, open_dual
+from .image import GDAL_RASTER
 from .raster import open_raster, quiet_georef
 from .wavelengths import good_bands, read_wavelengths
 
 #: GDAL's IMAGE_STRUCTURE INTERLEAVE, in the ENVI words a hyperspectral user knows.
 _INTERLEAVE = {"BAND": "BSQ", "LINE": "BIL", "PIXEL": "BIP"}
-#: What a plain file is called when no sensor product reader recognises it.
-GDAL_RASTER = "GDAL raster"
 
 
 def describe_product(

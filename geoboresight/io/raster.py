@@ -282,11 +282,6 @@ def check_raw_size(src, label: str = "raster") -> None:
     )
 
 
-def band_count(path: str) -> int:
-    with open_raster(path) as src:
-        return src.count
-
-
 def base_tags(**extra) -> dict:
     tags = {"GEOBORESIGHT_VERSION": __version__}
     tags.update({k.upper(): str(v) for k, v in extra.items()})
