@@ -592,12 +592,15 @@ def execute(
     removes the outputs it created when it fails); ``cog``/``co`` say how its GeoTIFF outputs
     are written (Cloud-Optimised, GDAL creation options ``NAME=VALUE``)."""
     from ..io.raster import writer_options
+    from ..progress import library_messages_logged
 
-    values = alg.bind(alg.validate(values))
-    with writer_options(cog=cog, co=co, raw_gsd=raw_gsd):
+    progress = as_progress(progress)
+    with library_messages_logged(progress):
+        values = alg.bind(alg.validate(values))
+    with writer_options(cog=cog, co=co, raw_gsd=raw_gsd), library_messages_logged(progress):
         token = VALIDATED.set(True)  # the operation need not check its arguments again
         try:
-            return alg.run(**values, progress=as_progress(progress), overwrite=overwrite)
+            return alg.run(**values, progress=progress, overwrite=overwrite)
         finally:
             VALIDATED.reset(token)
 

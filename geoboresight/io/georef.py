@@ -23,7 +23,8 @@ import numpy as np
 
 from ..errors import InputError, ParameterError, shown
 from .grid import FLOAT_NODATA, Grid
-from .raster import create_raster, open_raster
+from .image import open_raster
+from .raster import create_raster
 from .tables import parse_number, read_table
 from .wavelengths import read_wavelengths
 
@@ -522,6 +523,12 @@ def product_coordinates(path, crs=None, label: str = "IGM") -> Coordinates | Non
     if not os.path.exists(path):
         return None
     product = recognise(path)
+    if product is not None and product.geolocation is None and product.geolocation_problem:
+        raise InputError(
+            f"{label} {path} ({product.kind}): {product.geolocation_problem}; give its "
+            "coordinates with 'igm' (an IGM) or 'glt' (a GLT)",
+            params=("igm", "glt"),
+        )
     if product is None or product.geolocation is None:
         return None
     geo = product.geolocation
@@ -1302,6 +1309,7 @@ def _check_geojson(path: str) -> None:
             f'vector {path} is not GeoJSON: its "type" is {shown(got)}, not '
             "FeatureCollection, Feature or a geometry type"
         )
+    _check_geojson_crs(path, doc.get("crs"))
     if doc["type"] == "FeatureCollection":
         features = doc.get("features")
         if not isinstance(features, list):
@@ -1311,6 +1319,32 @@ def _check_geojson(path: str) -> None:
                 raise InputError(
                     f"vector {path}: feature {n} is {shown(feature)}, not a GeoJSON Feature object"
                 )
+
+
+def _check_geojson_crs(path: str, member) -> None:
+    """Refuse a GeoJSON ``crs`` member (the 2008 specification's named CRS, which GDAL still
+    reads) naming a CRS that cannot be resolved: GDAL would read the coordinates as WGS84."""
+    if member is None:
+        return
+    props = member.get("properties") if isinstance(member, dict) else None
+    name = props.get("name") if isinstance(props, dict) else None
+    if not isinstance(name, str) or not name.strip():
+        raise InputError(
+            f'vector {path}: its "crs" member {shown(member)} names no CRS: give '
+            '{"type": "name", "properties": {"name": "EPSG:32636"}}, or leave "crs" out for '
+            "WGS84 longitude/latitude"
+        )
+    from pyproj import CRS as PyCRS
+    from pyproj.exceptions import CRSError
+
+    try:
+        PyCRS.from_user_input(name.strip())
+    except CRSError:
+        raise InputError(
+            f"vector {path} declares the CRS {shown(name)}, which is not known (PROJ's "
+            'database has no such CRS): correct its "crs" member (e.g. EPSG:32636, '
+            "urn:ogc:def:crs:EPSG::32636), or leave it out for WGS84 longitude/latitude"
+        ) from None
 
 
 def reproject_geoms(geoms, src_crs, dst_crs):
