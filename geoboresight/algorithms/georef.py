@@ -24,7 +24,7 @@ from ..operations.georef import (
 )
 from ..simulate.ortho import HEADING_DEG, JITTER_DEG, JITTER_LINES, ORTHO_CELL
 from ..simulate.presets import SCENES
-from ._common import seed
+from ._common import BAND_NM, seed
 from .spec import (
     Algorithm,
     Band,
@@ -245,7 +245,9 @@ AUTO = Algorithm(
             description="Product band to match (e.g. a NIR band)",
             default=1,
             raster="input",
+            wavelength="band_nm",
         ),
+        BAND_NM,
         Band(
             name="reference_band",
             description="Orthophoto band to match (a similar wavelength)",

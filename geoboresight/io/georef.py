@@ -14,6 +14,7 @@ otherwise.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 from dataclasses import dataclass
@@ -1260,9 +1261,41 @@ def read_vector(path: str):
     geoms = [None if g is None else shapely.from_wkb(g) for g in wkb]
     fields = {str(n): list(v) for n, v in zip(meta["fields"], columns, strict=True)}
     text = meta["crs"]
+    if text is None and kind == "GeoPackage":
+        _check_gpkg_srs(path, layers[0])
     undefined = text is None or (text.startswith("LOCAL_CS") and "Undefined" in text)
     crs = None if undefined else parse_crs(text, f"vector {path}")
     return geoms, fields, crs, layers[0]
+
+
+#: GeoPackage's own "undefined" spatial reference systems (-1 Cartesian, 0 geographic) and
+#: the one GDAL writes for a layer without a CRS.
+_GPKG_UNDEFINED = (-1, 0, 99999)
+
+
+def _check_gpkg_srs(path: str, layer: str) -> None:
+    """Refuse a GeoPackage layer whose declared spatial reference system cannot be resolved
+    (GDAL then gives it no CRS, as if it were in raw sensor geometry)."""
+    import sqlite3
+
+    try:
+        with contextlib.closing(sqlite3.connect(f"file:{path}?mode=ro", uri=True)) as db:
+            row = db.execute(
+                "SELECT c.srs_id, s.definition FROM gpkg_geometry_columns c LEFT JOIN "
+                "gpkg_spatial_ref_sys s ON s.srs_id = c.srs_id WHERE c.table_name = ?",
+                (layer,),
+            ).fetchone()
+    except sqlite3.Error:
+        return  # GDAL read it; its tables are its business
+    if row is None or row[0] in _GPKG_UNDEFINED:
+        return
+    srs_id, definition = row
+    said = "no definition" if definition is None else f"the definition {shown(definition)}"
+    raise InputError(
+        f"vector {path}: layer {layer} declares the spatial reference system {srs_id} with "
+        f"{said}, which cannot be resolved: correct its gpkg_spatial_ref_sys entry (e.g. "
+        "ogr2ogr -a_srs EPSG:32636)"
+    )
 
 
 #: Largest GeoJSON file parsed with Python's json module to say what is wrong with it (a

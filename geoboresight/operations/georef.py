@@ -371,6 +371,7 @@ def auto_georeference_file(
     corners=None,
     gcp_crs=None,
     band=1,
+    band_nm=None,
     reference_band=1,
     matching=TieMatching(),
     grid=OutputGrid(),
@@ -409,6 +410,9 @@ def auto_georeference_file(
         CRS of the GCPs or corners (default: the GCP file's, else the reference's).
     band, reference_band : int
         The product band and orthophoto band to match (similar wavelengths, e.g. NIR).
+    band_nm : float, optional
+        The product band by its centre wavelength (nm) instead: the band nearest it becomes
+        ``band``.
     matching : TieMatching
         The feature detector (``sift``, ``orb``), the wobble model (``blocks`` of
         ``model_block_lines`` lines, ``tps``), the largest error of the rough placement
