@@ -372,7 +372,7 @@ FACE_CASES = [
     FaceCase(
         "swir-dark-above-the-signal",
         "shadow-map",
-        {"vnir": "{d}/v.img", "swir": "{d}/s.img", "swir_dark": 60000, "output": "{o}/f.tif"},
+        {"vnir": "{d}/v.img", "swir": "{d}/s.img", "swir_dark": 60000, "output": "{o}/f2.tif"},
         1,
         ("s.img", "60000", "above the signal"),
         param="swir_dark",
