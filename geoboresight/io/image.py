@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError, ParameterError
+from .envi import data_for_header
 from .raster import open_raster as _open_file
 from .wavelengths import good_bands, nearest_band, read_wavelengths
 
@@ -99,7 +100,8 @@ def raster_image(value, label: str = "raster") -> RasterImage:
         if len(files) == 1:
             return raster_image(files[0], label)
         parts = [raster_image(f, label) for f in files]
-        return _stack(parts, " + ".join(files), " + ".join(dict.fromkeys(p.kind for p in parts)))
+        kinds = [p.kind for p in parts if p.is_product]
+        return _stack(parts, " + ".join(files), " + ".join(kinds) or "dual-sensor dataset")
     path = dataset_path(value)
     if not isinstance(path, str | os.PathLike):
         raise InputError(f"{label}: expected a raster file or an open dataset, got {value!r:.80}")
@@ -108,7 +110,8 @@ def raster_image(value, label: str = "raster") -> RasterImage:
         return RasterImage(path, path)  # GDAL's virtual files; a missing file is named on open
     product = recognise(path)
     if product is None:
-        return RasterImage(path, path)
+        data = data_for_header(path) if path.lower().endswith(".hdr") else None
+        return RasterImage(path, data or path)  # GDAL opens an ENVI file by its data file
     images = [
         RasterImage(path, im.source, product.kind, np.asarray(im.wavelengths, float), im.good)
         for im in product.images
@@ -134,7 +137,7 @@ def open_raster(value, label: str = "raster"):
     when it is missing or unreadable; closed on leaving."""
     image = raster_image(value, label)
     where = label if not image.is_product else f"{label} {image.path} ({image.kind}):"
-    with _open_file(image.source if image.is_product else image.path, where) as src:
+    with _open_file(image.source, where) as src:
         yield src
 
 
