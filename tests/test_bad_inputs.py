@@ -803,13 +803,15 @@ def _georef_cases() -> list[Case]:
 
     rows = [xy(*pq) for pq in corners]
     for method in ("polynomial", "tps"):
+        # An exact copy: kept by least squares, left out of the spline, saying so (a warning).
         c.append(
             Case(
                 f"georeference-repeated-gcp-{method}",
                 "georeference",
                 {"gcps": "rep.csv", "method": method},
-                ("rep.csv", "GCPs 2 and 3", "same image position"),
+                (),
                 setup=_write("rep.csv", _gcp_rows([rows[0], rows[1], rows[1], *rows[2:]])),
+                code=0,
             )
         )
     c.append(

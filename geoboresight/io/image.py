@@ -106,29 +106,19 @@ def raster_image(value, label: str = "raster") -> RasterImage:
     if not isinstance(path, str | os.PathLike):
         raise InputError(f"{label}: expected a raster file or an open dataset, got {value!r:.80}")
     path = os.fspath(path)
-    if path.startswith("/vsi") or not os.path.isfile(path) and not os.path.isdir(path):
+    if path.startswith("/vsi") or not (os.path.isfile(path) or os.path.isdir(path)):
         return RasterImage(path, path)  # GDAL's virtual files; a missing file is named on open
     product = recognise(path)
     if product is None:
         data = data_for_header(path) if path.lower().endswith(".hdr") else None
         return RasterImage(path, data or path)  # GDAL opens an ENVI file by its data file
     images = [
-        RasterImage(path, im.source, product.kind, np.asarray(im.wavelengths, float), im.good)
+        RasterImage(
+            path, im.source, product.kind, np.asarray(im.wavelengths, float), im.good, im.units
+        )
         for im in product.images
     ]
-    units = {im.units for im in product.images}
-    if len(images) == 1:
-        im = images[0]
-        return RasterImage(path, im.source, product.kind, im.wavelengths, im.good, units.pop())
-    stacked = _stack(images, path, product.kind)
-    return RasterImage(
-        path,
-        stacked.source,
-        product.kind,
-        stacked.wavelengths,
-        stacked.good,
-        units.pop() if len(units) == 1 else "",
-    )
+    return images[0] if len(images) == 1 else _stack(images, path, product.kind)
 
 
 @contextlib.contextmanager
