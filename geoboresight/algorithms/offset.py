@@ -3,7 +3,7 @@ removes it (paper §3.2)."""
 
 from __future__ import annotations
 
-from ..dem.coregister import SPLINE_ORDER
+from ..dem.coregister import DEFAULT_ORDER
 from ..dem.offset import PROFILE_ROWS
 from ..operations.offset import boresight_offset_file, coregister_file
 from ._common import BLOCK_ROWS, DUAL_PARAMS
@@ -77,7 +77,7 @@ COREGISTER = Algorithm(
     short_help="Resample every SWIR band onto the VNIR pixel grid, removing the boresight offset.",
     help=(
         "Corrects the boresight effect after it has been used: every SWIR band is resampled "
-        "(cubic spline by default) so that SWIR pixel (r, c) sees the ground of VNIR pixel "
+        "(cubic convolution by default) so that SWIR pixel (r, c) sees the ground of VNIR pixel "
         "(r, c). The offset is measured from the images (as 'Boresight offset') unless given; "
         "with 'follow drift' it is measured per block of lines and interpolated line by line.\n\n"
         "Output: a float32 GeoTIFF with all SWIR bands (band descriptions and tags carry the "
@@ -111,9 +111,9 @@ COREGISTER = Algorithm(
         ),
         Enum(
             name="order",
-            description="Interpolation (spline order)",
+            description="Interpolation: 1 linear, 3 cubic convolution (Keys)",
             choices=("1", "3"),
-            default=str(SPLINE_ORDER),
+            default=str(DEFAULT_ORDER),
         ),
         BLOCK_ROWS,
         RasterOut(name="output", description="Co-registered SWIR (GeoTIFF)"),
