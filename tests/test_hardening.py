@@ -676,3 +676,12 @@ def test_the_hostile_cases_on_the_command_line(case, face_inputs, tmp_path):
         if case.param:
             assert errors.cli_option(case.param) in line, line
     assert snapshot(face_inputs) == before
+
+
+def test_a_band_a_product_marks_bad_is_refused_naming_the_good_ones(products, tmp_path):
+    """PRISMA's unused slots (centre 0, flag 0) hold no image: refused by number, never
+    chosen by wavelength."""
+    p = products["prisma"]
+    r = cli(["stats", "-i", p.path, "--band", "2", "-o", str(tmp_path / "s.json")])
+    line = error_line(r)
+    assert "--band" in line and "marked bad" in line and "4–93" in line

@@ -489,20 +489,16 @@ class Algorithm:
 
 def _check_bands(alg: Algorithm, values: dict) -> None:
     # QGIS does not validate a band number against the raster (QGIS.md): we must.
-    from ..io.image import band_at, band_count
+    from ..io.image import band_at, require_band
 
     for p in alg.params:
-        nm = values.get(p.wavelength) if isinstance(p, Band) and p.wavelength else None
-        if nm is not None and values.get(p.raster):
+        if not isinstance(p, Band) or not values.get(p.raster):
+            continue
+        nm = values.get(p.wavelength) if p.wavelength else None
+        if nm is not None:
             values[p.name] = band_at(values[p.raster], nm, label=p.raster, param=p.wavelength)
-        elif isinstance(p, Band) and values.get(p.name) is not None and values.get(p.raster):
-            count = band_count(values[p.raster])
-            if values[p.name] > count:
-                raise ParameterError(
-                    f"parameter '{p.name}': band {values[p.name]} does not exist in "
-                    f"{values[p.raster]}, which has {count} band(s)",
-                    params=(p.name,),
-                )
+        elif values.get(p.name) is not None:
+            require_band(values[p.raster], values[p.name], label=p.raster, param=p.name)
 
 
 def _resolve_aliases(alg: Algorithm, values: Mapping[str, Any]) -> dict:

@@ -137,6 +137,40 @@ def band_count(value, label: str = "raster") -> int:
         return src.count
 
 
+def require_band(value, band: int, label: str = "raster", param: str = "band") -> None:
+    """Raise :class:`ParameterError` naming ``param`` when ``value``'s image has no band
+    ``band`` (1-based), or its sensor product marks that band bad (an unused slot, a band
+    flagged by the processing chain: ``info`` lists them)."""
+    image = raster_image(value, label)
+    count = band_count(value, label)
+    if band > count:
+        raise ParameterError(
+            f"parameter '{param}': band {band} does not exist in {image.path}, which has "
+            f"{count} band(s)",
+            params=(param,),
+        )
+    if image.is_product and image.good is not None and not image.good[band - 1]:
+        good = np.flatnonzero(image.good) + 1
+        raise ParameterError(
+            f"parameter '{param}': band {band} of {image.path} is marked bad by the "
+            f"{image.kind} product (an unused or flagged band; its good bands are "
+            f"{_spans(good)}): choose a good band, or the band by its wavelength",
+            params=(param,),
+        )
+
+
+def _spans(numbers) -> str:
+    """``[1, 2, 3, 7]`` as ``1–3, 7``."""
+    out, start = [], None
+    for i, n in enumerate(numbers):
+        if start is None:
+            start = n
+        if i + 1 == len(numbers) or numbers[i + 1] != n + 1:
+            out.append(f"{start}" if start == n else f"{start}–{n}")
+            start = None
+    return ", ".join(out)
+
+
 def band_at(
     value,
     band_nm: float,
@@ -184,4 +218,5 @@ __all__ = [
     "dataset_path",
     "open_raster",
     "raster_image",
+    "require_band",
 ]
