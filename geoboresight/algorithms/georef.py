@@ -15,6 +15,7 @@ from ..georef.tiepoints import (
 from ..georef.transforms import METHODS
 from ..io.georef import RESAMPLINGS
 from ..io.grid import OutputGrid
+from ..io.products import FILE_FORMATS
 from ..operations.georef import (
     auto_georeference_file,
     geolocate_file,
@@ -45,6 +46,7 @@ GROUP = "Georeferencing"
 INPUT = RasterIn(
     name="input",
     description="Raw-geometry product (ratio, classes, DEM, scores, a cube: any raster)",
+    formats=FILE_FORMATS,
 )
 CRS = Text(
     name="crs",

@@ -5,6 +5,7 @@ dark-pixel baseline are in :mod:`geoboresight.algorithms.shadow_truth`."""
 
 from __future__ import annotations
 
+from ..io.products import FILE_FORMATS
 from ..io.windows import Sample
 from ..operations.shadow import (
     shadow_classes_file,
@@ -36,7 +37,9 @@ from .spec import (
 
 GROUP = "Shadow"
 
-RATIO = RasterIn(name="ratio", description="Boresight ratio raster (output of 'ratio')")
+RATIO = RasterIn(
+    name="ratio", description="Boresight ratio raster (output of 'ratio')", formats=FILE_FORMATS
+)
 RATIO_BAND = (
     Band(
         name="band",

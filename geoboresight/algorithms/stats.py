@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ..io.products import FILE_FORMATS
 from ..operations.stats import BINS, PERCENTILES, stats_file
 from ._common import BAND_NM, BLOCK_ROWS
 from .spec import Algorithm, Band, FileOut, Number, RasterIn, Result, Text
@@ -30,7 +31,11 @@ STATS = Algorithm(
         "Outputs: a JSON file (all numbers), optionally an HTML table and a histogram PNG."
     ),
     params=(
-        RasterIn(name="input", description="Raster to describe (typically the boresight ratio)"),
+        RasterIn(
+            name="input",
+            description="Raster to describe (typically the boresight ratio)",
+            formats=FILE_FORMATS,
+        ),
         Band(
             name="band",
             description="Band number (1 = first)",
