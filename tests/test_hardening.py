@@ -632,6 +632,8 @@ def test_open_rasterio_datasets_give_what_their_paths_give(tmp_path):
     gb.ratio_file(str(d / "v.img"), str(d / "s.img"), output=str(tmp_path / "p.tif"))
     with rasterio.open(d / "v.img") as v, rasterio.open(d / "s.img") as s:
         gb.ratio_file(v, s, output=str(tmp_path / "q.tif"))
+        a, b = gb.open_dual(v, s), gb.open_dual(str(d / "v.img"), str(d / "s.img"))
+        assert (a.files, a.grid, a.ratio_bands()) == (b.files, b.grid, b.ratio_bands())
     with rasterio.open(tmp_path / "p.tif") as a, rasterio.open(tmp_path / "q.tif") as b:
         np.testing.assert_array_equal(a.read(), b.read())
     with MemoryFile((d / "ratio.tif").read_bytes()) as mem, mem.open() as src:
