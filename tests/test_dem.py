@@ -552,7 +552,7 @@ def _coregister_by_strips(band, along, across, valid, order, block_rows):
             height=height,
             width=width,
             block_rows=block_rows,
-            halo=(halo, halo),
+            halo=halo,
             pass_block=True,
         )
     )

@@ -70,11 +70,14 @@ def shift_taps(shift: np.ndarray, order: int = DEFAULT_ORDER) -> tuple[np.ndarra
     return (base - 1).astype(np.int64), _keys(frac - np.arange(-1, 3))
 
 
-def coregister_halo(along: float | np.ndarray, order: int = DEFAULT_ORDER) -> int:
-    """Lines above and below a strip that :func:`coregister_stack` needs to give, on the strip,
-    the values of the whole image: the largest along-track shift and the kernel's reach."""
-    reach = float(np.max(np.abs(np.asarray(along, dtype=np.float64))))
-    return int(np.ceil(reach)) + {0: 1, 1: 1, 3: 2}.get(int(order), 2)
+def coregister_halo(along: float | np.ndarray, order: int = DEFAULT_ORDER) -> tuple[int, int]:
+    """``(above, below)``: the lines above and below a strip that :func:`coregister_stack`
+    reads to give, on the strip, the values of the whole image (the taps of the smallest and
+    the largest along-track shift)."""
+    along = np.asarray(along, dtype=np.float64)
+    low, _ = shift_taps(along.min(), order)
+    high, weights = shift_taps(along.max(), order)
+    return max(0, -int(low)), max(0, int(high) + weights.shape[-1] - 1)
 
 
 def _check(stack, along, across, order):

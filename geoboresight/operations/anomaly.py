@@ -184,12 +184,12 @@ class _Coregistered:
     offset removed: :func:`geoboresight.dem.coregister.coregister_stack`, cubic convolution),
     for RX and SVDD.
 
-    Each strip is read in the files' own type with the lines the shift and the kernel reach
+    Each strip is read in the files' own type with the lines the kernel's taps reach
     (:func:`~geoboresight.dem.coregister.coregister_halo`), its SWIR bands shifted together in
     float32 (one valid mask for all) and cropped: the strip's values are the whole image's.
     Pixels whose interpolation reaches outside the image or an invalid pixel become invalid.
-    Resampling a strip costs less than converting it to float64 for the covariance, so each
-    pass resamples what it reads rather than keeping a resampled copy of the line."""
+    Each pass resamples what it reads: a resampled copy of a long line would be as large as
+    the line, beyond the memory bound."""
 
     def __init__(self, cube, bands, is_swir, along, across):
         from ..dem.coregister import coregister_halo
@@ -210,7 +210,7 @@ class _Coregistered:
         local = threading.local()  # one output buffer per worker thread, reused
 
         def read(row0, row1):
-            r0, r1 = max(0, row0 - h), min(cube.height, row1 + h)
+            r0, r1 = max(0, row0 - h[0]), min(cube.height, row1 + h[1])
             data, read_ok = cube.read(r0, r1, self.bands, None)
             buf = getattr(local, "buf", None)
             if buf is None or buf.shape[1] < row1 - row0:

@@ -403,7 +403,7 @@ def coregister_file(
             height=dual.height,
             width=dual.width,
             block_rows=block_rows,
-            halo=(halo, halo),
+            halo=halo,
             pass_block=True,
             workers=io.windows.default_workers(),
             progress=progress.sub(0.2, 1.0),
