@@ -47,14 +47,21 @@ OFFSET = Algorithm(
         GEOMETRY,
         Number(
             name="profile_rows",
+            label="Lines per profile block",
             description="Also measure the offset per block of this many lines (0 = global only)",
             default=PROFILE_ROWS,
             minimum=0,
             integer=True,
         ),
-        FileOut(name="output", description="Offset report (JSON)", extension="json"),
+        FileOut(
+            name="output",
+            label="Offset report",
+            description="Offset report (JSON)",
+            extension="json",
+        ),
         FileOut(
             name="plot",
+            label="Offset plot",
             description="Plot of the offset along the flight line (PNG)",
             extension="png",
             optional=True,
@@ -90,19 +97,24 @@ COREGISTER = Algorithm(
         CLOUD,
         Number(
             name="along",
+            label="Offset along-track",
             description="Known along-track offset (px); empty = measure it",
             optional=True,
         ),
         Number(
             name="across",
+            label="Offset across-track",
             description="Known across-track offset (px); empty = measure it",
             optional=True,
         ),
         Flag(
-            name="follow_drift", description="Measure the offset per block of lines and follow it"
+            name="follow_drift",
+            label="Follow drift",
+            description="Measure the offset per block of lines and follow it",
         ),
         Number(
             name="profile_rows",
+            label="Lines per drift block",
             description="Block of lines for 'follow drift'",
             default=PROFILE_ROWS,
             minimum=16,
@@ -111,12 +123,15 @@ COREGISTER = Algorithm(
         ),
         Enum(
             name="order",
+            label="Interpolation",
             description="Interpolation: 1 linear, 3 cubic convolution (Keys)",
             choices=("1", "3"),
             default=str(DEFAULT_ORDER),
         ),
         BLOCK_ROWS,
-        RasterOut(name="output", description="Co-registered SWIR (GeoTIFF)"),
+        RasterOut(
+            name="output", label="Co-registered SWIR", description="Co-registered SWIR (GeoTIFF)"
+        ),
     ),
     run=coregister_file,
 )

@@ -33,11 +33,13 @@ STATS = Algorithm(
     params=(
         RasterIn(
             name="input",
+            label="Input raster",
             description="Raster to describe (typically the boresight ratio)",
             formats=FILE_FORMATS,
         ),
         Band(
             name="band",
+            label="Band number",
             description="Band number (1 = first)",
             default=1,
             raster="input",
@@ -46,6 +48,7 @@ STATS = Algorithm(
         BAND_NM,
         Number(
             name="bins",
+            label="Histogram bins",
             description="Number of histogram bins",
             default=BINS,
             minimum=2,
@@ -54,15 +57,31 @@ STATS = Algorithm(
         ),
         Text(
             name="percentiles",
+            label="Percentiles",
             description="Percentiles to report, comma-separated (0–100)",
             default=PERCENTILES,
         ),
         BLOCK_ROWS,
-        FileOut(name="output", description="Statistics as JSON", extension="json"),
         FileOut(
-            name="html", description="Statistics as an HTML table", extension="html", optional=True
+            name="output",
+            label="Statistics (JSON)",
+            description="Statistics as JSON",
+            extension="json",
         ),
-        FileOut(name="histogram", description="Histogram (PNG)", extension="png", optional=True),
+        FileOut(
+            name="html",
+            label="Statistics (HTML)",
+            description="Statistics as an HTML table",
+            extension="html",
+            optional=True,
+        ),
+        FileOut(
+            name="histogram",
+            label="Histogram",
+            description="Histogram (PNG)",
+            extension="png",
+            optional=True,
+        ),
     ),
     run=stats_file,
 )

@@ -207,11 +207,12 @@ class _Coregistered:
         from ..dem.coregister import coregister_stack
 
         cube, h, k = self.cube, self.halo, len(self.bands)
+        raw = cube.reader(self.bands, None)  # the files' own type, a buffer per thread
         local = threading.local()  # one output buffer per worker thread, reused
 
         def read(row0, row1):
             r0, r1 = max(0, row0 - h[0]), min(cube.height, row1 + h[1])
-            data, read_ok = cube.read(r0, r1, self.bands, None)
+            data, read_ok = raw(r0, r1)
             buf = getattr(local, "buf", None)
             if buf is None or buf.shape[1] < row1 - row0:
                 buf = local.buf = np.empty((k, row1 - row0, cube.width), np.float32)
