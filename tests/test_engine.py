@@ -238,7 +238,9 @@ def test_the_hostile_cases_in_the_engine(case, face_inputs, tmp_path):
     for expect in case.expect:
         assert expect in last["error"], (expect, last)
     if case.param:
-        label = registry()[case.op].param(case.param).description
+        from geoboresight.engine import field_label
+
+        label = field_label(registry()[case.op].param(case.param))
         assert f"'{label}'" in last["error"] and "--" not in last["error"], last
 
 
