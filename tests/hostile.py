@@ -378,6 +378,20 @@ FACE_CASES = [
         param="swir_dark",
     ),
     FaceCase(
+        "physical-indicator-dark-above-the-signal",
+        "boresight-indicator",
+        {
+            "method": "physical",
+            "vnir": "{d}/v.img",
+            "swir": "{d}/s.img",
+            "swir_dark": 60000,
+            "output": "{o}/bi.tif",
+        },
+        1,
+        ("above both dark levels",),
+        param="swir_dark",
+    ),
+    FaceCase(
         "prisma-geolocation-of-another-shape",
         "geolocate",
         {
