@@ -67,7 +67,7 @@ _LOCK = threading.Lock()
 
 def _stack(images: list[RasterImage], path: str, kind: str) -> RasterImage:
     """One image of several on one grid, their bands one after the other."""
-    from .products.vrt import stacked_vrt
+    from .products._calibrated import stacked_vrt
 
     key = tuple(im.source for im in images)
     with _LOCK:
