@@ -1430,13 +1430,16 @@ def test_bad_input(case: Case, inputs: Path, ro_folder, tmp_path: Path):
 
 PRODUCT_KINDS = ("specim", "hyspex", "enmap", "prisma")
 
-#: (operation, raster input) pairs that take any raster: every RasterIn but the dual-sensor
-#: dataset's own (vnir, swir), which the product readers have always read.
+#: (operation, raster input) pairs that take any raster: every RasterIn but a dual-sensor
+#: dataset's (vnir, swir beside the layout's seam_nm), which the product readers have always
+#: read.
 RASTER_INPUTS = [
     (op, p.name)
     for op, alg in registry().items()
     for p in alg.inputs
-    if p.kind == "raster" and p.name not in ("vnir", "swir") and p.name in BASE[op]
+    if p.kind == "raster"
+    and p.name in BASE[op]
+    and not (p.name in ("vnir", "swir") and "seam_nm" in {q.name for q in alg.params})
 ]
 
 
