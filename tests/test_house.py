@@ -262,6 +262,19 @@ def test_the_bottom_layer_imports_nothing_above_it():
         assert not up, f"{path.name} imports {sorted(up)}"
 
 
+def test_no_operation_borrows_another_operations_private_names():
+    """What operations share lives in one module (operations/_shared.py) that each calls; an
+    operation module imports no private name (``_x``) of another operation module."""
+    ops = PKG / "operations"
+    modules = {p.stem for p in ops.glob("*.py")}
+    for path in ops.glob("*.py"):
+        for n in ast.walk(ast.parse(path.read_text())):
+            if not (isinstance(n, ast.ImportFrom) and n.level == 1 and n.module in modules):
+                continue
+            private = [a.name for a in n.names if a.name.startswith("_")]
+            assert not private, f"{path.name} imports {private} from {n.module}"
+
+
 def test_io_modules_use_no_private_part_of_a_cube():
     for path in (PKG / "io").glob("*.py"):
         if path.name == "cube.py":
