@@ -46,6 +46,7 @@ def shadow_classes_file(
     output,
     mask=None,
     band=1,
+    band_nm=None,
     mask_fraction=cls.MASK_FRACTION,
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
@@ -67,6 +68,8 @@ def shadow_classes_file(
         starts at or above ``mask_fraction``.
     band : int
         Band of the ratio raster.
+    band_nm : float, optional
+        The band by its centre wavelength (nm) instead: the band nearest it becomes ``band``.
     mask_fraction : float
         Lowest shadow fraction (0–1) of a class in the mask.
     block_rows : int
@@ -180,6 +183,7 @@ def shadow_cluster_file(
     probability_output=None,
     plot=None,
     band=1,
+    band_nm=None,
     nir_nm=NIR_NM,
     tolerance_nm=TOLERANCE_NM,
     vnir_wavelengths=None,
@@ -208,6 +212,8 @@ def shadow_cluster_file(
         PNG scatter with the shadow cluster outlined (Figure 4).
     band : int
         Band of the ratio raster.
+    band_nm : float, optional
+        The band by its centre wavelength (nm) instead: the band nearest it becomes ``band``.
     nir_nm : float
         Wavelength of the near-infrared axis (nm; paper: 941).
     tolerance_nm : float
@@ -345,6 +351,7 @@ def shadow_fraction_fit_file(
     report=None,
     plot=None,
     band=1,
+    band_nm=None,
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
 ) -> dict:
@@ -367,6 +374,8 @@ def shadow_fraction_fit_file(
         PNG of the regression (Figure 5B).
     band : int
         Band of the ratio raster.
+    band_nm : float, optional
+        The band by its centre wavelength (nm) instead: the band nearest it becomes ``band``.
     block_rows : int
         Lines read at a time.
     progress : Progress, optional
@@ -457,6 +466,7 @@ def shadow_fraction_apply_file(
     *,
     output,
     band=1,
+    band_nm=None,
     slope=PAPER_SLOPE,
     intercept=PAPER_INTERCEPT,
     no_clip=False,
@@ -475,6 +485,8 @@ def shadow_fraction_apply_file(
         Shadow fraction (float32, nodata −9999).
     band : int
         Band of the ratio raster.
+    band_nm : float, optional
+        The band by its centre wavelength (nm) instead: the band nearest it becomes ``band``.
     slope, intercept : float
         a and b of ``ratio = a · fraction + b`` (default: the paper's Figure 5B).
     no_clip : bool

@@ -113,6 +113,8 @@ class DarkLevel:
     #: band from a header or a product's dark reference (``n_pixels`` 0).
     band_levels: np.ndarray | None = None
     n_pixels: int = 0
+    #: The parameter the user gave the level in ("vnir_dark"), named by the messages; "" if none.
+    param: str = ""
 
     def describe(self, name: str) -> str:
         if self.band_levels is None:
@@ -205,11 +207,14 @@ def check_sample(
         return SampleCheck(usable, int(saturated.sum()), int(usable.sum()))
     level = np.asarray(dark.level if dark.band_levels is None else dark.band_levels, float)
     low = float(np.nanmin(data)) if data.size else 0.0
+    where, params = (f" in '{dark.param}'", (dark.param,)) if dark.param else ("", ())
     if data.size and float(np.min(level)) < low - max(1.0, 0.5 * abs(low)):
         raise InputError(
             f"{name}: the dark level {float(np.min(level)):g} ({dark.source}) is far below the "
             f"darkest sampled value ({low:g}): a dark level is the DN of zero signal, within the "
-            "data's range; give the instrument's dark level, or leave it empty to estimate it"
+            f"data's range; give the instrument's dark level{where}, or leave it empty to "
+            "estimate it",
+            params=params,
         )
     brightest = data.max(axis=0) if data.size else np.zeros(0)
     above = int((brightest > float(np.max(level))).sum())
@@ -217,8 +222,9 @@ def check_sample(
         raise InputError(
             f"{name}: only {above} of {data.shape[1]} usable sampled pixels are brighter than the "
             f"dark level {float(np.max(level)):g} ({dark.source}): the dark level is above the "
-            "signal; give the instrument's dark level (0 for radiance), or leave it empty to "
-            "estimate it"
+            f"signal; give the instrument's dark level{where} (0 for radiance), or leave it "
+            "empty to estimate it",
+            params=params,
         )
     return SampleCheck(usable, int(saturated.sum()), above)
 
