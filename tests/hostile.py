@@ -378,6 +378,34 @@ FACE_CASES = [
         param="swir_dark",
     ),
     FaceCase(
+        "deshadow-vnir-dark-below-the-data",
+        "deshadow",
+        {
+            "vnir": "{d}/v.img",
+            "swir": "{d}/s.img",
+            "shadow": "{d}/truth.tif",
+            "vnir_dark": -500,
+            "output": "{o}/d.tif",
+        },
+        1,
+        ("v.img", "-500", "far below"),
+        param="vnir_dark",
+    ),
+    FaceCase(
+        "deshadow-swir-dark-above-the-signal",
+        "deshadow",
+        {
+            "vnir": "{d}/v.img",
+            "swir": "{d}/s.img",
+            "shadow": "{d}/truth.tif",
+            "swir_dark": 60000,
+            "output": "{o}/d2.tif",
+        },
+        1,
+        ("s.img", "60000", "above the signal"),
+        param="swir_dark",
+    ),
+    FaceCase(
         "physical-indicator-dark-above-the-signal",
         "boresight-indicator",
         {

@@ -257,11 +257,15 @@ def band_dark_levels(sensor, src, bands, sampled, given, sample, valid, progress
     them, else the one level (given, or the dark object of ``sample`` in the ``sampled``
     bands: :func:`dark_level`)."""
     level = dark_level_of(sensor, bands, src.tags(ns="ENVI"), src.count, given)
-    if level is not None:
+    if level is None:
+        level = dark_level(sensor, src, sampled, given, sample, valid, progress)
+    else:
         progress.info(level.describe(sensor.name))
-        return np.broadcast_to(level.for_bands(bands, bands), (len(bands),)).astype(float)
-    level = dark_level(sensor, src, sampled, given, sample, valid, progress)
-    return np.full(len(bands), level.level)
+    # A level below the darkest pixel or above the signal is refused as shadow-map refuses it.
+    smap.check_sample(sample, valid, level, name=f"{sensor.name} {sensor.path}")
+    if level.band_levels is None:
+        return np.full(len(bands), level.level)
+    return np.broadcast_to(level.for_bands(bands, bands), (len(bands),)).astype(float)
 
 
 def saturation_value(src) -> float | None:
