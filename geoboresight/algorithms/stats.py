@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from ..io.products import FILE_FORMATS
 from ..operations.stats import BINS, PERCENTILES, stats_file
-from ._common import BLOCK_ROWS
+from ._common import BAND_NM, BLOCK_ROWS
 from .spec import Algorithm, Band, FileOut, Number, RasterIn, Result, Text
 
 STATS = Algorithm(
@@ -30,10 +31,24 @@ STATS = Algorithm(
         "Outputs: a JSON file (all numbers), optionally an HTML table and a histogram PNG."
     ),
     params=(
-        RasterIn(name="input", description="Raster to describe (typically the boresight ratio)"),
-        Band(name="band", description="Band number (1 = first)", default=1, raster="input"),
+        RasterIn(
+            name="input",
+            label="Input raster",
+            description="Raster to describe (typically the boresight ratio)",
+            formats=FILE_FORMATS,
+        ),
+        Band(
+            name="band",
+            label="Band number",
+            description="Band number (1 = first)",
+            default=1,
+            raster="input",
+            wavelength="band_nm",
+        ),
+        BAND_NM,
         Number(
             name="bins",
+            label="Histogram bins",
             description="Number of histogram bins",
             default=BINS,
             minimum=2,
@@ -42,15 +57,31 @@ STATS = Algorithm(
         ),
         Text(
             name="percentiles",
+            label="Percentiles",
             description="Percentiles to report, comma-separated (0–100)",
             default=PERCENTILES,
         ),
         BLOCK_ROWS,
-        FileOut(name="output", description="Statistics as JSON", extension="json"),
         FileOut(
-            name="html", description="Statistics as an HTML table", extension="html", optional=True
+            name="output",
+            label="Statistics (JSON)",
+            description="Statistics as JSON",
+            extension="json",
         ),
-        FileOut(name="histogram", description="Histogram (PNG)", extension="png", optional=True),
+        FileOut(
+            name="html",
+            label="Statistics (HTML)",
+            description="Statistics as an HTML table",
+            extension="html",
+            optional=True,
+        ),
+        FileOut(
+            name="histogram",
+            label="Histogram",
+            description="Histogram (PNG)",
+            extension="png",
+            optional=True,
+        ),
     ),
     run=stats_file,
 )
