@@ -124,10 +124,6 @@ def __getattr__(name: str):
     if module is None:
         raise AttributeError(f"module 'geoboresight' has no attribute {name!r}")
     value = getattr(importlib.import_module(module), name)
-    if name in OPERATIONS:
-        # Its spec, which the operation checks a Python caller's arguments against (as the
-        # CLI, QGIS, the engine and batch are checked): imported with the operation.
-        importlib.import_module("geoboresight.algorithms").spec_of_operation(name)
     globals()[name] = value  # later look-ups skip this function
     return value
 
