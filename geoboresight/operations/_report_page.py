@@ -100,11 +100,104 @@ class Section:
 
 
 def _show(value):
+    """A parameter's value as a reader wants it: files by name, a list of numbers by its count
+    and range, a yes or no; never the repr of an array or of an opened dataset."""
+    if value is None or isinstance(value, bool | int | float | np.number):
+        return value.item() if isinstance(value, np.number) else value
+    if hasattr(value, "files"):  # an opened dataset (DualSensor): its files
+        return ", ".join(os.path.basename(f) for f in value.files)
+    if isinstance(value, str | os.PathLike):
+        text = os.fspath(value)
+        return os.path.basename(text) if os.path.sep in text else text
+    if isinstance(value, np.ndarray) or (
+        isinstance(value, list | tuple) and value and all(isinstance(v, int | float) for v in value)
+    ):
+        numbers = np.asarray(value, dtype=float).ravel()
+        if numbers.size <= 4:
+            return ", ".join(f"{v:g}" for v in numbers)
+        return f"{numbers.size} values, {numbers.min():g} to {numbers.max():g}"
     if isinstance(value, list | tuple):
-        return ", ".join(os.path.basename(str(v)) for v in value)
-    if isinstance(value, str) and os.path.sep in value:
-        return os.path.basename(value)
-    return value
+        return ", ".join(str(_show(v)) for v in value)
+    if dataclasses.is_dataclass(value):
+        return ", ".join(
+            f"{f.name} {_show(getattr(value, f.name))}"
+            for f in dataclasses.fields(value)
+            if getattr(value, f.name) is not None
+        )
+    text = str(value)
+    return text if len(text) <= 80 else type(value).__name__
+
+
+def _nm_range(sensor) -> str:
+    wl = np.asarray(sensor.wavelengths, dtype=float)
+    return f"{len(sensor.bands)} bands, {wl.min():.0f}–{wl.max():.0f} nm"
+
+
+def _geometry_text(geometry) -> str:
+    """The flight geometry the relative DEM used, in words and units."""
+    parts = []
+    if geometry.height_factor is not None:
+        parts.append(f"height factor {geometry.height_factor:.4g} px per metre")
+    if geometry.squint_deg is not None:
+        parts.append(f"squint {geometry.squint_deg:g}°")
+    if geometry.flying_height is not None:
+        parts.append(f"flying height {geometry.flying_height:g} m")
+    if geometry.ifov_mrad is not None:
+        parts.append(f"IFOV {geometry.ifov_mrad:g} mrad")
+    if not parts:
+        return "not given (the relative DEM says what it needs)"
+    axis = f"parallax {geometry.parallax_axis}-track" + (
+        ", inverted" if geometry.invert_parallax else ""
+    )
+    return ", ".join([*parts, axis])
+
+
+def report_parameters(values: dict) -> list[tuple[str, object]]:
+    """The "Report parameters" table: the files read, the image's size and geometry, the
+    ratio's two bands in nm, the flight geometry and the optional inputs, in a reader's
+    words (``values`` as :func:`build_report` takes them)."""
+    dual = values["dual"]
+    rows: list[tuple[str, object]] = []
+    if dual.merged or dual.vnir.path == dual.swir.path:
+        rows.append(("VNIR + SWIR", f"{os.path.basename(dual.vnir.path)}"))
+        rows.append(("seam", f"{values['layout'].seam_nm:g} nm"))
+    else:
+        rows.append(("VNIR", os.path.basename(dual.vnir.path)))
+        rows.append(("SWIR", os.path.basename(dual.swir.path)))
+    rows.append(("VNIR bands", _nm_range(dual.vnir)))
+    rows.append(("SWIR bands", _nm_range(dual.swir)))
+    for key in ("vnir_wavelengths", "swir_wavelengths"):
+        if getattr(values["layout"], key, None):
+            rows.append((key.replace("_", " "), _show(getattr(values["layout"], key))))
+    grid = dual.grid
+    where = "raw sensor geometry (no CRS)"
+    if grid.crs is not None and grid.transform is not None:
+        epsg = grid.crs.to_epsg()
+        crs = f"EPSG:{epsg}" if epsg else grid.crs.to_string()
+        crs = crs if len(crs) <= 40 else "a CRS without an EPSG code"
+        where = f"{crs}, pixels {abs(grid.transform.a):g} × {abs(grid.transform.e):g}"
+    rows.append(("image", f"{grid.height} lines × {grid.width} pixels, {where}"))
+    try:
+        b = dual.ratio_bands(values["bands"])
+        rows.append(
+            (
+                "ratio bands",
+                f"SWIR band {b.swir_band} ({b.swir_nm:.1f} nm) / VNIR band {b.vnir_band} "
+                f"({b.vnir_nm:.1f} nm)",
+            )
+        )
+    except GeoboresightError as exc:
+        rows.append(("ratio bands", f"not found: {exc}"))
+    rows.append(("flight geometry", _geometry_text(values["geometry"])))
+    for key, label in (
+        ("shadow_truth", "shadow truth"),
+        ("target_truth", "target truth"),
+        ("cloud_mask", "cloud mask"),
+    ):
+        if values.get(key):
+            rows.append((label, _show(values[key])))
+    rows.append(("detectors", "RX, SVDD" if values.get("svdd") else "RX"))
+    return rows
 
 
 class Runner:
@@ -123,8 +216,10 @@ class Runner:
         """Run the file-level operation ``function`` (e.g. :func:`.ratio.ratio_file`) with
         these arguments; the page shows the keyword arguments that differ from its defaults."""
         name = function.__name__.removesuffix("_file").replace("_", "-")
-        defaults = {k: p.default for k, p in inspect.signature(function).parameters.items()}
-        shown = {}
+        signature = inspect.signature(function)
+        defaults = {k: p.default for k, p in signature.parameters.items()}
+        # The inputs given by position, under their names (the files the step read).
+        shown = {k: v for k, v in signature.bind_partial(*args).arguments.items() if v is not None}
         for k, v in kwargs.items():
             if v is None or v == defaults.get(k):
                 continue
@@ -441,11 +536,7 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
     return render(
         "report.html",
         title="geoboresight scene report",
-        parameters=[
-            (k, _show(v))
-            for k, v in values.items()
-            if v not in (None, "") and k not in ("output", "products")
-        ],
+        parameters=report_parameters(values),
         software=[
             ("geoboresight", __version__),
             ("Python", platform.python_version()),
@@ -455,4 +546,4 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
     )
 
 
-__all__ = ["Runner", "Section", "Step", "build_report", "raster_figure"]
+__all__ = ["Runner", "Section", "Step", "build_report", "raster_figure", "report_parameters"]
