@@ -317,27 +317,52 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
     """Run the operations for the scene described by ``values`` (the ``report`` operation's
     arguments: ``dual`` the opened dataset, ``layout``, ``bands``, ``geometry``, the truths,
     the cloud mask, ``svdd``) with their products in ``work_dir``; the whole HTML page."""
-    from .anomaly import boresight_indicator_file, roc_file, rx_file, svdd_file
-    from .dem import relative_dem_file, view_3d_file
-    from .ratio import ratio_file
-    from .shadow import shadow_classes_file, shadow_cluster_file, shadow_fraction_fit_file
-    from .shadow_map import shadow_map_file
-    from .stats import stats_file
+    from .anomaly import rx_file, svdd_file
 
-    dual = values["dual"]
-    layout = values["layout"]
     detectors = [rx_file, svdd_file] if values.get("svdd") else [rx_file]
     run = Runner(work_dir, progress, n_steps=11 + len(detectors))
-    sections = []
+    ratio_section, ratio_path = _ratio_section(run, values)
+    sections = [
+        ratio_section,
+        _shadow_section(run, values, ratio_path),
+        _dem_section(run, values),
+        _anomaly_section(run, values, ratio_path, detectors),
+    ]
+    progress.update(1.0, "report")
+    return render(
+        "report.html",
+        title="geoboresight scene report",
+        parameters=report_parameters(values),
+        software=[
+            ("geoboresight", __version__),
+            ("Python", platform.python_version()),
+            ("NumPy", np.__version__),
+        ],
+        sections=sections,
+    )
 
-    # 1. Ratio and statistics (Eq. 3, Table 1, Figure 3)
+
+def _numbers(result: dict) -> list[tuple[str, object]]:
+    """The numbers among an operation's results, as table rows."""
+    return [
+        (k, v) for k, v in result.items() if isinstance(v, int | float) and not isinstance(v, bool)
+    ]
+
+
+def _ratio_section(run: Runner, values: dict) -> tuple[Section, str | None]:
+    """Ratio and statistics (Eq. 3, Table 1, Figure 3); the section and the ratio's path (None
+    when it could not be computed)."""
+    from .ratio import ratio_file
+    from .stats import stats_file
+
     s = Section(
         "Boresight ratio and statistics",
         "The boresight band ratio b(1010 nm)/b(920 nm) (Eq. 3) and its descriptive statistics as "
         "SPSS reports them (Table 1), with the histogram (Figure 3).",
     )
-    sections.append(s)
-    ratio = run.run(s, ratio_file, dual, output=run.path("ratio.tif"), bands=values["bands"])
+    ratio = run.run(
+        s, ratio_file, values["dual"], output=run.path("ratio.tif"), bands=values["bands"]
+    )
     ratio_path = ratio.result["output"] if ratio.result else None
     if ratio_path:
         s.figure(
@@ -355,8 +380,13 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
         if stats.result:
             with open(stats.result["output"], encoding="utf-8") as f:
                 s.descriptives(json.load(f), stats.result.get("histogram"))
+    return s, ratio_path
 
-    # 2. Shadow (§3.1, Table 2, Figures 4 and 5)
+
+def _shadow_section(run: Runner, values: dict, ratio_path: str | None) -> Section:
+    """Shadow (§3.1, Table 2, Figures 4 and 5): the shadow map, then what the ratio gives."""
+    from .shadow_map import shadow_map_file
+
     s = Section(
         "Shadow",
         "The shadow product (shadow-map): a shadow mask and Table 2's four shadow-fraction "
@@ -365,14 +395,13 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
         "component in the ratio against 941 nm scatter (Figure 4) and, with ground truth, the "
         "linear shadow-fraction model (Figure 5).",
     )
-    sections.append(s)
     smap = run.run(
         s,
         shadow_map_file,
-        dual,
+        values["dual"],
         output=run.path("shadow_map.tif"),
         mask=run.path("shadow_map_mask.tif"),
-        layout=layout,
+        layout=values["layout"],
         bands=values["bands"],
     )
     if smap.result:
@@ -388,72 +417,91 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
         for w in smap.result.get("warnings", []):
             s.remark(f"shadow-map: {w}")
     if ratio_path:
-        classes = run.run(s, shadow_classes_file, ratio_path, output=run.path("shadow_classes.tif"))
-        if classes.result and classes.result.get("warnings"):
-            s.remark(
-                "Table 2's fixed ratio thresholds are not shown: on this scene they cannot mean "
-                "what Table 2 says (" + "; ".join(classes.result["warnings"]) + "). The shadow "
-                "map above reads the same classes relative to the scene's sunlit ratio."
-            )
-        elif classes.result:
-            s.figure(
-                raster_figure(
-                    classes.result["output"],
-                    "Shadow classes, Table 2's fixed thresholds",
-                    "class",
-                    run.path("classes.png"),
-                ),
-                CLASS_CAPTION.format(what="Table 2's fixed ratio thresholds"),
-            )
-        cluster = run.run(
-            s,
-            shadow_cluster_file,
-            ratio_path,
-            dual.vnir.path,
-            output=run.path("shadow_cluster.tif"),
-            plot=run.path("scatter.png"),
-            vnir_wavelengths=layout.vnir_wavelengths,
-        )
-        if cluster.result:
-            warnings = cluster.result.get("warnings") or []
-            s.figure(
-                cluster.result.get("plot"),
-                "Ratio against the 941 nm band with the fitted shadow component (Figure 4)"
-                + (
-                    ": on this scene it is not a cluster of its own (see the note); the "
-                    "shadow map is the shadow product."
-                    if warnings
-                    else ": an isolated shadow cluster, as in the paper."
-                ),
-            )
-            for w in warnings:
-                s.remark(f"shadow-cluster: {w}")
-        if values.get("shadow_truth"):
-            fit = run.run(
-                s,
-                shadow_fraction_fit_file,
-                ratio_path,
-                values["shadow_truth"],
-                report=run.path("fit.json"),
-                plot=run.path("fit.png"),
-            )
-            if fit.result:
-                s.figure(
-                    fit.result.get("plot"),
-                    "Boresight ratio against the true shadow fraction, with the line fitted on "
-                    "this scene (Figure 5). The paper's Figure 5B line (ratio = −0.74 · "
-                    "fraction + 1.31) is drawn for reference only: it was fitted on the ratio "
-                    "values of the paper's figure (0.57–1.31, falling with shadow), not on DN "
-                    "ratios like this scene's (about 2–4, rising with shadow), so its level and "
-                    "slope differ; what carries over is that the ratio is linear in the shadow "
-                    "fraction (compare the R²).",
-                )
-        else:
-            s.note("No ground-truth shadow fraction given: the Figure 5 model fit is left out.")
+        _ratio_shadow(run, s, values, ratio_path)
     else:
         s.note("The shadow classes need the boresight ratio, which could not be computed.")
+    return s
 
-    # 3. Relative DEM (§3.2, Figure 9)
+
+def _ratio_shadow(run: Runner, s: Section, values: dict, ratio_path: str) -> None:
+    """Table 2's fixed thresholds, the Figure 4 cluster and the Figure 5 fit, on the ratio."""
+    from .shadow import shadow_classes_file, shadow_cluster_file
+
+    classes = run.run(s, shadow_classes_file, ratio_path, output=run.path("shadow_classes.tif"))
+    if classes.result and classes.result.get("warnings"):
+        s.remark(
+            "Table 2's fixed ratio thresholds are not shown: on this scene they cannot mean "
+            "what Table 2 says (" + "; ".join(classes.result["warnings"]) + "). The shadow "
+            "map above reads the same classes relative to the scene's sunlit ratio."
+        )
+    elif classes.result:
+        s.figure(
+            raster_figure(
+                classes.result["output"],
+                "Shadow classes, Table 2's fixed thresholds",
+                "class",
+                run.path("classes.png"),
+            ),
+            CLASS_CAPTION.format(what="Table 2's fixed ratio thresholds"),
+        )
+    cluster = run.run(
+        s,
+        shadow_cluster_file,
+        ratio_path,
+        values["dual"].vnir.path,
+        output=run.path("shadow_cluster.tif"),
+        plot=run.path("scatter.png"),
+        vnir_wavelengths=values["layout"].vnir_wavelengths,
+    )
+    if cluster.result:
+        warnings = cluster.result.get("warnings") or []
+        s.figure(
+            cluster.result.get("plot"),
+            "Ratio against the 941 nm band with the fitted shadow component (Figure 4)"
+            + (
+                ": on this scene it is not a cluster of its own (see the note); the "
+                "shadow map is the shadow product."
+                if warnings
+                else ": an isolated shadow cluster, as in the paper."
+            ),
+        )
+        for w in warnings:
+            s.remark(f"shadow-cluster: {w}")
+    _fraction_fit(run, s, values, ratio_path)
+
+
+def _fraction_fit(run: Runner, s: Section, values: dict, ratio_path: str) -> None:
+    """Figure 5: the ratio against the true shadow fraction, when the truth is given."""
+    from .shadow import shadow_fraction_fit_file
+
+    if not values.get("shadow_truth"):
+        s.note("No ground-truth shadow fraction given: the Figure 5 model fit is left out.")
+        return
+    fit = run.run(
+        s,
+        shadow_fraction_fit_file,
+        ratio_path,
+        values["shadow_truth"],
+        report=run.path("fit.json"),
+        plot=run.path("fit.png"),
+    )
+    if fit.result:
+        s.figure(
+            fit.result.get("plot"),
+            "Boresight ratio against the true shadow fraction, with the line fitted on "
+            "this scene (Figure 5). The paper's Figure 5B line (ratio = −0.74 · "
+            "fraction + 1.31) is drawn for reference only: it was fitted on the ratio "
+            "values of the paper's figure (0.57–1.31, falling with shadow), not on DN "
+            "ratios like this scene's (about 2–4, rising with shadow), so its level and "
+            "slope differ; what carries over is that the ratio is linear in the shadow "
+            "fraction (compare the R²).",
+        )
+
+
+def _dem_section(run: Runner, values: dict) -> Section:
+    """Relative DEM (§3.2, Figure 9)."""
+    from .dem import relative_dem_file, view_3d_file
+
     s = Section(
         "Relative DEM",
         "Heights relative to the lowest region, from the VNIR/SWIR disparity, kriged onto a "
@@ -461,7 +509,7 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
         "σ_h = σ_d·GSD / tan θ: a small squint makes relief nearly invisible, and the product "
         "says so.",
     )
-    sections.append(s)
+    dual = values["dual"]
     dem = run.run(
         s,
         relative_dem_file,
@@ -473,25 +521,25 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
         geometry=values["geometry"],
     )
     if dem.result:
-        rows = [
-            (k, v)
-            for k, v in dem.result.items()
-            if isinstance(v, int | float) and not isinstance(v, bool)
-        ]
+        rows = _numbers(dem.result)
         if rows:
             s.table(rows, caption="Relative DEM")
         view = run.run(s, view_3d_file, dem.result["output"], dual, output=run.path("view3d.png"))
         if view.result:
             s.figure(view.result["output"], "The scene draped on the relative DEM (Figure 9).")
+    return s
 
-    # 4. Anomaly (§3.3, Figure 12)
+
+def _anomaly_section(run: Runner, values: dict, ratio_path: str | None, detectors) -> Section:
+    """Anomaly (§3.3, Figure 12): the boresight indicator against ``detectors``, and ROC."""
+    from .anomaly import boresight_indicator_file
+
     s = Section(
         "Anomaly detection",
         "The boresight ratio as a sub-pixel anomaly indicator, against global RX"
         + (" and SVDD" if len(detectors) > 1 else "")
         + "; with a truth raster, ROC curves (probability of detection against false alarm, Figure 12).",
     )
-    sections.append(s)
     scores, names = [], []
     if ratio_path:
         ind = run.run(s, boresight_indicator_file, ratio_path, output=run.path("indicator.tif"))
@@ -500,29 +548,12 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
             names.append("boresight ratio")
     for det in detectors:
         label = det.__name__.removesuffix("_file")
-        r = run.run(s, det, dual, output=run.path(f"{label}.tif"))
+        r = run.run(s, det, values["dual"], output=run.path(f"{label}.tif"))
         if r.result:
             scores.append(r.result["output"])
             names.append(label.upper())
     if scores and values.get("target_truth"):
-        roc = run.run(
-            s,
-            roc_file,
-            scores,
-            values["target_truth"],
-            output=run.path("roc.png"),
-            csv=run.path("roc.csv"),
-            names=",".join(names),
-        )
-        if roc.result:
-            s.figure(roc.result["output"], "ROC curves of the detectors (Figure 12).")
-            rows = [
-                (k, v)
-                for k, v in roc.result.items()
-                if isinstance(v, int | float) and not isinstance(v, bool)
-            ]
-            if rows:
-                s.table(rows, caption="Detection at the chosen false-alarm rate")
+        _roc(run, s, scores, names, values["target_truth"])
     elif scores:
         s.note(
             "No target truth raster given: ROC curves need one (e.g. truth_target_abundance.tif of a simulated scene)."
@@ -531,19 +562,26 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
         s.figure(
             raster_figure(path, f"{name} score", "score", path + ".png"), f"{name} anomaly score."
         )
+    return s
 
-    progress.update(1.0, "report")
-    return render(
-        "report.html",
-        title="geoboresight scene report",
-        parameters=report_parameters(values),
-        software=[
-            ("geoboresight", __version__),
-            ("Python", platform.python_version()),
-            ("NumPy", np.__version__),
-        ],
-        sections=sections,
+
+def _roc(run: Runner, s: Section, scores: list, names: list, truth: str) -> None:
+    from .anomaly import roc_file
+
+    roc = run.run(
+        s,
+        roc_file,
+        scores,
+        truth,
+        output=run.path("roc.png"),
+        csv=run.path("roc.csv"),
+        names=",".join(names),
     )
+    if roc.result:
+        s.figure(roc.result["output"], "ROC curves of the detectors (Figure 12).")
+        rows = _numbers(roc.result)
+        if rows:
+            s.table(rows, caption="Detection at the chosen false-alarm rate")
 
 
 __all__ = ["Runner", "Section", "Step", "build_report", "raster_figure", "report_parameters"]

@@ -246,6 +246,28 @@ def _add(total, part):
     return total[0] + part[0], total[1] + part[1]
 
 
+def _measured_shift(dual, match, cloud_mask, follow_drift, profile_rows, progress):
+    """The offset co-registration removes, measured on the line: one (along, across) pair,
+    or with ``follow_drift`` one per line (the offset of each block of ``profile_rows``
+    lines, interpolated)."""
+    with open_matching_pair(dual, match, cloud_mask) as pair:
+        off, prof = line_offset(
+            pair,
+            profile_rows if follow_drift else 0,
+            progress.sub(0.0, 0.2),
+            given=": give it ('along', 'across')",
+        )
+    if not follow_drift:
+        return off.along, off.across
+    along = profile_to_lines(prof.rows, prof.along, dual.height)
+    across = profile_to_lines(prof.rows, prof.across, dual.height)
+    progress.info(
+        f"offset per block of {profile_rows} lines, interpolated per line: "
+        f"along {np.nanmin(prof.along):+.3f}…{np.nanmax(prof.along):+.3f} px"
+    )
+    return along, across
+
+
 @operation(inputs=("vnir", "swir", "cloud_mask"), outputs=("output",))
 def coregister_file(
     vnir,
@@ -312,22 +334,9 @@ def coregister_file(
     order = int(order)
     dual = io.as_dual(vnir, swir, layout)
     if along is None:
-        with open_matching_pair(dual, match, cloud_mask) as pair:
-            off, prof = line_offset(
-                pair,
-                profile_rows if follow_drift else 0,
-                progress.sub(0.0, 0.2),
-                given=": give it ('along', 'across')",
-            )
-        if follow_drift:
-            along = profile_to_lines(prof.rows, prof.along, dual.height)
-            across = profile_to_lines(prof.rows, prof.across, dual.height)
-            progress.info(
-                f"offset per block of {profile_rows} lines, interpolated per line: "
-                f"along {np.nanmin(prof.along):+.3f}…{np.nanmax(prof.along):+.3f} px"
-            )
-        else:
-            along, across = off.along, off.across
+        along, across = _measured_shift(
+            dual, match, cloud_mask, follow_drift, profile_rows, progress
+        )
     per_line = np.ndim(along) > 0
     if not per_line:
         progress.info(

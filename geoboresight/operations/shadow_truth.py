@@ -61,6 +61,65 @@ def relief_and_walls(read, matrix, *, progress=None, message="relief", **strips)
     )
 
 
+def _sun_shadow_tags(surface, supersample, zen, az, how, dsm, grid, cell_size) -> dict:
+    """The tags of sun-shadow's products: the method, the sun and where it comes from."""
+    tags = {
+        "product": "ground-truth shadow fraction from a surface model (Brook & Ben-Dor 2011, §3.1)",
+        "method": f"ray march towards the sun ({surface} surface), "
+        f"{supersample}×{supersample} sub-cells",
+        "sun_zenith_deg": zen,
+        "sun_azimuth_deg": az,
+        "sun_position": how,
+        "dsm": dsm,
+    }
+    if not grid.georeferenced:
+        tags["geometry"] = (
+            f"raw grid, cell size {cell_size} m, row 0 = north edge, columns run east"
+        )
+    return tags
+
+
+def _write_sun_shadow(read, kernel, grid, tags, output, mask, hillshade, halo, strips, progress):
+    """Write the shadow fraction (and the mask, the hillshade when asked) strip by strip
+    from ``kernel``; the number of shadow pixels."""
+    n_shadow = 0
+    with contextlib.ExitStack() as stack:
+        fdst = stack.enter_context(
+            io.create_raster(output, grid, tags=tags, band_names=["shadow fraction"])
+        )
+        mdst = hdst = None
+        if mask:
+            mdst = stack.enter_context(
+                mask_raster(mask, grid, tags, "shadow mask (fraction ≥ 0.5)")
+            )
+        if hillshade:
+            hdst = stack.enter_context(
+                io.create_raster(
+                    hillshade,
+                    grid,
+                    tags={**tags, "product": "cosine of the solar incidence angle"},
+                    band_names=["cos(incidence)"],
+                )
+            )
+        for win, (frac, ok, cos_i) in io.map_windows(
+            read,
+            kernel,
+            halo=halo,
+            progress=progress.sub(0.1, 1.0),
+            message="marching towards the sun",
+            **strips,
+        ):
+            fdst.write(np.where(ok, frac, io.FLOAT_NODATA).astype("float32"), 1, window=win)
+            shadow = frac >= ill.MASK_FRACTION
+            n_shadow += int(shadow[ok].sum())
+            if mdst is not None:
+                m = np.where(ok, shadow.astype(np.uint8), MASK_NODATA)
+                mdst.write(m.astype(np.uint8), 1, window=win)
+            if hdst is not None:
+                hdst.write(np.where(ok, cos_i, io.FLOAT_NODATA).astype("float32"), 1, window=win)
+    return n_shadow
+
+
 @operation(inputs=("dsm",), outputs=("output", "mask", "hillshade"))
 def sun_shadow_file(
     dsm,
@@ -170,19 +229,7 @@ def sun_shadow_file(
         relief = hi - lo
         above, below = ill.halo_rows(relief, zen, az, matrix, grid.shape)
         halo = (above + 1, below + 1)  # Horn's 3 × 3 window needs one more line
-        tags = {
-            "product": "ground-truth shadow fraction from a surface model (Brook & Ben-Dor 2011, §3.1)",
-            "method": f"ray march towards the sun ({surface} surface), "
-            f"{supersample}×{supersample} sub-cells",
-            "sun_zenith_deg": zen,
-            "sun_azimuth_deg": az,
-            "sun_position": how,
-            "dsm": dsm,
-        }
-        if not grid.georeferenced:
-            tags["geometry"] = (
-                f"raw grid, cell size {cell_size} m, row 0 = north edge, columns run east"
-            )
+        tags = _sun_shadow_tags(surface, supersample, zen, az, how, dsm, grid, cell_size)
         sun = {"sun_zenith": zen, "sun_azimuth": az, "transform": matrix}
 
         def kernel(z, valid):
@@ -197,43 +244,9 @@ def sun_shadow_file(
             cos_i = ill.hillshade(z, valid, **sun, z_factor=z_factor) if hillshade else None
             return frac, valid, cos_i
 
-        n_shadow = 0
-        with contextlib.ExitStack() as stack:
-            fdst = stack.enter_context(
-                io.create_raster(output, grid, tags=tags, band_names=["shadow fraction"])
-            )
-            mdst = hdst = None
-            if mask:
-                mdst = stack.enter_context(
-                    mask_raster(mask, grid, tags, "shadow mask (fraction ≥ 0.5)")
-                )
-            if hillshade:
-                hdst = stack.enter_context(
-                    io.create_raster(
-                        hillshade,
-                        grid,
-                        tags={**tags, "product": "cosine of the solar incidence angle"},
-                        band_names=["cos(incidence)"],
-                    )
-                )
-            for win, (frac, ok, cos_i) in io.map_windows(
-                read,
-                kernel,
-                halo=halo,
-                progress=progress.sub(0.1, 1.0),
-                message="marching towards the sun",
-                **strips,
-            ):
-                fdst.write(np.where(ok, frac, io.FLOAT_NODATA).astype("float32"), 1, window=win)
-                shadow = frac >= ill.MASK_FRACTION
-                n_shadow += int(shadow[ok].sum())
-                if mdst is not None:
-                    m = np.where(ok, shadow.astype(np.uint8), MASK_NODATA)
-                    mdst.write(m.astype(np.uint8), 1, window=win)
-                if hdst is not None:
-                    hdst.write(
-                        np.where(ok, cos_i, io.FLOAT_NODATA).astype("float32"), 1, window=win
-                    )
+        n_shadow = _write_sun_shadow(
+            read, kernel, grid, tags, output, mask, hillshade, halo, strips, progress
+        )
     out = {
         "output": output,
         "shadow_pixels": n_shadow,
