@@ -171,3 +171,20 @@ def test_a_python_call_of_the_added_operation_is_checked_by_its_spec(added):
     )
     out = _run(added, sys.executable, "-c", code)
     assert out.stdout.strip() == "ParameterError parameter 'factor': expected a number, got 'much'"
+
+
+def test_an_added_module_that_fails_to_import_leaves_the_others_running(tmp_path):
+    (tmp_path / "broken_boresight.py").write_text("raise ImportError('no such library')\n")
+    meta = tmp_path / "broken_boresight-0.1.dist-info"
+    meta.mkdir()
+    (meta / "METADATA").write_text("Metadata-Version: 2.1\nName: broken-boresight\nVersion: 0.1\n")
+    (meta / "entry_points.txt").write_text("[geoboresight.algorithms]\nbroken = broken_boresight\n")
+    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
+    listed = subprocess.run(
+        [str(Path(sys.executable).parent / "geoboresight"), "list"],
+        capture_output=True,
+        text=True,
+        env=env,
+    )
+    assert listed.returncode == 0 and "ratio" in listed.stdout
+    assert "operations of broken_boresight (broken) not loaded: no such library" in listed.stderr
