@@ -14,7 +14,7 @@ PYTEST_ARGS ?=
 # (dynamic version) and plugin-zip stamps it into the plugin's metadata.txt.
 VERSION := $(shell sed -n 's/^__version__ = "\(.*\)"/\1/p' geoboresight/_version.py)
 
-.PHONY: demo test test-main test-qgis lint plugin-zip wheelhouse dist bench clean
+.PHONY: demo test test-main test-qgis lint plugin-zip plugin-repo wheelhouse dist dist-check docs bench clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -42,7 +42,7 @@ $(QVENV)/.installed: pyproject.toml
 demo: $(VENV)/.installed
 	$(VENV)/bin/python -m geoboresight.demo --out $(OUT)
 
-test: test-main test-qgis
+test: test-main test-qgis dist-check docs
 
 test-main: $(VENV)/.installed
 	$(VENV)/bin/python -m pytest -m "not qgis" $(PYTEST_ARGS)
@@ -73,6 +73,14 @@ plugin-zip: $(VENV)/.installed
 	(cd $$tmp && $(PY) -m zipfile -c "$$zip" geoboresight_qgis); \
 	rm -rf $$tmp; echo "wrote $(PLUGIN_ZIP) (QGIS: Plugins > Manage and Install Plugins > Install from ZIP)"
 
+# A QGIS plugin repository: the zip and plugins.xml beside it (what QGIS's plugin manager reads
+# from a repository URL). PLUGIN_REPO_URL is where the folder is published; the default, a
+# file:// URL of the folder itself, is a repository on this machine.
+PLUGIN_REPO ?= dist/plugin-repo
+PLUGIN_REPO_URL ?= file://$(abspath $(PLUGIN_REPO))
+plugin-repo: plugin-zip
+	$(VENV)/bin/python tools/plugin_repo.py $(PLUGIN_ZIP) $(PLUGIN_REPO) --url $(PLUGIN_REPO_URL)
+
 # A wheelhouse for installing the engine offline (or fast, in CI): the library's wheel and
 # every dependency's, for the Python that runs the engine (QGIS's on Windows/macOS,
 # /usr/bin/python3 here). Give the folder to the setup tool ("Or a folder of wheels") or in
@@ -91,8 +99,25 @@ dist: $(VENV)/.installed
 	$(VENV)/bin/python -m build --outdir dist .
 	@ls dist/geoboresight-$(VERSION)-*.whl dist/geoboresight-$(VERSION).tar.gz
 
+# The sdist and wheel as they would be published: built without a deprecation warning, and
+# passing `twine check --strict` (the metadata PyPI renders).
+dist-check: $(VENV)/.installed
+	@set -e; tmp=$$(mktemp -d); \
+	$(VENV)/bin/python -m build --outdir $$tmp/dist . > $$tmp/build.log 2>&1 || { cat $$tmp/build.log; exit 1; }; \
+	if grep -i "deprecat" $$tmp/build.log; then echo "the build warns (above)"; exit 1; fi; \
+	$(VENV)/bin/twine check --strict $$tmp/dist/*; rm -rf $$tmp
+
+# The documentation site (site/), offline and strict: a broken link, a public name without a
+# docstring or any other warning fails the build. The gallery runs the sample scene.
+docs: $(VENV)/.docs
+	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --site-dir site
+
+$(VENV)/.docs: $(VENV)/.installed
+	$(VENV)/bin/pip install -q -e ".[test,docs]"
+	touch $@
+
 bench: $(VENV)/.installed
 	for b in benchmarks/*.py; do $(VENV)/bin/python $$b || exit 1; done
 
 clean:
-	rm -rf $(VENV) $(QVENV) $(OUT) build dist *.egg-info
+	rm -rf $(VENV) $(QVENV) $(OUT) build dist site *.egg-info

@@ -74,11 +74,20 @@ def _plain(value: Any) -> Any:
     return os.fspath(value) if isinstance(value, os.PathLike) else str(value)
 
 
+def field_label(p) -> str:
+    """The field's label in a dialog: the spec's short label, with its unit ("VNIR wavelength
+    (nm)")."""
+    unit = getattr(p, "unit", "") or ""
+    return f"{p.label} ({unit})" if unit and f"({unit}" not in p.label else p.label
+
+
 def describe_param(p) -> dict:
-    """One parameter as data: every field a front-end needs to build its own widget."""
+    """One parameter as data: every field a front-end needs to build its own widget (the
+    dialog's ``label``, and the ``description`` sentence for its help)."""
     out = {
         "name": p.name,
         "kind": p.kind,
+        "label": field_label(p),
         "description": p.description,
         "default": _plain(p.default),
         "required": p.required,
@@ -177,24 +186,27 @@ def read_params(source: str) -> dict:
 
 def field_worded(exc, spec) -> str:
     """``exc``'s message with its parameters named as the QGIS dialog shows them: each
-    field's label (the spec's description), e.g. 'VNIR image' for ``vnir``."""
+    field's label (:func:`field_label`), e.g. 'VNIR image' for ``vnir``."""
     from .errors import worded
 
     def label(name: str) -> str:
         if name == "overwrite":
             return "the engine's overwrite option"
         try:
-            text = spec.param(name).description if spec is not None else name
+            text = field_label(spec.param(name)) if spec is not None else name
         except KeyError:
             text = name
         return f"'{text}'"
 
     text = worded(exc, label)
-    if spec is not None:  # "'VNIR image' is required (VNIR image)": the label says it once
+    if spec is not None:  # "'VNIR image' is required (VNIR image … )": the label says it once
         for name in getattr(exc, "params", ()):
             with contextlib.suppress(KeyError):
-                d = spec.param(name).description
-                text = text.replace(f"'{d}' is required ({d})", f"'{d}' is required")
+                p = spec.param(name)
+                text = text.replace(
+                    f"'{field_label(p)}' is required ({p.description})",
+                    f"'{field_label(p)}' is required",
+                )
     return text
 
 

@@ -54,7 +54,12 @@ def group_icon(group_id: str) -> QIcon:
     return QIcon(path if os.path.exists(path) else os.path.join(PLUGIN_DIR, "icon.svg"))
 
 
-def _described(p: dict) -> str:
+def _label(p: dict) -> str:
+    """The field's label: a few words, as QGIS names its own parameters ("Input layer"); the
+    sentence that explains it is the field's tooltip and the help pane's. An engine that
+    describes no label gives its sentence (with the unit)."""
+    if p.get("label"):
+        return p["label"]
     unit = p.get("unit") or ""
     desc = p["description"]
     if unit and f"({unit}" not in desc and f"{unit})" not in desc:
@@ -111,7 +116,7 @@ class ProductRasterParameter(QgsProcessingParameterRasterLayer):
 
 def to_qgis_parameter(p: dict) -> QgsProcessingParameterDefinition:
     """The QGIS parameter for one described parameter (by its ``kind``)."""
-    desc = _described(p)
+    desc = _label(p)
     kind, name, default = p["kind"], p["name"], p.get("default")
     optional = not p["required"]
     if kind == "raster" and p.get("formats"):
@@ -167,6 +172,7 @@ def to_qgis_parameter(p: dict) -> QgsProcessingParameterDefinition:
         raise TypeError(f"geoboresight plugin: no QGIS parameter for kind {kind!r} ({name})")
     if p.get("advanced"):
         q.setFlags(q.flags() | compat.FLAG_ADVANCED)
+    q.setHelp(p["description"])  # the field's tooltip
     return q
 
 
@@ -191,7 +197,9 @@ def help_html(spec: dict, engine_note: str = "") -> str:
         if not p["required"] and p.get("default") is None:
             extra.append("optional")
         tail = f" <i>({_esc('; '.join(extra))})</i>" if extra else ""
-        items.append(f"<li><b>{_esc(p['name'])}</b>: {_esc(p['description'])}{tail}</li>")
+        items.append(
+            f"<li><b>{_esc(_label(p))}</b> ({_esc(p['name'])}): {_esc(p['description'])}{tail}</li>"
+        )
     results = "".join(
         f"<li><b>{_esc(r['name'])}</b>: {_esc(r['description'])}</li>"
         for r in spec.get("results", ())
@@ -369,7 +377,7 @@ class EngineAlgorithm(QgsProcessingAlgorithm):
         if (lo is not None and number < lo) or (hi is not None and number > hi):
             return (
                 f"parameter '{p['name']}': {number:g}{u} is outside the allowed range "
-                f"{_range_text(p)} ({p['description']})"
+                f"{_range_text(p)} ({_label(p)})"
             )
         return None
 
@@ -482,7 +490,7 @@ class EngineAlgorithm(QgsProcessingAlgorithm):
         if context is None or not context.willLoadLayerOnCompletion(path):
             return
         details = context.layerToLoadOnCompletionDetails(path)
-        details.name = p["description"] if _is_temporary_output(path) else _stem(path)
+        details.name = _label(p) if _is_temporary_output(path) else _stem(path)
         details.forceName = True
 
     @staticmethod

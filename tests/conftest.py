@@ -8,6 +8,7 @@ ran: in CI, "QGIS is missing" must never look like success.
 from __future__ import annotations
 
 import os
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -31,6 +32,9 @@ def _qgis_selected(config) -> bool:
 
 def pytest_configure(config):
     config._geoboresight_qgis_ran = 0
+    # Measured values are remembered in a folder of this run's own (never the user's cache),
+    # inherited by the command lines and engines the tests start.
+    os.environ["GEOBORESIGHT_CACHE_DIR"] = tempfile.mkdtemp(prefix="geoboresight-cache-")
 
 
 @pytest.hookimpl(hookwrapper=True)

@@ -70,7 +70,7 @@ def test_coregistered_rx_equals_rx_of_the_unshifted_cube(tmp_path):
     inner = (slice(8, -8), slice(8, -8))
     ok = ok[inner]
     g, r = got.data[inner][ok], ref[inner][ok]
-    # The resampling error of a cubic spline on fields smooth over 3 px is ~1e-3 of their
+    # The resampling error of cubic convolution on fields smooth over 3 px is ~1e-3 of their
     # spread; RX (a quadratic form in 8 well-conditioned bands) moves by the same order:
     # a per cent at most where the score is small.
     err = np.abs(g - r) / np.maximum(r, 1.0)

@@ -133,7 +133,7 @@ def test_coregister_undoes_the_offset(tex):
 @pytest.mark.parametrize("shift", [(2, -1), (-3, 0), (0, 4)])
 def test_coregister_by_whole_pixels_is_the_slice(tex, order, shift):
     # A whole-pixel offset moves pixels and nothing else: output[r, c] = input[r + a, c + b],
-    # as slicing gives it, for any spline order (an interpolating spline passes through its
+    # as slicing gives it, for every order (an interpolating kernel passes through its
     # samples). The only error allowed is the float32 rounding of the output.
     a, b = shift
     out, ok = coregister(tex, float(a), float(b), order=order)
@@ -151,8 +151,8 @@ def test_coregister_puts_both_lobes_of_a_target_in_one_pixel():
     # A small target seen by the VNIR at (30.3, 40.7) and by the SWIR displaced by the
     # boresight offset (1.37, -0.62) px: both images are the analytic footprint (a Gaussian
     # of σ 1.2 px), so the truth does not come from the resampler. After co-registration the
-    # SWIR footprint's centroid is the VNIR's and its peak pixel is the same pixel. A cubic
-    # spline's error on a Gaussian of σ 1.2 px is a few 1e-3 of the peak, which moves the
+    # SWIR footprint's centroid is the VNIR's and its peak pixel is the same pixel. Cubic convolution's
+    # error on a Gaussian of σ 1.2 px is a few 1e-3 of the peak, which moves the
     # centroid by well under 0.02 px; the test fails by 1.4 px without the shift.
     r, c = np.mgrid[0:64, 0:80].astype(float)
     centre, off = np.array([30.3, 40.7]), np.array([1.37, -0.62])
@@ -534,15 +534,14 @@ def _reader(v, s, valid):
 
 def _coregister_by_strips(band, along, across, valid, order, block_rows):
     """coregister strip by strip, as coregister_file runs it: the halo the shift and the
-    spline reach, the whole band's mean as the fill value."""
+    kernel reach."""
     height, width = band.shape
-    fill = float(np.mean(band[valid].astype(np.float64)))
     per_line = np.ndim(along) > 0
 
     def shift(x, ok, *, block):
         lines = slice(block.row0, block.row0 + x.shape[0])
         al, ac = (along[lines], across[lines]) if per_line else (along, across)
-        out, out_ok = coregister(x, al, ac, ok, order=order, fill=fill)
+        out, out_ok = coregister(x, al, ac, ok, order=order)
         return out[block.inner], out_ok[block.inner]
 
     halo = coregister_halo(along, order)
@@ -553,7 +552,7 @@ def _coregister_by_strips(band, along, across, valid, order, block_rows):
             height=height,
             width=width,
             block_rows=block_rows,
-            halo=(halo, halo),
+            halo=halo,
             pass_block=True,
         )
     )
@@ -788,3 +787,80 @@ def test_variogram_nugget_floor_unknown_noise_sets_no_floor():
     z = np.sin(x / 15) * 5 + rng.normal(0, 0.3, 200)
     free = fit_variogram(x, y, z)
     assert fit_variogram(x, y, z, min_nugget=float("nan")).parameters == free.parameters
+
+
+# ------------------------------------------------------------------- co-registration kernel
+@pytest.mark.parametrize("shift", [(1.3, -0.7), (2.0, 0.25), (-0.5, 0.0), (0.35, 1.8)])
+def test_cubic_convolution_is_gdals_cubic(tex, shift):
+    """Keys' cubic convolution (a = −1/2) is GDAL's cubic resampling: a same-size warp onto a
+    grid translated by the offset gives the same values away from the image's edges (GDAL
+    treats a kernel cut by the edge its own way), to float32 rounding."""
+    from rasterio.transform import Affine
+    from rasterio.warp import Resampling, reproject
+
+    img = (1000.0 + 100.0 * tex / tex.std()).astype(np.float32)
+    along, across = shift
+    out, ok = coregister(img, along, across, order=3)
+    ref = np.zeros_like(img)
+    reproject(
+        img,
+        ref,
+        src_transform=Affine.identity(),
+        dst_transform=Affine.translation(across, along),
+        src_crs="EPSG:3857",
+        dst_crs="EPSG:3857",
+        resampling=Resampling.cubic,
+    )
+    inner = np.zeros(ok.shape, bool)
+    inner[5:-5, 5:-5] = True
+    assert (ok & inner).sum() > 0.9 * inner.sum()
+    np.testing.assert_allclose(out[ok & inner], ref[ok & inner], rtol=0, atol=1e-3)
+
+
+@pytest.mark.parametrize("order", [1, 3])
+def test_cubic_and_linear_reproduce_their_polynomials(order):
+    """Linear interpolation reproduces a plane, Keys' cubic convolution a quadratic (its
+    third-order accuracy, Keys 1981): exact values at the shifted positions."""
+    r, c = np.mgrid[0:40, 0:50].astype(np.float64)
+    along, across = 0.37, -1.62
+
+    def field(r, c):
+        plane = 3.0 * r - 2.0 * c + 50.0
+        return plane + (0.05 * (r - 20) ** 2 - 0.03 * (r - 20) * (c - 25) if order == 3 else 0)
+
+    out, ok = coregister(field(r, c), along, across, order=order)
+    assert ok.sum() > 0.85 * ok.size
+    np.testing.assert_allclose(out[ok], field(r + along, c + across)[ok], atol=2e-3)
+
+
+@pytest.mark.parametrize("order", [0, 1, 3])
+def test_coregister_stack_is_each_band_alone_and_one_mask(tex, order):
+    """A stack shifted at once gives each band what the one-band kernel gives it, from the
+    file's own integer type, with one valid mask; a per-line offset equal to the constant
+    gives the same (the drift path)."""
+    from geoboresight.dem.coregister import coregister_stack
+
+    stack = np.stack([tex * (i + 1) + 3000 for i in range(3)]).astype(np.uint16)
+    valid = np.ones(tex.shape, bool)
+    valid[30:33, 40:45] = False
+    out, ok = coregister_stack(stack, 1.45, -0.3, valid, order=order)
+    assert out.dtype == np.float32 and ok.shape == tex.shape
+    for i in range(3):
+        one, one_ok = coregister(stack[i], 1.45, -0.3, valid, order=order)
+        np.testing.assert_array_equal(one_ok, ok)
+        np.testing.assert_array_equal(out[i][ok], one[ok])
+    rows = tex.shape[0]
+    # A profile whose values vary by 1e-12 takes the per-line path.
+    wobble = np.full(rows, 1.45) + np.r_[1e-12, np.zeros(rows - 1)]
+    drift, d_ok = coregister_stack(stack, wobble, np.full(rows, -0.3), valid, order=order)
+    np.testing.assert_array_equal(d_ok[1:], ok[1:])
+    np.testing.assert_allclose(drift[:, 1:][:, ok[1:]], out[:, 1:][:, ok[1:]], rtol=1e-5)
+    # The hole and the image's edge are invalid, nothing else near them is kept by luck.
+    assert not ok[28:34, 38:46].all() and not ok[-1].any()
+
+
+def test_coregister_refuses_an_order_it_has_not_and_a_profile_of_another_length(tex):
+    with pytest.raises(ParameterError, match="'order'"):
+        coregister(tex, 0.5, 0.5, order=2)
+    with pytest.raises(InputError, match="along-track offset has 3 values"):
+        coregister(tex, np.zeros(3), 0.0)

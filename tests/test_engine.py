@@ -125,8 +125,8 @@ def test_user_error_is_one_line_and_exit_1(pair, tmp_path):
     )
     assert done.returncode == 1
     last = _lines(done.stdout)[-1]
-    # Named as the QGIS dialog labels the field (its description), not swir_nm.
-    assert set(last) == {"error"} and "SWIR band: the one nearest" in last["error"]
+    # Named as the QGIS dialog labels the field, not swir_nm.
+    assert set(last) == {"error"} and "'SWIR wavelength (nm)'" in last["error"]
     assert "\n" not in last["error"]
     assert not out.exists()
     bad = _engine("run", "no-such-operation", "--params-json", "-", input="{}")

@@ -175,7 +175,7 @@ def test_specs_are_declarations_no_loops_and_short():
         tree = ast.parse(path.read_text())
         loops = [n.lineno for n in ast.walk(tree) if isinstance(n, ast.For | ast.While)]
         assert not loops, f"{path.name}: loops at lines {loops}"
-        assert len(path.read_text().splitlines()) <= 450, path.name
+        assert len(path.read_text().splitlines()) <= 500, path.name
 
 
 def _imports(tree):

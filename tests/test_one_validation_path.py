@@ -79,10 +79,11 @@ def _values(op: str, d: Path, **extra) -> dict:
 
 def _names(param: str) -> tuple[str, ...]:
     """How each face names a parameter: Python 'name', the CLI --name, the engine (what QGIS
-    shows) the field's label, which is the spec's description."""
+    shows) the field's label."""
     from geoboresight.algorithms import registry
+    from geoboresight.engine import field_label
 
-    labels = {p.description for a in registry().values() for p in a.params if p.name == param}
+    labels = {field_label(p) for a in registry().values() for p in a.params if p.name == param}
     return (f"'{param}'", "--" + param.replace("_", "-"), f" {param}", *labels)
 
 

@@ -15,6 +15,7 @@ from .spec import Enum, Flag, Group, Number, RasterIn, Result, Text, Wavelength
 
 VNIR = RasterIn(
     name="vnir",
+    label="VNIR image",
     description=(
         "VNIR image (ENVI .hdr/.img or GeoTIFF), a merged VNIR+SWIR cube, or a sensor product "
         "holding both (EnMAP L1B, PRISMA L1)"
@@ -23,6 +24,7 @@ VNIR = RasterIn(
 )
 SWIR = RasterIn(
     name="swir",
+    label="SWIR image",
     description="SWIR image on the same pixel grid (leave empty for a merged cube or a product)",
     optional=True,
     formats=FILE_FORMATS,
@@ -35,18 +37,21 @@ LAYOUT = Group(
     params=(
         Wavelength(
             name="seam_nm",
+            label="Seam wavelength",
             description="Merged cube only: bands below this wavelength are VNIR, the rest SWIR (nm)",
             default=SEAM_NM,
             advanced=True,
         ),
         Text(
             name="vnir_wavelengths",
+            label="VNIR band centres",
             description="Band centres of the VNIR file in nm, comma-separated (only if the file has none)",
             optional=True,
             advanced=True,
         ),
         Text(
             name="swir_wavelengths",
+            label="SWIR band centres",
             description="Band centres of the SWIR file in nm, comma-separated (only if the file has none)",
             optional=True,
             advanced=True,
@@ -60,6 +65,7 @@ DUAL_PARAMS = (VNIR, SWIR, LAYOUT)
 
 TOLERANCE = Number(
     name="tolerance_nm",
+    label="Wavelength tolerance",
     description="Largest allowed distance between a requested wavelength and a band centre (nm)",
     default=TOLERANCE_NM,
     minimum=0.0,
@@ -73,12 +79,14 @@ TOLERANCE = Number(
 #: ranges (from here). One name, one meaning; only the default differs (:func:`band_param`).
 VNIR_BAND = Wavelength(
     name="vnir_nm",
+    label="VNIR wavelength",
     description="VNIR band: the one nearest this wavelength (nm)",
     default=VNIR_NM,
     aliases=("denominator_nm",),
 )
 SWIR_BAND = Wavelength(
     name="swir_nm",
+    label="SWIR wavelength",
     description="SWIR band: the one nearest this wavelength (nm)",
     default=SWIR_NM,
     aliases=("numerator_nm",),
@@ -97,6 +105,7 @@ BANDS = Group(
     params=(
         Enum(
             name="band_mode",
+            label="Band choice",
             description=(
                 "How to pick the two bands: nearest to the wavelengths below, or the first SWIR "
                 "band over the last VNIR band"
@@ -116,6 +125,7 @@ def block_rows(default: int = io.DEFAULT_BLOCK_ROWS) -> Number:
     """Lines read at a time: memory is bounded by a few blocks, whatever the flight line."""
     return Number(
         name="block_rows",
+        label="Lines per block",
         description="Lines read at a time (memory is bounded by a few blocks of lines)",
         default=default,
         minimum=1,
@@ -133,6 +143,7 @@ def seed(description: str = "Random seed (same seed, same result)", advanced=Tru
     integer's, which every face (QGIS's integer parameters included) can hold."""
     return Number(
         name="seed",
+        label="Random seed",
         description=description,
         default=0,
         minimum=0,
@@ -148,6 +159,7 @@ def sample_size(
     """How many pixels a statistical fit draws at random from the whole flight line."""
     return Number(
         name="sample_size",
+        label="Sample size",
         description=description,
         default=default,
         minimum=minimum,
@@ -164,6 +176,7 @@ DARK = Group(
     params=(
         Number(
             name="vnir_dark",
+            label="VNIR dark level",
             description="VNIR dark level (DN of zero signal; empty = from the header or estimated; 0 for radiance)",
             optional=True,
             unit="DN",
@@ -171,6 +184,7 @@ DARK = Group(
         ),
         Number(
             name="swir_dark",
+            label="SWIR dark level",
             description="SWIR dark level (DN of zero signal; empty = from the header or estimated; 0 for radiance)",
             optional=True,
             unit="DN",
@@ -186,6 +200,7 @@ OFFSET = Group(
     params=(
         Number(
             name="offset_along",
+            label="Offset along-track",
             description="Boresight offset of the SWIR along-track (px; empty = measured)",
             optional=True,
             unit="px",
@@ -193,6 +208,7 @@ OFFSET = Group(
         ),
         Number(
             name="offset_across",
+            label="Offset across-track",
             description="Boresight offset of the SWIR across-track (px; empty = measured)",
             optional=True,
             unit="px",
@@ -209,6 +225,7 @@ DETECTABILITY = Group(
     params=(
         Number(
             name="target_fraction",
+            label="Target fill fraction",
             description="Detectability: the target's fill fraction of a pixel (0–1]",
             default=TARGET_FRACTION,
             minimum=1e-4,
@@ -217,6 +234,7 @@ DETECTABILITY = Group(
         ),
         Number(
             name="target_contrast",
+            label="Target contrast",
             description="Detectability: the target's contrast, signal above dark relative to the background's minus 1 (e.g. -0.3: 30 % darker)",
             default=TARGET_CONTRAST,
             minimum=-1.0,
@@ -228,6 +246,7 @@ DETECTABILITY = Group(
 
 COREGISTER = Flag(
     name="coregister",
+    label="Co-register the SWIR",
     description="Shift the SWIR onto the VNIR grid by the boresight offset first (measured, or given)",
     default=True,
 )
@@ -260,12 +279,14 @@ SPECTRAL = Group(
     params=(
         Text(
             name="include_nm",
+            label="Include wavelengths",
             description="Use only bands in these wavelength ranges, e.g. '400-900,1000-1300' (empty: all)",
             default="",
             optional=True,
         ),
         Text(
             name="exclude_nm",
+            label="Exclude wavelengths",
             description="Leave out bands in these wavelength ranges (default: water-vapour absorption)",
             default=WATER_BANDS_NM,
             optional=True,
@@ -276,6 +297,7 @@ SPECTRAL = Group(
 IMAGE_PARAMS = (
     RasterIn(
         name="vnir",
+        label="VNIR image",
         description=(
             "VNIR image (ENVI .hdr/.img or GeoTIFF), a merged VNIR+SWIR cube, or a sensor "
             "product holding both (EnMAP L1B, PRISMA L1): every good band is used"
@@ -284,6 +306,7 @@ IMAGE_PARAMS = (
     ),
     RasterIn(
         name="swir",
+        label="SWIR image",
         description="SWIR image on the same pixel grid (its bands stacked after the VNIR bands; leave empty for a merged cube or a product)",
         optional=True,
     ),

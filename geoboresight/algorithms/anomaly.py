@@ -88,12 +88,14 @@ RX = Algorithm(
             params=(
                 Enum(
                     name="mode",
+                    label="Mode",
                     description="Global (scene mean) or local (windowed mean) RX",
                     choices=MODES,
                     default="global",
                 ),
                 Number(
                     name="inner",
+                    label="Inner window",
                     description="Local RX: inner guard window size (odd, pixels)",
                     default=INNER,
                     minimum=1,
@@ -103,6 +105,7 @@ RX = Algorithm(
                 ),
                 Number(
                     name="outer",
+                    label="Outer window",
                     description="Local RX: outer window size (odd, pixels)",
                     default=OUTER,
                     minimum=3,
@@ -114,6 +117,7 @@ RX = Algorithm(
         ),
         Number(
             name="regularize",
+            label="Covariance ridge",
             description="Ridge added to the covariance diagonal, as a fraction of the mean band variance (0: none)",
             default=0.0,
             minimum=0.0,
@@ -122,6 +126,7 @@ RX = Algorithm(
         ),
         Enum(
             name="precision",
+            label="Precision",
             description="Arithmetic of the scoring pass: float64 (exact) or float32 (about 2× faster)",
             choices=PRECISIONS,
             default="float64",
@@ -129,7 +134,7 @@ RX = Algorithm(
         ),
         *CHAIN_PARAMS,
         CUBE_BLOCK,
-        RasterOut(name="output", description="RX score raster (GeoTIFF)"),
+        RasterOut(name="output", label="RX score", description="RX score raster (GeoTIFF)"),
     ),
     run=rx_file,
 )
@@ -166,12 +171,14 @@ SVDD = Algorithm(
         *IMAGE_PARAMS,
         Number(
             name="sigma",
+            label="Kernel width",
             description="Gaussian kernel width in image units (0: median pairwise distance of the sample)",
             default=0.0,
             minimum=0.0,
         ),
         Number(
             name="nu",
+            label="Outlier fraction (nu)",
             description="Fraction of background pixels allowed outside the description (0–1)",
             default=NU,
             minimum=1e-4,
@@ -187,7 +194,7 @@ SVDD = Algorithm(
         seed("Random seed (of the background sample: same seed, same result)"),
         *CHAIN_PARAMS,
         CUBE_BLOCK,
-        RasterOut(name="output", description="SVDD score raster (GeoTIFF)"),
+        RasterOut(name="output", label="SVDD score", description="SVDD score raster (GeoTIFF)"),
     ),
     run=svdd_file,
 )
@@ -223,21 +230,34 @@ INDICATOR = Algorithm(
         "Outputs: the score (float32 GeoTIFF, nodata -9999) and optionally a 0/1 anomaly mask."
     ),
     params=(
-        RasterIn(name="ratio", description="Boresight ratio raster (method eq3)", optional=True),
-        RasterIn(name="vnir", description="VNIR image (method physical)", optional=True),
+        RasterIn(
+            name="ratio",
+            label="Boresight ratio",
+            description="Boresight ratio raster (method eq3)",
+            optional=True,
+        ),
+        RasterIn(
+            name="vnir",
+            label="VNIR image",
+            description="VNIR image (method physical)",
+            optional=True,
+        ),
         RasterIn(
             name="swir",
+            label="SWIR image",
             description="SWIR image on the same pixel grid (method physical)",
             optional=True,
         ),
         Enum(
             name="method",
+            label="Method",
             description="eq3: the paper's z of the ratio; physical: dipole of the dark-corrected log ratio; auto: physical with the cube",
             choices=INDICATOR_METHODS,
             default="auto",
         ),
         Number(
             name="threshold",
+            label="Threshold",
             description="Anomaly threshold on the score (σ units)",
             default=THRESHOLD,
             minimum=0.1,
@@ -249,12 +269,14 @@ INDICATOR = Algorithm(
             params=(
                 Enum(
                     name="tail",
+                    label="Tail",
                     description="eq3: which side stands out: both, high or low ratios",
                     choices=TAILS,
                     default="both",
                 ),
                 Number(
                     name="window",
+                    label="Reference window",
                     description="eq3: local reference, median ratio in this odd window (pixels); 0 = whole scene",
                     default=0,
                     minimum=0,
@@ -269,12 +291,14 @@ INDICATOR = Algorithm(
             params=(
                 Enum(
                     name="target_sign",
+                    label="Target sign",
                     description="physical: the targets against their ground at 900–1,100 nm (unknown: two-sided)",
                     choices=SIGNS,
                     default="unknown",
                 ),
                 Number(
                     name="dipole_window",
+                    label="Dipole window",
                     description="physical: odd window of the dipole's local median and spread (pixels)",
                     default=DIPOLE_WINDOW,
                     minimum=3,
@@ -289,9 +313,14 @@ INDICATOR = Algorithm(
         DARK,
         DETECTABILITY,
         BLOCK_ROWS,
-        RasterOut(name="output", description="Indicator score raster (GeoTIFF)"),
         RasterOut(
-            name="anomalies", description="0/1 anomaly mask (GeoTIFF, optional)", optional=True
+            name="output", label="Indicator score", description="Indicator score raster (GeoTIFF)"
+        ),
+        RasterOut(
+            name="anomalies",
+            label="Anomaly mask",
+            description="0/1 anomaly mask (GeoTIFF, optional)",
+            optional=True,
         ),
     ),
     run=boresight_indicator_file,
@@ -327,29 +356,35 @@ UNMIX = Algorithm(
         *IMAGE_PARAMS,
         FileIn(
             name="endmembers",
+            label="Endmembers",
             description="Endmember spectra: CSV (wavelength_nm, one column per material) or ENVI .sli/.hdr",
             extensions=("csv", "sli", "hdr"),
         ),
         Text(
             name="names",
+            label="Endmember names",
             description="Endmembers to use, comma-separated (empty: all in the file)",
             default="",
             optional=True,
         ),
         Enum(
             name="method",
+            label="Constraint",
             description="fcls: ≥ 0 and sum to 1 (Eq. 11); nnls: ≥ 0; ucls: unconstrained",
             choices=METHODS,
             default="fcls",
         ),
         Number(
             name="image_scale",
+            label="Image scale factor",
             description="Factor turning image values into the library's units (e.g. 0.0001)",
             default=1.0,
             minimum=0.0,
         ),
         CUBE_BLOCK,
-        RasterOut(name="output", description="Abundances + residual raster (GeoTIFF)"),
+        RasterOut(
+            name="output", label="Abundances", description="Abundances + residual raster (GeoTIFF)"
+        ),
     ),
     run=unmix_file,
 )

@@ -49,6 +49,7 @@ def match_bands(default: MatchBands = MatchBands()) -> Group:
             band_param(SWIR_BAND, default.swir_nm),
             Wavelength(
                 name="vnir_to_nm",
+                label="VNIR up to wavelength",
                 description=(
                     "Average the VNIR bands from 'vnir_nm' up to this wavelength (nm) into the "
                     "matching image (more signal, e.g. 900 to 970 nm); empty or equal to "
@@ -60,6 +61,7 @@ def match_bands(default: MatchBands = MatchBands()) -> Group:
             ),
             Wavelength(
                 name="swir_to_nm",
+                label="SWIR up to wavelength",
                 description=(
                     "Average the SWIR bands from 'swir_nm' up to this wavelength (nm) into the "
                     "matching image (the 1,010 nm band is weak; e.g. 980 to 1,100 nm); empty or "
@@ -81,12 +83,14 @@ DENSE_MATCH_BANDS = match_bands(DENSE_MATCH)
 
 CLOUD = RasterIn(
     name="cloud_mask",
+    label="Cloud mask",
     description="Cloud mask on the same grid (non-zero = cloud): masked in matching and in the DEM",
     optional=True,
 )
 
 FLYING_HEIGHT = Number(
     name="flying_height",
+    label="Flying height",
     description="Flying height above the ground (m): with the IFOV gives the pixel size",
     optional=True,
     minimum=0.0,
@@ -94,6 +98,7 @@ FLYING_HEIGHT = Number(
 )
 IFOV = Number(
     name="ifov_mrad",
+    label="IFOV",
     description="Instantaneous field of view of one pixel (mrad; AISA-Dual ≈ 1)",
     optional=True,
     minimum=0.0,
@@ -101,12 +106,14 @@ IFOV = Number(
 )
 HEIGHT_FACTOR = Number(
     name="height_factor",
+    label="Height factor",
     description="Height-to-disparity factor k = tan θ / GSD (px per metre of height)",
     optional=True,
     unit="px/m",
 )
 SQUINT = Number(
     name="squint_deg",
+    label="Squint angle",
     description="Angle between the VNIR and SWIR lines of sight (degrees), if k is not given",
     optional=True,
     minimum=0.0,
@@ -125,12 +132,14 @@ FLIGHT_GEOMETRY = Group(
         IFOV,
         Enum(
             name="parallax_axis",
+            label="Parallax axis",
             description="Direction of the parallax (the squint plane)",
             choices=("along", "across"),
             default="along",
         ),
         Flag(
             name="invert_parallax",
+            label="Invert parallax",
             description="Elevated features appear at lower line (column) numbers in the SWIR image",
         ),
     ),
@@ -145,6 +154,7 @@ MATCHING = Group(
     params=(
         Number(
             name="window",
+            label="Matching window",
             description="Matching window (odd number of pixels): larger matches more pixels but blurs relief",
             default=WINDOW,
             minimum=3,
@@ -153,6 +163,7 @@ MATCHING = Group(
         ),
         Number(
             name="search_along",
+            label="Search along-track",
             description="Search ± this many pixels along-track (paper: 3)",
             default=SEARCH_ALONG,
             minimum=1,
@@ -161,6 +172,7 @@ MATCHING = Group(
         ),
         Number(
             name="search_across",
+            label="Search across-track",
             description="Search ± this many pixels across-track (paper: 1)",
             default=SEARCH_ACROSS,
             minimum=0,
@@ -169,6 +181,7 @@ MATCHING = Group(
         ),
         Number(
             name="min_peak",
+            label="Minimum peak",
             description="Reliable only where the correlation peak is at least this (0–1)",
             default=MIN_PEAK,
             minimum=-1.0,
@@ -177,6 +190,7 @@ MATCHING = Group(
         ),
         Number(
             name="min_sharpness",
+            label="Minimum sharpness",
             description="Reliable only where the correlation peak is at least this sharp (curvature)",
             default=MIN_SHARPNESS,
             minimum=0.0,
@@ -184,6 +198,7 @@ MATCHING = Group(
         ),
         Number(
             name="refine",
+            label="Refinement passes",
             description="Sub-pixel refinement passes (warp and re-match: removes peak-locking bias)",
             default=REFINE,
             minimum=0,
@@ -221,7 +236,11 @@ DISPARITY = Algorithm(
         DENSE_MATCH_BANDS,
         CLOUD,
         MATCHING,
-        RasterOut(name="output", description="Disparity and reliability bands (GeoTIFF)"),
+        RasterOut(
+            name="output",
+            label="Disparity",
+            description="Disparity and reliability bands (GeoTIFF)",
+        ),
     ),
     run=disparity_file,
 )
@@ -307,6 +326,7 @@ DEM = Algorithm(
             params=(
                 Number(
                     name="point_spacing",
+                    label="Control point spacing",
                     description="One control point per cell of this many pixels (median)",
                     default=POINT_SPACING,
                     minimum=1,
@@ -315,12 +335,14 @@ DEM = Algorithm(
                 ),
                 Enum(
                     name="variogram",
+                    label="Variogram model",
                     description="Variogram model fitted for kriging",
                     choices=MODELS,
                     default=VARIOGRAM,
                 ),
                 Number(
                     name="n_closest_points",
+                    label="Kriging neighbours",
                     description="Control points in each local kriging neighbourhood",
                     default=N_CLOSEST_POINTS,
                     minimum=3,
@@ -332,15 +354,25 @@ DEM = Algorithm(
         ),
         Flag(
             name="force",
+            label="Force output",
             description="Write the DEM even where σ_h exceeds the relief (tagged as not meaningful)",
         ),
-        RasterOut(name="output", description="Relative DEM (GeoTIFF, m)"),
-        RasterOut(name="variance", description="Kriging variance (GeoTIFF, m²)", optional=True),
+        RasterOut(name="output", label="Relative DEM", description="Relative DEM (GeoTIFF, m)"),
         RasterOut(
-            name="disparity", description="Disparity and reliability bands (GeoTIFF)", optional=True
+            name="variance",
+            label="Kriging variance",
+            description="Kriging variance (GeoTIFF, m²)",
+            optional=True,
+        ),
+        RasterOut(
+            name="disparity",
+            label="Disparity",
+            description="Disparity and reliability bands (GeoTIFF)",
+            optional=True,
         ),
         FileOut(
             name="report",
+            label="Report",
             description="Report: σ_d, σ_h, offset, variogram, cross-validation (JSON)",
             extension="json",
             optional=True,
@@ -365,14 +397,32 @@ VIEW = Algorithm(
         "as texture (georeferenced data only)."
     ),
     params=(
-        RasterIn(name="dem", description="Relative DEM (from 'Relative DEM')"),
+        RasterIn(
+            name="dem", label="Relative DEM", description="Relative DEM (from 'Relative DEM')"
+        ),
         *DUAL_PARAMS,
-        Wavelength(name="red_nm", description="Red channel wavelength (nm)", default=RED_NM),
-        Wavelength(name="green_nm", description="Green channel wavelength (nm)", default=GREEN_NM),
-        Wavelength(name="blue_nm", description="Blue channel wavelength (nm)", default=BLUE_NM),
+        Wavelength(
+            name="red_nm",
+            label="Red wavelength",
+            description="Red channel wavelength (nm)",
+            default=RED_NM,
+        ),
+        Wavelength(
+            name="green_nm",
+            label="Green wavelength",
+            description="Green channel wavelength (nm)",
+            default=GREEN_NM,
+        ),
+        Wavelength(
+            name="blue_nm",
+            label="Blue wavelength",
+            description="Blue channel wavelength (nm)",
+            default=BLUE_NM,
+        ),
         TOLERANCE,
         Number(
             name="exaggeration",
+            label="Vertical exaggeration",
             description="Vertical exaggeration",
             default=EXAGGERATION,
             minimum=0.01,
@@ -380,6 +430,7 @@ VIEW = Algorithm(
         ),
         Number(
             name="elevation",
+            label="Viewing elevation",
             description="Viewing elevation (degrees)",
             default=ELEVATION,
             minimum=0.0,
@@ -388,13 +439,14 @@ VIEW = Algorithm(
         ),
         Number(
             name="azimuth",
+            label="Viewing azimuth",
             description="Viewing azimuth (degrees)",
             default=AZIMUTH,
             minimum=-360.0,
             maximum=360.0,
             advanced=True,
         ),
-        FileOut(name="output", description="3-D view (PNG)", extension="png"),
+        FileOut(name="output", label="3-D view", description="3-D view (PNG)", extension="png"),
     ),
     run=view_3d_file,
 )

@@ -82,6 +82,7 @@ DESHADOW = Algorithm(
         *DUAL_PARAMS,
         RasterIn(
             name="shadow",
+            label="Shadow fraction",
             description="Shadow fraction (0–1) on the image's grid: the shadow map's 'fraction' or Sun shadow's output",
         ),
         SURFACE_DESHADOW,
@@ -89,6 +90,7 @@ DESHADOW = Algorithm(
         OFFSET,
         Flag(
             name="additive",
+            label="Additive signal",
             description="Also estimate each band's additive signal (path radiance, a dark level "
             "that differs from band to band) from the intercept of the pairs' line (with the "
             "surface model's slopes) and the dark object, and scale only the signal above it "
@@ -96,15 +98,19 @@ DESHADOW = Algorithm(
         ),
         Flag(
             name="adjacency",
+            label="Adjacency light",
             description="Also light each pixel by its sunlit surroundings (the light they "
             "reflect into the part of its sky they hide, 1 − its sky-view factor; their share "
             "fitted per band on the pairs), so each pixel gets its own ratio; needs the surface "
             "model (not the default: see docs/deshadow.md)",
         ),
         BLOCK_ROWS,
-        RasterOut(name="output", description="De-shadowed cube (float32, all bands)"),
+        RasterOut(
+            name="output", label="De-shadowed", description="De-shadowed cube (float32, all bands)"
+        ),
         FileOut(
             name="report",
+            label="Report",
             description="JSON report: each band's illumination ratio and dark level",
             optional=True,
             extension="json",

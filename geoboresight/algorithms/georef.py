@@ -44,15 +44,18 @@ GROUP = "Georeferencing"
 
 INPUT = RasterIn(
     name="input",
+    label="Input raster",
     description="Raw-geometry product (ratio, classes, DEM, scores, a cube: any raster)",
 )
 CRS = Text(
     name="crs",
+    label="Output CRS",
     description="Output CRS (EPSG code, PROJ string or WKT; default: that of the coordinates, their UTM zone when in degrees)",
     optional=True,
 )
 RESOLUTION = Number(
     name="resolution",
+    label="Output cell size",
     description="Output cell size in the output CRS's units (0: the product's median pixel spacing)",
     default=0.0,
     minimum=0.0,
@@ -60,6 +63,7 @@ RESOLUTION = Number(
 )
 RESAMPLING = Enum(
     name="resampling",
+    label="Resampling",
     description="Resampling: auto (nearest for class rasters, bilinear for continuous data), nearest, bilinear or cubic",
     choices=RESAMPLINGS,
     default="auto",
@@ -68,11 +72,13 @@ RESAMPLING = Enum(
 GRID = Group(name="grid", value=OutputGrid, params=(CRS, RESOLUTION, RESAMPLING))
 GCP_CRS = Text(
     name="gcp_crs",
+    label="GCP CRS",
     description="CRS of the GCPs' map coordinates, when the GCP file names none (or to override it)",
     optional=True,
 )
 REPORT = FileOut(
     name="report",
+    label="Report",
     description="JSON report: the model, RMSE and each point's residual",
     extension="json",
     optional=True,
@@ -80,6 +86,7 @@ REPORT = FileOut(
 
 IGM_OUTPUT = RasterOut(
     name="igm_output",
+    label="Fitted IGM",
     description="The fitted IGM (x, y of every raw pixel), to geolocate the line's other products",
     optional=True,
 )
@@ -124,19 +131,26 @@ GEOLOCATE = Algorithm(
         INPUT,
         RasterIn(
             name="igm",
+            label="IGM",
             description="IGM (easting, northing per raw pixel) or a dataset with GDAL geolocation arrays",
             optional=True,
         ),
         RasterIn(
-            name="glt", description="GLT: one-based sample and line on a map grid", optional=True
+            name="glt",
+            label="GLT",
+            description="GLT: one-based sample and line on a map grid",
+            optional=True,
         ),
         Text(
             name="igm_crs",
+            label="IGM/GLT CRS",
             description="CRS of the IGM or GLT when its header carries none (e.g. EPSG:32636)",
             optional=True,
         ),
         GRID,
-        RasterOut(name="output", description="The product on a map grid (GeoTIFF)"),
+        RasterOut(
+            name="output", label="Geolocated", description="The product on a map grid (GeoTIFF)"
+        ),
     ),
     run=geolocate_file,
 )
@@ -171,18 +185,21 @@ GEOREFERENCE = Algorithm(
         INPUT,
         FileIn(
             name="gcps",
+            label="GCP file",
             description="GCP file: CSV (pixel,line,x,y) or QGIS Georeferencer .points",
             extensions=("csv", "points", "txt"),
         ),
         GCP_CRS,
         Enum(
             name="method",
+            label="Transform",
             description="Transform: polynomial (of the order below) or thin-plate spline",
             choices=METHODS,
             default="polynomial",
         ),
         Number(
             name="order",
+            label="Polynomial order",
             description="Polynomial order (1: affine, needs 3 GCPs; 2: 6 GCPs; 3: 10 GCPs)",
             default=1,
             minimum=1,
@@ -190,7 +207,9 @@ GEOREFERENCE = Algorithm(
             integer=True,
         ),
         GRID,
-        RasterOut(name="output", description="The product on a map grid (GeoTIFF)"),
+        RasterOut(
+            name="output", label="Georeferenced", description="The product on a map grid (GeoTIFF)"
+        ),
         REPORT,
         IGM_OUTPUT,
     ),
@@ -227,27 +246,35 @@ AUTO = Algorithm(
     ),
     params=(
         INPUT,
-        RasterIn(name="reference", description="Reference orthophoto (with its CRS)"),
+        RasterIn(
+            name="reference",
+            label="Reference orthophoto",
+            description="Reference orthophoto (with its CRS)",
+        ),
         FileIn(
             name="gcps",
+            label="GCP file",
             description="Rough placement from a few GCPs (CSV or QGIS .points), or give the corners",
             extensions=("csv", "points", "txt"),
             optional=True,
         ),
         Text(
             name="corners",
+            label="Corners",
             description="Rough placement from the corners: x,y of the top-left, top-right, bottom-right, bottom-left image corners (8 numbers)",
             optional=True,
         ),
         GCP_CRS,
         Band(
             name="band",
+            label="Band",
             description="Product band to match (e.g. a NIR band)",
             default=1,
             raster="input",
         ),
         Band(
             name="reference_band",
+            label="Reference band",
             description="Orthophoto band to match (a similar wavelength)",
             default=1,
             raster="reference",
@@ -258,18 +285,21 @@ AUTO = Algorithm(
             params=(
                 Enum(
                     name="detector",
+                    label="Feature detector",
                     description="Feature detector (scikit-image)",
                     choices=DETECTORS,
                     default="sift",
                 ),
                 Enum(
                     name="model",
+                    label="Wobble model",
                     description="Wobble model: affine per block of lines (blended) or thin-plate spline on the inliers",
                     choices=MODELS,
                     default="blocks",
                 ),
                 Number(
                     name="model_block_lines",
+                    label="Lines per block",
                     description="Lines per block of the wobble model and of RANSAC (its resolution along the track)",
                     default=MODEL_BLOCK_LINES,
                     minimum=8,
@@ -280,6 +310,7 @@ AUTO = Algorithm(
                 ),
                 Number(
                     name="max_shift_px",
+                    label="Largest shift",
                     description="Largest error of the rough placement (product pixels)",
                     default=MAX_SHIFT_PX,
                     minimum=1.0,
@@ -289,6 +320,7 @@ AUTO = Algorithm(
                 ),
                 Number(
                     name="min_inliers",
+                    label="Minimum inliers",
                     description="Fewest tie points accepted",
                     default=MIN_INLIERS,
                     minimum=6,
@@ -298,6 +330,7 @@ AUTO = Algorithm(
                 ),
                 Number(
                     name="max_rmse_px",
+                    label="Largest RMSE",
                     description="Largest cross-validated RMSE of the tie points accepted (product pixels)",
                     default=MAX_RMSE_PX,
                     minimum=0.01,
@@ -308,7 +341,9 @@ AUTO = Algorithm(
             ),
         ),
         GRID,
-        RasterOut(name="output", description="The product on a map grid (GeoTIFF)"),
+        RasterOut(
+            name="output", label="Georeferenced", description="The product on a map grid (GeoTIFF)"
+        ),
         REPORT,
         IGM_OUTPUT,
     ),
@@ -337,15 +372,19 @@ REPROJECT_TO = Algorithm(
     ),
     params=(
         RasterIn(
-            name="input", description="Georeferenced raster, or a .gpkg/.geojson vector layer"
+            name="input",
+            label="Input layer",
+            description="Georeferenced raster, or a .gpkg/.geojson vector layer",
         ),
         RasterIn(
             name="reference",
+            label="Reference raster",
             description="Raster whose grid (or CRS, for a vector) the output takes",
         ),
         RESAMPLING,
         RasterOut(
             name="output",
+            label="Reprojected",
             description="The product on the reference's grid",
             also=(".gpkg", ".geojson", ".json"),
         ),
@@ -369,9 +408,16 @@ SIMULATE_ORTHO = Algorithm(
         "compared with the true IGM. See docs/georef.md."
     ),
     params=(
-        Enum(name="preset", description="Scene type", choices=SCENES, default="urban"),
+        Enum(
+            name="preset",
+            label="Scene type",
+            description="Scene type",
+            choices=SCENES,
+            default="urban",
+        ),
         Number(
             name="lines",
+            label="Lines",
             description="Lines of the raw band",
             default=128,
             minimum=8,
@@ -380,6 +426,7 @@ SIMULATE_ORTHO = Algorithm(
         ),
         Number(
             name="jitter_deg",
+            label="Jitter",
             description="Standard deviation of roll, pitch and yaw along the track (degrees)",
             default=JITTER_DEG,
             minimum=0.0,
@@ -388,6 +435,7 @@ SIMULATE_ORTHO = Algorithm(
         ),
         Number(
             name="jitter_lines",
+            label="Jitter length",
             description="Correlation length of the jitter (lines)",
             default=JITTER_LINES,
             minimum=1.0,
@@ -396,6 +444,7 @@ SIMULATE_ORTHO = Algorithm(
         ),
         Number(
             name="heading_deg",
+            label="Heading",
             description="Flight heading, clockwise from north (degrees)",
             default=HEADING_DEG,
             minimum=0.0,
@@ -404,6 +453,7 @@ SIMULATE_ORTHO = Algorithm(
         ),
         Number(
             name="ortho_cell",
+            label="Orthophoto cell size",
             description="Orthophoto cell size (m)",
             default=ORTHO_CELL,
             minimum=0.2,
@@ -411,7 +461,7 @@ SIMULATE_ORTHO = Algorithm(
             unit="m",
         ),
         seed("Random seed: the same seed gives the same scene", advanced=False),
-        FolderOut(name="output", description="Folder to create"),
+        FolderOut(name="output", label="Output folder", description="Folder to create"),
     ),
     run=simulate_ortho_file,
 )

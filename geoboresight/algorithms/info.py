@@ -52,6 +52,7 @@ INFO = Algorithm(
         *BAND_PARAMS,
         FileOut(
             name="output",
+            label="Description (JSON)",
             description="The description as JSON (optional)",
             extension="json",
             optional=True,

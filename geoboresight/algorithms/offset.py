@@ -3,7 +3,7 @@ removes it (paper §3.2)."""
 
 from __future__ import annotations
 
-from ..dem.coregister import SPLINE_ORDER
+from ..dem.coregister import DEFAULT_ORDER
 from ..dem.offset import PROFILE_ROWS
 from ..operations.offset import boresight_offset_file, coregister_file
 from ._common import BLOCK_ROWS, DUAL_PARAMS
@@ -47,14 +47,21 @@ OFFSET = Algorithm(
         GEOMETRY,
         Number(
             name="profile_rows",
+            label="Lines per profile block",
             description="Also measure the offset per block of this many lines (0 = global only)",
             default=PROFILE_ROWS,
             minimum=0,
             integer=True,
         ),
-        FileOut(name="output", description="Offset report (JSON)", extension="json"),
+        FileOut(
+            name="output",
+            label="Offset report",
+            description="Offset report (JSON)",
+            extension="json",
+        ),
         FileOut(
             name="plot",
+            label="Offset plot",
             description="Plot of the offset along the flight line (PNG)",
             extension="png",
             optional=True,
@@ -77,7 +84,7 @@ COREGISTER = Algorithm(
     short_help="Resample every SWIR band onto the VNIR pixel grid, removing the boresight offset.",
     help=(
         "Corrects the boresight effect after it has been used: every SWIR band is resampled "
-        "(cubic spline by default) so that SWIR pixel (r, c) sees the ground of VNIR pixel "
+        "(cubic convolution by default) so that SWIR pixel (r, c) sees the ground of VNIR pixel "
         "(r, c). The offset is measured from the images (as 'Boresight offset') unless given; "
         "with 'follow drift' it is measured per block of lines and interpolated line by line.\n\n"
         "Output: a float32 GeoTIFF with all SWIR bands (band descriptions and tags carry the "
@@ -90,19 +97,24 @@ COREGISTER = Algorithm(
         CLOUD,
         Number(
             name="along",
+            label="Offset along-track",
             description="Known along-track offset (px); empty = measure it",
             optional=True,
         ),
         Number(
             name="across",
+            label="Offset across-track",
             description="Known across-track offset (px); empty = measure it",
             optional=True,
         ),
         Flag(
-            name="follow_drift", description="Measure the offset per block of lines and follow it"
+            name="follow_drift",
+            label="Follow drift",
+            description="Measure the offset per block of lines and follow it",
         ),
         Number(
             name="profile_rows",
+            label="Lines per drift block",
             description="Block of lines for 'follow drift'",
             default=PROFILE_ROWS,
             minimum=16,
@@ -111,12 +123,15 @@ COREGISTER = Algorithm(
         ),
         Enum(
             name="order",
-            description="Interpolation (spline order)",
+            label="Interpolation",
+            description="Interpolation: 1 linear, 3 cubic convolution (Keys)",
             choices=("1", "3"),
-            default=str(SPLINE_ORDER),
+            default=str(DEFAULT_ORDER),
         ),
         BLOCK_ROWS,
-        RasterOut(name="output", description="Co-registered SWIR (GeoTIFF)"),
+        RasterOut(
+            name="output", label="Co-registered SWIR", description="Co-registered SWIR (GeoTIFF)"
+        ),
     ),
     run=coregister_file,
 )

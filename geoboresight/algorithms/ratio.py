@@ -35,7 +35,9 @@ RATIO = Algorithm(
         *DUAL_PARAMS,
         *BAND_PARAMS,
         BLOCK_ROWS,
-        RasterOut(name="output", description="Boresight ratio raster (GeoTIFF)"),
+        RasterOut(
+            name="output", label="Boresight ratio", description="Boresight ratio raster (GeoTIFF)"
+        ),
     ),
     run=ratio_file,
 )

@@ -35,11 +35,13 @@ REPORT = Algorithm(
         *BAND_PARAMS,
         RasterIn(
             name="shadow_truth",
+            label="Shadow fraction truth",
             description="Ground-truth shadow fraction (0–1) on the VNIR grid, for the Figure 5 fit",
             optional=True,
         ),
         RasterIn(
             name="target_truth",
+            label="Target truth",
             description="Target mask or abundance on the VNIR grid, for the ROC curves",
             optional=True,
         ),
@@ -53,12 +55,19 @@ REPORT = Algorithm(
         ),
         Flag(
             name="svdd",
+            label="Include SVDD",
             description="Include the SVDD detector (slower) among the anomaly scores",
             default=True,
         ),
-        FileOut(name="output", description="Report (self-contained HTML)", extension="html"),
+        FileOut(
+            name="output",
+            label="Report",
+            description="Report (self-contained HTML)",
+            extension="html",
+        ),
         FolderOut(
             name="products",
+            label="Products folder",
             description="Folder to keep the intermediate rasters and figures in (created; empty: not kept)",
             optional=True,
         ),

@@ -30,25 +30,31 @@ ROC = Algorithm(
     params=(
         MultiRaster(
             name="scores",
+            label="Score rasters",
             description="Score rasters, higher = more anomalous (comma-separated paths)",
         ),
         Text(
             name="names",
+            label="Detector names",
             description="Detector names for the legend, comma-separated (default: file names)",
             default="",
             optional=True,
         ),
         RasterIn(
-            name="truth", description="Truth: 0/1 target mask or abundance raster, on the same grid"
+            name="truth",
+            label="Truth raster",
+            description="Truth: 0/1 target mask or abundance raster, on the same grid",
         ),
         Number(
             name="truth_threshold",
+            label="Truth threshold",
             description="Abundance at or above which a pixel is a target (empty: > 0)",
             optional=True,
             minimum=0.0,
         ),
         Number(
             name="guard_px",
+            label="Guard distance",
             description="Leave pixels within this distance of a target out of the background",
             default=0,
             minimum=0,
@@ -57,6 +63,7 @@ ROC = Algorithm(
         ),
         Number(
             name="pfa",
+            label="False-alarm rate",
             description="False-alarm rate at which Pd is reported",
             default=PFA,
             minimum=1e-9,
@@ -64,13 +71,15 @@ ROC = Algorithm(
         ),
         Text(
             name="title",
+            label="Title",
             description="Figure title",
             default=TITLE,
             optional=True,
         ),
-        FileOut(name="output", description="ROC figure (PNG)", extension="png"),
+        FileOut(name="output", label="ROC figure", description="ROC figure (PNG)", extension="png"),
         FileOut(
             name="csv",
+            label="ROC table",
             description="ROC curves (CSV: detector, pfa, pd, threshold)",
             extension="csv",
             optional=True,
@@ -97,22 +106,33 @@ POLYGONS = Algorithm(
         "Output: a GeoPackage layer 'anomalies'."
     ),
     params=(
-        RasterIn(name="score", description="Anomaly score raster"),
-        Number(name="threshold", description="Score at or above which a pixel is an anomaly"),
+        RasterIn(name="score", label="Score raster", description="Anomaly score raster"),
+        Number(
+            name="threshold",
+            label="Threshold",
+            description="Score at or above which a pixel is an anomaly",
+        ),
         Enum(
             name="geometry",
+            label="Geometry",
             description="Polygons (pixel outlines) or points (peak pixel centres)",
             choices=GEOMETRIES,
             default="polygon",
         ),
         Number(
             name="min_pixels",
+            label="Minimum pixels",
             description="Drop groups smaller than this many pixels",
             default=1,
             minimum=1,
             integer=True,
         ),
-        VectorOut(name="output", description="Anomaly layer (GeoPackage)", extension="gpkg"),
+        VectorOut(
+            name="output",
+            label="Anomalies",
+            description="Anomaly layer (GeoPackage)",
+            extension="gpkg",
+        ),
     ),
     run=anomaly_polygons_file,
 )

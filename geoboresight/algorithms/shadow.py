@@ -36,8 +36,16 @@ from .spec import (
 
 GROUP = "Shadow"
 
-RATIO = RasterIn(name="ratio", description="Boresight ratio raster (output of 'ratio')")
-RATIO_BAND = Band(name="band", description="Band of the ratio raster", default=1, raster="ratio")
+RATIO = RasterIn(
+    name="ratio", label="Boresight ratio", description="Boresight ratio raster (output of 'ratio')"
+)
+RATIO_BAND = Band(
+    name="band",
+    label="Band number",
+    description="Band of the ratio raster",
+    default=1,
+    raster="ratio",
+)
 
 
 CLASSES = Algorithm(
@@ -72,20 +80,31 @@ CLASSES = Algorithm(
         RATIO_BAND,
         FileIn(
             name="classes",
+            label="Class table",
             description="Class table (CSV or JSON: class,min,max,fraction_min,fraction_max,name,colour); empty = Table 2",
             optional=True,
             extensions=("csv", "json"),
         ),
         Number(
             name="mask_fraction",
+            label="Mask fraction",
             description="The shadow mask holds classes whose shadow fraction starts at or above this (0–1)",
             default=MASK_FRACTION,
             minimum=0.0,
             maximum=1.0,
         ),
         BLOCK_ROWS,
-        RasterOut(name="output", description="Shadow class raster (byte, colour table)"),
-        RasterOut(name="mask", description="Binary shadow mask (1 shadow, 0 not)", optional=True),
+        RasterOut(
+            name="output",
+            label="Shadow classes",
+            description="Shadow class raster (byte, colour table)",
+        ),
+        RasterOut(
+            name="mask",
+            label="Shadow mask",
+            description="Binary shadow mask (1 shadow, 0 not)",
+            optional=True,
+        ),
     ),
     run=shadow_classes_file,
 )
@@ -118,16 +137,19 @@ CLUSTER = Algorithm(
         RATIO_BAND,
         RasterIn(
             name="vnir",
+            label="VNIR image",
             description="VNIR image (or a merged cube) on the ratio's grid, with wavelengths",
         ),
         Wavelength(
             name="nir_nm",
+            label="NIR wavelength",
             description="Wavelength of the near-infrared axis (nm; paper: 941)",
             default=NIR_NM,
         ),
         TOLERANCE,
         Text(
             name="vnir_wavelengths",
+            label="VNIR band centres",
             description="Band centres of the VNIR file in nm, comma-separated (only if the file has none)",
             optional=True,
             advanced=True,
@@ -135,6 +157,7 @@ CLUSTER = Algorithm(
         ),
         Number(
             name="n_components",
+            label="Mixture components",
             description="Mixture components (empty = chosen by BIC among 2–5)",
             optional=True,
             minimum=2,
@@ -144,6 +167,7 @@ CLUSTER = Algorithm(
         ),
         Number(
             name="probability",
+            label="Probability threshold",
             description="Posterior probability of the shadow component needed to call a pixel shadow",
             default=PROBABILITY,
             minimum=0.0,
@@ -160,10 +184,18 @@ CLUSTER = Algorithm(
             ),
         ),
         BLOCK_ROWS,
-        RasterOut(name="output", description="Shadow mask (byte: 1 shadow, 0 not)"),
-        RasterOut(name="probability_output", description="Shadow probability (0–1)", optional=True),
+        RasterOut(
+            name="output", label="Shadow mask", description="Shadow mask (byte: 1 shadow, 0 not)"
+        ),
+        RasterOut(
+            name="probability_output",
+            label="Shadow probability",
+            description="Shadow probability (0–1)",
+            optional=True,
+        ),
         FileOut(
             name="plot",
+            label="Scatter plot",
             description="Scatter plot with the shadow cluster outlined (PNG)",
             extension="png",
             optional=True,
@@ -201,16 +233,31 @@ FRACTION_FIT = Algorithm(
         RATIO,
         RATIO_BAND,
         RasterIn(
-            name="truth", description="Ground-truth shadow fraction (0–1) on the ratio's grid"
+            name="truth",
+            label="Shadow fraction truth",
+            description="Ground-truth shadow fraction (0–1) on the ratio's grid",
         ),
         RasterIn(
             name="mask",
+            label="Shadow mask",
             description="Detected shadow mask (1 = shadow) on the same grid",
             optional=True,
         ),
         BLOCK_ROWS,
-        FileOut(name="report", description="Fitted model (JSON)", extension="json", optional=True),
-        FileOut(name="plot", description="Regression plot (PNG)", extension="png", optional=True),
+        FileOut(
+            name="report",
+            label="Model",
+            description="Fitted model (JSON)",
+            extension="json",
+            optional=True,
+        ),
+        FileOut(
+            name="plot",
+            label="Regression plot",
+            description="Regression plot (PNG)",
+            extension="png",
+            optional=True,
+        ),
     ),
     run=shadow_fraction_fit_file,
 )
@@ -239,22 +286,34 @@ FRACTION_APPLY = Algorithm(
         RATIO,
         RATIO_BAND,
         Number(
-            name="slope", description="Slope a of ratio = a · fraction + b", default=PAPER_SLOPE
+            name="slope",
+            label="Slope",
+            description="Slope a of ratio = a · fraction + b",
+            default=PAPER_SLOPE,
         ),
         Number(
             name="intercept",
+            label="Intercept",
             description="Intercept b of ratio = a · fraction + b",
             default=PAPER_INTERCEPT,
         ),
         FileIn(
             name="model",
+            label="Fitted model",
             description="JSON report of 'shadow-fraction-fit' (overrides slope and intercept)",
             optional=True,
             extensions=("json",),
         ),
-        Flag(name="no_clip", description="Do not limit the fraction to 0–1", advanced=True),
+        Flag(
+            name="no_clip",
+            label="Do not clip",
+            description="Do not limit the fraction to 0–1",
+            advanced=True,
+        ),
         BLOCK_ROWS,
-        RasterOut(name="output", description="Shadow fraction (0–1, float32)"),
+        RasterOut(
+            name="output", label="Shadow fraction", description="Shadow fraction (0–1, float32)"
+        ),
     ),
     run=shadow_fraction_apply_file,
 )
@@ -278,22 +337,30 @@ POLYGONS = Algorithm(
     ),
     params=(
         RasterIn(
-            name="classes_raster", description="Shadow class raster (output of 'shadow-classes')"
+            name="classes_raster",
+            label="Shadow classes",
+            description="Shadow class raster (output of 'shadow-classes')",
         ),
         FileIn(
             name="classes",
+            label="Class table",
             description="Class table used for it (empty = Table 2)",
             optional=True,
             extensions=("csv", "json"),
         ),
         Number(
             name="min_pixels",
+            label="Minimum pixels",
             description="Drop polygons smaller than this many pixels",
             default=MIN_PIXELS,
             minimum=1,
             integer=True,
         ),
-        VectorOut(name="output", description="Shadow polygons (.gpkg or .geojson)"),
+        VectorOut(
+            name="output",
+            label="Shadow polygons",
+            description="Shadow polygons (.gpkg or .geojson)",
+        ),
     ),
     run=shadow_polygons_file,
 )

@@ -52,6 +52,7 @@ DETECTION = Group(
     params=(
         Number(
             name="core_darkness",
+            label="Core darkness",
             description="Core shadow: natural log of the SWIR signal over its sunlit mode at or below this (default ln 1/6; with a surface model only at its predicted edges and near its sunward edge)",
             default=CORE_DARKNESS,
             minimum=-10.0,
@@ -60,6 +61,7 @@ DETECTION = Group(
         ),
         Number(
             name="edge_pixels",
+            label="Edge pixels",
             description="Look for partial shadow this many pixels around the core (0 = core only)",
             default=EDGE_PIXELS,
             minimum=0,
@@ -77,33 +79,39 @@ SURFACE = Group(
     params=(
         RasterIn(
             name="dsm",
+            label="Surface model (DSM)",
             description="Surface model (DSM, m) on the image's grid, or on a map grid with the line's IGM or GLT: its cast shadow is the prior (empty = spectra only)",
             optional=True,
         ),
         RasterIn(
             name="igm",
+            label="IGM",
             description="The line's IGM (map coordinates of each raw pixel), to read a DSM on a map grid at the image's pixels",
             optional=True,
         ),
         RasterIn(
             name="glt",
+            label="GLT",
             description="Or the line's GLT (one-based sample and line of each map cell), to read a DSM on a map grid at the image's pixels",
             optional=True,
             advanced=True,
         ),
         Text(
             name="igm_crs",
+            label="IGM/GLT CRS",
             description="CRS of the IGM or GLT when its header carries none (e.g. EPSG:32636)",
             optional=True,
             advanced=True,
         ),
         Text(
             name="acquisition_time",
+            label="Acquisition time",
             description="Acquisition date and time, ISO 8601 (e.g. 2009-06-20T10:32:00Z; UTC without an offset): the sun's zenith and azimuth are computed from it at the scene's centre (instead of giving them)",
             optional=True,
         ),
         Number(
             name="sun_zenith",
+            label="Sun zenith",
             description="Sun zenith angle (degrees from vertical, below 90; at acquisition, with the DSM; or give the acquisition time)",
             optional=True,
             minimum=0.0,
@@ -112,6 +120,7 @@ SURFACE = Group(
         ),
         Number(
             name="sun_azimuth",
+            label="Sun azimuth",
             description="Sun azimuth (degrees clockwise from the grid's up: north on a map grid or with the IGM; on the raw grid, towards row 0, so with lines recorded along the flight and columns to the right of the track it is 180° minus the azimuth from the flight direction; at acquisition, with the DSM)",
             optional=True,
             minimum=0.0,
@@ -120,6 +129,7 @@ SURFACE = Group(
         ),
         Number(
             name="cell_size",
+            label="DSM cell size",
             description="Cell size of the DSM in metres, when neither it nor the image has a geotransform",
             optional=True,
             minimum=0.0,
@@ -128,6 +138,7 @@ SURFACE = Group(
         ),
         Number(
             name="clearance",
+            label="Clearance",
             description="Height a caster must rise above the sun line to cast shadow: about 3 × the DSM's height noise (m; 0 = exact)",
             default=1.0,
             minimum=0.0,
@@ -137,6 +148,7 @@ SURFACE = Group(
         ),
         Flag(
             name="register",
+            label="Register the shadow",
             description="Register the predicted shadow to the image first: move it by the sub-pixel shift (up to 1 px each way) that best matches the image's NIR darkness, where the image's parts agree on it (reported); off = the prediction where the DSM puts it",
             default=True,
             advanced=True,
@@ -267,6 +279,7 @@ SHADOW_MAP = Algorithm(
         *DUAL_PARAMS,
         FileIn(
             name="classes",
+            label="Class table",
             description="Class table (CSV or JSON) whose shadow-fraction intervals make the classes; empty = Table 2",
             optional=True,
             extensions=("csv", "json"),
@@ -278,10 +291,20 @@ SHADOW_MAP = Algorithm(
         DETECTION,
         CALIBRATION,
         BLOCK_ROWS,
-        RasterOut(name="output", description="Shadow-fraction classes (byte, colour table)"),
-        RasterOut(name="mask", description="Shadow mask (1 shadow, 0 not)", optional=True),
+        RasterOut(
+            name="output",
+            label="Shadow classes",
+            description="Shadow-fraction classes (byte, colour table)",
+        ),
+        RasterOut(
+            name="mask",
+            label="Shadow mask",
+            description="Shadow mask (1 shadow, 0 not)",
+            optional=True,
+        ),
         RasterOut(
             name="fraction",
+            label="Shadow fraction",
             description="Estimated shadow fraction (float, 0–1; the input of De-shadow)",
             optional=True,
         ),

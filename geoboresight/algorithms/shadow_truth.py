@@ -50,11 +50,19 @@ SUN_SHADOW = Algorithm(
     params=(
         RasterIn(
             name="dsm",
+            label="Surface model",
             description="Surface model (heights in metres; GeoTIFF or anything GDAL reads)",
         ),
-        Band(name="band", description="Band of the surface model", default=1, raster="dsm"),
+        Band(
+            name="band",
+            label="Band number",
+            description="Band of the surface model",
+            default=1,
+            raster="dsm",
+        ),
         Number(
             name="sun_zenith",
+            label="Sun zenith",
             description="Sun zenith angle (degrees from vertical, 0–90; or give the acquisition time)",
             optional=True,
             minimum=0.0,
@@ -63,6 +71,7 @@ SUN_SHADOW = Algorithm(
         ),
         Number(
             name="sun_azimuth",
+            label="Sun azimuth",
             description="Sun azimuth (degrees clockwise from the grid's up: north on a map grid; on a raw grid without a geotransform, towards row 0, so with lines recorded along the flight and columns to the right of the track it is 180° minus the azimuth from the flight direction; 0–360)",
             optional=True,
             minimum=0.0,
@@ -71,11 +80,13 @@ SUN_SHADOW = Algorithm(
         ),
         Text(
             name="acquisition_time",
+            label="Acquisition time",
             description="Acquisition date and time, ISO 8601 (e.g. 2009-06-20T10:32:00Z; UTC without an offset): the sun's zenith and azimuth are computed from it at the surface model's centre (instead of giving them; needs a georeferenced surface model)",
             optional=True,
         ),
         Number(
             name="cell_size",
+            label="Cell size",
             description="Cell size in metres, for a surface model without a geotransform",
             optional=True,
             minimum=1e-6,
@@ -83,6 +94,7 @@ SUN_SHADOW = Algorithm(
         ),
         Number(
             name="supersample",
+            label="Supersampling",
             description="Sub-cells per cell side for the shadow fraction",
             default=SUPERSAMPLE,
             minimum=1,
@@ -91,22 +103,32 @@ SUN_SHADOW = Algorithm(
         ),
         Enum(
             name="surface",
+            label="Surface",
             description="How the surface between cell centres is modelled",
             choices=(AUTO, *SURFACES),
             default=AUTO,
         ),
         Number(
             name="z_factor",
+            label="Z factor",
             description="Vertical exaggeration of the hillshade (as gdaldem -z)",
             default=Z_FACTOR,
             minimum=1e-6,
             advanced=True,
         ),
         BLOCK_ROWS,
-        RasterOut(name="output", description="Shadow fraction (0–1, float32)"),
-        RasterOut(name="mask", description="Shadow mask (fraction ≥ 0.5)", optional=True),
+        RasterOut(
+            name="output", label="Shadow fraction", description="Shadow fraction (0–1, float32)"
+        ),
+        RasterOut(
+            name="mask",
+            label="Shadow mask",
+            description="Shadow mask (fraction ≥ 0.5)",
+            optional=True,
+        ),
         RasterOut(
             name="hillshade",
+            label="Hillshade",
             description="Hillshade: cosine of the solar incidence angle",
             optional=True,
         ),
@@ -138,16 +160,19 @@ DARK_PIXEL = Algorithm(
     params=(
         RasterIn(
             name="vnir",
+            label="VNIR image",
             description="VNIR image (or a merged cube) with wavelength metadata",
             aliases=("image",),
         ),
         Text(
             name="bands_nm",
+            label="Wavelengths",
             description="Wavelengths of the bands used (nm, comma-separated; the longest is the NIR)",
             default=BANDS_NM,
         ),
         Text(
             name="vnir_wavelengths",
+            label="VNIR band centres",
             description="Band centres of the VNIR file in nm, comma-separated (only if the file has none)",
             optional=True,
             advanced=True,
@@ -156,6 +181,7 @@ DARK_PIXEL = Algorithm(
         TOLERANCE,
         Number(
             name="dark_percentile",
+            label="Dark percentile",
             description="Core-shadow candidates: darker than this percentile of the scene (NIR and visible)",
             default=DARK_PERCENTILE,
             minimum=0.1,
@@ -163,6 +189,7 @@ DARK_PIXEL = Algorithm(
         ),
         Number(
             name="threshold",
+            label="Threshold",
             description="Shadow where the shadow function Φ reaches this value",
             default=THRESHOLD,
             minimum=0.0,
@@ -179,8 +206,17 @@ DARK_PIXEL = Algorithm(
             ),
         ),
         BLOCK_ROWS,
-        RasterOut(name="output", description="Dark-pixel shadow mask (byte: 1 shadow, 0 not)"),
-        RasterOut(name="shadow_function", description="Shadow function Φ (float32)", optional=True),
+        RasterOut(
+            name="output",
+            label="Shadow mask",
+            description="Dark-pixel shadow mask (byte: 1 shadow, 0 not)",
+        ),
+        RasterOut(
+            name="shadow_function",
+            label="Shadow function",
+            description="Shadow function Φ (float32)",
+            optional=True,
+        ),
     ),
     run=dark_pixel_shadow_file,
 )

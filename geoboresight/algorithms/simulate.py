@@ -59,12 +59,14 @@ SIMULATE = Algorithm(
     params=(
         Enum(
             name="preset",
+            label="Scene type",
             description="Scene type: urban (buildings, streets, trees), dunes (~30 m sand relief), glade (forest clearing), mixed (relief + village + targets)",
             choices=SCENES,
             default=PRESET,
         ),
         Number(
             name="lines",
+            label="Lines",
             description="Number of along-track lines to simulate (286 pixels each)",
             default=LINES,
             minimum=MIN_LINES,
@@ -81,12 +83,14 @@ SIMULATE = Algorithm(
             params=(
                 Enum(
                     name="geometry",
+                    label="Viewing geometry",
                     description="Viewing geometry: realistic (0.3° squint, the paper's regime) or large-squint (3°, relief measurable)",
                     choices=tuple(GEOMETRIES),
                     default=GEOMETRY,
                 ),
                 Number(
                     name="squint_deg",
+                    label="Squint angle",
                     description="Angle between the VNIR and SWIR lines of sight (degrees, along-track and signed; default from the geometry)",
                     optional=True,
                     minimum=-10.0,
@@ -95,6 +99,7 @@ SIMULATE = Algorithm(
                 ),
                 Number(
                     name="flying_height",
+                    label="Flying height",
                     description="Flying height above the ground (m, above its lowest point; default 1,500 m = 1.5 m pixels)",
                     optional=True,
                     minimum=100.0,
@@ -103,6 +108,7 @@ SIMULATE = Algorithm(
                 ),
                 Number(
                     name="nominal_altitude",
+                    label="Nominal altitude",
                     description="Altitude for which the vendor co-registered SWIR to VNIR (m; default 1,828.8 m = 6,000 ft, or the flying height for large-squint)",
                     optional=True,
                     minimum=100.0,
@@ -111,6 +117,7 @@ SIMULATE = Algorithm(
                 ),
                 Text(
                     name="boresight_vnir_deg",
+                    label="VNIR boresight angles",
                     description=f"VNIR boresight angles roll,pitch,yaw in degrees, each within ±{MAX_BORESIGHT_DEG:g} (default 0,0,0)",
                     optional=True,
                     advanced=True,
@@ -118,6 +125,7 @@ SIMULATE = Algorithm(
                 ),
                 Text(
                     name="boresight_swir_deg",
+                    label="SWIR boresight angles",
                     description=f"SWIR boresight angles roll,pitch,yaw in degrees, each within ±{MAX_BORESIGHT_DEG:g} (default 0,<squint>,0; overrides the squint)",
                     optional=True,
                     advanced=True,
@@ -131,6 +139,7 @@ SIMULATE = Algorithm(
             params=(
                 Number(
                     name="sun_zenith",
+                    label="Sun zenith",
                     description="Sun zenith angle (degrees; default from the paper's scene for the preset)",
                     optional=True,
                     minimum=0.0,
@@ -139,6 +148,7 @@ SIMULATE = Algorithm(
                 ),
                 Number(
                     name="sun_azimuth",
+                    label="Sun azimuth",
                     description="Sun azimuth (degrees clockwise from the flight direction; default from the paper). The raw image runs along the flight from row 0 with columns to the right of the track, so sun-shadow and shadow-map take 180° minus this on it",
                     optional=True,
                     minimum=0.0,
@@ -147,6 +157,7 @@ SIMULATE = Algorithm(
                 ),
                 Number(
                     name="aot550",
+                    label="Aerosol optical depth",
                     description="Aerosol optical depth at 550 nm",
                     default=AOT550,
                     minimum=0.0,
@@ -155,6 +166,7 @@ SIMULATE = Algorithm(
                 ),
                 Number(
                     name="water_vapour_cm",
+                    label="Water vapour",
                     description="Water vapour column (cm)",
                     default=WATER_VAPOUR_CM,
                     minimum=0.0,
@@ -164,6 +176,7 @@ SIMULATE = Algorithm(
                 ),
                 Flag(
                     name="sky_obstruction",
+                    label="Sky obstruction",
                     description="Walls, tree crowns and slopes hide part of the sky from the "
                     "ground around them (street canyons get less skylight; off: every cell sees "
                     "the sky of its own tilt, as the bundled sample)",
@@ -173,6 +186,7 @@ SIMULATE = Algorithm(
         ),
         Number(
             name="targets",
+            label="Targets",
             description="Number of sub-pixel gray plastic bags (35 × 55 cm) on open ground (default: 24 for mixed, 12 for glade, else 0)",
             optional=True,
             minimum=0,
@@ -181,6 +195,7 @@ SIMULATE = Algorithm(
         ),
         Number(
             name="clouds",
+            label="Clouds",
             description="Number of small clouds (seen with parallax, casting shadows); 0 for none",
             default=0,
             minimum=0,
@@ -189,6 +204,7 @@ SIMULATE = Algorithm(
         ),
         Number(
             name="cloud_height",
+            label="Cloud height",
             description="Cloud height above the ground (m; default 40 % of the flying height)",
             optional=True,
             minimum=10.0,
@@ -202,11 +218,13 @@ SIMULATE = Algorithm(
             params=(
                 Flag(
                     name="noise_free",
+                    label="Noise free",
                     description="Write noise-free DN (no shot/read noise); still rounded to 12 bits",
                     advanced=True,
                 ),
                 Number(
                     name="supersample",
+                    label="Supersampling",
                     description="Rays per pixel side (footprint integration, sub-pixel shadow fraction)",
                     default=SUPERSAMPLE,
                     minimum=1,
@@ -218,14 +236,17 @@ SIMULATE = Algorithm(
         ),
         Flag(
             name="merged",
+            label="Write merged cube",
             description="Also write merged.img/.hdr with all 198 bands",
         ),
         Flag(
             name="navigation",
+            label="Navigation",
             description="Also place the scene on a map (UTM 36N) and write igm.tif (easting, northing of each VNIR pixel, for geolocate --igm) and ortho.tif (an RGB orthophoto of the ground)",
         ),
         FolderOut(
             name="output",
+            label="Output folder",
             description="Folder to create for the scene (ENVI images, truth rasters, truth.json)",
         ),
     ),

@@ -40,9 +40,15 @@ GROUPS = (
 
 @dataclass(frozen=True, kw_only=True)
 class Param:
-    """One parameter. ``default=None`` with ``optional=False`` means required."""
+    """One parameter. ``default=None`` with ``optional=False`` means required.
+
+    ``label`` is the field's name in a dialog, a few words as QGIS names its own parameters
+    ("Input layer", "Band number", "Output CRS"); ``description`` is the sentence that explains
+    it (the QGIS help pane and tooltip, the command line's ``--help``).
+    """
 
     name: str
+    label: str = ""
     description: str
     default: Any = None
     optional: bool = False

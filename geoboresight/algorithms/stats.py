@@ -30,10 +30,21 @@ STATS = Algorithm(
         "Outputs: a JSON file (all numbers), optionally an HTML table and a histogram PNG."
     ),
     params=(
-        RasterIn(name="input", description="Raster to describe (typically the boresight ratio)"),
-        Band(name="band", description="Band number (1 = first)", default=1, raster="input"),
+        RasterIn(
+            name="input",
+            label="Input raster",
+            description="Raster to describe (typically the boresight ratio)",
+        ),
+        Band(
+            name="band",
+            label="Band number",
+            description="Band number (1 = first)",
+            default=1,
+            raster="input",
+        ),
         Number(
             name="bins",
+            label="Histogram bins",
             description="Number of histogram bins",
             default=BINS,
             minimum=2,
@@ -42,15 +53,31 @@ STATS = Algorithm(
         ),
         Text(
             name="percentiles",
+            label="Percentiles",
             description="Percentiles to report, comma-separated (0–100)",
             default=PERCENTILES,
         ),
         BLOCK_ROWS,
-        FileOut(name="output", description="Statistics as JSON", extension="json"),
         FileOut(
-            name="html", description="Statistics as an HTML table", extension="html", optional=True
+            name="output",
+            label="Statistics (JSON)",
+            description="Statistics as JSON",
+            extension="json",
         ),
-        FileOut(name="histogram", description="Histogram (PNG)", extension="png", optional=True),
+        FileOut(
+            name="html",
+            label="Statistics (HTML)",
+            description="Statistics as an HTML table",
+            extension="html",
+            optional=True,
+        ),
+        FileOut(
+            name="histogram",
+            label="Histogram",
+            description="Histogram (PNG)",
+            extension="png",
+            optional=True,
+        ),
     ),
     run=stats_file,
 )

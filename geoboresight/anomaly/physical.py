@@ -155,7 +155,7 @@ def dipole(
     grey target's dipole, which adds its two lobes."""
     from ..dem.coregister import coregister
 
-    shifted, sok = coregister(np.where(ok, y, np.nan), along, across, ok, order=1, fill=0.0)
+    shifted, sok = coregister(y, along, across, ok, order=1)
     good = ok & sok
     return np.where(good, y - shifted.astype(np.float64), np.nan), good
 

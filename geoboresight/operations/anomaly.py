@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import threading
 
 import numpy as np
 
@@ -180,43 +181,63 @@ def _detectability_result(name, dprime, target, progress, grey=None) -> dict:
 
 class _Coregistered:
     """The cube's strips with its SWIR bands resampled onto the VNIR grid (the boresight
-    offset removed: :func:`geoboresight.dem.coregister.coregister`, cubic), for RX and SVDD.
+    offset removed: :func:`geoboresight.dem.coregister.coregister_stack`, cubic convolution),
+    for RX and SVDD.
 
-    Each strip is read with the lines the shift and the spline reach
-    (:func:`~geoboresight.dem.coregister.coregister_halo`) and cropped: the strip's values are
-    the whole image's. Invalid pixels are filled with their band's mean over the first strip;
-    pixels whose interpolation reaches outside the image or an invalid pixel become invalid."""
+    Each strip is read in the files' own type with the lines the kernel's taps reach
+    (:func:`~geoboresight.dem.coregister.coregister_halo`), its SWIR bands shifted together in
+    float32 (one valid mask for all) and cropped: the strip's values are the whole image's.
+    Pixels whose interpolation reaches outside the image or an invalid pixel become invalid.
+    Each pass resamples what it reads: a resampled copy of a long line would be as large as
+    the line, beyond the memory bound."""
 
     def __init__(self, cube, bands, is_swir, along, across):
         from ..dem.coregister import coregister_halo
 
-        self.cube, self.bands, self.is_swir = cube, bands, is_swir
+        self.cube, self.bands = cube, np.asarray(bands)
+        # A dual dataset stacks VNIR then SWIR: slices, not copies, of each strip.
+        self.vnir, self.swir = (
+            _as_slice(np.flatnonzero(~is_swir)),
+            _as_slice(np.flatnonzero(is_swir)),
+        )
         self.along, self.across = along, across
         self.halo = coregister_halo(along)
-        first, ok = cube.read(0, min(64, cube.height), bands, "float64")
-        self.fill = np.array(
-            [float(np.mean(b[ok])) if ok.any() else 0.0 for b in first], dtype=np.float64
-        )
 
     def reader(self):
-        from ..dem.coregister import coregister
+        from ..dem.coregister import coregister_stack
 
-        cube, h = self.cube, self.halo
-        swir = np.flatnonzero(self.is_swir)
+        cube, h, k = self.cube, self.halo, len(self.bands)
+        raw = cube.reader(self.bands, None)  # the files' own type, a buffer per thread
+        local = threading.local()  # one output buffer per worker thread, reused
 
         def read(row0, row1):
-            r0, r1 = max(0, row0 - h), min(cube.height, row1 + h)
-            data, read_ok = cube.read(r0, r1, self.bands, "float64")
-            valid = read_ok.copy()
-            for i in swir:
-                band, ok = coregister(data[i], self.along, self.across, read_ok, fill=self.fill[i])
-                data[i] = band
-                valid &= ok
+            r0, r1 = max(0, row0 - h[0]), min(cube.height, row1 + h[1])
+            data, read_ok = raw(r0, r1)
+            buf = getattr(local, "buf", None)
+            if buf is None or buf.shape[1] < row1 - row0:
+                buf = local.buf = np.empty((k, row1 - row0, cube.width), np.float32)
+            out = buf[:, : row1 - row0]
             inner = slice(row0 - r0, row1 - r0)
-            data = np.where(valid[inner][None], data[:, inner], 0.0)
-            return np.ascontiguousarray(data), valid[inner]
+            np.copyto(out[self.vnir], data[self.vnir, inner], casting="unsafe")
+            _, valid = coregister_stack(
+                data[self.swir],
+                self.along,
+                self.across,
+                read_ok,
+                out=out[self.swir],
+                lines=(inner.start, inner.stop),
+            )
+            # Values at invalid pixels are left as they are: RX and SVDD skip them.
+            return out, valid & read_ok[inner]
 
         return read
+
+
+def _as_slice(index: np.ndarray):
+    """``index`` as a slice when it is a contiguous range (a view instead of a copy)."""
+    if len(index) and np.array_equal(index, np.arange(index[0], index[0] + len(index))):
+        return slice(int(index[0]), int(index[0]) + len(index))
+    return index
 
 
 def _detector_input(vnir, swir, layout, spectral, dark, coregistration, target, progress):

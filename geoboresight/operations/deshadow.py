@@ -35,7 +35,7 @@ PAIR_PIXELS = 250_000
 
 def _fraction_grid(f, along, across, ok):
     """The shadow fraction (VNIR grid) moved onto the SWIR's grid."""
-    g, g_ok = coregister(np.where(ok, f, 0.0), -along, -across, ok, order=1, fill=0.0)
+    g, g_ok = coregister(np.where(ok, f, 0.0), -along, -across, ok, order=1)
     return np.where(g_ok, g, np.nan)
 
 
@@ -244,7 +244,7 @@ def deshadow_file(
             own[block.inner] = True
             dark_v, dark_s = darkest(sig[:nv], x_ok, own), darkest(sig[nv:], x_ok, own)
             for i in range(nv, sig.shape[0]):
-                sig[i], _ = coregister(sig[i], along, across, x_ok, order=1, fill=0.0)
+                sig[i], _ = coregister(sig[i], along, across, x_ok, order=1)
             # Shadowed pixels of the strip's own lines, a fixed share of them on a long line
             # (chosen by their position, so strips give the pairs of the whole image).
             rr, cc = np.mgrid[block.row0 : block.row0 + f.shape[0], 0 : f.shape[1]]

@@ -3,13 +3,23 @@ a flight line from the images alone, then remove it by resampling SWIR onto the 
 
 from __future__ import annotations
 
+from dataclasses import astuple
+
 import numpy as np
 
 from .. import io
-from ..dem.coregister import SPLINE_ORDER, coregister, coregister_halo, profile_to_lines
+from ..dem.coregister import (
+    DEFAULT_ORDER,
+    ORDERS,
+    coregister_halo,
+    coregister_stack,
+    profile_to_lines,
+)
 from ..dem.height import FlightGeometry
 from ..dem.offset import (
     PROFILE_ROWS,
+    Offset,
+    OffsetProfile,
     block_power,
     offset_angles,
     offset_of,
@@ -18,7 +28,8 @@ from ..dem.offset import (
     profile_of,
 )
 from ..errors import InputError, ParameterError
-from ..io.bands import MatchBands, masked_bands_reader, open_matching_pair
+from ..io.bands import MatchBands, open_matching_pair
+from ..io.cache import files_key, remembered
 from ..io.dual import DualLayout
 from ..progress import as_progress
 from ._operation import operation
@@ -32,6 +43,40 @@ MIN_BLOCK = 8
 
 
 def line_offset(pair, profile_rows: int = 0, progress=None, *, given: str = ""):
+    """:func:`measure_line_offset`, remembered between runs for the same files and bands
+    (:func:`geoboresight.remembered`): the operations of a flight line that need the
+    offset then read the line for it once."""
+    progress = as_progress(progress)
+    dual = getattr(pair, "dual", None)
+    files = None
+    if dual is not None:
+        files = files_key([dual.vnir.reads, dual.swir.reads, pair.cloud_mask])
+    key = None
+    if files is not None:
+        key = {
+            "files": files,
+            "bands": [list(map(int, pair.vnir_bands)), list(map(int, pair.swir_bands))],
+            "profile_rows": int(profile_rows),
+            "block_rows": PROFILE_ROWS,
+        }
+
+    def measure():
+        off, prof = measure_line_offset(pair, profile_rows, progress, given=given)
+        encoded = {"offset": [off.along, off.across, off.error]}
+        if prof is not None:
+            encoded["profile"] = [v.tolist() for v in astuple(prof)]
+        return encoded
+
+    value, cached = remembered("boresight-offset", key, measure)
+    if cached:
+        progress.info("boresight offset as measured earlier on these files (cached)")
+    prof = value.get("profile")
+    return Offset(*value["offset"]), None if prof is None else OffsetProfile(
+        *(np.asarray(v, dtype=float) for v in prof)
+    )
+
+
+def measure_line_offset(pair, profile_rows: int = 0, progress=None, *, given: str = ""):
     """The global offset of a flight line and its drift, block by block through
     :func:`~geoboresight.io.map_windows` (memory bounded by a block, whatever the line's length).
 
@@ -234,40 +279,6 @@ def boresight_offset_file(
     return {"output": output, **{k: v for k, v in result.items() if k != "profile"}}
 
 
-def _valid_sums(values, valid):
-    """Per band: the sum of the valid values (float64) and their number."""
-    return (
-        np.where(valid, values.astype(np.float64), 0.0).sum(axis=(1, 2)),
-        valid.sum(axis=(1, 2)),
-    )
-
-
-def _add(total, part):
-    return total[0] + part[0], total[1] + part[1]
-
-
-def _measured_shift(dual, match, cloud_mask, follow_drift, profile_rows, progress):
-    """The offset co-registration removes, measured on the line: one (along, across) pair,
-    or with ``follow_drift`` one per line (the offset of each block of ``profile_rows``
-    lines, interpolated)."""
-    with open_matching_pair(dual, match, cloud_mask) as pair:
-        off, prof = line_offset(
-            pair,
-            profile_rows if follow_drift else 0,
-            progress.sub(0.0, 0.2),
-            given=": give it ('along', 'across')",
-        )
-    if not follow_drift:
-        return off.along, off.across
-    along = profile_to_lines(prof.rows, prof.along, dual.height)
-    across = profile_to_lines(prof.rows, prof.across, dual.height)
-    progress.info(
-        f"offset per block of {profile_rows} lines, interpolated per line: "
-        f"along {np.nanmin(prof.along):+.3f}…{np.nanmax(prof.along):+.3f} px"
-    )
-    return along, across
-
-
 @operation(inputs=("vnir", "swir", "cloud_mask"), outputs=("output",))
 def coregister_file(
     vnir,
@@ -281,7 +292,7 @@ def coregister_file(
     across=None,
     follow_drift=False,
     profile_rows=PROFILE_ROWS,
-    order=str(SPLINE_ORDER),
+    order=str(DEFAULT_ORDER),
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
 ) -> dict:
@@ -290,7 +301,7 @@ def coregister_file(
     SWIR pixel ``(r, c)`` then sees the ground of VNIR pixel ``(r, c)``. The offset is measured
     from the images (as :func:`boresight_offset_file`) unless given; with ``follow_drift`` it is
     measured per block of lines and interpolated line by line. The bands are resampled strip by
-    strip, each strip read with the lines the shift and the spline reach.
+    strip, each strip read with the lines the shift and the kernel reach.
 
     Parameters
     ----------
@@ -314,7 +325,7 @@ def coregister_file(
     profile_rows : int
         Lines per block for ``follow_drift``.
     order : {"1", "3"}
-        Spline order of the resampling (bilinear or cubic).
+        Interpolation: linear, or Keys' cubic convolution (the default).
     block_rows : int
         Lines resampled at a time (each strip is read with the lines its shift reaches).
     progress : Progress, optional
@@ -334,70 +345,68 @@ def coregister_file(
     order = int(order)
     dual = io.as_dual(vnir, swir, layout)
     if along is None:
-        along, across = _measured_shift(
-            dual, match, cloud_mask, follow_drift, profile_rows, progress
-        )
+        with open_matching_pair(dual, match, cloud_mask) as pair:
+            off, prof = line_offset(
+                pair,
+                profile_rows if follow_drift else 0,
+                progress.sub(0.0, 0.2),
+                given=": give it ('along', 'across')",
+            )
+        if follow_drift:
+            along = profile_to_lines(prof.rows, prof.along, dual.height)
+            across = profile_to_lines(prof.rows, prof.across, dual.height)
+            progress.info(
+                f"offset per block of {profile_rows} lines, interpolated per line: "
+                f"along {np.nanmin(prof.along):+.3f}…{np.nanmax(prof.along):+.3f} px"
+            )
+        else:
+            along, across = off.along, off.across
     per_line = np.ndim(along) > 0
     if not per_line:
         progress.info(
             f"resampling SWIR by {along:+.3f} px along-track, {across:+.3f} px across-track"
         )
-    sensor = dual.swir
+    cube, index, wavelengths, _ = io.open_sensors([dual.swir], "SWIR")
     tags = {
         "product": "SWIR co-registered onto the VNIR grid (boresight offset removed)",
-        "swir_file": sensor.path,
+        "swir_file": dual.swir.path,
         "offset_along_px": f"{float(np.mean(along)):.4f}",
         "offset_across_px": f"{float(np.mean(across)):.4f}",
         "offset_per_line": "yes" if per_line else "no",
-        "spline_order": order,
+        "interpolation": ORDERS[order],
         "wavelength_units": "nm",
     }
-    n = len(sensor.bands)
-    strips = {"height": dual.height, "width": dual.width, "block_rows": block_rows}
+    n = len(index)
+
+    def shift(values, valid, *, block):
+        lines = slice(block.row0, block.row0 + values.shape[1])
+        al, ac = (along[lines], across[lines]) if per_line else (along, across)
+        out, ok = coregister_stack(values, al, ac, valid, order=order)
+        out[:, ~ok] = io.FLOAT_NODATA
+        return out[:, block.inner]
+
     with (
-        io.open_raster(sensor.reads, "SWIR") as src,
+        cube,
         io.create_raster(
             output,
             dual.grid,
             count=n,
             tags=tags,
-            band_names=[f"{w:.2f} nm" for w in sensor.wavelengths],
-            band_tags=[
-                {"wavelength": f"{w:.3f}", "wavelength_units": "nm"} for w in sensor.wavelengths
-            ],
+            band_names=[f"{w:.2f} nm" for w in wavelengths],
+            band_tags=[{"wavelength": f"{w:.3f}", "wavelength_units": "nm"} for w in wavelengths],
         ) as dst,
     ):
-        read = masked_bands_reader(src, sensor.bands)
-        # Invalid pixels are filled with their band's mean before interpolation: the whole
-        # band's, so that every strip fills alike.
-        sums, counts = io.reduce_windows(
-            read,
-            _valid_sums,
-            _add,
-            (np.zeros(n), np.zeros(n, np.int64)),
-            **strips,
-            progress=progress.sub(0.2, 0.4),
-            message="band means",
-        )
-        fill = np.where(counts > 0, sums / np.maximum(counts, 1), 0.0)
-
-        def shift(values, valid, *, block):
-            lines = slice(block.row0, block.row0 + values.shape[1])
-            al, ac = (along[lines], across[lines]) if per_line else (along, across)
-            out = np.empty(values.shape, np.float32)
-            for i in range(n):
-                band, ok = coregister(values[i], al, ac, valid[i], order=order, fill=fill[i])
-                out[i] = np.where(ok, band, io.FLOAT_NODATA)
-            return out[:, block.inner]
-
-        halo = coregister_halo(along, order)  # the lines the shift and the spline reach
+        halo = coregister_halo(along, order)  # the lines the shift and the kernel reach
         for win, out in io.map_windows(
-            read,
+            cube.reader(index, None),
             shift,
-            **strips,
-            halo=(halo, halo),
+            height=dual.height,
+            width=dual.width,
+            block_rows=block_rows,
+            halo=halo,
             pass_block=True,
-            progress=progress.sub(0.4, 1.0),
+            workers=io.windows.default_workers(),
+            progress=progress.sub(0.2, 1.0),
             message="resampling SWIR bands",
         ):
             dst.write(out, window=win)

@@ -1126,7 +1126,6 @@ def shadow_fraction_block(
         calibration.offset_across,
         ok,
         order=1,
-        fill=math.exp(calibration.swir_mode),
     )
     good = ok & s_ok
     d = darkness(n, s, calibration, good)

@@ -10,6 +10,7 @@ import pytest
 from qgis_harness import PLUGIN_DIR
 
 from geoboresight.algorithms import registry
+from geoboresight.engine import field_label
 
 pytestmark = pytest.mark.qgis
 
@@ -63,7 +64,8 @@ def test_parameters_map_to_qgis_types(provider):
             assert optional == (not p.required), where
             advanced = bool(q.flags() & QgsProcessingParameterDefinition.FlagAdvanced)
             assert advanced == p.advanced, where
-            assert q.description().startswith(p.description), where
+            assert q.description() == field_label(p), where  # a few words
+            assert q.help() == p.description, where  # the sentence: the tooltip
             if p.kind in ("number", "wavelength"):
                 if p.minimum is not None:
                     assert q.minimum() == p.minimum, where

@@ -117,7 +117,7 @@ def test_layer_names_as_qgis_core_gives_them(provider, inputs, tmp_path):
         {"vnir": inputs.scene["vnir"], "swir": inputs.scene["swir"], "output": "TEMPORARY_OUTPUT"},
     )
     names = sorted(lay.name() for lay in QgsProject.instance().mapLayers().values())
-    assert names == ["Boresight ratio raster (GeoTIFF)", "batch_ratio_900", "batch_ratio_920"]
+    assert names == ["Boresight ratio", "batch_ratio_900", "batch_ratio_920"]
     QgsProject.instance().clear()
     processing.runAndLoadResults(
         "geoboresight:simulate-ortho",

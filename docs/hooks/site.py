@@ -1,0 +1,310 @@
+"""MkDocs hooks of the documentation site (mkdocs.yml ``hooks``).
+
+- The pages made from elsewhere: the home page (README.md), the changelog (CHANGELOG.md), the
+  API reference (one mkdocstrings entry per public name of ``geoboresight``) and the gallery
+  (docs/hooks/gallery.py, run on the sample scene; its outputs are kept in
+  ``build/docs-gallery/`` until the library, the scene or the gallery change).
+- Links from a page to a file outside docs/ (``../geoboresight/io/dual.py``) point at the
+  repository on GitHub; a link to a file that does not exist is a warning, which
+  ``mkdocs build --strict`` turns into a failure.
+- A public name without a docstring is a warning too.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import hashlib
+import importlib.util
+import inspect
+import io
+import logging
+import os
+import pathlib
+import re
+import shlex
+import shutil
+import tempfile
+import warnings
+
+log = logging.getLogger("mkdocs.hooks.geoboresight")
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+DOCS = ROOT / "docs"
+GALLERY_CACHE = ROOT / "build" / "docs-gallery"
+
+#: The API reference's pages: file, title, the table of ``geoboresight`` they list, and what
+#: it holds.
+#: The API reference's pages: file, title, the table of ``geoboresight`` they list, what it holds.
+REFERENCE = (
+    (
+        "operations",
+        "File-level operations",
+        "OPERATIONS",
+        "One function per operation of the command line and the QGIS toolbox, with the same "
+        "parameter names and defaults: each reads a whole flight line block by block and "
+        "writes its outputs atomically.",
+    ),
+    (
+        "kernels",
+        "Kernels",
+        "KERNELS",
+        "The science on NumPy arrays: `f(data..., valid=None, *, options)`, where `valid` is "
+        "a boolean mask of usable pixels.",
+    ),
+    (
+        "io",
+        "Reading, writing and option values",
+        "IO",
+        "The dual-sensor reader, windowed maps over a flight line, the writers' options, and "
+        "the frozen option values the operations take.",
+    ),
+)
+
+
+# --------------------------------------------------------------------------- checks
+def missing_docstrings() -> list[str]:
+    """Public names of ``geoboresight`` (its ``__all__``) without a docstring of their own (a
+    dataclass's generated ``Name(field, ...)`` text does not count)."""
+    import geoboresight as gb
+
+    missing = []
+    for name in gb.__all__:
+        obj = getattr(gb, name)
+        doc = obj.__dict__.get("__doc__") if inspect.isclass(obj) else obj.__doc__
+        if dataclasses.is_dataclass(obj) and doc and doc.startswith(f"{obj.__name__}("):
+            doc = None
+        if not (doc or "").strip():
+            missing.append(name)
+    return missing
+
+
+# --------------------------------------------------------------------------- pages
+def reference_pages() -> dict[str, str]:
+    """``{path: markdown}`` of the API reference: an index of every public name, then one
+    page per table, one mkdocstrings entry per name."""
+    import geoboresight as gb
+
+    pages = {}
+    index = [
+        "# API reference",
+        "",
+        "`import geoboresight as gb` gives one flat API, loaded lazily: every name below is "
+        "`gb.NAME` (documented here under the module that defines it). The pages are made "
+        "from the numpydoc docstrings; `help(gb.NAME)` shows the same text.",
+        "",
+    ]
+    for page, title, table, about in REFERENCE:
+        names = getattr(gb, table)
+        body = [f"# {title}", "", about, ""]
+        index += [f"## [{title}]({page}.md)", "", about, "", "| name | what it does |", "|---|---|"]
+        for name in sorted(names, key=lambda n: (names[n], n)):
+            path = f"{names[name]}.{name}"
+            body += [f"::: {path}", ""]
+            summary = (inspect.getdoc(getattr(gb, name)) or "").split("\n\n")[0]
+            summary = " ".join(summary.split()).replace("|", "\\|")
+            index.append(f"| [`gb.{name}`][{path}] | {summary} |")
+        index.append("")
+        pages[f"reference/{page}.md"] = "\n".join(body)
+    pages["reference/index.md"] = "\n".join(index)
+    return pages
+
+
+def home_page() -> str:
+    """README.md with its links as seen from docs/ (``docs/x.md`` -> ``x.md``, anything else
+    one folder up)."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+
+    def relink(match):
+        label, target = match.group(1), match.group(2)
+        if re.match(r"^[a-z]+:|^#", target):
+            return match.group(0)
+        target = target[len("docs/") :] if target.startswith("docs/") else f"../{target}"
+        return f"[{label}]({target})"
+
+    return _LINK.sub(relink, text)
+
+
+def changelog_page() -> str:
+    return (ROOT / "CHANGELOG.md").read_text(encoding="utf-8")
+
+
+# --------------------------------------------------------------------------- gallery
+def _gallery_module():
+    spec = importlib.util.spec_from_file_location("docs_gallery", DOCS / "hooks" / "gallery.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _gallery_key() -> str:
+    """A digest of what the gallery's pictures depend on: the library, the scene, the
+    gallery's own text."""
+    digest = hashlib.sha256()
+    for folder, pattern in (
+        ("geoboresight", "**/*.py"),
+        ("sample_data", "**/*"),
+        ("docs/hooks", "gallery.py"),
+    ):
+        for path in sorted((ROOT / folder).glob(pattern)):
+            if path.is_file() and "__pycache__" not in path.parts:
+                digest.update(str(path.relative_to(ROOT)).encode())
+                digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def _run_command(command: str) -> None:
+    """One ``geoboresight ...`` line, as a shell runs it (in this process)."""
+    from geoboresight.cli import main
+
+    words = shlex.split(command)
+    assert words[0] == "geoboresight", command
+    main.main(args=words[1:], prog_name="geoboresight", standalone_mode=False)
+
+
+def run_gallery() -> dict[str, pathlib.Path]:
+    """Run every figure's steps in a folder like the repository's top (``sample_data`` beside
+    ``out/``); ``{image name: path}`` of the pictures, from the cache when nothing changed."""
+    gallery = _gallery_module()
+    cache = GALLERY_CACHE / _gallery_key()
+    images = {
+        pathlib.PurePosixPath(f["image"]).name: cache / pathlib.PurePosixPath(f["image"]).name
+        for f in gallery.FIGURES
+    }
+    if all(p.is_file() for p in images.values()):
+        return images
+    shutil.rmtree(GALLERY_CACHE, ignore_errors=True)
+    from mkdocs.exceptions import PluginError
+
+    with tempfile.TemporaryDirectory(prefix="gb-gallery-") as work:
+        work = pathlib.Path(work)
+        (work / "sample_data").symlink_to(ROOT / "sample_data")
+        (work / "out").mkdir()
+        cwd = os.getcwd()
+        os.chdir(work)
+        try:
+            for figure in gallery.FIGURES:
+                log.info("gallery: %s", figure["figure"])
+                for kind, text in figure["steps"]:
+                    sink = io.StringIO()
+                    try:
+                        with (
+                            contextlib.redirect_stdout(sink),
+                            contextlib.redirect_stderr(sink),
+                            warnings.catch_warnings(),
+                        ):
+                            # A raw flight line has no geotransform: rasterio says so.
+                            warnings.filterwarnings("ignore", message=".*no geotransform")
+                            if kind == "sh":
+                                _run_command(text)
+                            else:
+                                exec(compile(text, f"gallery {figure['figure']}", "exec"), {})
+                    except Exception as exc:
+                        raise PluginError(
+                            f"gallery, {figure['figure']}: {type(exc).__name__}: {exc}\n"
+                            f"{text}\n{sink.getvalue()[-2000:]}"
+                        ) from exc
+        finally:
+            os.chdir(cwd)
+        cache.mkdir(parents=True)
+        for figure in gallery.FIGURES:
+            shutil.copyfile(
+                work / figure["image"], cache / pathlib.PurePosixPath(figure["image"]).name
+            )
+    return images
+
+
+def _wrapped(command: str, width: int = 92) -> str:
+    """A long command on several lines, broken before options (``\\`` continuations: the
+    same command for a shell)."""
+    segments = []  # each option with its values
+    for word in shlex.split(command):
+        if word.startswith("-") or not segments:
+            segments.append([])
+        segments[-1].append(shlex.quote(word))
+    lines = [""]
+    for segment in map(" ".join, segments):
+        if lines[-1] and len(lines[-1]) + len(segment) + 1 > width - 6:
+            lines.append("")
+        lines[-1] = f"{lines[-1]} {segment}".strip()
+    return " \\\n    ".join(lines)
+
+
+def gallery_page() -> str:
+    gallery = _gallery_module()
+    lines = [
+        "# Gallery",
+        "",
+        "The paper's figures (Brook & Ben-Dor 2011) as the bundled sample scene "
+        "(`sample_data/`, a simulated AISA-Dual flight line) makes them. Each figure is drawn "
+        "by the commands and code shown, run from the repository's top folder after "
+        "`mkdir -p out`; the site's build runs exactly this text.",
+        "",
+    ]
+    for figure in gallery.FIGURES:
+        name = pathlib.PurePosixPath(figure["image"]).name
+        lines += [f"## {figure['figure']}: {figure['title']}", "", figure["caption"], ""]
+        for kind, text in figure["steps"]:
+            if kind == "sh":
+                lines += ["```bash", _wrapped(text), "```", ""]
+            else:
+                lines += ["```python", text.strip(), "```", ""]
+        lines += [f"![{figure['figure']}: {figure['title']}](gallery/{name})", ""]
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- links
+_LINK = re.compile(r"\[([^\]]*)\]\(([^)\s]+)\)")
+_FENCE = re.compile(r"(^```.*?^```)", re.M | re.S)
+
+
+def _outside_link(target: str, page_dir: pathlib.Path, repo_url: str, where: str) -> str | None:
+    """The repository URL for a relative link that leaves docs/, None for one that stays."""
+    path, _, anchor = target.partition("#")
+    if not path or re.match(r"^[a-z]+:", path):
+        return None
+    resolved = (page_dir / path).resolve()
+    if resolved.is_relative_to(DOCS) and resolved != DOCS:
+        return None
+    if not resolved.is_relative_to(ROOT) or not resolved.exists():
+        log.warning("%s: link to %s, which does not exist", where, target)
+        return None
+    kind = "tree" if resolved.is_dir() else "blob"
+    rel = resolved.relative_to(ROOT).as_posix()
+    return f"{repo_url.rstrip('/')}/{kind}/main/{rel}" + (f"#{anchor}" if anchor else "")
+
+
+def rewrite_links(markdown: str, src_uri: str, repo_url: str) -> str:
+    """``markdown`` with its links to files outside docs/ made repository URLs (fenced code
+    left as it is)."""
+    page_dir = (DOCS / src_uri).parent
+
+    def relink(match):
+        url = _outside_link(match.group(2), page_dir, repo_url, src_uri)
+        return match.group(0) if url is None else f"[{match.group(1)}]({url})"
+
+    parts = _FENCE.split(markdown)
+    return "".join(p if p.startswith("```") else _LINK.sub(relink, p) for p in parts)
+
+
+# --------------------------------------------------------------------------- MkDocs events
+def on_files(files, config):
+    from mkdocs.structure.files import File
+
+    missing = missing_docstrings()
+    if missing:
+        log.warning("public names without a docstring: %s", ", ".join(missing))
+    generated = {
+        "index.md": home_page(),
+        "changelog.md": changelog_page(),
+        "gallery.md": gallery_page(),
+        **reference_pages(),
+    }
+    for uri, text in generated.items():
+        files.append(File.generated(config, uri, content=text))
+    for name, path in run_gallery().items():
+        files.append(File.generated(config, f"gallery/{name}", abs_src_path=str(path)))
+    return files
+
+
+def on_page_markdown(markdown, page, config, files):
+    return rewrite_links(markdown, page.file.src_uri, config["repo_url"])
