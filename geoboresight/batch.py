@@ -93,20 +93,35 @@ def _read_jobs(path: str) -> tuple[list[dict], list[str]]:
     table = read_table(path, "jobs file")
     jobs, labels = [], []
     for n, row in zip(table.line_numbers, table.rows, strict=True):
-        if len(row) > len(table.header):
-            raise InputError(
-                f"jobs file {path}, line {n}: {len(row)} values for {len(table.header)} "
-                f"columns ({', '.join(table.header)}): quote values that hold the separator "
-                f"{table.delimiter!r}"
-            )
-        jobs.append({k: v for k, v in zip(table.header, row, strict=False) if k and v != ""})
         labels.append(f"line {n}")
+        if len(row) > len(table.header):
+            # Reported by its line with the other refused rows; the good rows still run.
+            jobs.append(
+                MalformedRow(
+                    f"jobs file {path}, line {n}: {len(row)} values for {len(table.header)} "
+                    f"columns ({', '.join(table.header)}): quote values that hold the "
+                    f"separator {table.delimiter!r}"
+                )
+            )
+            continue
+        jobs.append({k: v for k, v in zip(table.header, row, strict=False) if k and v != ""})
     return jobs, labels
+
+
+class MalformedRow(dict):
+    """A jobs-file row that cannot be read as a job (more values than columns): no values,
+    and the reason, which :func:`check_job` raises."""
+
+    def __init__(self, error: str):
+        super().__init__()
+        self.error = error
 
 
 def check_job(alg, values: dict) -> None:
     """What every job must pass before any job starts: the spec's checks (known parameters,
     types, ranges, choices) and input files that exist."""
+    if isinstance(values, MalformedRow):
+        raise InputError(values.error)
     checked = alg.validate(values)
     for p in alg.inputs:
         if p.kind not in ("raster", "multiraster", "file") or not checked.get(p.name):

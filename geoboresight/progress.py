@@ -8,6 +8,9 @@ effect within one block.
 
 from __future__ import annotations
 
+import contextlib
+import logging
+import warnings
 from collections.abc import Callable
 
 from .errors import Cancelled
@@ -73,3 +76,30 @@ class Progress:
 def as_progress(progress: Progress | None) -> Progress:
     """``progress`` itself, or a silent one when None."""
     return progress if progress is not None else Progress()
+
+
+@contextlib.contextmanager
+def library_messages_logged(progress: Progress):
+    """Within this context, a library's Python warning (pyogrio's, NumPy's ``RuntimeWarning``)
+    and a GDAL warning that rasterio logs reach the user as one ``warning: ...`` line through
+    ``progress.info``, never as the raw source line and logger prefix Python prints by default."""
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        progress.info("warning: " + " ".join(str(message).split()))
+
+    class _Log(logging.Handler):
+        def emit(self, record):
+            progress.info("warning: " + " ".join(record.getMessage().split()))
+
+    logger = logging.getLogger("rasterio")
+    handler = _Log(logging.WARNING)
+    propagate = logger.propagate
+    with warnings.catch_warnings():
+        warnings.showwarning = show
+        logger.addHandler(handler)
+        logger.propagate = False  # not also printed raw by Python's last-resort handler
+        try:
+            yield
+        finally:
+            logger.removeHandler(handler)
+            logger.propagate = propagate

@@ -12,6 +12,7 @@ import hashlib
 import os
 import subprocess
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -174,3 +175,264 @@ def read_only_folder(folder: Path):
         yield folder
     finally:
         folder.chmod(0o755)
+
+
+# --- Sensor products in every raster input ---------------------------------------------------
+
+#: Dark frames after a Specim capture's image lines.
+DARK_LINES = 8
+
+
+@dataclass
+class ProductInput:
+    """A sensor product written to its published layout (``products``, ``products_space``)
+    and the image every operation must read from it: ``image`` (bands, lines, samples) with
+    the VNIR bands before the SWIR bands, ``valid`` where a pixel is not masked, the band
+    centres (nm), the units and the lines written to the file (image and dark frames)."""
+
+    kind: str
+    path: str
+    image: np.ndarray
+    valid: np.ndarray
+    wavelengths: np.ndarray
+    units: str
+    lines_in_file: int
+
+
+def make_products(d: Path) -> dict[str, ProductInput]:
+    """A Specim raw capture with dark frames and a frame counter, a HySpex file, an EnMAP L1B
+    zip and a PRISMA L1 file of ROWS × COLS pixels in ``d``, by kind."""
+    from products import write_hyspex, write_specim_raw
+    from products_space import PRISMA_NAME, write_enmap_l1b, write_prisma_l1
+
+    d.mkdir(parents=True, exist_ok=True)
+    sw = cube(len(SWIR_WL), ROWS, COLS, seed=2)
+    _, data, written = write_specim_raw(
+        d, "hawk_raw", sw, SWIR_WL, dark=800.0, dark_lines=DARK_LINES
+    )
+    valid = np.ones(sw.shape, bool)
+    valid[0, :, :2] = False  # band 1's frame counter and zero pixel (APL)
+    image = written[:ROWS].transpose(1, 0, 2).astype("float64")
+    out = {
+        "specim": ProductInput(
+            "specim", data, image, valid, np.asarray(SWIR_WL, float), "DN", ROWS + DARK_LINES
+        )
+    }
+    vn = cube(len(VNIR_WL), ROWS, COLS, seed=1)
+    background = np.full((len(VNIR_WL), COLS), 190.0)
+    path = write_hyspex(d, "capture", vn, VNIR_WL, background)
+    out["hyspex"] = ProductInput(
+        "hyspex",
+        path,
+        vn.astype("float64"),
+        np.ones(vn.shape, bool),
+        np.asarray(VNIR_WL, float),
+        "DN",
+        ROWS,
+    )
+    for kind, w in (
+        ("enmap", write_enmap_l1b(d / "enmap", zip=True, rows=ROWS, cols=COLS)),
+        ("prisma", write_prisma_l1(d / PRISMA_NAME, lines=ROWS, samples=COLS)),
+    ):
+        valid = (
+            np.ones((len(w.vnir_wl) + len(w.swir_wl), ROWS, COLS), bool)
+            if w.vnir_valid is None
+            else np.concatenate([w.vnir_valid, w.swir_valid])
+        )
+        out[kind] = ProductInput(
+            kind,
+            w.path,
+            np.concatenate([w.vnir_radiance, w.swir_radiance]),
+            valid,
+            np.concatenate([w.vnir_wl, w.swir_wl]).astype(float),
+            "radiance",
+            ROWS,
+        )
+    return out
+
+
+# --- The hostile cases every face must meet (CLI, engine, batch) -----------------------------
+
+
+@dataclass
+class FaceCase:
+    """One run and what each face must say: ``code`` 0 (with ``warning`` among the result's
+    warnings, if given) or 1 with ``expect`` in the error line; ``param`` is a parameter the
+    error must name in the face's own words."""
+
+    id: str
+    op: str
+    values: dict  # parameter -> value ("{d}" = the folder of make_face_inputs)
+    code: int
+    expect: tuple[str, ...] = ()
+    param: str = ""
+    warning: str = ""
+
+
+def make_face_inputs(d: Path) -> Path:
+    """The files of :data:`FACE_CASES` in ``d`` (beside make_inputs' files)."""
+    import json
+    import sqlite3
+
+    import h5py
+    from products_space import PRISMA_NAME, write_prisma_l1
+
+    make_inputs(d)
+    text = (d / "gcps.csv").read_text()
+    (d / "gcps_repeated.csv").write_text(text + text.splitlines()[-1] + "\n")
+    feature = {
+        "type": "Feature",
+        "properties": {"a": 1},
+        "geometry": {"type": "Point", "coordinates": [700010.0, 3499990.0]},
+    }
+    doc = {
+        "type": "FeatureCollection",
+        "crs": {"type": "name", "properties": {"name": "EPSG:999999"}},
+        "features": [feature],
+    }
+    (d / "unknown_crs.geojson").write_text(json.dumps(doc))
+    import pyogrio.raw
+    import shapely
+
+    pyogrio.raw.write(
+        str(d / "garbled_srs.gpkg"),
+        np.array([shapely.to_wkb(shapely.Point(700010.0, 3499990.0))], dtype=object),
+        [np.array([1])],
+        fields=["a"],
+        geometry_type="Point",
+        crs="EPSG:32636",
+        driver="GPKG",
+    )
+    with contextlib.closing(sqlite3.connect(d / "garbled_srs.gpkg")) as db:
+        db.execute(
+            "INSERT INTO gpkg_spatial_ref_sys (srs_name, srs_id, organization, "
+            "organization_coordsys_id, definition) VALUES ('garbled', 5555, 'NONE', 5555, 'garbage')"
+        )
+        db.execute("UPDATE gpkg_geometry_columns SET srs_id = 5555")
+        db.execute("UPDATE gpkg_contents SET srs_id = 5555")
+        db.commit()
+    # PRISMA latitude/longitude of another shape than the cube (a damaged download).
+    prisma = d / "short_geo" / PRISMA_NAME
+    prisma.parent.mkdir()
+    write_prisma_l1(prisma, lines=ROWS, samples=COLS)
+    geo = "HDFEOS/SWATHS/PRS_L1_HCO/Geolocation Fields"
+    with h5py.File(prisma, "r+") as f:
+        for name in ("Latitude_VNIR", "Longitude_VNIR"):
+            del f[f"{geo}/{name}"]
+            f.create_dataset(f"{geo}/{name}", data=np.full((ROWS - 3, COLS), 45.0, "float32"))
+    return d
+
+
+FACE_CASES = [
+    FaceCase(
+        "repeated-gcp-polynomial",
+        "georeference",
+        {"input": "{d}/ratio.tif", "gcps": "{d}/gcps_repeated.csv", "output": "{o}/poly.tif"},
+        0,
+        warning="GCP(s) 6 repeat an earlier GCP exactly",
+    ),
+    FaceCase(
+        "repeated-gcp-spline",
+        "georeference",
+        {
+            "input": "{d}/ratio.tif",
+            "gcps": "{d}/gcps_repeated.csv",
+            "method": "tps",
+            "output": "{o}/tps.tif",
+        },
+        0,
+        warning="left out of the thin-plate spline",
+    ),
+    FaceCase(
+        "geojson-unknown-crs",
+        "reproject-to",
+        {
+            "input": "{d}/unknown_crs.geojson",
+            "reference": "{d}/ratio_g.tif",
+            "output": "{o}/v.gpkg",
+        },
+        1,
+        ("unknown_crs.geojson", "EPSG:999999", "not known"),
+    ),
+    FaceCase(
+        "gpkg-garbled-srs",
+        "reproject-to",
+        {"input": "{d}/garbled_srs.gpkg", "reference": "{d}/ratio_g.tif", "output": "{o}/g.gpkg"},
+        1,
+        ("garbled_srs.gpkg", "5555", "'garbage'", "cannot be resolved"),
+    ),
+    FaceCase(
+        "vnir-dark-below-the-data",
+        "shadow-map",
+        {"vnir": "{d}/v.img", "swir": "{d}/s.img", "vnir_dark": -500, "output": "{o}/f.tif"},
+        1,
+        ("v.img", "-500", "far below"),
+        param="vnir_dark",
+    ),
+    FaceCase(
+        "swir-dark-above-the-signal",
+        "shadow-map",
+        {"vnir": "{d}/v.img", "swir": "{d}/s.img", "swir_dark": 60000, "output": "{o}/f2.tif"},
+        1,
+        ("s.img", "60000", "above the signal"),
+        param="swir_dark",
+    ),
+    FaceCase(
+        "deshadow-vnir-dark-below-the-data",
+        "deshadow",
+        {
+            "vnir": "{d}/v.img",
+            "swir": "{d}/s.img",
+            "shadow": "{d}/truth.tif",
+            "vnir_dark": -500,
+            "output": "{o}/d.tif",
+        },
+        1,
+        ("v.img", "-500", "far below"),
+        param="vnir_dark",
+    ),
+    FaceCase(
+        "deshadow-swir-dark-above-the-signal",
+        "deshadow",
+        {
+            "vnir": "{d}/v.img",
+            "swir": "{d}/s.img",
+            "shadow": "{d}/truth.tif",
+            "swir_dark": 60000,
+            "output": "{o}/d2.tif",
+        },
+        1,
+        ("s.img", "60000", "above the signal"),
+        param="swir_dark",
+    ),
+    FaceCase(
+        "physical-indicator-dark-above-the-signal",
+        "boresight-indicator",
+        {
+            "method": "physical",
+            "vnir": "{d}/v.img",
+            "swir": "{d}/s.img",
+            "swir_dark": 60000,
+            "output": "{o}/bi.tif",
+        },
+        1,
+        ("above both dark levels",),
+        param="swir_dark",
+    ),
+    FaceCase(
+        "prisma-geolocation-of-another-shape",
+        "geolocate",
+        {
+            "input": "{d}/short_geo/" + "PRS_L1_STD_OFFL_20200524101500_20200524101504_0001.he5",
+            "output": "{o}/geo.tif",
+        },
+        1,
+        (f"({ROWS - 3}, {COLS})", f"({ROWS}, {COLS})", "Latitude_VNIR"),
+        param="igm",
+    ),
+]
+
+
+def face_values(case: FaceCase, d: Path, o: Path) -> dict:
+    """``case.values`` with its folders filled in."""
+    return {k: v.format(d=d, o=o) if isinstance(v, str) else v for k, v in case.values.items()}

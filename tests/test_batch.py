@@ -88,3 +88,48 @@ def test_an_empty_jobs_file_is_refused(tmp_path):
     (tmp_path / "jobs.json").write_text("[]")
     r = CliRunner().invoke(main, ["batch", "ratio", str(tmp_path / "jobs.json")])
     assert r.exit_code == 1 and "lists no job" in r.output
+
+
+def test_a_row_with_too_many_values_is_reported_by_its_line_while_the_good_rows_run(tmp_path):
+    v = write_envi(tmp_path / "v.img", cube(len(VNIR_WL), seed=1), VNIR_WL)
+    s = write_envi(tmp_path / "s.img", cube(len(SWIR_WL), seed=2), SWIR_WL)
+    rows = [
+        "vnir,swir,output",
+        f"{v},{s},{tmp_path / 'a.tif'}",
+        f"{v},{s},{tmp_path / 'b.tif'},10",
+        f"{v},{s},{tmp_path / 'c.tif'}",
+    ]
+    (tmp_path / "jobs.csv").write_text("\n".join(rows) + "\n")
+    r = CliRunner().invoke(main, ["batch", "ratio", str(tmp_path / "jobs.csv"), "--workers", "1"])
+    assert r.exit_code == 1, r.output
+    assert "line 3: FAILED" in r.output and "4 values for 3 columns" in r.output
+    assert "line 2: ok" in r.output and "line 4: ok" in r.output
+    assert (tmp_path / "a.tif").exists() and (tmp_path / "c.tif").exists()
+    assert not (tmp_path / "b.tif").exists()
+
+
+def test_the_hostile_cases_in_batch(tmp_path):
+    """hostile.FACE_CASES as a Dask batch meets them, one batch per operation: each job's
+    result (with the warning of an accepted repeat) or its one-line error naming the file and
+    the parameter as Python names it ('vnir_dark'); a Specim capture's image lines only."""
+    from hostile import COLS, FACE_CASES, ROWS, face_values, make_face_inputs, make_products
+
+    d = make_face_inputs(tmp_path / "in")
+    by_op = {}
+    for case in FACE_CASES:
+        by_op.setdefault(case.op, []).append(case)
+    for op, cases in by_op.items():
+        results = run_batch(op, [face_values(c, d, tmp_path) for c in cases], n_workers=1)
+        for case, res in zip(cases, results, strict=True):
+            assert res.ok == (case.code == 0), (case.id, res.error)
+            if res.ok:
+                assert any(case.warning in w for w in res.result["warnings"]), case.id
+                continue
+            assert "\n" not in res.error
+            for expect in case.expect:
+                assert expect in res.error, (case.id, expect, res.error)
+            if case.param:
+                assert f"'{case.param}'" in res.error, res.error
+    p = make_products(tmp_path / "p")["specim"]
+    [res] = run_batch("stats", [{"input": p.path, "band": 2, "output": str(tmp_path / "s.json")}])
+    assert res.ok and res.result["n"] == ROWS * COLS

@@ -864,3 +864,23 @@ def test_coregister_refuses_an_order_it_has_not_and_a_profile_of_another_length(
         coregister(tex, 0.5, 0.5, order=2)
     with pytest.raises(InputError, match="along-track offset has 3 values"):
         coregister(tex, np.zeros(3), 0.0)
+
+
+def test_refinement_warps_are_scipys_cubic_spline(tex):
+    """The refinement's warps (one set of B-spline weights, 16 gathered coefficients per
+    shift) are ``map_coordinates(order=3, mode="nearest")`` on the coefficients, edges
+    included, for a per-pixel base and every integer shift around it."""
+    from geoboresight.dem.disparity import _warps
+
+    b = 1000.0 + 100.0 * tex / tex.std()
+    coef = ndimage.spline_filter(b, order=3, mode="nearest")
+    rows = np.arange(-4, b.shape[0] + 4, dtype=float)
+    cols = np.arange(b.shape[1], dtype=float)
+    base_a = 0.7 + 0.4 * np.sin(rows[:, None] / 9.0) + 0 * cols
+    base_c = -0.3 + 0.3 * np.cos(cols[None, :] / 7.0) + 0 * rows[:, None]
+    shifts = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1)]
+    got = _warps(coef, np.ones(b.shape, bool), rows, cols, base_a, base_c, shifts, True)
+    for dy, dx in shifts:
+        r, c = np.broadcast_arrays(rows[:, None] + base_a + dy, cols[None, :] + base_c + dx)
+        ref = ndimage.map_coordinates(coef, [r, c], order=3, mode="nearest", prefilter=False)
+        np.testing.assert_allclose(got[(dy, dx)][0], ref, rtol=1e-12, atol=1e-9)

@@ -205,3 +205,51 @@ def test_sigterm_after_the_run_finished_reports_the_result(pair, tmp_path):
     assert done.returncode == 0, done.stdout + done.stderr
     last = _lines(done.stdout)[-1]
     assert last["result"]["output"] == str(out) and out.exists()
+
+
+@pytest.fixture(scope="module")
+def face_inputs(tmp_path_factory):
+    from hostile import make_face_inputs
+
+    return make_face_inputs(tmp_path_factory.mktemp("engine-faces") / "in")
+
+
+def _face_case_ids():
+    from hostile import FACE_CASES
+
+    return [pytest.param(c, id=c.id) for c in FACE_CASES]
+
+
+@pytest.mark.parametrize("case", _face_case_ids())
+def test_the_hostile_cases_in_the_engine(case, face_inputs, tmp_path):
+    """hostile.FACE_CASES as QGIS meets them: a result with the warning of an accepted
+    repeat, or one error line naming the file and the field by its QGIS label (never the
+    command line's --vnir-dark); no raw library warning on stderr; never exit 2 (a bug)."""
+    from hostile import face_values
+
+    values = face_values(case, face_inputs, tmp_path)
+    done = _engine("run", case.op, "--params-json", "-", input=json.dumps(values))
+    assert done.returncode == case.code, (done.stdout, done.stderr)
+    assert "Warning:" not in done.stderr, done.stderr
+    last = _lines(done.stdout)[-1]
+    if case.code == 0:
+        assert any(case.warning in w for w in last["result"]["warnings"]), last
+        return
+    for expect in case.expect:
+        assert expect in last["error"], (expect, last)
+    if case.param:
+        from geoboresight.engine import field_label
+
+        label = field_label(registry()[case.op].param(case.param))
+        assert f"'{label}'" in last["error"] and "--" not in last["error"], last
+
+
+def test_a_specim_capture_in_the_engine_is_its_image_lines(tmp_path):
+    """stats on a Specim capture with dark frames, as QGIS runs it: N = the image's pixels."""
+    from hostile import COLS, ROWS, make_products
+
+    p = make_products(tmp_path / "p")["specim"]
+    values = {"input": p.path, "band": 2, "output": str(tmp_path / "s.json")}
+    done = _engine("run", "stats", "--params-json", "-", input=json.dumps(values))
+    assert done.returncode == 0, done.stderr
+    assert _lines(done.stdout)[-1]["result"]["n"] == ROWS * COLS

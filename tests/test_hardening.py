@@ -17,12 +17,25 @@ from pathlib import Path
 import numpy as np
 import pytest
 import rasterio
-from hostile import cli, error_line, make_inputs, snapshot
+from click.testing import CliRunner
+from hostile import (
+    COLS,
+    FACE_CASES,
+    ROWS,
+    cli,
+    error_line,
+    face_values,
+    make_face_inputs,
+    make_inputs,
+    make_products,
+    snapshot,
+)
 from synth import VNIR_WL, cube, write_envi, write_gtiff
 
 import geoboresight as gb
 from geoboresight import errors, io
 from geoboresight.algorithms.spec import Number
+from geoboresight.cli import main
 from geoboresight.errors import InputError, OutputError, ParameterError
 from geoboresight.io import wavelengths as wlmod
 from geoboresight.io import write as wmod
@@ -546,3 +559,131 @@ def test_low_detectability_is_a_result_warning_not_a_python_warning(tmp_path):
         )
     assert res["dprime_low"]  # random cubes: no target stands out
     assert any("d′" in w and "below 3" in w for w in res["warnings"])
+
+
+# --- Every raster input through the product readers; the hostile cases on the command line ---
+
+
+@pytest.fixture(scope="module")
+def products(tmp_path_factory):
+    return make_products(tmp_path_factory.mktemp("products"))
+
+
+@pytest.mark.parametrize("kind", ["specim", "hyspex", "enmap", "prisma"])
+def test_stats_reads_a_products_image_lines_its_bands_and_units(products, kind, tmp_path):
+    """As ``ratio --vnir PRODUCT`` reads it: the image lines only (a Specim capture's dark
+    frames, frame counter and zero pixel out), N = its valid pixels, the band by its number
+    or by its wavelength, and the product's units; against the arrays the fixture wrote."""
+    import json
+
+    p = products[kind]
+    band = 5  # a good band of every kind (PRISMA's first three VNIR slots are unused)
+    out = tmp_path / "s.json"
+    r = cli(["stats", "-i", p.path, "--band", str(band), "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    got = json.loads(out.read_text())
+    truth = p.image[band - 1][p.valid[band - 1]]
+    assert got["n"] == truth.size
+    assert got["mean"] == pytest.approx(truth.mean(), rel=1e-6)
+    assert got["units"].startswith(p.units)
+    assert got["band_wavelength_nm"] == pytest.approx(p.wavelengths[band - 1], abs=1e-3)
+    if kind == "specim":  # band 1: the counter column and the zero pixel are masked
+        cli(["stats", "-i", p.path, "-o", str(out), "--overwrite"])
+        assert json.loads(out.read_text())["n"] == ROWS * (COLS - 2)
+    r = cli(
+        ["stats", "-i", p.path, "--band-nm", f"{p.wavelengths[band - 1] + 0.4:.3f}"]
+        + ["-o", str(out), "--overwrite"]
+    )
+    assert r.exit_code == 0, r.output
+    assert json.loads(out.read_text())["band"] == band
+    r = cli(["stats", "-i", p.path, "--band-nm", "2590", "-o", str(out), "--overwrite"])
+    line = error_line(r)
+    assert "--band-nm" in line and "2590" in line and os.path.basename(p.path) in line
+
+
+def test_a_product_given_from_python_as_an_open_dataset_or_a_dual_sensor(products, tmp_path):
+    """rasterio's convention: an open dataset where a path goes gives the same outputs (read
+    through its name: a Specim capture still without its dark frames); a DualSensor from
+    open_dual reads as its product's VNIR then SWIR bands."""
+    import json
+
+    p = products["specim"]
+    by_path = gb.stats_file(p.path, output=str(tmp_path / "a.json"), band=2)
+    with rasterio.open(p.path) as src:
+        by_dataset = gb.stats_file(src, output=str(tmp_path / "b.json"), band=2)
+    assert by_dataset["n"] == by_path["n"] == ROWS * COLS
+    assert json.loads((tmp_path / "a.json").read_text()) | {"input": ""} == json.loads(
+        (tmp_path / "b.json").read_text()
+    ) | {"input": ""}
+    e = products["enmap"]
+    dual = gb.open_dual(e.path)
+    k = len(dual.vnir.bands) + 3  # a SWIR band
+    a = gb.stats_file(dual, output=str(tmp_path / "c.json"), band=k)
+    b = gb.stats_file(e.path, output=str(tmp_path / "d.json"), band=k)
+    assert a["n"] == b["n"] == int(e.valid[k - 1].sum()) and a["mean"] == b["mean"]
+
+
+def test_open_rasterio_datasets_give_what_their_paths_give(tmp_path):
+    """A rasterio script passing open datasets (a file, an in-memory dataset) to the ratio,
+    stats and ROC gets the outputs of one passing their paths."""
+    from rasterio.io import MemoryFile
+
+    d = make_inputs(tmp_path / "in")
+    gb.ratio_file(str(d / "v.img"), str(d / "s.img"), output=str(tmp_path / "p.tif"))
+    with rasterio.open(d / "v.img") as v, rasterio.open(d / "s.img") as s:
+        gb.ratio_file(v, s, output=str(tmp_path / "q.tif"))
+        a, b = gb.open_dual(v, s), gb.open_dual(str(d / "v.img"), str(d / "s.img"))
+        assert (a.files, a.grid, a.ratio_bands()) == (b.files, b.grid, b.ratio_bands())
+    with rasterio.open(tmp_path / "p.tif") as a, rasterio.open(tmp_path / "q.tif") as b:
+        np.testing.assert_array_equal(a.read(), b.read())
+    with MemoryFile((d / "ratio.tif").read_bytes()) as mem, mem.open() as src:
+        in_memory = gb.stats_file(src, output=str(tmp_path / "m.json"))
+    assert in_memory == {
+        **gb.stats_file(str(d / "ratio.tif"), output=str(tmp_path / "n.json")),
+        "output": str(tmp_path / "m.json"),
+    }
+    with rasterio.open(d / "score.tif") as s1, rasterio.open(d / "target.tif") as t:
+        by_dataset = gb.roc_file([s1], t, output=str(tmp_path / "r1.json"))
+    by_path = gb.roc_file(
+        [str(d / "score.tif")], str(d / "target.tif"), output=str(tmp_path / "r2.json")
+    )
+    assert {k: v for k, v in by_dataset.items() if k != "output"} == {
+        k: v for k, v in by_path.items() if k != "output"
+    }
+
+
+@pytest.fixture(scope="module")
+def face_inputs(tmp_path_factory):
+    return make_face_inputs(tmp_path_factory.mktemp("faces") / "in")
+
+
+@pytest.mark.parametrize("case", FACE_CASES, ids=lambda c: c.id)
+def test_the_hostile_cases_on_the_command_line(case, face_inputs, tmp_path):
+    """Each case of hostile.FACE_CASES as the command line meets it: the exit status, one
+    error line naming the file and the option (--vnir-dark), the warning of an accepted
+    repeat, no raw library warning, inputs untouched."""
+    before = snapshot(face_inputs)
+    argv = [case.op]
+    for k, v in face_values(case, face_inputs, tmp_path).items():
+        argv += [errors.cli_option(k), str(v)]
+    result = CliRunner().invoke(main, argv, catch_exceptions=True)
+    assert result.exit_code == case.code, result.output
+    assert "Warning:" not in result.stderr and "warnings.warn" not in result.stderr
+    if case.code == 0:
+        assert case.warning in result.output
+    else:
+        line = result.stderr.strip().splitlines()[-1]
+        for expect in case.expect:
+            assert expect in line, (expect, line)
+        if case.param:
+            assert errors.cli_option(case.param) in line, line
+    assert snapshot(face_inputs) == before
+
+
+def test_a_band_a_product_marks_bad_is_refused_naming_the_good_ones(products, tmp_path):
+    """PRISMA's unused slots (centre 0, flag 0) hold no image: refused by number, never
+    chosen by wavelength."""
+    p = products["prisma"]
+    r = cli(["stats", "-i", p.path, "--band", "2", "-o", str(tmp_path / "s.json")])
+    line = error_line(r)
+    assert "--band" in line and "marked bad" in line and "4–93" in line

@@ -59,6 +59,15 @@ LAYOUT = Group(
     ),
 )
 
+#: A band chosen by its centre wavelength instead of its number (a sensor product's bands, a
+#: file with wavelength metadata): pair it with ``Band(..., wavelength="band_nm")``.
+BAND_NM = Wavelength(
+    name="band_nm",
+    label="Band wavelength",
+    description="Band by its centre wavelength in nm, instead of its number (nearest within 10 nm)",
+    optional=True,
+)
+
 #: Parameters shared by every operation that reads a dual-sensor dataset: the operation takes
 #: ``vnir`` (a path or an opened DualSensor), ``swir`` and ``layout``.
 DUAL_PARAMS = (VNIR, SWIR, LAYOUT)

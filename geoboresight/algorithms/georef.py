@@ -15,6 +15,7 @@ from ..georef.tiepoints import (
 from ..georef.transforms import METHODS
 from ..io.georef import RESAMPLINGS
 from ..io.grid import OutputGrid
+from ..io.products import FILE_FORMATS
 from ..operations.georef import (
     auto_georeference_file,
     geolocate_file,
@@ -24,7 +25,7 @@ from ..operations.georef import (
 )
 from ..simulate.ortho import HEADING_DEG, JITTER_DEG, JITTER_LINES, ORTHO_CELL
 from ..simulate.presets import SCENES
-from ._common import seed
+from ._common import BAND_NM, seed
 from .spec import (
     Algorithm,
     Band,
@@ -46,6 +47,7 @@ INPUT = RasterIn(
     name="input",
     label="Input raster",
     description="Raw-geometry product (ratio, classes, DEM, scores, a cube: any raster)",
+    formats=FILE_FORMATS,
 )
 CRS = Text(
     name="crs",
@@ -271,7 +273,9 @@ AUTO = Algorithm(
             description="Product band to match (e.g. a NIR band)",
             default=1,
             raster="input",
+            wavelength="band_nm",
         ),
+        BAND_NM,
         Band(
             name="reference_band",
             label="Reference band",

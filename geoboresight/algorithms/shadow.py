@@ -5,6 +5,7 @@ dark-pixel baseline are in :mod:`geoboresight.algorithms.shadow_truth`."""
 
 from __future__ import annotations
 
+from ..io.products import FILE_FORMATS
 from ..io.windows import Sample
 from ..operations.shadow import (
     shadow_classes_file,
@@ -17,7 +18,7 @@ from ..shadow.classes import MASK_FRACTION
 from ..shadow.cluster import NIR_NM, PROBABILITY, SAMPLE_SIZE
 from ..shadow.fraction import PAPER_INTERCEPT, PAPER_SLOPE
 from ..shadow.polygons import MIN_PIXELS
-from ._common import BLOCK_ROWS, TOLERANCE, sample_size, seed
+from ._common import BAND_NM, BLOCK_ROWS, TOLERANCE, sample_size, seed
 from .spec import (
     Algorithm,
     Band,
@@ -37,14 +38,21 @@ from .spec import (
 GROUP = "Shadow"
 
 RATIO = RasterIn(
-    name="ratio", label="Boresight ratio", description="Boresight ratio raster (output of 'ratio')"
+    name="ratio",
+    label="Boresight ratio",
+    description="Boresight ratio raster (output of 'ratio')",
+    formats=FILE_FORMATS,
 )
-RATIO_BAND = Band(
-    name="band",
-    label="Band number",
-    description="Band of the ratio raster",
-    default=1,
-    raster="ratio",
+RATIO_BAND = (
+    Band(
+        name="band",
+        label="Band number",
+        description="Band of the ratio raster",
+        default=1,
+        raster="ratio",
+        wavelength="band_nm",
+    ),
+    BAND_NM,
 )
 
 
@@ -77,7 +85,7 @@ CLASSES = Algorithm(
     ),
     params=(
         RATIO,
-        RATIO_BAND,
+        *RATIO_BAND,
         FileIn(
             name="classes",
             label="Class table",
@@ -134,7 +142,7 @@ CLUSTER = Algorithm(
     ),
     params=(
         RATIO,
-        RATIO_BAND,
+        *RATIO_BAND,
         RasterIn(
             name="vnir",
             label="VNIR image",
@@ -231,7 +239,7 @@ FRACTION_FIT = Algorithm(
     ),
     params=(
         RATIO,
-        RATIO_BAND,
+        *RATIO_BAND,
         RasterIn(
             name="truth",
             label="Shadow fraction truth",
@@ -284,7 +292,7 @@ FRACTION_APPLY = Algorithm(
     ),
     params=(
         RATIO,
-        RATIO_BAND,
+        *RATIO_BAND,
         Number(
             name="slope",
             label="Slope",

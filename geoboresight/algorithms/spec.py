@@ -79,6 +79,9 @@ class RasterIn(Param):
     kind: ClassVar[str] = "raster"
 
     def coerce(self, value):
+        from ..io.image import dataset_path
+
+        value = dataset_path(value)  # an open rasterio dataset: read through its name
         if hasattr(value, "files"):  # an opened dataset (DualSensor), as rasterio takes one
             return value
         return _path(self, value)
@@ -91,8 +94,13 @@ class MultiRaster(Param):
     kind: ClassVar[str] = "multiraster"
 
     def coerce(self, value):
+        from ..io.image import dataset_path
         from ..io.write import split_paths
 
+        if isinstance(value, list | tuple):
+            value = [dataset_path(v) for v in value]  # open rasterio datasets: their names
+        else:
+            value = dataset_path(value)
         if not (isinstance(value, str | os.PathLike) or isinstance(value, list | tuple)) or (
             isinstance(value, list | tuple)
             and not all(isinstance(v, str | os.PathLike) for v in value)
@@ -117,9 +125,12 @@ class FileIn(Param):
 
 @dataclass(frozen=True, kw_only=True)
 class Band(Param):
-    """A 1-based band number of the raster parameter named ``raster``."""
+    """A 1-based band number of the raster parameter named ``raster``; with ``wavelength``,
+    the name of the parameter that chooses the band by its centre wavelength instead (nm,
+    :func:`geoboresight.io.band_at`), which wins when given."""
 
     raster: str = ""
+    wavelength: str = ""
     kind: ClassVar[str] = "band"
 
     def coerce(self, value):
@@ -376,6 +387,8 @@ class Algorithm:
         for p in self.params:
             if isinstance(p, Band) and p.raster not in names:
                 raise ValueError(f"{self.name}: band {p.name} refers to unknown {p.raster}")
+            if isinstance(p, Band) and p.wavelength and p.wavelength not in names:
+                raise ValueError(f"{self.name}: band {p.name} refers to unknown {p.wavelength}")
         _check_signature(self)
         missing = sorted(p.name for p in flat if p.required and p.name not in self.example)
         unknown = sorted(set(self.example) - {p.name for p in flat})
@@ -482,17 +495,16 @@ class Algorithm:
 
 def _check_bands(alg: Algorithm, values: dict) -> None:
     # QGIS does not validate a band number against the raster (QGIS.md): we must.
-    from ..io.raster import band_count
+    from ..io.image import band_at, require_band
 
     for p in alg.params:
-        if isinstance(p, Band) and values.get(p.name) is not None and values.get(p.raster):
-            count = band_count(values[p.raster])
-            if values[p.name] > count:
-                raise ParameterError(
-                    f"parameter '{p.name}': band {values[p.name]} does not exist in "
-                    f"{values[p.raster]}, which has {count} band(s)",
-                    params=(p.name,),
-                )
+        if not isinstance(p, Band) or not values.get(p.raster):
+            continue
+        nm = values.get(p.wavelength) if p.wavelength else None
+        if nm is not None:
+            values[p.name] = band_at(values[p.raster], nm, label=p.raster, param=p.wavelength)
+        elif values.get(p.name) is not None:
+            require_band(values[p.raster], values[p.name], label=p.raster, param=p.name)
 
 
 def _resolve_aliases(alg: Algorithm, values: Mapping[str, Any]) -> dict:
@@ -582,12 +594,15 @@ def execute(
     removes the outputs it created when it fails); ``cog``/``co`` say how its GeoTIFF outputs
     are written (Cloud-Optimised, GDAL creation options ``NAME=VALUE``)."""
     from ..io.raster import writer_options
+    from ..progress import library_messages_logged
 
-    values = alg.bind(alg.validate(values))
-    with writer_options(cog=cog, co=co, raw_gsd=raw_gsd):
+    progress = as_progress(progress)
+    with library_messages_logged(progress):
+        values = alg.bind(alg.validate(values))
+    with writer_options(cog=cog, co=co, raw_gsd=raw_gsd), library_messages_logged(progress):
         token = VALIDATED.set(True)  # the operation need not check its arguments again
         try:
-            return alg.run(**values, progress=as_progress(progress), overwrite=overwrite)
+            return alg.run(**values, progress=progress, overwrite=overwrite)
         finally:
             VALIDATED.reset(token)
 

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from ..io.products import FILE_FORMATS
 from ..operations.stats import BINS, PERCENTILES, stats_file
-from ._common import BLOCK_ROWS
+from ._common import BAND_NM, BLOCK_ROWS
 from .spec import Algorithm, Band, FileOut, Number, RasterIn, Result, Text
 
 STATS = Algorithm(
@@ -34,6 +35,7 @@ STATS = Algorithm(
             name="input",
             label="Input raster",
             description="Raster to describe (typically the boresight ratio)",
+            formats=FILE_FORMATS,
         ),
         Band(
             name="band",
@@ -41,7 +43,9 @@ STATS = Algorithm(
             description="Band number (1 = first)",
             default=1,
             raster="input",
+            wavelength="band_nm",
         ),
+        BAND_NM,
         Number(
             name="bins",
             label="Histogram bins",

@@ -247,7 +247,11 @@ def physical_indicator(
     check_window(window)
     y, ok = log_ratio(vnir, swir, valid, vnir_dark=vnir_dark, swir_dark=swir_dark)
     if ok.sum() < 3:
-        raise InputError("fewer than 3 pixels above the dark levels: check the dark levels")
+        raise InputError(
+            "fewer than 3 pixels above the dark levels: check the dark levels ('vnir_dark', "
+            "'swir_dark')",
+            params=("vnir_dark", "swir_dark"),
+        )
     d, dok = dipole(y, ok, along=along, across=across)
     z, sig = local_z(d, dok, window=window)
     sigma = float(np.median(sig[dok])) if dok.any() else float("nan")

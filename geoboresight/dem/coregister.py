@@ -295,8 +295,7 @@ def coregister(
     References
     ----------
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
-    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.2: the boresight
-    offset between the two images).
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§2, Figure 1; §5).
     Keys, R. Cubic convolution interpolation for digital image processing. IEEE Trans.
     Acoust. Speech Signal Process. 1981, 29, 1153–1160.
     """

@@ -104,6 +104,53 @@ def _warp(b, coef, vb, rows, cols, dy, dx, all_valid=False):
     return out, ok
 
 
+def _bspline3(t: np.ndarray) -> np.ndarray:
+    """The cubic B-spline's four weights at fractional positions ``t`` (taps −1 … +2)."""
+    u = 1.0 - t
+    t2, t3 = t * t, t * t * t
+    return np.stack([u * u * u, 3 * t3 - 6 * t2 + 4, -3 * t3 + 3 * t2 + 3 * t + 1, t3]) / 6.0
+
+
+def _warps(coef, vb, rows, cols, base_a, base_c, shifts, all_valid=False):
+    """:func:`_warp` at ``(base_a + dy, base_c + dx)`` for every integer shift ``(dy, dx)`` of
+    ``shifts``, as a dict. The cubic B-spline's weights depend only on the fractional part of
+    the position, the same for every integer shift: they are computed once, and each shift
+    gathers its 16 coefficients (the edge clamped, as ``map_coordinates``' "nearest")."""
+    height, width = coef.shape
+    r, c = np.broadcast_arrays(rows[:, None] + base_a, cols[None, :] + base_c)
+    r0, c0 = np.floor(r), np.floor(c)
+    wr, wc = _bspline3(r - r0), _bspline3(c - c0)
+    r0, c0 = r0.astype(np.intp), c0.astype(np.intp)
+    lo_r, lo_c = min(dy for dy, _ in shifts) - 1, min(dx for _, dx in shifts) - 1
+    hi_r, hi_c = max(dy for dy, _ in shifts) + 2, max(dx for _, dx in shifts) + 2
+    # The line and column offsets of every tap of every shift, clamped once.
+    line_at = {k: np.clip(r0 + k, 0, height - 1) * width for k in range(lo_r, hi_r + 1)}
+    col_at = {k: np.clip(c0 + k, 0, width - 1) for k in range(lo_c, hi_c + 1)}
+    flat = coef.ravel()
+    out = {}
+    for dy, dx in shifts:
+        value = np.zeros(r.shape)
+        for i in range(4):
+            line = np.zeros(r.shape)
+            for j in range(4):
+                line += wc[j] * flat.take(line_at[dy - 1 + i] + col_at[dx - 1 + j])
+            value += wr[i] * line
+        rr, cc = r + dy, c + dx
+        if all_valid:
+            ok = (rr > -1e-3) & (rr < height - 1 + 1e-3) & (cc > -1e-3) & (cc < width - 1 + 1e-3)
+        else:
+            ok = ndimage.map_coordinates(vb.astype(np.float32), [rr, cc], order=1, cval=0.0)
+            ok = ok > 0.999
+        out[(dy, dx)] = value, ok
+    return out
+
+
+#: Validity patterns whose moments a strip keeps: one per across-track shift of the search
+#: (the moving window leaves the image at the strip's side columns), times the lines at the
+#: line's first and last strip; each costs four strip-sized arrays.
+PATTERNS = 9
+
+
 class _Stats:
     """The box-filtered moments of the fixed image ``a`` over the pixels ``w`` where both images
     are valid. ``w`` changes with the shift only where the moving window leaves the image (edge
@@ -126,7 +173,7 @@ class _Stats:
             ma = f(aa, self.size, mode="constant") / n
             var_a = f(aa * aa, self.size, mode="constant") / n - ma * ma
         moments = (n, aa, ma, var_a)
-        if len(self._cache) < 2:  # a strip holds few patterns; each is 4 strip-sized arrays
+        if len(self._cache) < PATTERNS:
             self._cache[key] = (w, moments)
         return moments
 
@@ -175,9 +222,10 @@ def _match(a, va, b, coef, vb, rows, cols, base_a, base_c, sa, sc, size, min_fil
             win = (slice(sa + dy, sa + dy + nr), slice(sc + dx, sc + dx + nc))
             return wb[win], wv[win]
     else:
+        warped = _warps(coef, vb, rows, cols, base_a, base_c, shifts, all_valid)
 
         def moved(dy, dx):
-            return _warp(b, coef, vb, rows, cols, base_a + dy, base_c + dx, all_valid)
+            return warped.pop((dy, dx))
 
     for k, (dy, dx) in enumerate(shifts):
         bs, vbs = moved(dy, dx)

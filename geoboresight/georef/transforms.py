@@ -73,6 +73,11 @@ class Fit:
     rmse_px: float
     smoothing: float = 0.0
     _predict: object = field(default=None, repr=False, compare=False)
+    #: Numbers (1-based, in the caller's list) of GCPs that repeat an earlier one exactly
+    #: (same image position, same map point): kept by the polynomial (least squares weighs
+    #: them twice, harmlessly), left out of the thin-plate spline (which interpolates each
+    #: point once).
+    repeated: tuple[int, ...] = ()
 
     def __call__(self, pixel, line) -> tuple[np.ndarray, np.ndarray]:
         """Map coordinates (x, y) of continuous pixel coordinates (arrays of any shape)."""
@@ -197,6 +202,19 @@ def _numbers(idx) -> str:
     return " and ".join(n) if len(n) <= 2 else ", ".join(n[:-1]) + " and " + n[-1]
 
 
+def exact_repeats(pl, q) -> np.ndarray:
+    """True for each GCP that repeats an earlier one exactly: the same image position (to a
+    millionth of the points' spread, as :func:`check_degenerate` compares them) and the same
+    map point."""
+    pl = np.asarray(pl, "float64").reshape(-1, 2)
+    q = np.asarray(q, "float64").reshape(-1, 2)
+    out = np.zeros(len(pl), bool)
+    for group in _same_rows(pl):
+        for k, i in enumerate(group[1:], start=1):
+            out[i] = any(np.array_equal(q[i], q[j]) for j in group[:k])
+    return out
+
+
 def check_degenerate(pl, q, number, label: str = "GCPs") -> None:
     """Refuse a GCP set no transform can be fitted to, naming the GCPs (by ``number``) and
     what is wrong: a GCP repeated at one image position, GCPs on one line in the image, all
@@ -311,7 +329,11 @@ def fit_transform(
             f"{label}: {len(pl)} GCP(s) given but {what} needs at least {need}: add GCPs"
             + (" or lower the order" if method == "polynomial" and order > 1 else "")
         )
-    check_degenerate(pl, q, number, label)
+    repeat = exact_repeats(pl, q)
+    repeated = tuple(int(n) for n in number[repeat])
+    check_degenerate(pl[~repeat], q[~repeat], number[~repeat], label)
+    if method == "tps":
+        pl, q = pl[~repeat], q[~repeat]
     if method == "polynomial":
         predict = _polynomial_predict(pl, q, order, label)
         residuals = q - predict(pl)
@@ -338,6 +360,7 @@ def fit_transform(
         rmse_px=rmse_px,
         smoothing=float(smoothing) if method == "tps" else 0.0,
         _predict=predict,
+        repeated=repeated,
     )
 
 

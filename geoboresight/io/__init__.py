@@ -7,11 +7,10 @@ Core kernels never see a file; everything about files lives here (docs/DEVELOPIN
 from .cube import Cube, open_cube, open_sensors
 from .dual import BandChoice, DualLayout, DualSensor, RatioBands, SensorFile, as_dual, open_dual
 from .grid import FLOAT_NODATA, Grid, is_georeferenced, require_same_grid
+from .image import RasterImage, band_at, band_count, dataset_path, open_raster, raster_image
 from .raster import (
-    band_count,
     create_class_raster,
     create_raster,
-    open_raster,
     quiet_georef,
     write_envi,
     write_raster,
@@ -48,17 +47,20 @@ __all__ = [
     "DualLayout",
     "DualSensor",
     "Grid",
+    "RasterImage",
     "RatioBands",
     "Spill",
     "SensorFile",
     "as_dual",
     "atomic_output",
+    "band_at",
     "band_count",
     "band_reader",
     "bands_reader",
     "check_output_path",
     "create_class_raster",
     "create_raster",
+    "dataset_path",
     "is_georeferenced",
     "map_windows",
     "nearest_band",
@@ -67,6 +69,7 @@ __all__ = [
     "open_raster",
     "open_sensors",
     "quiet_georef",
+    "raster_image",
     "read_masked",
     "read_pixels",
     "read_wavelengths",

@@ -27,7 +27,7 @@ from ..progress import Progress
 from .cube import RawPart, open_cube
 from .dual import SWIR_NM, TOLERANCE_NM, VNIR_NM, DualSensor, SensorFile
 from .grid import Grid
-from .raster import open_raster
+from .image import open_raster
 from .windows import DEFAULT_BLOCK_ROWS, band_reader, bands_reader, map_windows, read_masked
 
 

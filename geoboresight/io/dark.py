@@ -118,9 +118,10 @@ def dark_level_of(
             and np.isfinite(float(given))
         ):
             raise ParameterError(
-                f"parameter '{sensor.name.lower()}_dark': {given!r} is not a number"
+                f"parameter '{sensor.name.lower()}_dark': {given!r} is not a number",
+                params=(f"{sensor.name.lower()}_dark",),
             )
-        return DarkLevel(float(given), "given")
+        return DarkLevel(float(given), "given", param=f"{sensor.name.lower()}_dark")
     levels = product_dark(sensor, bands)
     source = sensor.dark_source or "product"
     if levels is None:

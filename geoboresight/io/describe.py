@@ -16,13 +16,12 @@ import numpy as np
 
 from ..errors import InputError
 from .dual import BandChoice, DualLayout, open_dual
+from .image import GDAL_RASTER
 from .raster import open_raster, quiet_georef
 from .wavelengths import good_bands, read_wavelengths
 
 #: GDAL's IMAGE_STRUCTURE INTERLEAVE, in the ENVI words a hyperspectral user knows.
 _INTERLEAVE = {"BAND": "BSQ", "LINE": "BIL", "PIXEL": "BIP"}
-#: What a plain file is called when no sensor product reader recognises it.
-GDAL_RASTER = "GDAL raster"
 
 
 def describe_product(
@@ -133,12 +132,20 @@ def _describe_file(path: str, label: str) -> dict:
         with open_raster(g.x, f"{product.kind} geolocation") as src:
             size = {"lines": src.height, "samples": src.width}
         geo = {"kind": g.source or "per-pixel coordinates", "crs": g.crs, **size}
+    notes = list(product.notes)
+    if len(images) > 1:
+        # How an operation that takes any raster (stats, geolocate, ...) numbers the bands.
+        spans, start = [], 1
+        for im in images:
+            spans.append(f"{start}–{start + im['band_count'] - 1} {im['name']}")
+            start += im["band_count"]
+        notes.append(f"read as one raster (stats, geolocate, ...): bands {', '.join(spans)}")
     return {
         "path": path,
         "product": product.kind,
         "images": images,
         "geolocation": geo,
-        "notes": list(product.notes),
+        "notes": notes,
     }
 
 

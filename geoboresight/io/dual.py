@@ -231,17 +231,20 @@ def open_dual(
 
     Parameters
     ----------
-    vnir : path
+    vnir : path or open rasterio dataset
         The VNIR file, a merged VNIR+SWIR cube, or a sensor product holding both detectors
         (EnMAP L1B, PRISMA L1: :mod:`geoboresight.io.products`) when ``swir`` is None.
-    swir : path, optional
+    swir : path or open rasterio dataset, optional
         The SWIR file, on the same pixel grid as ``vnir``.
     seam_nm : float
         In a merged cube, bands below the seam are VNIR, bands at or above it SWIR.
     vnir_wavelengths, swir_wavelengths : str, optional
         Comma-separated band centres (nm) for files without wavelength metadata.
     """
-    vnir = str(vnir)
+    from .image import dataset_path
+
+    # Open rasterio datasets are read through their names, as every raster input is.
+    vnir, swir = str(dataset_path(vnir)), dataset_path(swir)
     label = "VNIR" if swir else "merged cube"
     images, grid_v, product = _image(vnir, label, vnir_wavelengths, "VNIR")
     named = {im.name: im for im in images}

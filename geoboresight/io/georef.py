@@ -14,6 +14,7 @@ otherwise.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 from dataclasses import dataclass
@@ -23,7 +24,8 @@ import numpy as np
 
 from ..errors import InputError, ParameterError, shown
 from .grid import FLOAT_NODATA, Grid
-from .raster import create_raster, open_raster
+from .image import open_raster
+from .raster import create_raster
 from .tables import parse_number, read_table
 from .wavelengths import read_wavelengths
 
@@ -522,6 +524,12 @@ def product_coordinates(path, crs=None, label: str = "IGM") -> Coordinates | Non
     if not os.path.exists(path):
         return None
     product = recognise(path)
+    if product is not None and product.geolocation is None and product.geolocation_problem:
+        raise InputError(
+            f"{label} {path} ({product.kind}): {product.geolocation_problem}; give its "
+            "coordinates with 'igm' (an IGM) or 'glt' (a GLT)",
+            params=("igm", "glt"),
+        )
     if product is None or product.geolocation is None:
         return None
     geo = product.geolocation
@@ -1253,9 +1261,41 @@ def read_vector(path: str):
     geoms = [None if g is None else shapely.from_wkb(g) for g in wkb]
     fields = {str(n): list(v) for n, v in zip(meta["fields"], columns, strict=True)}
     text = meta["crs"]
+    if text is None and kind == "GeoPackage":
+        _check_gpkg_srs(path, layers[0])
     undefined = text is None or (text.startswith("LOCAL_CS") and "Undefined" in text)
     crs = None if undefined else parse_crs(text, f"vector {path}")
     return geoms, fields, crs, layers[0]
+
+
+#: GeoPackage's own "undefined" spatial reference systems (-1 Cartesian, 0 geographic) and
+#: the one GDAL writes for a layer without a CRS.
+_GPKG_UNDEFINED = (-1, 0, 99999)
+
+
+def _check_gpkg_srs(path: str, layer: str) -> None:
+    """Refuse a GeoPackage layer whose declared spatial reference system cannot be resolved
+    (GDAL then gives it no CRS, as if it were in raw sensor geometry)."""
+    import sqlite3
+
+    try:
+        with contextlib.closing(sqlite3.connect(f"file:{path}?mode=ro", uri=True)) as db:
+            row = db.execute(
+                "SELECT c.srs_id, s.definition FROM gpkg_geometry_columns c LEFT JOIN "
+                "gpkg_spatial_ref_sys s ON s.srs_id = c.srs_id WHERE c.table_name = ?",
+                (layer,),
+            ).fetchone()
+    except sqlite3.Error:
+        return  # GDAL read it; its tables are its business
+    if row is None or row[0] in _GPKG_UNDEFINED:
+        return
+    srs_id, definition = row
+    said = "no definition" if definition is None else f"the definition {shown(definition)}"
+    raise InputError(
+        f"vector {path}: layer {layer} declares the spatial reference system {srs_id} with "
+        f"{said}, which cannot be resolved: correct its gpkg_spatial_ref_sys entry (e.g. "
+        "ogr2ogr -a_srs EPSG:32636)"
+    )
 
 
 #: Largest GeoJSON file parsed with Python's json module to say what is wrong with it (a
@@ -1302,6 +1342,7 @@ def _check_geojson(path: str) -> None:
             f'vector {path} is not GeoJSON: its "type" is {shown(got)}, not '
             "FeatureCollection, Feature or a geometry type"
         )
+    _check_geojson_crs(path, doc.get("crs"))
     if doc["type"] == "FeatureCollection":
         features = doc.get("features")
         if not isinstance(features, list):
@@ -1311,6 +1352,32 @@ def _check_geojson(path: str) -> None:
                 raise InputError(
                     f"vector {path}: feature {n} is {shown(feature)}, not a GeoJSON Feature object"
                 )
+
+
+def _check_geojson_crs(path: str, member) -> None:
+    """Refuse a GeoJSON ``crs`` member (the 2008 specification's named CRS, which GDAL still
+    reads) naming a CRS that cannot be resolved: GDAL would read the coordinates as WGS84."""
+    if member is None:
+        return
+    props = member.get("properties") if isinstance(member, dict) else None
+    name = props.get("name") if isinstance(props, dict) else None
+    if not isinstance(name, str) or not name.strip():
+        raise InputError(
+            f'vector {path}: its "crs" member {shown(member)} names no CRS: give '
+            '{"type": "name", "properties": {"name": "EPSG:32636"}}, or leave "crs" out for '
+            "WGS84 longitude/latitude"
+        )
+    from pyproj import CRS as PyCRS
+    from pyproj.exceptions import CRSError
+
+    try:
+        PyCRS.from_user_input(name.strip())
+    except CRSError:
+        raise InputError(
+            f"vector {path} declares the CRS {shown(name)}, which is not known (PROJ's "
+            'database has no such CRS): correct its "crs" member (e.g. EPSG:32636, '
+            "urn:ogc:def:crs:EPSG::32636), or leave it out for WGS84 longitude/latitude"
+        ) from None
 
 
 def reproject_geoms(geoms, src_crs, dst_crs):

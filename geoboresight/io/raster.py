@@ -214,7 +214,8 @@ def quiet_georef():
 def open_raster(path: str | os.PathLike, label: str = "raster"):
     """Open ``path`` for reading with a clear error when it is missing or unreadable."""
     path = os.fspath(path)
-    if not os.path.exists(path):
+    # A GDAL virtual file (/vsimem/ of rasterio's MemoryFile, /vsizip/, ...) is GDAL's to find.
+    if not path.startswith("/vsi") and not os.path.exists(path):
         raise InputError(f"{label} {path} does not exist: check the path")
     if path.lower().endswith(".hdr"):
         # ENVI: GDAL opens the data file, not the header.
@@ -280,11 +281,6 @@ def check_raw_size(src, label: str = "raster") -> None:
         f"{label} {data} is {actual} bytes, longer than the {layout} that {hdr} describes: "
         "check 'lines', 'samples', 'bands', 'data type' and 'header offset' in the header"
     )
-
-
-def band_count(path: str) -> int:
-    with open_raster(path) as src:
-        return src.count
 
 
 def base_tags(**extra) -> dict:

@@ -241,7 +241,11 @@ def _from_description(text: str):
 
 
 def nearest_band(
-    wavelengths_nm: np.ndarray, target_nm: float, tolerance_nm: float, path: str = "the raster"
+    wavelengths_nm: np.ndarray,
+    target_nm: float,
+    tolerance_nm: float,
+    path: str = "the raster",
+    fix: str = "Choose a wavelength in that range or raise the tolerance.",
 ) -> int:
     """0-based index of the band whose centre is nearest ``target_nm``.
 
@@ -255,8 +259,7 @@ def nearest_band(
     if abs(wl[i] - target_nm) > tolerance_nm:
         raise InputError(
             f"no band of {path} is within {tolerance_nm:g} nm of {target_nm:g} nm: its bands "
-            f"cover {np.nanmin(wl):.1f}–{np.nanmax(wl):.1f} nm (nearest {wl[i]:.1f} nm). "
-            "Choose a wavelength in that range or raise the tolerance."
+            f"cover {np.nanmin(wl):.1f}–{np.nanmax(wl):.1f} nm (nearest {wl[i]:.1f} nm). " + fix
         )
     return i
 

@@ -954,7 +954,9 @@ def _physical_indicator_file(
             if not spreads:
                 raise InputError(
                     "no pixel of the line is above both dark levels with its offset partner "
-                    "inside the image: check the dark levels"
+                    "inside the image: check the dark levels ('vnir_dark', 'swir_dark'), or "
+                    "leave them empty to estimate them",
+                    params=("vnir_dark", "swir_dark"),
                 )
             # The median local spread: strips' medians weighted by their pixels.
             vals = np.array([v for v, _ in spreads])

@@ -218,38 +218,6 @@ def disparity_file(
     }
 
 
-def _dem_tags(p, info, factor, geometry, off, matching, kriging, n_points, vg) -> dict:
-    """The relative DEM's tags: its precision and relief test (``p``), the factor, offset,
-    matching, control points and variogram it was made with."""
-    tags = {
-        "product": "relative DEM (Brook & Ben-Dor 2011, 3.2): 0 m = lowest reliable region",
-        **info,
-        "sigma_d_px": f"{p.sigma_d_px:.4f}",
-        "sigma_h_m": f"{p.sigma_h_m:.4f}",
-        "relief_std_m": f"{p.relief_m:.3f}",
-        "relief_noise_m": f"{p.noise_m:.3f}",
-        "relief_to_noise": f"{p.snr:.3f}",
-        "relief_test": p.test(),
-        "meaningful": "yes" if p.meaningful else "NO: the relief does not stand out of sigma_h",
-        "height_factor_px_per_m": f"{factor.magnitude:.6f}",
-        "parallax_axis": geometry.parallax_axis,
-        "offset_along_px": f"{off.along:.4f}",
-        "offset_across_px": f"{off.across:.4f}",
-        "window_px": matching.window,
-        "search_along_px": matching.search_along,
-        "search_across_px": matching.search_across,
-        "min_peak": matching.min_peak,
-        "point_spacing_px": kriging.point_spacing,
-        "control_points": n_points,
-        "variogram": f"{vg.model}: {vg.describe()}",
-        "n_closest_points": kriging.n_closest_points,
-        "units": "metres",
-    }
-    if geometry.gsd is not None:
-        tags["gsd_m"] = f"{geometry.gsd:.4f}"
-    return tags
-
-
 @operation(
     inputs=("vnir", "swir", "cloud_mask"),
     outputs=("output", "variance", "disparity", "report"),
@@ -327,6 +295,7 @@ def relative_dem_file(
     by kriging; Figure 9).
     """
     factor = geometry.factor()
+    gsd = geometry.gsd
     dual = io.as_dual(vnir, swir, layout)
     progress.info(
         f"height-to-disparity factor {factor.magnitude:.5f} px/m ({geometry.parallax_axis}-track)"
@@ -362,7 +331,7 @@ def relative_dem_file(
                 raise InputError(p.message())
             x, y, z = line.points
             vg = fit_points(x, y, z, kriging.variogram, progress, p.sigma_h_m)
-            tags = _dem_tags(p, info, factor, geometry, off, matching, kriging, x.size, vg)
+            tags = _dem_tags(info, p, factor, geometry, off, matching, kriging, x.size, vg, gsd)
             disparity_tags.update(tags, product="VNIR/SWIR disparity (px) and reliability")
     kriging = LocalKriging(x, y, z, vg, kriging.n_closest_points)
     dem_range = _write_kriged(
@@ -396,6 +365,38 @@ def relative_dem_file(
         io.write_json(report, result)
     progress.update(1.0, "relative DEM written")
     return result
+
+
+def _dem_tags(info, p, factor, geometry, off, matching, kriging, n_points, vg, gsd) -> dict:
+    """The relative DEM's tags: the line's precision and relief test, the geometry, the
+    matching and the kriging."""
+    tags = {
+        "product": "relative DEM (Brook & Ben-Dor 2011, 3.2): 0 m = lowest reliable region",
+        **info,
+        "sigma_d_px": f"{p.sigma_d_px:.4f}",
+        "sigma_h_m": f"{p.sigma_h_m:.4f}",
+        "relief_std_m": f"{p.relief_m:.3f}",
+        "relief_noise_m": f"{p.noise_m:.3f}",
+        "relief_to_noise": f"{p.snr:.3f}",
+        "relief_test": p.test(),
+        "meaningful": "yes" if p.meaningful else "NO: the relief does not stand out of sigma_h",
+        "height_factor_px_per_m": f"{factor.magnitude:.6f}",
+        "parallax_axis": geometry.parallax_axis,
+        "offset_along_px": f"{off.along:.4f}",
+        "offset_across_px": f"{off.across:.4f}",
+        "window_px": matching.window,
+        "search_along_px": matching.search_along,
+        "search_across_px": matching.search_across,
+        "min_peak": matching.min_peak,
+        "point_spacing_px": kriging.point_spacing,
+        "control_points": n_points,
+        "variogram": f"{vg.model}: {vg.describe()}",
+        "n_closest_points": kriging.n_closest_points,
+        "units": "metres",
+    }
+    if gsd is not None:
+        tags["gsd_m"] = f"{gsd:.4f}"
+    return tags
 
 
 def _match_line(pair, offset, factor, options: dict, rows: int, dst, progress):

@@ -19,7 +19,7 @@ from ..georef.tiepoints import TieMatching, corrected, match_tie_points
 from ..georef.transforms import fit_transform, outside_image
 from ..io import georef as gio
 from ..io.grid import OutputGrid
-from ..io.raster import open_raster
+from ..io.image import open_raster
 from ..io.write import write_json
 from ..simulate.ortho import HEADING_DEG, JITTER_DEG, JITTER_LINES, ORTHO_CELL
 from ._operation import operation
@@ -40,10 +40,7 @@ def _docstring(func):
 
 def _product_size(path: str) -> tuple[int, int]:
     """Columns and lines of a raw product: a raster, or a sensor product's image."""
-    from ..io.products import recognise
-
-    product = recognise(path) if os.path.exists(path) else None
-    with open_raster(product.images[0].source if product else path, "input") as src:
+    with open_raster(path, "input") as src:
         return src.width, src.height
 
 
@@ -269,6 +266,15 @@ def georeference_file(
     progress.info(
         f"{what} on {int(table.enabled.sum())} GCPs: RMSE {fit.rmse:.3f} ({fit.rmse_px:.2f} px)"
     )
+    warnings = []
+    if fit.repeated:
+        # An exact copy adds nothing a least-squares fit minds; a spline takes each point once.
+        done_with = "left out of the thin-plate spline" if method == "tps" else "kept"
+        warnings.append(
+            f"GCP file {gcps}: GCP(s) {', '.join(map(str, fit.repeated))} repeat an earlier "
+            f"GCP exactly (same image position and map point): {done_with}"
+        )
+        progress.info(warnings[-1])
     tags = {"GEOREFERENCE": f"GCPs {gcps}: {what}, RMSE {fit.rmse:.4g} ({fit.rmse_px:.3f} px)"}
     on, done = _warp_model(input, output, fit, table.crs, grid, tags, progress, igm_output)
     if report:
@@ -288,6 +294,7 @@ def georeference_file(
         "rmse": fit.rmse,
         "rmse_px": fit.rmse_px,
         **_grid_result(on, done),
+        **({"warnings": warnings} if warnings else {}),
     }
 
 
@@ -364,6 +371,7 @@ def auto_georeference_file(
     corners=None,
     gcp_crs=None,
     band=1,
+    band_nm=None,
     reference_band=1,
     matching=TieMatching(),
     grid=OutputGrid(),
@@ -402,6 +410,9 @@ def auto_georeference_file(
         CRS of the GCPs or corners (default: the GCP file's, else the reference's).
     band, reference_band : int
         The product band and orthophoto band to match (similar wavelengths, e.g. NIR).
+    band_nm : float, optional
+        The product band by its centre wavelength (nm) instead: the band nearest it becomes
+        ``band``.
     matching : TieMatching
         The feature detector (``sift``, ``orb``), the wobble model (``blocks`` of
         ``model_block_lines`` lines, ``tps``), the largest error of the rough placement

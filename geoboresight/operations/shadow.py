@@ -13,8 +13,7 @@ import contextlib
 import numpy as np
 
 from .. import io
-from ..errors import InputError, ParameterError
-from ..io import georef
+from ..errors import ParameterError
 from ..io.dual import TOLERANCE_NM
 from ..io.masks import mask_raster, masked_reader
 from ..io.shadow import class_polygons, class_table_csv, read_class_table, read_fraction_model
@@ -25,158 +24,10 @@ from ..shadow.cluster import NIR_NM, PROBABILITY, fit_shadow_cluster, shadow_mas
 from ..shadow.fraction import PAPER_INTERCEPT, PAPER_SLOPE, FractionAccumulator, FractionModel
 from ..shadow.polygons import MIN_PIXELS
 from ._operation import operation
+from ._shared import check_fraction, no_valid_error
 
 #: Points drawn at most for a scatter plot.
 PLOT_POINTS = 20000
-
-
-def no_valid_error(path: str, what: str = "ratio raster") -> InputError:
-    """The error of an input whose every pixel is nodata."""
-    return InputError(
-        f"{what} {path} has no valid pixel (every pixel is nodata or not finite): check the "
-        "file and its nodata value"
-    )
-
-
-#: Heights (m) beyond any surface a surface model shows (dry land reaches −430 m at the Dead
-#: Sea and 8,849 m at Everest): a fill value not declared as nodata (−9999, −32768, 3.4e38),
-#: or heights not in metres.
-LOWEST_HEIGHT_M, HIGHEST_HEIGHT_M = -1_000.0, 9_000.0
-
-
-def check_heights(lo: float, hi: float, path: str, what: str = "surface model") -> None:
-    """Refuse a surface model whose lowest or highest valid height (m) is not a height on
-    Earth: an undeclared fill value (−9999 in the holes of a DSM whose nodata is unset) would
-    be taken for a pit 10 km deep, and the shadows cast into it and the relief (how far every
-    shadow is searched) would silently be wrong."""
-    for value, bad in ((lo, lo < LOWEST_HEIGHT_M), (hi, hi > HIGHEST_HEIGHT_M)):
-        if bad:
-            raise InputError(
-                f"{what} {path} holds a height of {value:g} m, beyond the Earth's surface (−430 to 8,849 m): "
-                f"if {value:g} marks missing cells, declare it the file's nodata value (e.g. "
-                f"gdal_edit.py -a_nodata {value:g}); else give heights in metres"
-            )
-
-
-def check_cell_size(cell_size, matrix, what: str) -> None:
-    """Refuse a ``cell_size`` (m) the user gave for a grid whose geotransform already gives its
-    cells (``matrix``: :func:`geoboresight.shadow.illumination.grid_matrix`, metres) and says
-    otherwise: one of the two is wrong, and using either silently would scale every shadow."""
-    if not cell_size:
-        return
-    sides = np.hypot(*np.asarray(matrix, float).reshape(2, 2))  # column and row steps (m)
-    if np.all(np.abs(sides - float(cell_size)) <= 0.01 * sides):
-        return
-    raise ParameterError(
-        f"parameter 'cell_size': {float(cell_size):g} m, but {what} has cells of "
-        f"{sides[0]:.4g} × {sides[1]:.4g} m from its geotransform: leave 'cell_size' empty (it "
-        "is for a surface model without a geotransform), or fix the geotransform"
-    )
-
-
-#: How far an estimated shadow fraction may stray outside 0–1 (an unmixed or fitted fraction's
-#: noise) before the file is taken for something else: a percentage, classes, a ratio.
-FRACTION_SLACK = 0.05
-
-
-def check_fraction_nodata(src, path: str, what: str = "shadow fraction") -> None:
-    """Refuse a shadow-fraction raster whose declared nodata is a fraction (0–1): with nodata
-    0, every sunlit pixel would be read as missing (no shadow edge next to sunlit ground is
-    left, or the sunlit ground is written as nodata)."""
-    nd = src.nodata
-    if nd is not None and np.isfinite(nd) and 0.0 <= nd <= 1.0:
-        raise InputError(
-            f"{what} {path} declares {nd:g} as its nodata value, but {nd:g} is a shadow fraction "
-            "(0 sunlit, 1 full shadow): its pixels would be read as missing; remove the nodata "
-            "value or set one outside 0–1 (e.g. gdal_edit.py -unsetnodata, or -a_nodata -9999)"
-        )
-
-
-def check_fraction(f: np.ndarray, ok: np.ndarray, path: str, what: str = "shadow fraction"):
-    """Refuse a shadow-fraction strip with values outside 0–1 (beyond :data:`FRACTION_SLACK`):
-    a percentage or a class raster given as a fraction would otherwise be clipped to 0–1 and
-    silently give a wrong result."""
-    v = np.asarray(f)[np.asarray(ok, bool)]
-    if not v.size:
-        return
-    lo, hi = float(v.min()), float(v.max())
-    if lo >= -FRACTION_SLACK and hi <= 1.0 + FRACTION_SLACK:
-        return
-    if lo >= -FRACTION_SLACK and hi <= 100.0 + FRACTION_SLACK:
-        hint = "a percentage? divide it by 100 (e.g. gdal_calc.py, or QGIS's Raster calculator)"
-    elif lo >= 0 and hi <= 255 and float(hi).is_integer():
-        hint = (
-            "bytes scaled 0–255? divide it by 255 (e.g. gdal_calc.py, or QGIS's Raster calculator)"
-        )
-    else:
-        hint = "give a fraction: shadow-map's 'fraction' or sun-shadow's output"
-    raise InputError(
-        f"{what} {path} holds values from {lo:g} to {hi:g}, but a shadow fraction is 0–1 "
-        f"(nodata aside): {hint}"
-    )
-
-
-def grid_place(grid) -> tuple[float, float, object] | None:
-    """(lon, lat, CRS) of the centre of a grid with a CRS and a geotransform, else None: where
-    the sun is computed from the acquisition time (:func:`sun_angles`)."""
-    if grid.crs is None or grid.transform is None:
-        return None
-    t, c, r = grid.transform, grid.width / 2.0, grid.height / 2.0
-    cx, cy = t.a * c + t.b * r + t.c, t.d * c + t.e * r + t.f
-    lon, lat = georef.centre_lonlat(np.array([cx]), np.array([cy]), grid.crs)
-    return lon, lat, grid.crs
-
-
-def sun_angles(
-    sun_zenith, sun_azimuth, acquisition_time, place, *, needed_by: str
-) -> tuple[float, float, str]:
-    """The sun's (zenith, azimuth, how) for casting shadows: the angles given, or computed
-    from ``acquisition_time`` at ``place`` ((lon, lat, CRS of the grid the shadows are cast
-    on), or None when unknown) with NREL's SPA (:func:`geoboresight.shadow.solar.sun_position`),
-    the azimuth turned from true north to the grid's north (meridian convergence)."""
-    from ..shadow import illumination as ill
-    from ..shadow.solar import states_offset, sun_position
-
-    given = [sun_zenith is not None, sun_azimuth is not None]
-    if acquisition_time is None:
-        if not all(given):
-            raise ParameterError(
-                f"parameter '{needed_by}' needs the sun's position: give 'sun_zenith' and "
-                "'sun_azimuth' (degrees; the azimuth clockwise from north towards the sun), "
-                "or 'acquisition_time'"
-            )
-        zen, az = ill.check_sun(sun_zenith, sun_azimuth)
-        return zen, az, "given"
-    if any(given):
-        raise ParameterError(
-            "parameter 'acquisition_time': give the sun's position once, either the time or "
-            "'sun_zenith' and 'sun_azimuth', not both"
-        )
-    if place is None:
-        raise ParameterError(
-            "parameter 'acquisition_time' needs the scene's position: give a georeferenced "
-            "surface model (or the line's IGM, 'igm', where taken), or 'sun_zenith' and "
-            "'sun_azimuth'"
-        )
-    lon, lat, crs = place
-    zen, az = sun_position(acquisition_time, lon, lat)
-    if not zen < 90.0:
-        # Checked here, not by check_sun: the user gave a time, not a zenith, so the message
-        # names the time (a wrong date or UTC offset is the usual cause).
-        raise ParameterError(
-            f"parameter 'acquisition_time': at {acquisition_time} the sun is "
-            f"{zen - 90.0:.1f}° below the horizon at {lat:.4f}°, {lon:.4f}° (zenith "
-            f"{zen:.1f}°): no sunlight casts shadows; check the date and the UTC offset (a "
-            "time without an offset is UTC)"
-        )
-    bearing = georef.true_north_bearing(lon, lat, crs)
-    # A local time given without its offset gives a wrong sun without any error: say so.
-    utc = "" if states_offset(acquisition_time) else " (no UTC offset given: read as UTC)"
-    how = (
-        f"computed for {acquisition_time}{utc} at {lat:.4f}°, {lon:.4f}° (NREL SPA; azimuth "
-        f"{az:.2f}° from true north, {(az + bearing) % 360.0:.2f}° from grid north)"
-    )
-    return zen, (az + bearing) % 360.0, how
 
 
 def class_table(path=None) -> cls.ClassTable:
@@ -195,6 +46,7 @@ def shadow_classes_file(
     output,
     mask=None,
     band=1,
+    band_nm=None,
     mask_fraction=cls.MASK_FRACTION,
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
@@ -216,6 +68,8 @@ def shadow_classes_file(
         starts at or above ``mask_fraction``.
     band : int
         Band of the ratio raster.
+    band_nm : float, optional
+        The band by its centre wavelength (nm) instead: the band nearest it becomes ``band``.
     mask_fraction : float
         Lowest shadow fraction (0–1) of a class in the mask.
     block_rows : int
@@ -366,6 +220,7 @@ def shadow_cluster_file(
     probability_output=None,
     plot=None,
     band=1,
+    band_nm=None,
     nir_nm=NIR_NM,
     tolerance_nm=TOLERANCE_NM,
     vnir_wavelengths=None,
@@ -394,6 +249,8 @@ def shadow_cluster_file(
         PNG scatter with the shadow cluster outlined (Figure 4).
     band : int
         Band of the ratio raster.
+    band_nm : float, optional
+        The band by its centre wavelength (nm) instead: the band nearest it becomes ``band``.
     nir_nm : float
         Wavelength of the near-infrared axis (nm; paper: 941).
     tolerance_nm : float
@@ -480,17 +337,7 @@ def shadow_cluster_file(
             progress.sub(0.3, 0.95),
         )
         if plot:
-            from ..io.write import save_figure
-            from ..shadow.plots import cluster_figure
-
-            keep = np.flatnonzero(good)[:PLOT_POINTS]
-            pr = cluster.probability(pixels[0, keep], pixels[1, keep])
-            save_figure(
-                cluster_figure(
-                    pixels[0, keep], pixels[1, keep], pr >= probability, cluster, nir_found
-                ),
-                plot,
-            )
+            _cluster_plot(plot, pixels[:, good], cluster, probability, nir_found)
     out = {
         "output": output,
         "components": cluster.n_components,
@@ -499,11 +346,18 @@ def shadow_cluster_file(
         "nir_band": nir_band,
         "warnings": [warning] if warning else [],
     }
-    if probability_output:
-        out["probability_output"] = probability_output
-    if plot:
-        out["plot"] = plot
+    out.update((k, v) for k, v in (("probability_output", probability_output), ("plot", plot)) if v)
     return out
+
+
+def _cluster_plot(plot, pixels, cluster, probability, nir_found) -> None:
+    """The cluster figure of at most :data:`PLOT_POINTS` of the sampled (ratio, NIR) pairs."""
+    from ..io.write import save_figure
+    from ..shadow.plots import cluster_figure
+
+    x, y = pixels[0, :PLOT_POINTS], pixels[1, :PLOT_POINTS]
+    shaded = cluster.probability(x, y) >= probability
+    save_figure(cluster_figure(x, y, shaded, cluster, nir_found), plot)
 
 
 # ------------------------------------------------------------------------- shadow-fraction-fit
@@ -518,6 +372,7 @@ def shadow_fraction_fit_file(
     report=None,
     plot=None,
     band=1,
+    band_nm=None,
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
 ) -> dict:
@@ -540,6 +395,8 @@ def shadow_fraction_fit_file(
         PNG of the regression (Figure 5B).
     band : int
         Band of the ratio raster.
+    band_nm : float, optional
+        The band by its centre wavelength (nm) instead: the band nearest it becomes ``band``.
     block_rows : int
         Lines read at a time.
     progress : Progress, optional
@@ -630,6 +487,7 @@ def shadow_fraction_apply_file(
     *,
     output,
     band=1,
+    band_nm=None,
     slope=PAPER_SLOPE,
     intercept=PAPER_INTERCEPT,
     no_clip=False,
@@ -648,6 +506,8 @@ def shadow_fraction_apply_file(
         Shadow fraction (float32, nodata −9999).
     band : int
         Band of the ratio raster.
+    band_nm : float, optional
+        The band by its centre wavelength (nm) instead: the band nearest it becomes ``band``.
     slope, intercept : float
         a and b of ``ratio = a · fraction + b`` (default: the paper's Figure 5B).
     no_clip : bool

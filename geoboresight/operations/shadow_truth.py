@@ -24,100 +24,22 @@ from ..shadow.darkpixel import (
     THRESHOLD,
     fit_dark_pixel,
 )
-from ..shadow.surface import AUTO, choose_surface, surface_walls
+from ..shadow.surface import AUTO, choose_surface
 from ._operation import operation
-from .shadow import check_cell_size, check_heights, grid_place, no_valid_error, sun_angles
+from ._shared import (
+    check_cell_size,
+    check_heights,
+    grid_place,
+    no_valid_error,
+    relief_and_walls,
+    sun_angles,
+)
 
 #: The dark-pixel bands as the text parameter gives them (nm, comma-separated).
 BANDS_NM = ",".join(f"{b:g}" for b in DEFAULT_BANDS_NM)
 
 
 # ---------------------------------------------------------------------------------- sun-shadow
-
-
-def relief_and_walls(read, matrix, *, progress=None, message="relief", **strips) -> tuple:
-    """One pass over a surface model's strips: its lowest and highest height, its valid cells,
-    and the walls among its neighbouring-cell pairs (:func:`surface_walls`), as
-    ``(lo, hi, n_valid, walls, pairs)``. The relief bounds how far a shadow can reach; walls
-    say blocks or terrain. One line of halo below, so that the pairs of lines across strip
-    edges are counted (once: each strip counts the pairs whose upper line is its own)."""
-
-    def one(z, valid, block):
-        own = block.inner
-        lo, hi, n = ill.height_range(z[own], valid[own])
-        pairs = slice(own.start, own.stop + 1)
-        return lo, hi, n, *surface_walls(z[pairs], valid[pairs], matrix=matrix)
-
-    return io.reduce_windows(
-        read,
-        one,
-        lambda a, b: (min(a[0], b[0]), max(a[1], b[1]), a[2] + b[2], a[3] + b[3], a[4] + b[4]),
-        (np.inf, -np.inf, 0, 0, 0),
-        halo=(0, 1),
-        pass_block=True,
-        progress=progress,
-        message=message,
-        **strips,
-    )
-
-
-def _sun_shadow_tags(surface, supersample, zen, az, how, dsm, grid, cell_size) -> dict:
-    """The tags of sun-shadow's products: the method, the sun and where it comes from."""
-    tags = {
-        "product": "ground-truth shadow fraction from a surface model (Brook & Ben-Dor 2011, §3.1)",
-        "method": f"ray march towards the sun ({surface} surface), "
-        f"{supersample}×{supersample} sub-cells",
-        "sun_zenith_deg": zen,
-        "sun_azimuth_deg": az,
-        "sun_position": how,
-        "dsm": dsm,
-    }
-    if not grid.georeferenced:
-        tags["geometry"] = (
-            f"raw grid, cell size {cell_size} m, row 0 = north edge, columns run east"
-        )
-    return tags
-
-
-def _write_sun_shadow(read, kernel, grid, tags, output, mask, hillshade, halo, strips, progress):
-    """Write the shadow fraction (and the mask, the hillshade when asked) strip by strip
-    from ``kernel``; the number of shadow pixels."""
-    n_shadow = 0
-    with contextlib.ExitStack() as stack:
-        fdst = stack.enter_context(
-            io.create_raster(output, grid, tags=tags, band_names=["shadow fraction"])
-        )
-        mdst = hdst = None
-        if mask:
-            mdst = stack.enter_context(
-                mask_raster(mask, grid, tags, "shadow mask (fraction ≥ 0.5)")
-            )
-        if hillshade:
-            hdst = stack.enter_context(
-                io.create_raster(
-                    hillshade,
-                    grid,
-                    tags={**tags, "product": "cosine of the solar incidence angle"},
-                    band_names=["cos(incidence)"],
-                )
-            )
-        for win, (frac, ok, cos_i) in io.map_windows(
-            read,
-            kernel,
-            halo=halo,
-            progress=progress.sub(0.1, 1.0),
-            message="marching towards the sun",
-            **strips,
-        ):
-            fdst.write(np.where(ok, frac, io.FLOAT_NODATA).astype("float32"), 1, window=win)
-            shadow = frac >= ill.MASK_FRACTION
-            n_shadow += int(shadow[ok].sum())
-            if mdst is not None:
-                m = np.where(ok, shadow.astype(np.uint8), MASK_NODATA)
-                mdst.write(m.astype(np.uint8), 1, window=win)
-            if hdst is not None:
-                hdst.write(np.where(ok, cos_i, io.FLOAT_NODATA).astype("float32"), 1, window=win)
-    return n_shadow
 
 
 @operation(inputs=("dsm",), outputs=("output", "mask", "hillshade"))
@@ -229,7 +151,19 @@ def sun_shadow_file(
         relief = hi - lo
         above, below = ill.halo_rows(relief, zen, az, matrix, grid.shape)
         halo = (above + 1, below + 1)  # Horn's 3 × 3 window needs one more line
-        tags = _sun_shadow_tags(surface, supersample, zen, az, how, dsm, grid, cell_size)
+        tags = {
+            "product": "ground-truth shadow fraction from a surface model (Brook & Ben-Dor 2011, §3.1)",
+            "method": f"ray march towards the sun ({surface} surface), "
+            f"{supersample}×{supersample} sub-cells",
+            "sun_zenith_deg": zen,
+            "sun_azimuth_deg": az,
+            "sun_position": how,
+            "dsm": dsm,
+        }
+        if not grid.georeferenced:
+            tags["geometry"] = (
+                f"raw grid, cell size {cell_size} m, row 0 = north edge, columns run east"
+            )
         sun = {"sun_zenith": zen, "sun_azimuth": az, "transform": matrix}
 
         def kernel(z, valid):
@@ -245,7 +179,7 @@ def sun_shadow_file(
             return frac, valid, cos_i
 
         n_shadow = _write_sun_shadow(
-            read, kernel, grid, tags, output, mask, hillshade, halo, strips, progress
+            read, kernel, grid, tags, (output, mask, hillshade), halo, strips, progress
         )
     out = {
         "output": output,
@@ -259,6 +193,47 @@ def sun_shadow_file(
     if hillshade:
         out["hillshade"] = hillshade
     return out
+
+
+def _write_sun_shadow(read, kernel, grid, tags, paths, halo, strips, progress) -> int:
+    """The shadow fraction (and mask, hillshade) written strip by strip; the shadow pixels."""
+    output, mask, hillshade = paths
+    n_shadow = 0
+    with contextlib.ExitStack() as stack:
+        fdst = stack.enter_context(
+            io.create_raster(output, grid, tags=tags, band_names=["shadow fraction"])
+        )
+        mdst = hdst = None
+        if mask:
+            mdst = stack.enter_context(
+                mask_raster(mask, grid, tags, "shadow mask (fraction ≥ 0.5)")
+            )
+        if hillshade:
+            hdst = stack.enter_context(
+                io.create_raster(
+                    hillshade,
+                    grid,
+                    tags={**tags, "product": "cosine of the solar incidence angle"},
+                    band_names=["cos(incidence)"],
+                )
+            )
+        for win, (frac, ok, cos_i) in io.map_windows(
+            read,
+            kernel,
+            halo=halo,
+            progress=progress.sub(0.1, 1.0),
+            message="marching towards the sun",
+            **strips,
+        ):
+            fdst.write(np.where(ok, frac, io.FLOAT_NODATA).astype("float32"), 1, window=win)
+            shadow = frac >= ill.MASK_FRACTION
+            n_shadow += int(shadow[ok].sum())
+            if mdst is not None:
+                m = np.where(ok, shadow.astype(np.uint8), MASK_NODATA)
+                mdst.write(m.astype(np.uint8), 1, window=win)
+            if hdst is not None:
+                hdst.write(np.where(ok, cos_i, io.FLOAT_NODATA).astype("float32"), 1, window=win)
+    return n_shadow
 
 
 # --------------------------------------------------------------------------- dark-pixel-shadow

@@ -35,6 +35,7 @@ def stats_file(
     *,
     output,
     band=1,
+    band_nm=None,
     bins=BINS,
     percentiles=PERCENTILES,
     block_rows=io.DEFAULT_BLOCK_ROWS,
@@ -56,6 +57,9 @@ def stats_file(
         JSON file with every number.
     band : int
         1-based band number.
+    band_nm : float, optional
+        The band by its centre wavelength (nm) instead: the band nearest it becomes ``band``
+        (a sensor product's bands, or a file's wavelength metadata).
     bins : int
         Histogram bins between the minimum and the maximum.
     percentiles : str or sequence of float
@@ -79,8 +83,10 @@ def stats_file(
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (Table 1, Figure 3).
     """
     qs = parse_percentiles(percentiles)
+    image = io.raster_image(input, "input")
     with io.open_raster(input, "input") as src:
         desc_name = src.descriptions[band - 1] or f"band {band}"
+        units = image.units or (src.units[band - 1] if src.units else "") or ""
         read = io.band_reader(src, band)
 
         blocks = io.windows.value_passes(
@@ -92,10 +98,20 @@ def stats_file(
         )
 
         d = describe_blocks(
-            blocks, bins=bins, percentiles=qs, progress=progress, label=f"{input} band {band}"
+            blocks, bins=bins, percentiles=qs, progress=progress, label=f"{image.path} band {band}"
         )
     result = {"output": output}
-    payload = {"input": input, "band": band, "band_description": desc_name, **d.to_dict()}
+    payload = {
+        "input": image.path,
+        "product": image.kind,
+        "band": band,
+        "band_description": desc_name,
+        "band_wavelength_nm": None
+        if image.wavelengths is None
+        else round(float(image.wavelengths[band - 1]), 3),
+        "units": units,
+        **d.to_dict(),
+    }
     if histogram:
         from ..figures import histogram_figure  # matplotlib only when asked
         from ..io.write import save_figure
@@ -113,7 +129,9 @@ def stats_file(
     if html:
         from ..html import descriptives_html
 
-        io.write_text(html, descriptives_html(d, desc_name, f"{input}, band {band}", histogram))
+        io.write_text(
+            html, descriptives_html(d, desc_name, f"{image.path}, band {band}", histogram)
+        )
         result["html"] = html
     io.write_json(output, payload)
     progress.info(

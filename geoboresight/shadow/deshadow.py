@@ -81,6 +81,10 @@ BISQUARE = 4.685
 ADDITIVE_ITERATIONS = 20
 #: Pixels averaged into the dark object of :func:`dark_object` (as ``shadow-map``'s).
 DARK_PIXELS = 20
+#: Median RMS log difference of the pairs used above which they are reported to agree
+#: poorly: 0.2 (about 22 % between two pairs' ratio spectra) is more than skylight varies
+#: over a scene, and says the pairs mix materials or the fraction is off.
+POOR_SPREAD = 0.2
 #: Wavelengths (nm) over which a pair's ratio spectrum must be smooth to be one surface
 #: (:func:`same_surface`): silicon's range with signal in shadow, the blue to the NIR …
 SMOOTH_NM = (420.0, 900.0)

@@ -85,10 +85,22 @@ TILES = 4
 REGISTRATION_T = 2.0
 #: How far (px) a cast shadow predicted from a surface model may be off (registration).
 DSM_TOLERANCE = 1
+#: A cell the surface model shades at least this much is in its predicted shadow: more than
+#: half of it shaded, the share at which the shadow mask counts a pixel as shadow.
+PREDICTED_SHADOW = 0.5
 #: The sunlit ratio of the paper's scenes: Figure 5(B)'s line at shadow fraction 0 (1.31).
 PAPER_SUNLIT_RATIO = 1.31
 #: Smallest signal (DN above the dark level) used in logarithms.
 MIN_SIGNAL = 0.5
+
+
+def log_fraction_text(darkness: float) -> str:
+    """A darkness (natural log of a signal over its sunlit mode) as the provenance gives it:
+    ``"ln 1/3"`` for ``log(1/3)``, else the number (``"-0.800"``)."""
+    n = 1.0 / math.exp(darkness)
+    if abs(n - round(n)) < 1e-9 and round(n) >= 1:
+        return f"ln 1/{round(n)}"
+    return f"{darkness:.3f}"
 
 
 @dataclass(frozen=True)
@@ -101,6 +113,8 @@ class DarkLevel:
     #: band from a header or a product's dark reference (``n_pixels`` 0).
     band_levels: np.ndarray | None = None
     n_pixels: int = 0
+    #: The parameter the user gave the level in ("vnir_dark"), named by the messages; "" if none.
+    param: str = ""
 
     def describe(self, name: str) -> str:
         if self.band_levels is None:
@@ -193,11 +207,14 @@ def check_sample(
         return SampleCheck(usable, int(saturated.sum()), int(usable.sum()))
     level = np.asarray(dark.level if dark.band_levels is None else dark.band_levels, float)
     low = float(np.nanmin(data)) if data.size else 0.0
+    where, params = (f" in '{dark.param}'", (dark.param,)) if dark.param else ("", ())
     if data.size and float(np.min(level)) < low - max(1.0, 0.5 * abs(low)):
         raise InputError(
             f"{name}: the dark level {float(np.min(level)):g} ({dark.source}) is far below the "
             f"darkest sampled value ({low:g}): a dark level is the DN of zero signal, within the "
-            "data's range; give the instrument's dark level, or leave it empty to estimate it"
+            f"data's range; give the instrument's dark level{where}, or leave it empty to "
+            "estimate it",
+            params=params,
         )
     brightest = data.max(axis=0) if data.size else np.zeros(0)
     above = int((brightest > float(np.max(level))).sum())
@@ -205,8 +222,9 @@ def check_sample(
         raise InputError(
             f"{name}: only {above} of {data.shape[1]} usable sampled pixels are brighter than the "
             f"dark level {float(np.max(level)):g} ({dark.source}): the dark level is above the "
-            "signal; give the instrument's dark level (0 for radiance), or leave it empty to "
-            "estimate it"
+            f"signal; give the instrument's dark level{where} (0 for radiance), or leave it "
+            "empty to estimate it",
+            params=params,
         )
     return SampleCheck(usable, int(saturated.sum()), above)
 
@@ -666,26 +684,11 @@ def dsm_shadow_fraction(
     Brook, A.; Ben-Dor, E. Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484
     (§3.1: the shadow simulated from a surface model and the sun).
     """
-    d = np.asarray(dark, np.float64)
-    ok = np.isfinite(d)
-    if valid is not None:
-        ok &= np.asarray(valid, bool)
-    if edge_pixels < 0 or window < 1 or tolerance < 0:
-        raise ParameterError(
-            "parameters 'edge_pixels' ≥ 0, 'edge_window' ≥ 1 and 'tolerance' ≥ 0 are required"
-        )
-    p = np.nan_to_num(np.asarray(prior, np.float64), nan=0.0)
-    if p.shape != d.shape:
-        raise InputError(f"the prior's shape {p.shape} is not the image's {d.shape}")
-    shaded = p >= 0.5
+    d, ok, p, z = _checked_inputs(dark, valid, prior, heights, edge_pixels, window, tolerance)
+    shaded = p >= PREDICTED_SHADOW
     # Where the model shades at least half a pixel, give or take the tolerance (sub-cells
     # shaded by height noise on open ground stay out), and down-sun of it by the ``reach`` the
     # clearance takes off a shadow's far end (on level ground).
-    z = None
-    if heights is not None:
-        z = np.asarray(heights, np.float64)
-        if z.shape != d.shape:
-            raise InputError(f"parameter 'heights': shape {z.shape} is not the image's {d.shape}")
     base = np.where(shaded & np.isfinite(z), z, np.inf) if z is not None else None
     swept, base = _down_sun(shaded, ray, reach, base)
     near = ndimage.binary_dilation(shaded, iterations=tolerance) if tolerance else shaded
@@ -706,57 +709,99 @@ def dsm_shadow_fraction(
             rim_px &= ~(z - ground > clearance)
     allowed = zone
     if swept is not shaded:
-        # Beyond the tolerance, a shadow the clearance shortened goes on from the predicted
-        # shadow along the sun's direction: a cell there is shadow only when the cell next to
-        # it towards the sun is, and it is unmixed only next to such a cell.
-        step = _toward_sun(ray)
-        extra = rim_px & ~near
-        taken = core_px | (rim_px & near)
-        for _ in range(int(math.ceil(reach)) + tolerance):
-            grow = extra & ~taken & _shift(taken, step)
-            if not grow.any():
-                break
-            taken |= grow
-        rim_px = taken & ~core_px
-        allowed = near | (zone & _shift(taken, step))
+        rim_px, allowed = _connected_rim(core_px, rim_px, near, zone, ray, reach, tolerance)
     # Away from the predicted edges (by more than the tolerance) the model's shade is whole.
     deep = core_px & ndimage.binary_erosion(shaded, iterations=tolerance + 1)
     with np.errstate(invalid="ignore"):
         whole = deep | (d <= core)
     f = _unmix(d, ok, core_px | rim_px | part_px, edge_pixels, window, allowed=allowed, whole=whole)
     f[deep] = np.maximum(f[deep], p[deep]).astype(np.float32)
-    # Outside the zone no shadow reaches (registration within the tolerance): a pixel there is
-    # lit. A rim pixel is shaded at most as much as its signal says against the darkest such
-    # pixel beside it, taken as its sunlit end: a dark material running on past the zone is
-    # as dark there, in the sun, so it is not taken for shade; a shaded pixel beside brighter
-    # lit ground keeps its fraction.
-    beside = ok & ~zone
-    if beside.any():
-        ref = ndimage.minimum_filter(
-            np.where(beside, d, np.inf), size=3, mode="constant", cval=np.inf
-        )
-        s = np.exp(np.where(ok, d, 0.0))
-        sun = np.exp(np.where(np.isfinite(ref), ref, 0.0))
-        shade = _local_mean(s, core_px | rim_px, window)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            beside_est = np.clip((sun - s) / (sun - shade), 0.0, 1.0)
-            cap = ok & zone & ~shaded & np.isfinite(ref) & (sun > shade) & np.isfinite(beside_est)
-        f[cap] = np.minimum(f[cap], beside_est[cap]).astype(np.float32)
+    _cap_beside_zone(f, d, ok, zone, shaded, core_px | rim_px, window)
     if unseen is not None:
-        u = np.asarray(unseen, bool)
-        if u.shape != d.shape:
-            raise InputError(f"parameter 'unseen': shape {u.shape} is not the image's {d.shape}")
-        if ray is not None and u.any():
-            from .illumination import along_ray
-
-            with np.errstate(invalid="ignore"):
-                u = u & along_ray(~(d > lit), ray)
-        if u.any():
-            f0 = shadow_fraction_estimate(
-                d, ok, core=core, edge_pixels=edge_pixels, window=window, water=water
-            )
-            f[u] = np.fmax(f[u], f0[u])
+        spectral = dict(core=core, edge_pixels=edge_pixels, window=window, water=water)
+        _unseen_at_least_spectral(f, d, ok, unseen, ray, lit, spectral)
     return f
+
+
+def _unseen_at_least_spectral(f, d, ok, unseen, ray, lit, spectral: dict) -> None:
+    """Raise ``f`` (in place) to the spectral estimate (:func:`shadow_fraction_estimate` with
+    ``spectral``) on the ``unseen`` pixels whose way towards the sun along ``ray`` to the
+    grid's edge is not lit (darker than ``lit``): the shadow of a caster beyond the edge
+    covers the ground between them."""
+    u = np.asarray(unseen, bool)
+    if u.shape != d.shape:
+        raise InputError(f"parameter 'unseen': shape {u.shape} is not the image's {d.shape}")
+    if ray is not None and u.any():
+        from .illumination import along_ray
+
+        with np.errstate(invalid="ignore"):
+            u = u & along_ray(~(d > lit), ray)
+    if u.any():
+        f0 = shadow_fraction_estimate(d, ok, **spectral)
+        f[u] = np.fmax(f[u], f0[u])
+
+
+def _checked_inputs(dark, valid, prior, heights, edge_pixels, window, tolerance):
+    """:func:`dsm_shadow_fraction`'s arrays checked: (darkness, valid, prior with NaN as 0,
+    heights or None), float64, each of the darkness's shape."""
+    d = np.asarray(dark, np.float64)
+    ok = np.isfinite(d)
+    if valid is not None:
+        ok &= np.asarray(valid, bool)
+    if edge_pixels < 0 or window < 1 or tolerance < 0:
+        raise ParameterError(
+            "parameters 'edge_pixels' ≥ 0, 'edge_window' ≥ 1 and 'tolerance' ≥ 0 are required"
+        )
+    return d, ok, *_checked_prior(prior, heights, d.shape)
+
+
+def _checked_prior(prior, heights, shape):
+    """(prior with NaN as 0, heights or None) as float64, each of the image's ``shape``."""
+    p = np.nan_to_num(np.asarray(prior, np.float64), nan=0.0)
+    if p.shape != shape:
+        raise InputError(f"the prior's shape {p.shape} is not the image's {shape}")
+    if heights is None:
+        return p, None
+    z = np.asarray(heights, np.float64)
+    if z.shape != shape:
+        raise InputError(f"parameter 'heights': shape {z.shape} is not the image's {shape}")
+    return p, z
+
+
+def _connected_rim(core_px, rim_px, near, zone, ray, reach, tolerance):
+    """(rim, where unmixing is allowed) beyond the tolerance: a shadow the clearance
+    shortened goes on from the predicted shadow along the sun's direction, so a cell there is
+    shadow only when the cell next to it towards the sun is, and it is unmixed only next to
+    such a cell."""
+    step = _toward_sun(ray)
+    extra = rim_px & ~near
+    taken = core_px | (rim_px & near)
+    for _ in range(int(math.ceil(reach)) + tolerance):
+        grow = extra & ~taken & _shift(taken, step)
+        if not grow.any():
+            break
+        taken |= grow
+    return taken & ~core_px, near | (zone & _shift(taken, step))
+
+
+def _cap_beside_zone(f, d, ok, zone, shaded, shadow_px, window) -> None:
+    """Cap ``f`` (in place) beside the predicted shadow (in the ``zone``, not ``shaded``).
+    Outside the zone no shadow reaches (registration within the tolerance): a pixel there is
+    lit. A rim pixel is shaded at most as much as its signal says against the darkest such
+    pixel beside it, taken as its sunlit end: a dark material running on past the zone is as
+    dark there, in the sun, so it is not taken for shade; a shaded pixel beside brighter lit
+    ground keeps its fraction."""
+    beside = ok & ~zone
+    if not beside.any():
+        return
+    ref = ndimage.minimum_filter(np.where(beside, d, np.inf), size=3, mode="constant", cval=np.inf)
+    s = np.exp(np.where(ok, d, 0.0))
+    sun = np.exp(np.where(np.isfinite(ref), ref, 0.0))
+    shade = _local_mean(s, shadow_px, window)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        beside_est = np.clip((sun - s) / (sun - shade), 0.0, 1.0)
+        cap = ok & zone & ~shaded & np.isfinite(ref) & (sun > shade) & np.isfinite(beside_est)
+    f[cap] = np.minimum(f[cap], beside_est[cap]).astype(np.float32)
 
 
 def _toward_sun(ray) -> tuple[int, int]:
@@ -814,7 +859,7 @@ def prior_agreement(
         ok &= np.asarray(valid, bool)
     with np.errstate(invalid="ignore"):
         dk = ok & (d <= rim)
-    pr = np.nan_to_num(np.asarray(prior, np.float64), nan=0.0) >= 0.5
+    pr = np.nan_to_num(np.asarray(prior, np.float64), nan=0.0) >= PREDICTED_SHADOW
     m = int(max_shift)
     h, w = d.shape
     inner = np.zeros(d.shape, bool)

@@ -36,9 +36,24 @@ def test_vnir_and_swir_offer_the_products_in_the_file_dialog(provider):
             for pattern in ("*.hdr", "*.raw", "*.hyspex", "*METADATA.XML", "*.zip", "*.he5"):
                 assert pattern in text, (name, pattern)
             assert "*.tif" in text  # GDAL's rasters still offered
-    # Inputs that read no product keep QGIS's own raster parameter.
+    # An input that takes any raster reads a product as its image: offered too.
     stats = QgsApplication.processingRegistry().algorithmById("geoboresight:stats")
-    assert "*.hyspex" not in stats.parameterDefinition("input").createFileFilter()
+    assert "*.hyspex" in stats.parameterDefinition("input").createFileFilter()
+    # Inputs where no product belongs keep QGIS's own raster parameter.
+    view = QgsApplication.processingRegistry().algorithmById("geoboresight:view-3d")
+    assert "*.hyspex" not in view.parameterDefinition("dem").createFileFilter()
+
+
+def test_stats_on_a_specim_capture_through_qgis_counts_its_image_lines(provider, tmp_path):
+    """A Specim capture with dark frames given to 'stats' in QGIS: N is the image's pixels,
+    as the library and every other face count them."""
+    import processing
+    from hostile import COLS, ROWS, make_products
+
+    p = make_products(tmp_path / "p")["specim"]
+    out = str(tmp_path / "s.json")
+    result = processing.run("geoboresight:stats", {"input": p.path, "band": 2, "output": out})
+    assert result["n"] == ROWS * COLS
 
 
 @pytest.mark.parametrize("form", ["folder", "zip", "xml"])

@@ -1,6 +1,7 @@
 """VRT text shared by the spaceborne readers (EnMAP, PRISMA): a raw BIL cube inside another file
 (PRISMA's HDF5 cube at its byte offset), and radiance = ratio · DN + offset per band as Float32
-(ComplexSource ScaleRatio/ScaleOffset) with an optional per-band mask (nonzero = defective).
+(ComplexSource ScaleRatio/ScaleOffset) with an optional per-band mask (nonzero = defective),
+and a product's VNIR and SWIR images stacked as one raster.
 
 Nothing here reads pixels: the VRTs only point at the product's own files.
 """
@@ -155,4 +156,63 @@ def calibrated_vrt(
     return write_vrt("\n".join(parts), stem)
 
 
-__all__ = ["calibrated_vrt", "gdal_type", "raw_bil_vrt", "temp_path"]
+def stacked_vrt(sources, stem: str = "stack") -> str:
+    """A VRT of every band of each of ``sources`` (what GDAL opens for a product's images, on
+    one grid: a product's VNIR and SWIR images as one raster) one after the other: band values, nodata, masks, band metadata (wavelength),
+    descriptions and units as each source gives them; its path."""
+    import rasterio
+    from rasterio.enums import MaskFlags
+
+    from ..raster import quiet_georef
+
+    bands = []
+    width = height = 0
+    for source in sources:
+        with quiet_georef(), rasterio.open(source) as src:
+            width, height = src.width, src.height
+            for b in range(1, src.count + 1):
+                own_mask = MaskFlags.per_dataset in src.mask_flag_enums[b - 1] or (
+                    src.nodata is None and MaskFlags.all_valid not in src.mask_flag_enums[b - 1]
+                )
+                bands.append(
+                    (
+                        source,
+                        b,
+                        src.dtypes[b - 1],
+                        src.nodata,
+                        own_mask,
+                        src.tags(b),
+                        src.descriptions[b - 1],
+                        src.units[b - 1],
+                    )
+                )
+    parts = [f'<VRTDataset rasterXSize="{width}" rasterYSize="{height}">']
+    rect = f'xOff="0" yOff="0" xSize="{width}" ySize="{height}"'
+    for i, (source, b, dtype, nodata, own_mask, tags, desc, unit) in enumerate(bands, start=1):
+        name = escape(os.path.abspath(source) if os.path.exists(source) else source)
+        gdal = gdal_type(dtype)
+        items = "".join(f'<MDI key="{escape(k)}">{escape(str(v))}</MDI>' for k, v in tags.items())
+        mask = ""
+        if own_mask:
+            mask = (
+                '    <MaskBand><VRTRasterBand dataType="Byte"><SimpleSource>'
+                f'<SourceFilename relativeToVRT="0">{name}</SourceFilename>'
+                f"<SourceBand>mask,{b}</SourceBand></SimpleSource></VRTRasterBand></MaskBand>\n"
+            )
+        parts.append(
+            f'  <VRTRasterBand dataType="{gdal}" band="{i}">\n'
+            + (f"    <Description>{escape(desc)}</Description>\n" if desc else "")
+            + (f"    <Metadata>{items}</Metadata>\n" if items else "")
+            + (f"    <NoDataValue>{nodata!r}</NoDataValue>\n" if nodata is not None else "")
+            + (f"    <UnitType>{escape(unit)}</UnitType>\n" if unit else "")
+            + "    <SimpleSource>"
+            f'<SourceFilename relativeToVRT="0">{name}</SourceFilename>'
+            f"<SourceBand>{b}</SourceBand><SrcRect {rect}/><DstRect {rect}/></SimpleSource>\n"
+            f"{mask}"
+            "  </VRTRasterBand>"
+        )
+    parts.append("</VRTDataset>\n")
+    return write_vrt("\n".join(parts), stem)
+
+
+__all__ = ["calibrated_vrt", "gdal_type", "raw_bil_vrt", "stacked_vrt", "temp_path"]

@@ -56,6 +56,8 @@ class Product:
     images: tuple[SensorImage, ...]
     geolocation: Geolocation | None = None
     notes: tuple[str, ...] = field(default=())
+    #: Why a product that can carry geolocation carries none here (as ``info`` states it), or "".
+    geolocation_problem: str = ""
 
     def image(self, name: str) -> SensorImage | None:
         for im in self.images:

@@ -104,7 +104,8 @@ def _read(path: str, named: bool) -> Product | None:
         "PRISMA VNIR and SWIR are co-registered by the ground segment (PRS_L1_HCO): the "
         "measured boresight offset is what remains"
     )
-    return Product(KIND, path, tuple(images), geo, tuple(notes))
+    problem = "" if geo is not None else next((n for n in notes if "geolocation" in n), "")
+    return Product(KIND, path, tuple(images), geo, tuple(notes), problem)
 
 
 def _attr(f, name: str, where: str, what: str):

@@ -1,0 +1,445 @@
+"""De-shadowing a flight line in steps on arrays (:mod:`geoboresight.shadow.deshadow`).
+
+A first pass gathers, block by block, the pairs of shadowed and sunlit pixels across the
+shadow edges (:func:`edge_pairs`, merged by :func:`merge_edge_pairs`) and each instrument's
+darkest pixels; the scene's illumination ratio of each band is fitted on them
+(:func:`fit_illumination`); a second pass scales each block's shadowed pixels to their sunlit
+signal (:func:`deshadow_block`).
+
+References
+----------
+Richter, R.; Müller, A. De-shadowing of satellite/airborne imagery. Int. J. Remote Sens.
+2005, 26, 3137–3148.
+Brook, A.; Ben-Dor, E. Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from . import deshadow as ds
+from . import illumination as ill
+from .prior import SurfacePrior
+
+#: Pixels of a flight line whose pairs are looked for (a fixed share of a longer line, so
+#: that the pairs held stay bounded: about 1 % of pixels are at a shadow edge).
+PAIR_PIXELS = 250_000
+#: The spatial hash that picks that share of the pixels by their position, so that strips
+#: give the pairs of the whole image whatever their size: the large primes of Teschner et
+#: al. (2003, "Optimized spatial hashing for collision detection of deformable objects",
+#: VMV 2003, 47–54), whose products spread neighbouring cells evenly over the buckets.
+PAIR_HASH = (73856093, 19349663)
+#: Buckets of that hash: the share is kept to a thousandth.
+PAIR_BUCKETS = 1000
+
+
+def pair_share(shape: tuple[int, int], pixels: int = PAIR_PIXELS) -> int:
+    """How many of the :data:`PAIR_BUCKETS` buckets of pixels a flight line looks for pairs
+    in, so that about ``pixels`` of it are looked at.
+
+    Parameters
+    ----------
+    shape : (int, int)
+        Lines and columns of the flight line.
+    pixels : int
+        Pixels to look at.
+
+    Returns
+    -------
+    int
+        At least 1, at most :data:`PAIR_BUCKETS` (every pixel).
+    """
+    n = shape[0] * shape[1]
+    return max(1, min(PAIR_BUCKETS, round(PAIR_BUCKETS * pixels / n)))
+
+
+def picked_pixels(row0: int, shape: tuple[int, int], share: int) -> np.ndarray:
+    """The pixels of a block whose spatial hash falls in the first ``share`` buckets: the
+    same pixels whatever the strips a line is read in.
+
+    Parameters
+    ----------
+    row0 : int
+        The block's first line in the flight line.
+    shape : (int, int)
+        The block's lines and columns.
+    share : int
+        Buckets of :data:`PAIR_BUCKETS` kept (:func:`pair_share`).
+
+    Returns
+    -------
+    bool array (lines, columns)
+        ``(row·h₁ XOR column·h₂) mod`` :data:`PAIR_BUCKETS` ``< share``, ``(h₁, h₂)`` =
+        :data:`PAIR_HASH`.
+
+    References
+    ----------
+    Teschner, M.; Heidelberger, B.; Müller, M.; Pomeranets, D.; Gross, M. H. Optimized
+    spatial hashing for collision detection of deformable objects. VMV 2003, 47–54.
+    """
+    rr, cc = np.mgrid[row0 : row0 + shape[0], 0 : shape[1]]
+    return (rr * PAIR_HASH[0] ^ cc * PAIR_HASH[1]) % PAIR_BUCKETS < share
+
+
+def darkest_pixels(
+    signal: np.ndarray, valid: np.ndarray | None = None, *, n: int = ds.DARK_PIXELS
+) -> np.ndarray:
+    """The dark object's candidates: the ``n`` darkest valid pixels by their mean over the
+    bands (:func:`geoboresight.shadow.deshadow.dark_object`).
+
+    Parameters
+    ----------
+    signal : array (bands, lines, columns)
+    valid : bool array (lines, columns), optional
+        Pixels to look at; a pixel with a non-finite band is always left out.
+    n : int
+
+    Returns
+    -------
+    float32 array (pixels, bands)
+        At most ``n`` rows, in no particular order.
+    """
+    use = np.isfinite(signal).all(axis=0)
+    if valid is not None:
+        use &= np.asarray(valid, bool)
+    x = signal[:, use].T
+    if x.shape[0] > n:
+        x = x[np.argpartition(x.mean(axis=1), n - 1)[:n]]
+    return x.astype(np.float32)
+
+
+def keep_darkest(pixels: np.ndarray, n: int = ds.DARK_PIXELS) -> np.ndarray:
+    """The ``n`` darkest rows of ``pixels`` (pixels, bands) by their mean over the bands
+    (a stable sort: ties keep their order); all of them when there are no more than ``n``."""
+    if pixels.shape[0] <= n:
+        return pixels
+    return pixels[np.argsort(pixels.mean(axis=1), kind="stable")[:n]]
+
+
+class EdgePairs(NamedTuple):
+    """Pairs across the shadow edges (float32 rows, one per pair) and the darkest pixels."""
+
+    shaded: np.ndarray  # (pairs, bands): signal of the shaded pixel
+    sunlit: np.ndarray  # (pairs, bands): signal of the sunlit one
+    views: np.ndarray  # (3, pairs): sky view of each, cos i of the sunlit one
+    dark_vnir: np.ndarray  # (pixels, VNIR bands): the darkest VNIR pixels
+    dark_swir: np.ndarray  # (pixels, SWIR bands): the darkest SWIR pixels
+    around_shaded: np.ndarray  # (pairs, bands or 0): sunlit surroundings of the shaded pixel
+    around_sunlit: np.ndarray  # (pairs, bands or 0): and of the sunlit one
+
+    @classmethod
+    def empty(cls, n_bands: int, n_vnir: int, adjacency: bool) -> EdgePairs:
+        """No pairs: the start of :func:`merge_edge_pairs`."""
+        n_sur = n_bands if adjacency else 0
+        z = lambda *shape: np.zeros(shape, np.float32)  # noqa: E731
+        return cls(
+            z(0, n_bands),
+            z(0, n_bands),
+            z(3, 0),
+            z(0, n_vnir),
+            z(0, n_bands - n_vnir),
+            z(0, n_sur),
+            z(0, n_sur),
+        )
+
+
+def edge_pairs(
+    signal: np.ndarray,
+    fraction: np.ndarray,
+    heights: np.ndarray | None,
+    sky_view: np.ndarray | None,
+    valid: np.ndarray | None = None,
+    *,
+    own: np.ndarray,
+    picked: np.ndarray,
+    n_vnir: int,
+    offset: tuple[float, float],
+    surface_prior: SurfacePrior | None = None,
+    adjacency_size: int = 0,
+) -> EdgePairs:
+    """The pairs of shadowed and sunlit pixels across the shadow edges of a block, on the
+    VNIR grid, and each instrument's darkest pixels on its own grid.
+
+    The SWIR bands of ``signal`` are resampled onto the VNIR grid by the boresight ``offset``
+    (along, across; px) before the pairs are taken
+    (:func:`geoboresight.shadow.deshadow.pair_indices`: shaded pixels of the block's own
+    lines, ``own``, of the ``picked`` share; with a surface model, down-sun or lateral and of
+    about the same height).
+
+    Parameters
+    ----------
+    signal : array (bands, lines, columns)
+        Signal above the dark level, VNIR bands then SWIR bands (each on its own grid).
+    fraction : array (lines, columns)
+        Shadow fraction (0–1, NaN unknown) on the VNIR grid.
+    heights, sky_view : arrays (lines, columns) or None
+        The surface model's heights (NaN none) and sky-view factor; None without a model.
+    valid : bool array (lines, columns), optional
+    own : bool array (lines, columns)
+        The block's own lines (not its halo): each pixel is taken by one block.
+    picked : bool array (lines, columns)
+        The share of the pixels looked at (:func:`picked_pixels`).
+    n_vnir : int
+        VNIR bands, the first of ``signal``.
+    offset : (float, float)
+        Boresight offset of the SWIR (px, along and across).
+    surface_prior : SurfacePrior, optional
+        The sun and the grid's geometry (with ``heights``).
+    adjacency_size : int
+        Side (px) of the window of sunlit surroundings gathered for each pair
+        (:func:`geoboresight.shadow.deshadow.surround_signal`); 0 = none.
+
+    Returns
+    -------
+    EdgePairs
+    """
+    from ..dem.coregister import coregister_stack
+
+    sig = np.array(signal, np.float64)
+    ok = np.ones(fraction.shape, bool) if valid is None else np.asarray(valid, bool)
+    dark_v = darkest_pixels(sig[:n_vnir], ok & own)
+    dark_s = darkest_pixels(sig[n_vnir:], ok & own)
+    # The SWIR bands onto the VNIR grid together (one mask): NaN where a tap is invalid.
+    swir = sig[n_vnir:]
+    s_ok = ok & np.isfinite(swir).all(axis=0)
+    shifted, s_ok = coregister_stack(np.where(s_ok, swir, 0.0), *offset[:2], s_ok, order=1)
+    sig[n_vnir:] = np.where(s_ok, shifted, np.nan)
+    toward_sun = None
+    if surface_prior is not None:
+        p = surface_prior
+        toward_sun = ill.sun_step(p.zenith, p.azimuth, p.matrix)[:2]
+    ia, ib = ds.pair_indices(
+        fraction,
+        ok & np.isfinite(sig).all(axis=0),
+        own=own & picked,
+        toward_sun=toward_sun,
+        heights=heights,
+    )
+    flat = sig.reshape(sig.shape[0], -1)
+    sky = np.ones(fraction.size) if sky_view is None else sky_view.reshape(-1)
+    cos_i = _incidence(heights, surface_prior, fraction.size)
+    if adjacency_size:
+        with np.errstate(invalid="ignore"):
+            lit_px = ok & (fraction <= ds.LIT)
+        sur = ds.surround_signal(sig, lit_px, adjacency_size).reshape(sig.shape[0], -1)
+        sur_a, sur_b = sur[:, ia].T, sur[:, ib].T
+    else:
+        sur_a = sur_b = np.zeros((ia.size, 0))
+    return EdgePairs(
+        flat[:, ia].T.astype(np.float32),
+        flat[:, ib].T.astype(np.float32),
+        np.stack([sky[ia], sky[ib], cos_i[ib]]).astype(np.float32),
+        dark_v,
+        dark_s,
+        sur_a.astype(np.float32),
+        sur_b.astype(np.float32),
+    )
+
+
+def _incidence(heights, surface_prior, n: int) -> np.ndarray:
+    """cos i of each pixel's plane (flat: 1 everywhere without a surface model)."""
+    if heights is None:
+        return np.ones(n)
+    p = surface_prior
+    return ill.plane_incidence(
+        heights,
+        np.isfinite(heights),
+        sun_zenith=p.zenith,
+        sun_azimuth=p.azimuth,
+        transform=p.matrix,
+    ).reshape(-1)
+
+
+def merge_edge_pairs(a: EdgePairs, b: EdgePairs, n_dark: int = ds.DARK_PIXELS) -> EdgePairs:
+    """The pairs of two blocks together (``a``'s first) and the ``n_dark`` darkest pixels of
+    both instruments (:func:`keep_darkest`): the merge of
+    :func:`geoboresight.io.windows.reduce_windows` over :func:`edge_pairs`."""
+    return EdgePairs(
+        np.concatenate([a.shaded, b.shaded]),
+        np.concatenate([a.sunlit, b.sunlit]),
+        np.concatenate([a.views, b.views], axis=-1),
+        keep_darkest(np.concatenate([a.dark_vnir, b.dark_vnir]), n_dark),
+        keep_darkest(np.concatenate([a.dark_swir, b.dark_swir]), n_dark),
+        np.concatenate([a.around_shaded, b.around_shaded]),
+        np.concatenate([a.around_sunlit, b.around_sunlit]),
+    )
+
+
+@dataclass(frozen=True)
+class IlluminationFit:
+    """The scene's illumination ratio of each band and what it was measured above."""
+
+    ratio: np.ndarray  # k per band (≥ 1: 1 where no ratio above 1 was measured)
+    pairs_used: int
+    spread: float  # median RMS log difference of the pairs used
+    additive: np.ndarray  # additive signal per band (0 without it)
+    additive_error: np.ndarray  # its error (inf without it)
+    line: np.ndarray  # the line's intercept per band (the pairs of one surface)
+    line_error: np.ndarray
+    dark_object: np.ndarray  # the dark object per band (NaN without the additive signal)
+    adjacency_scale: np.ndarray  # the share of the surroundings' light per band, scaled
+    adjacency_share: np.ndarray  # η per band (0 without it)
+    one_surface: int = 0  # pairs of one surface (with the additive signal)
+    unchanged: int = 0  # bands left unchanged (no ratio above 1)
+
+
+def fit_illumination(
+    pairs: EdgePairs,
+    wavelengths: np.ndarray,
+    *,
+    surface: bool = False,
+    additive: bool = False,
+    adjacency: bool = False,
+) -> IlluminationFit:
+    """The scene's sunlit-to-shadow illumination ratio of each band from the ``pairs``.
+
+    :func:`geoboresight.shadow.deshadow.illumination_ratio` on all the pairs (with a
+    ``surface`` model, the sky view of each and all the pairs kept). With ``additive``, the
+    additive signal of each band first (:func:`geoboresight.shadow.deshadow.additive_signal`
+    on the pairs of one surface, combined with the dark object by
+    :func:`geoboresight.shadow.deshadow.combine_additive`), the ratio then measured above it.
+    With ``adjacency``, the light of the sunlit surroundings fitted with the ratio
+    (:func:`geoboresight.shadow.deshadow.adjacency_ratio`). A band whose pairs do not say the
+    sun brightens it (noise, absorption bands) is left as it is: ratio 1.
+
+    Parameters
+    ----------
+    pairs : EdgePairs
+        Of the whole flight line (:func:`edge_pairs`, :func:`merge_edge_pairs`).
+    wavelengths : array (bands,)
+        Band centres (nm): the pairs of one surface have a smooth ratio spectrum.
+    surface, additive, adjacency : bool
+        A surface model gave the pairs' sky views and incidence; estimate the additive
+        signal; the light of the surroundings.
+
+    Returns
+    -------
+    IlluminationFit
+
+    References
+    ----------
+    Richter, R.; Müller, A. Int. J. Remote Sens. 2005, 26, 3137–3148 (de-shadowing).
+    """
+    a, b, pv = pairs.shaded, pairs.sunlit, pairs.views
+    wl = np.asarray(wavelengths, float)
+    sky = (pv[0], pv[1]) if surface else None
+    direct = pv[2] if surface else None
+    keep = ds.KEEP_WITH_SURFACE if surface else ds.KEEP
+    k, n_pairs, spread = ds.illumination_ratio(a, b, sky_view=sky, keep=keep)
+    c, c_err = np.zeros(len(wl)), np.full(len(wl), np.inf)
+    c_line, e_line, dark_obj, n_one = c, c_err, np.full(len(wl), np.nan), 0
+    if additive:
+        one = ds.same_surface(a, b, wl)
+        n_one = int(one.sum())
+        sky1 = None if sky is None else (sky[0][one], sky[1][one])
+        c_line, e_line = ds.additive_signal(
+            a[one], b[one], k, sky_view=sky1, direct=None if direct is None else direct[one]
+        )
+        dark_v, dark_s = pairs.dark_vnir, pairs.dark_swir
+        dark_obj = np.concatenate(
+            [
+                ds.dark_object(dark_v.T.astype(np.float64), min(ds.DARK_PIXELS, len(dark_v))),
+                ds.dark_object(dark_s.T.astype(np.float64), min(ds.DARK_PIXELS, len(dark_s))),
+            ]
+        )
+        c, c_err = ds.combine_additive(c_line, e_line, dark_obj, np.median(a, axis=0))
+        k, n_pairs, spread = ds.illumination_ratio(
+            a - c, b - c, sky_view=sky, direct=direct, keep=keep
+        )
+    adj_scale, eta = np.zeros(len(wl)), np.zeros(len(wl))
+    if adjacency:
+        around = (pairs.around_shaded - c, pairs.around_sunlit - c)
+        k, adj_scale, eta = ds.adjacency_ratio(
+            a - c, b - c, around, sky_view=sky, direct=direct if additive else None
+        )
+    brightens = np.isfinite(k) & (k >= 1.0)
+    return IlluminationFit(
+        np.where(brightens, k, 1.0),
+        n_pairs,
+        spread,
+        c,
+        c_err,
+        c_line,
+        e_line,
+        dark_obj,
+        adj_scale,
+        eta,
+        n_one,
+        int((~brightens).sum()),
+    )
+
+
+def fraction_on_swir_grid(fraction: np.ndarray, offset: tuple[float, float], valid=None):
+    """A raster of the VNIR grid (the shadow fraction, the sky view) on the SWIR's grid.
+
+    Parameters
+    ----------
+    fraction : array (lines, columns)
+    offset : (float, float)
+        Boresight offset of the SWIR (px, along and across): the raster is moved back by it
+        (:func:`geoboresight.dem.coregister.coregister`, bilinear).
+    valid : bool array (lines, columns), optional
+        Cells with a value (default: the finite ones).
+
+    Returns
+    -------
+    array (lines, columns)
+        NaN where the moved raster has no value.
+    """
+    from ..dem.coregister import coregister
+
+    ok = np.isfinite(fraction) if valid is None else valid
+    g, g_ok = coregister(np.where(ok, fraction, 0.0), -offset[0], -offset[1], ok, order=1)
+    return np.where(g_ok, g, np.nan)
+
+
+def _surroundings(signal, fraction, valid, sky_view, scale, size):
+    """Each pixel's light from its sunlit surroundings, ``scale·(1 − V)·S̄``."""
+    if not size:
+        return None
+    with np.errstate(invalid="ignore"):
+        lit_px = valid & (fraction <= ds.LIT)
+    s_bar = ds.surround_signal(signal, lit_px, size)
+    return scale[:, None, None] * (1.0 - sky_view)[None] * s_bar
+
+
+def deshadow_block(
+    cube: np.ndarray,
+    fraction: np.ndarray,
+    sky_view: np.ndarray | None,
+    valid: np.ndarray | None = None,
+    *,
+    base: np.ndarray,
+    fit: IlluminationFit,
+    n_vnir: int,
+    offset: tuple[float, float],
+    adjacency_size: int = 0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The de-shadowed block: each instrument on its own grid (the fraction and the sky view
+    moved onto the SWIR's by the boresight ``offset``), each band's signal above ``base``
+    (its dark level and additive signal, added back) scaled by
+    :func:`geoboresight.shadow.deshadow.deshadow` with ``fit``'s ratio (and the light of the
+    sunlit surroundings within ``adjacency_size`` px when it was fitted).
+
+    Returns
+    -------
+    (cube, shaded)
+        The float32 cube (bands, lines, columns; NaN where invalid) and the valid pixels with
+        a shadow fraction above 0.
+    """
+    ok = np.ones(fraction.shape, bool) if valid is None else np.asarray(valid, bool)
+    fs = fraction_on_swir_grid(fraction, offset, np.isfinite(fraction))
+    vs = None if sky_view is None else fraction_on_swir_grid(sky_view, offset)
+    k, scale = fit.ratio, fit.adjacency_scale
+    bv, bs = base[:n_vnir], base[n_vnir:]
+    sv, ss = cube[:n_vnir] - bv, cube[n_vnir:] - bs
+    av = _surroundings(sv, fraction, ok, sky_view, scale[:n_vnir], adjacency_size)
+    as_ = _surroundings(ss, fs, ok, vs, scale[n_vnir:], adjacency_size)
+    out_v = ds.deshadow(sv, fraction, ok, ratio=k[:n_vnir], sky_view=sky_view, adjacency=av) + bv
+    out_s = ds.deshadow(ss, fs, ok, ratio=k[n_vnir:], sky_view=vs, adjacency=as_) + bs
+    with np.errstate(invalid="ignore"):
+        shaded = ok & (fraction > 0)
+    return np.concatenate([out_v, out_s]), shaded
