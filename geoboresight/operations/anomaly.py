@@ -340,6 +340,65 @@ def _prepare_image(vnir, swir, layout, spectral, dark, offset, coregistered, pro
     return cube, bands, wl, read, info, dark_per_band
 
 
+def _rx_statistics(read, n_bands: int, strips: dict, progress):
+    """RX's first pass: the scene mean and covariance of ``n_bands`` bands over the strips,
+    read in the files' own type (no float copy); the shift comes from the first strip so
+    that the sums do not depend on thread timing."""
+    from ..anomaly import rx
+
+    first, first_valid = read(0, min(strips["block_rows"], strips["height"]))
+    acc = rx.CovarianceAccumulator(
+        n_bands, shift=rx.CovarianceAccumulator.strip_shift(first, first_valid)
+    )
+    del first, first_valid
+    for _ in io.map_windows(
+        read, acc.add_cube, **strips, progress=progress, message="RX: background statistics"
+    ):
+        pass
+    return acc.stats()
+
+
+def _rx_scores(det, read, read64, background, precision, strips: dict, progress):
+    """RX's second pass: (window, score) of each strip, against the scene mean (global) or
+    the mean of ``background``'s windows around each pixel (local, from float64 strips)."""
+    from ..anomaly import rx
+
+    if not background.local:
+        return io.map_windows(
+            read,
+            lambda data, valid: det.score_cube(data, valid, precision),
+            **strips,
+            progress=progress,
+            message="RX: scoring",
+        )
+    inner, outer = background.inner, background.outer
+
+    def score(data, valid, block):
+        return rx.local_rx(
+            data,
+            det,
+            inner,
+            outer,
+            valid,
+            first_row=block.row0,
+            height=block.height,
+            rows=block.rows,
+            precision=precision,
+        )
+
+    return io.map_windows(
+        read64,
+        score,
+        **strips,
+        # Windows are shifted to stay inside the image (as Spectral Python's), so a pixel
+        # near the first or last line reaches up to outer - 1 lines away.
+        halo=(outer - 1, outer - 1),
+        pass_block=True,
+        progress=progress,
+        message="RX: scoring",
+    )
+
+
 @operation(inputs=("vnir", "swir"), outputs=("output",))
 def rx_file(
     vnir,
@@ -432,22 +491,7 @@ def rx_file(
             "block_rows": block_rows,
             "workers": io.windows.default_workers(),
         }
-        # Pass 1: strips in the files' own type (no float copy); the shift comes from the
-        # first strip so that the sums do not depend on thread timing.
-        first, first_valid = read(0, min(block_rows, cube.height))
-        acc = rx.CovarianceAccumulator(
-            len(bands), shift=rx.CovarianceAccumulator.strip_shift(first, first_valid)
-        )
-        del first, first_valid
-        for _ in io.map_windows(
-            read,
-            acc.add_cube,
-            **strips,
-            progress=progress.sub(0.0, 0.5),
-            message="RX: background statistics",
-        ):
-            pass
-        stats = acc.stats()
+        stats = _rx_statistics(read, len(bands), strips, progress.sub(0.0, 0.5))
         det = rx.RXDetector(stats, regularize, wavelengths=wl, band_numbers=bands + 1)
         progress.info(f"RX on {len(bands)} bands, {stats.n} background pixels")
         dp = _detectability_result(
@@ -465,39 +509,9 @@ def rx_file(
         }
         if local:
             tags["window"] = f"inner {inner} px, outer {outer} px"
-
-            def score(data, valid, block):
-                return rx.local_rx(
-                    data,
-                    det,
-                    inner,
-                    outer,
-                    valid,
-                    first_row=block.row0,
-                    height=block.height,
-                    rows=block.rows,
-                    precision=precision,
-                )
-
-            scored = io.map_windows(
-                read64,
-                score,
-                **strips,
-                # Windows are shifted to stay inside the image (as Spectral Python's), so a
-                # pixel near the first or last line reaches up to outer - 1 lines away.
-                halo=(outer - 1, outer - 1),
-                pass_block=True,
-                progress=progress.sub(0.5, 1.0),
-                message="RX: scoring",
-            )
-        else:
-            scored = io.map_windows(
-                read,
-                lambda data, valid: det.score_cube(data, valid, precision),
-                **strips,
-                progress=progress.sub(0.5, 1.0),
-                message="RX: scoring",
-            )
+        scored = _rx_scores(
+            det, read, read64, background, precision, strips, progress.sub(0.5, 1.0)
+        )
         with io.create_raster(output, cube.grid, tags=tags, band_names=["RX score"]) as dst:
             for win, s in scored:
                 dst.write(to_float32(s), 1, window=win)
@@ -748,6 +762,45 @@ def boresight_indicator_file(
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.3, Figure 11D).
     """
+    method = _indicator_method(method, vnir, swir, ratio, dipole, dark)
+    if method == "physical":
+        return _physical_indicator_file(
+            vnir,
+            swir,
+            output=output,
+            anomalies=anomalies,
+            threshold=threshold,
+            sign=dipole.target_sign,
+            window=dipole.dipole_window,
+            layout=layout,
+            dark=dark,
+            offset=BoresightOffset(dipole.offset_along, dipole.offset_across),
+            target=detectability,
+            block_rows=block_rows,
+            progress=progress,
+        )
+    progress.info(
+        "method eq3: the paper's robust z-score of the raw-DN ratio (a reproduction; "
+        "docs/anomaly.md explains why it scores grey sub-pixel targets below chance)"
+    )
+    return {
+        **_eq3_indicator_file(
+            ratio,
+            output,
+            anomalies,
+            threshold,
+            reference.tail,
+            reference.window,
+            block_rows,
+            progress,
+        ),
+        "method": "eq3",
+    }
+
+
+def _indicator_method(method: str, vnir, swir, ratio, dipole, dark) -> str:
+    """The indicator's method ("auto": physical with the cube, else eq3), its inputs checked:
+    each method refuses what only the other one uses."""
     from ..errors import ParameterError
 
     if method not in INDICATOR_METHODS:
@@ -770,21 +823,7 @@ def boresight_indicator_file(
                 "is given): leave 'ratio' empty, or choose method 'eq3' for the paper's Eq. 3 "
                 "on the ratio raster"
             )
-        return _physical_indicator_file(
-            vnir,
-            swir,
-            output=output,
-            anomalies=anomalies,
-            threshold=threshold,
-            sign=dipole.target_sign,
-            window=dipole.dipole_window,
-            layout=layout,
-            dark=dark,
-            offset=BoresightOffset(dipole.offset_along, dipole.offset_across),
-            target=detectability,
-            block_rows=block_rows,
-            progress=progress,
-        )
+        return method
     unused = [
         n
         for n, v in (
@@ -809,23 +848,7 @@ def boresight_indicator_file(
             "method 'eq3' needs the boresight ratio raster: give 'ratio' (the 'ratio' operation's "
             "output)"
         )
-    progress.info(
-        "method eq3: the paper's robust z-score of the raw-DN ratio (a reproduction; "
-        "docs/anomaly.md explains why it scores grey sub-pixel targets below chance)"
-    )
-    return {
-        **_eq3_indicator_file(
-            ratio,
-            output,
-            anomalies,
-            threshold,
-            reference.tail,
-            reference.window,
-            block_rows,
-            progress,
-        ),
-        "method": "eq3",
-    }
+    return "eq3"
 
 
 def _physical_indicator_file(
