@@ -28,6 +28,7 @@ from ..io.bands import BoresightOffset, Coregistration
 from ..io.dark import DarkLevels
 from ..io.dual import DualLayout
 from ._operation import operation
+from ._shared import GIVE_OFFSET, measured_offset, sensor_dark_levels
 
 #: Pixels drawn at random for the dark-object estimate of a detector's detectability.
 DARK_SAMPLE = 4000
@@ -106,42 +107,6 @@ def _cube_index(dual, sensor):
             counts.append(src.count)
     starts = np.cumsum([0, *counts])[:-1]
     return starts[reads.index(sensor.reads)] + np.asarray(sensor.bands, int) - 1
-
-
-#: How the user gives the offset instead of measuring it (the error of a line too small).
-GIVE_OFFSET = ": give it ('offset_along', 'offset_across')"
-
-
-def measured_offset(
-    dual, given: BoresightOffset, progress, hint: str = GIVE_OFFSET
-) -> tuple[float, float, str]:
-    """The boresight offset δ: given, else measured as ``boresight-offset`` measures it (the
-    ratio's bands, Fourier cross-correlation over the whole line); ``hint`` ends the error of
-    a line too small to measure it on."""
-    if given.offset_along is not None or given.offset_across is not None:
-        return float(given.offset_along or 0.0), float(given.offset_across or 0.0), "given"
-    from ..io.bands import MatchBands, open_matching_pair
-    from .offset import line_offset
-
-    with open_matching_pair(dual, MatchBands()) as pair:
-        off, _ = line_offset(pair, 0, progress, given=hint)
-    return off.along, off.across, "measured (boresight-offset)"
-
-
-def _sensor_dark(sensor, bands, given, sample, progress):
-    """One instrument's dark level for ``bands`` (1-based file bands): given, the product's
-    dark reference or the header (io.dark, as shadow-map), else the dark object of
-    ``sample()`` (n_bands, n_pixels). Returns (level per band, description)."""
-    from ..io.dark import dark_level_of
-    from ..shadow import map as smap
-
-    with io.open_raster(sensor.reads, sensor.name) as src:
-        level = dark_level_of(sensor, bands, src.tags(ns="ENVI"), src.count, given)
-    if level is None:
-        values, ok = sample()
-        level = smap.dark_level(values, ok)
-    progress.info(level.describe(sensor.name))
-    return np.broadcast_to(np.asarray(level.for_bands(bands, bands), float), (len(bands),)), level
 
 
 def _sample_reader(read, height, width, seed=0):
@@ -326,7 +291,9 @@ def _prepare_image(vnir, swir, layout, spectral, dark, offset, coregistered, pro
                     v, ok = sampled()
                     return v[mask], ok
 
-                dark_per_band[mask], _ = _sensor_dark(sensor, file_bands, given, sub, progress)
+                dark_per_band[mask], _ = sensor_dark_levels(
+                    sensor, file_bands, given, sub, progress
+                )
         else:
             from ..shadow import map as smap
 
@@ -899,8 +866,8 @@ def _physical_indicator_file(
 
             return get
 
-        dv, _ = _sensor_dark(dual.vnir, pair.vnir_bands, dark.vnir_dark, part(0), progress)
-        ds, _ = _sensor_dark(dual.swir, pair.swir_bands, dark.swir_dark, part(1), progress)
+        dv, _ = sensor_dark_levels(dual.vnir, pair.vnir_bands, dark.vnir_dark, part(0), progress)
+        ds, _ = sensor_dark_levels(dual.swir, pair.swir_bands, dark.swir_dark, part(1), progress)
         vd, sd = float(np.mean(dv)), float(np.mean(ds))
 
         def kernel(data, ok):
