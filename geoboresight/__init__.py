@@ -11,7 +11,8 @@ One flat public API, loaded lazily (``import geoboresight`` imports neither NumP
   (``KERNELS``);
 - file-level operations, on whole flight lines: ``ratio_file``, ``shadow_classes_file``, ...
   (``OPERATIONS``), the same functions the command line, ``rio boresight`` and QGIS run;
-- the dual-sensor reader ``open_dual`` and the windowed map ``map_windows``.
+- the values those operations take: ``BandChoice``, ``SurfaceModel``, ... (``VALUES``);
+- the dual-sensor reader ``open_dual``, the windowed map ``map_windows``, ... (``IO``).
 
 >>> import geoboresight as gb                                   # doctest: +SKIP
 >>> gb.ratio_file("line_vnir.hdr", "line_swir.hdr", output="ratio.tif")   # doctest: +SKIP
@@ -60,6 +61,7 @@ KERNELS = {
     "place_reference": "geoboresight.georef.tiepoints",
     "simulate_ortho": "geoboresight.simulate.ortho",
     "attitude_jitter": "geoboresight.simulate.ortho",
+    "simulate_scene": "geoboresight.simulate.scene",
 }
 
 
@@ -85,37 +87,56 @@ def _operations() -> dict[str, str]:
 #: File-level operations: one per operation of the command line and the QGIS toolbox.
 OPERATIONS = _operations()
 
-#: The I/O entry points a script needs beside the operations.
-IO = {
-    "open_dual": "geoboresight.io.dual",
-    "DualLayout": "geoboresight.io.dual",
+#: The values the operations take: small frozen dataclasses, each a spec's parameter group
+#: (flat on the command line and in QGIS, one value in Python: ``bands=gb.BandChoice(...)``).
+#: Every class an operation's signature names is here (tests/test_house.py checks it).
+VALUES = {
     "BandChoice": "geoboresight.io.dual",
-    # Frozen option values of the operations (a spec's parameter groups).
+    "DualLayout": "geoboresight.io.dual",
     "MatchBands": "geoboresight.io.bands",
+    "Coregistration": "geoboresight.io.bands",
+    "BoresightOffset": "geoboresight.io.bands",
+    "DarkLevels": "geoboresight.io.dark",
+    "Sample": "geoboresight.io.windows",
+    "OutputGrid": "geoboresight.io.grid",
     "FlightGeometry": "geoboresight.dem.height",
     "Matching": "geoboresight.dem.disparity",
     "Kriging": "geoboresight.dem.relative",
     "BandSelection": "geoboresight.anomaly.bands",
-    "Coregistration": "geoboresight.io.bands",
+    "Detectability": "geoboresight.anomaly.physical",
     "Dipole": "geoboresight.anomaly.physical",
     "Eq3Reference": "geoboresight.anomaly.indicator",
     "RXBackground": "geoboresight.anomaly.rx",
-    "OutputGrid": "geoboresight.io.grid",
     "TieMatching": "geoboresight.georef.tiepoints",
     "SimulatedFlight": "geoboresight.simulate.scene",
     "Sky": "geoboresight.simulate.scene",
     "SensorOptions": "geoboresight.simulate.scene",
-    "writer_options": "geoboresight.io.raster",
+    "MapCalibration": "geoboresight.operations.shadow_map",
+    "Detection": "geoboresight.operations.shadow_map",
+    "SurfaceModel": "geoboresight.operations.shadow_map",
+}
+
+#: What a script needs beside the operations: readers, writers, the block loop, progress and
+#: the errors it may catch.
+IO = {
+    "open_dual": "geoboresight.io.dual",
     "open_cube": "geoboresight.io.cube",
+    "recognise": "geoboresight.io.products",
+    "writer_options": "geoboresight.io.raster",
     "map_windows": "geoboresight.io.windows",
     "reduce_windows": "geoboresight.io.windows",
     "Grid": "geoboresight.io.grid",
     "write_scene": "geoboresight.io.scene",
     "Progress": "geoboresight.progress",
     "GeoboresightError": "geoboresight.errors",
+    "InputError": "geoboresight.errors",
+    "ParameterError": "geoboresight.errors",
+    "OutputError": "geoboresight.errors",
+    "ResourceError": "geoboresight.errors",
+    "Cancelled": "geoboresight.errors",
 }
 
-_API = {**KERNELS, **OPERATIONS, **IO}
+_API = {**KERNELS, **OPERATIONS, **VALUES, **IO}
 __all__ = sorted(_API)
 
 
@@ -124,10 +145,6 @@ def __getattr__(name: str):
     if module is None:
         raise AttributeError(f"module 'geoboresight' has no attribute {name!r}")
     value = getattr(importlib.import_module(module), name)
-    if name in OPERATIONS:
-        # Its spec, which the operation checks a Python caller's arguments against (as the
-        # CLI, QGIS, the engine and batch are checked): imported with the operation.
-        importlib.import_module("geoboresight.algorithms").spec_of_operation(name)
     globals()[name] = value  # later look-ups skip this function
     return value
 

@@ -1,8 +1,8 @@
 """Type stub of geoboresight's flat API, for type checkers and IDEs.
 
 geoboresight/__init__.py loads these names lazily (a module ``__getattr__`` over its
-``KERNELS``, ``OPERATIONS`` and ``IO`` tables), which static tools cannot follow: this stub
-says where each name comes from. The idea is lazy_loader's ``attach_stub`` (a .pyi as the
+``KERNELS``, ``OPERATIONS``, ``VALUES`` and ``IO`` tables), which static tools cannot follow:
+this stub says where each name comes from. The idea is lazy_loader's ``attach_stub`` (a .pyi as the
 lazy table) without the dependency: here the tables are the source, and tests/test_house.py
 checks that this stub names exactly ``geoboresight.__all__``, each from its table's module.
 """
@@ -10,6 +10,7 @@ checks that this stub names exactly ``geoboresight.__all__``, each from its tabl
 from .anomaly.bands import BandSelection as BandSelection
 from .anomaly.indicator import Eq3Reference as Eq3Reference
 from .anomaly.indicator import boresight_indicator as boresight_indicator
+from .anomaly.physical import Detectability as Detectability
 from .anomaly.physical import Dipole as Dipole
 from .anomaly.polygons import label_anomalies as label_anomalies
 from .anomaly.roc import roc_curve as roc_curve
@@ -28,7 +29,12 @@ from .dem.offset import estimate_offset as estimate_offset
 from .dem.offset import offset_profile as offset_profile
 from .dem.relative import Kriging as Kriging
 from .dem.relative import relative_dem as relative_dem
+from .errors import Cancelled as Cancelled
 from .errors import GeoboresightError as GeoboresightError
+from .errors import InputError as InputError
+from .errors import OutputError as OutputError
+from .errors import ParameterError as ParameterError
+from .errors import ResourceError as ResourceError
 from .georef.geoloc import clean_igm as clean_igm
 from .georef.geoloc import corner_geoloc as corner_geoloc
 from .georef.geoloc import glt_indices as glt_indices
@@ -36,16 +42,20 @@ from .georef.tiepoints import TieMatching as TieMatching
 from .georef.tiepoints import match_tie_points as match_tie_points
 from .georef.tiepoints import place_reference as place_reference
 from .georef.transforms import fit_transform as fit_transform
+from .io.bands import BoresightOffset as BoresightOffset
 from .io.bands import Coregistration as Coregistration
 from .io.bands import MatchBands as MatchBands
 from .io.cube import open_cube as open_cube
+from .io.dark import DarkLevels as DarkLevels
 from .io.dual import BandChoice as BandChoice
 from .io.dual import DualLayout as DualLayout
 from .io.dual import open_dual as open_dual
 from .io.grid import Grid as Grid
 from .io.grid import OutputGrid as OutputGrid
+from .io.products import recognise as recognise
 from .io.raster import writer_options as writer_options
 from .io.scene import write_scene as write_scene
+from .io.windows import Sample as Sample
 from .io.windows import map_windows as map_windows
 from .io.windows import reduce_windows as reduce_windows
 from .operations.anomaly import anomaly_polygons_file as anomaly_polygons_file
@@ -73,6 +83,9 @@ from .operations.shadow import shadow_cluster_file as shadow_cluster_file
 from .operations.shadow import shadow_fraction_apply_file as shadow_fraction_apply_file
 from .operations.shadow import shadow_fraction_fit_file as shadow_fraction_fit_file
 from .operations.shadow import shadow_polygons_file as shadow_polygons_file
+from .operations.shadow_map import Detection as Detection
+from .operations.shadow_map import MapCalibration as MapCalibration
+from .operations.shadow_map import SurfaceModel as SurfaceModel
 from .operations.shadow_map import shadow_map_file as shadow_map_file
 from .operations.shadow_truth import dark_pixel_shadow_file as dark_pixel_shadow_file
 from .operations.shadow_truth import sun_shadow_file as sun_shadow_file
@@ -95,12 +108,15 @@ from .simulate.ortho import simulate_ortho as simulate_ortho
 from .simulate.scene import SensorOptions as SensorOptions
 from .simulate.scene import SimulatedFlight as SimulatedFlight
 from .simulate.scene import Sky as Sky
+from .simulate.scene import simulate_scene as simulate_scene
 from .stats import describe as describe
 
 __version__: str
 __all__: list[str]
 
-#: name -> module of the kernels, the file-level operations and the I/O entry points.
+#: name -> module of the kernels, the file-level operations, their values and the I/O entry
+#: points.
 KERNELS: dict[str, str]
 OPERATIONS: dict[str, str]
+VALUES: dict[str, str]
 IO: dict[str, str]

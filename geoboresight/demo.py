@@ -70,13 +70,36 @@ def steps(scene: Path, out: Path) -> list[tuple[str, dict]]:
     truth = (
         json.loads((scene / "truth.json").read_text()) if (scene / "truth.json").exists() else {}
     )
-    v, s = str(scene / "vnir.hdr"), str(scene / "swir.hdr")
-    o = lambda name: str(out / name)  # noqa: E731
-    ratio = o("boresight_ratio.tif")
-    cloud = scene / "truth_cloud_mask.tif"
-    cloud_arg = {"cloud_mask": str(cloud)} if cloud.exists() else {}
+    s = _Scene(scene, out, truth)
+    todo = [*_ratio_and_shadow(s), *_dem(s), *_anomaly(s)]
+    return [*todo, *_on_the_map(s, todo), ("report", _report(s))]
+
+
+class _Scene:
+    """The demo's scene: its files (the truths only where they exist), its truth.json and
+    the output folder."""
+
+    def __init__(self, scene: Path, out: Path, truth: dict):
+        self.scene, self.out, self.truth = scene, out, truth
+        self.v, self.s = str(scene / "vnir.hdr"), str(scene / "swir.hdr")
+        self.ratio = self.o("boresight_ratio.tif")
+        cloud = scene / "truth_cloud_mask.tif"
+        self.cloud_arg = {"cloud_mask": str(cloud)} if cloud.exists() else {}
+
+    def o(self, name: str) -> str:
+        """An output of the demo."""
+        return str(self.out / name)
+
+    def truth_file(self, name: str) -> str | None:
+        """A truth raster of the scene, None when the scene has none."""
+        path = self.scene / name
+        return str(path) if path.exists() else None
+
+
+def _ratio_and_shadow(s: _Scene) -> list[tuple[str, dict]]:
+    v, o, ratio = s.v, s.o, s.ratio
     todo: list[tuple[str, dict]] = [
-        ("ratio", {"vnir": v, "swir": s, "output": ratio}),
+        ("ratio", {"vnir": v, "swir": s.s, "output": ratio}),
         (
             "stats",
             {
@@ -90,7 +113,7 @@ def steps(scene: Path, out: Path) -> list[tuple[str, dict]]:
             "shadow-map",
             {
                 "vnir": v,
-                "swir": s,
+                "swir": s.s,
                 "output": o("shadow_map_classes.tif"),
                 "mask": o("shadow_map_mask.tif"),
             },
@@ -113,55 +136,67 @@ def steps(scene: Path, out: Path) -> list[tuple[str, dict]]:
             {"classes_raster": o("shadow_classes.tif"), "output": o("shadow_classes.gpkg")},
         ),
     ]
-    if (scene / "truth_shadow_fraction.tif").exists():
+    if s.truth_file("truth_shadow_fraction.tif"):
         todo.append(
             (
                 "shadow-fraction-fit",
                 {
                     "ratio": ratio,
-                    "truth": str(scene / "truth_shadow_fraction.tif"),
+                    "truth": s.truth_file("truth_shadow_fraction.tif"),
                     "report": o("shadow_fraction_fit.json"),
                     "plot": o("shadow_fraction_fit.png"),
                 },
             )
         )
-    if "sun" in truth and (scene / "truth_dsm.tif").exists():
+    if "sun" in s.truth and s.truth_file("truth_dsm.tif"):
         todo.append(
             (
                 "sun-shadow",
                 {
-                    "dsm": str(scene / "truth_dsm.tif"),
-                    "sun_zenith": truth["sun"]["zenith_deg"],
-                    "sun_azimuth": _grid_azimuth(truth["sun"]),
-                    "cell_size": truth.get("gsd_m", 1.5),
+                    "dsm": s.truth_file("truth_dsm.tif"),
+                    "sun_zenith": s.truth["sun"]["zenith_deg"],
+                    "sun_azimuth": _grid_azimuth(s.truth["sun"]),
+                    "cell_size": s.truth.get("gsd_m", 1.5),
                     "output": o("sun_shadow_fraction.tif"),
                     "hillshade": o("hillshade.tif"),
                 },
             )
         )
-    todo.append(
+    return todo
+
+
+def _flight(truth: dict) -> dict:
+    """The flight geometry of the scene's truth.json, as the relative DEM takes it."""
+    return {
+        "squint_deg": truth["squint_deg"],
+        "flying_height": truth["flying_height_m"],
+        "ifov_mrad": truth["ifov_mrad"],
+    }
+
+
+def _dem(s: _Scene) -> list[tuple[str, dict]]:
+    o = s.o
+    todo = [
         (
             "boresight-offset",
             {
-                "vnir": v,
-                "swir": s,
-                **cloud_arg,
+                "vnir": s.v,
+                "swir": s.s,
+                **s.cloud_arg,
                 "output": o("boresight_offset.json"),
                 "plot": o("boresight_offset.png"),
             },
         )
-    )
-    if "squint_deg" in truth:
+    ]
+    if "squint_deg" in s.truth:
         todo += [
             (
                 "relative-dem",
                 {
-                    "vnir": v,
-                    "swir": s,
-                    **cloud_arg,
-                    "squint_deg": truth["squint_deg"],
-                    "flying_height": truth["flying_height_m"],
-                    "ifov_mrad": truth["ifov_mrad"],
+                    "vnir": s.v,
+                    "swir": s.s,
+                    **s.cloud_arg,
+                    **_flight(s.truth),
                     "output": o("relative_dem.tif"),
                     "variance": o("relative_dem_variance.tif"),
                     "report": o("relative_dem.json"),
@@ -171,62 +206,64 @@ def steps(scene: Path, out: Path) -> list[tuple[str, dict]]:
                 "view-3d",
                 {
                     "dem": o("relative_dem.tif"),
-                    "vnir": v,
-                    "swir": s,
+                    "vnir": s.v,
+                    "swir": s.s,
                     "output": o("relative_dem_3d.png"),
                 },
             ),
         ]
-    todo += [
-        ("rx", {"vnir": v, "swir": s, "output": o("rx.tif")}),
-        ("boresight-indicator", {"ratio": ratio, "output": o("boresight_indicator.tif")}),
+    return todo
+
+
+def _anomaly(s: _Scene) -> list[tuple[str, dict]]:
+    o = s.o
+    todo = [
+        ("rx", {"vnir": s.v, "swir": s.s, "output": o("rx.tif")}),
+        ("boresight-indicator", {"ratio": s.ratio, "output": o("boresight_indicator.tif")}),
     ]
-    if (scene / "truth_target_abundance.tif").exists():
+    if s.truth_file("truth_target_abundance.tif"):
         todo.append(
             (
                 "roc",
                 {
                     "scores": [o("rx.tif"), o("boresight_indicator.tif")],
                     "names": "RX,boresight",
-                    "truth": str(scene / "truth_target_abundance.tif"),
+                    "truth": s.truth_file("truth_target_abundance.tif"),
                     "output": o("roc.png"),
                     "csv": o("roc.csv"),
                 },
             )
         )
-    igm = scene / "igm.tif"
-    if igm.exists():
-        for product in (
-            "boresight_ratio",
-            "shadow_map_classes",
-            "relative_dem",
-            "rx",
-            "boresight_indicator",
-        ):
-            if any(o(f"{product}.tif") in vals.values() for _, vals in todo):
-                todo.append(
-                    (
-                        "geolocate",
-                        {
-                            "input": o(f"{product}.tif"),
-                            "igm": str(igm),
-                            "output": o(f"{product}_map.tif"),
-                        },
-                    )
-                )
-    report = {"vnir": v, "swir": s, **cloud_arg}
-    if (scene / "truth_shadow_fraction.tif").exists():
-        report["shadow_truth"] = str(scene / "truth_shadow_fraction.tif")
-    if (scene / "truth_target_abundance.tif").exists():
-        report["target_truth"] = str(scene / "truth_target_abundance.tif")
-    if "squint_deg" in truth:
-        report.update(
-            squint_deg=truth["squint_deg"],
-            flying_height=truth["flying_height_m"],
-            ifov_mrad=truth["ifov_mrad"],
-        )
-    todo.append(("report", {**report, "output": o("report.html")}))
     return todo
+
+
+#: The products the demo puts on the map when the scene has its navigation (igm.tif).
+MAPPED = ("boresight_ratio", "shadow_map_classes", "relative_dem", "rx", "boresight_indicator")
+
+
+def _on_the_map(s: _Scene, todo: list[tuple[str, dict]]) -> list[tuple[str, dict]]:
+    igm = s.truth_file("igm.tif")
+    if not igm:
+        return []
+    made = [p for p in MAPPED if any(s.o(f"{p}.tif") in vals.values() for _, vals in todo)]
+    return [
+        (
+            "geolocate",
+            {"input": s.o(f"{p}.tif"), "igm": igm, "output": s.o(f"{p}_map.tif")},
+        )
+        for p in made
+    ]
+
+
+def _report(s: _Scene) -> dict:
+    report = {"vnir": s.v, "swir": s.s, **s.cloud_arg}
+    if s.truth_file("truth_shadow_fraction.tif"):
+        report["shadow_truth"] = s.truth_file("truth_shadow_fraction.tif")
+    if s.truth_file("truth_target_abundance.tif"):
+        report["target_truth"] = s.truth_file("truth_target_abundance.tif")
+    if "squint_deg" in s.truth:
+        report.update(_flight(s.truth))
+    return {**report, "output": s.o("report.html")}
 
 
 def _command_line(name: str, values: dict) -> str:

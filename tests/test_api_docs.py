@@ -41,3 +41,22 @@ def test_public_kernels_have_numpydoc_with_the_reference(name):
     for section in ("Parameters", "Returns", "References"):
         assert re.search(rf"^\s*{section}\n\s*-+\n", doc, flags=re.M), (name, section)
     assert "Brook" in doc or "Remote Sens" in doc, name
+
+
+def test_the_docs_use_the_flat_api_only():
+    """What a user reads imports from ``geoboresight`` itself: no ``from geoboresight.io ...``
+    and no call or class through a submodule (``geoboresight.io.dark.DarkLevels(...)``). The
+    developer's guide names the modules it describes; a module named as where a method lives
+    (``geoboresight.anomaly.rx``) is no import."""
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    deep = re.compile(
+        r"from geoboresight\.\w|import geoboresight\.\w|geoboresight(?:\.\w+)+\.(?:[A-Z]\w*|\w+\()"
+    )
+    found = [
+        f"{page.name}:{n}: {line.strip()}"
+        for page in pages
+        if page.name != "DEVELOPING.md"
+        for n, line in enumerate(page.read_text(encoding="utf-8").splitlines(), start=1)
+        if deep.search(line)
+    ]
+    assert not found, "\n".join(found)

@@ -355,7 +355,44 @@ def test_the_stub_declares_exactly_the_lazy_api():
             annotated.add(node.target.id)
     assert sorted(declared) == gb.__all__
     assert declared == {n: gb._API[n] for n in gb.__all__}
-    assert {"__version__", "__all__", "KERNELS", "OPERATIONS", "IO"} <= annotated
+    assert {"__version__", "__all__", "KERNELS", "OPERATIONS", "VALUES", "IO"} <= annotated
+
+
+def _value_classes(fn) -> set[type]:
+    """The package's classes an operation's signature names: its defaults' types, the
+    classes of its annotations (``DarkLevels | None``) and its spec's parameter groups."""
+    import typing
+
+    found = set()
+    hints = typing.get_type_hints(inspect.unwrap(fn))
+    for p in inspect.signature(fn).parameters.values():
+        if p.default is not inspect.Parameter.empty and p.default is not None:
+            found.add(type(p.default))
+        stack = [hints.get(p.name)]
+        while stack:
+            hint = stack.pop()
+            if isinstance(hint, type):
+                found.add(hint)
+            stack.extend(typing.get_args(hint))
+    found.update(g.value for g in fn.spec.groups)
+    return {c for c in found if c.__module__.startswith("geoboresight.") and c is not gb.Progress}
+
+
+def test_every_value_an_operation_takes_is_at_the_top_and_in_the_stub():
+    """A script builds every argument of an operation from ``geoboresight`` alone (``import
+    geoboresight as gb; gb.shadow_map_file(..., surface=gb.SurfaceModel(dsm=...))``), and an
+    IDE sees where each class comes from."""
+    stub = (PKG / "__init__.pyi").read_text()
+    seen = set()
+    for alg in _ops():
+        for cls in _value_classes(alg.run):
+            name = cls.__name__
+            assert getattr(gb, name, None) is cls, f"{alg.name}: {name} is not gb.{name}"
+            assert name in gb.VALUES, f"{alg.name}: {name} is not in geoboresight.VALUES"
+            assert f" import {name} as {name}\n" in stub, f"{name} is not in the stub"
+            seen.add(name)
+    assert {"SurfaceModel", "Detection", "MapCalibration", "DarkLevels", "Detectability"} <= seen
+    assert sorted(seen) == sorted(gb.VALUES), "VALUES holds a class no operation takes"
 
 
 def test_the_stub_ships_in_the_wheel():
@@ -417,3 +454,17 @@ def test_one_command_imports_its_own_module_only():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == ""
+
+
+def test_functions_are_short():
+    """A function reads at once: none over 150 lines in the file-level operations, none over
+    200 anywhere in the package (docstring included)."""
+    long = []
+    for path in PKG.rglob("*.py"):
+        limit = 150 if path.parent.name == "operations" else 200
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                lines = node.end_lineno - node.lineno + 1
+                if lines > limit:
+                    long.append(f"{path.relative_to(PKG)}:{node.lineno} {node.name}: {lines}")
+    assert not long, "\n".join(long)

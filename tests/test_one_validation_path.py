@@ -208,3 +208,92 @@ def test_good_values_give_the_same_result_through_every_face(d, tmp_path):
     first = results["cli"]
     for face, doc in results.items():
         assert doc == first, face
+
+
+def _bad_python_values(alg) -> dict:
+    """One value of the wrong kind for each of ``alg``'s arguments, as a script might pass it:
+    a number for a path, text for a number, an unknown choice, a bare number for a parameter
+    group's value."""
+    from geoboresight.algorithms import spec
+
+    by_kind = {
+        spec.Number: "many",
+        spec.Band: "first",
+        spec.Enum: "no-such-choice",
+        spec.Flag: "maybe",
+        spec.Text: [1],
+        spec.RasterIn: 12345,
+        spec.MultiRaster: 12345,
+        spec.FileIn: 12345,
+        spec._Out: 12345,
+    }
+    grouped = {p.name for g in alg.groups for p in g.params}
+    bad = {g.name: 42 for g in alg.groups}
+    for p in alg.params:
+        if p.name not in grouped:
+            bad[p.name] = next(v for kind, v in by_kind.items() if isinstance(p, kind))
+    return bad
+
+
+def _example_arguments(alg) -> dict:
+    """``alg``'s example as Python arguments: its members gathered into their group's value."""
+    return alg.bind({k: alg.param(k).coerce(v) for k, v in alg.example.items()})
+
+
+def _refusal(call) -> tuple[str, str]:
+    from geoboresight.errors import GeoboresightError
+
+    try:
+        call()
+    except GeoboresightError as exc:
+        return type(exc).__name__, str(exc)
+    raise AssertionError("accepted")
+
+
+def test_an_operation_checks_its_arguments_whatever_module_it_is_imported_from(
+    tmp_path, monkeypatch
+):
+    """Every operation, imported from its own module before its spec was ever imported, and
+    from ``geoboresight``, refuses each bad argument with the same one-line error naming it."""
+    import importlib
+
+    import geoboresight as gb
+    from geoboresight.algorithms import registry
+
+    monkeypatch.chdir(tmp_path)  # the examples' file names: nothing is read or written
+    checked = 0
+    for alg in registry().values():
+        name = alg.run.__name__
+        own = getattr(importlib.import_module(alg.run.__module__), name)
+        base = _example_arguments(alg)
+        for param, value in _bad_python_values(alg).items():
+            args = {**base, param: value}
+            monkeypatch.delattr(own, "spec")  # as imported alone: no spec module imported yet
+            first = _refusal(lambda own=own, args=args: own(**args))
+            again = _refusal(lambda name=name, args=args: getattr(gb, name)(**args))
+            assert first == again, (alg.name, param)
+            kind, message = first
+            assert kind in ("ParameterError", "InputError"), (alg.name, param, first)
+            assert "\n" not in message and f"'{param}'" in message, (alg.name, param, message)
+            checked += 1
+    assert checked > 200
+
+
+def test_the_module_of_an_operation_alone_refuses_as_geoboresight_does():
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from geoboresight.operations.ratio import ratio_file\n"
+        "assert 'geoboresight.algorithms' not in sys.modules\n"
+        "import geoboresight as gb\n"
+        "for f in (ratio_file, gb.ratio_file):\n"
+        "    try:\n"
+        "        f('v.hdr', 's.hdr', output='r.tif', bands=42)\n"
+        "    except Exception as exc:\n"
+        "        print(type(exc).__name__, exc)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    first, second = out.stdout.splitlines()
+    assert first == second == "ParameterError parameter 'bands': expected a BandChoice, got 42"

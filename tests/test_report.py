@@ -68,7 +68,7 @@ def test_report_is_self_contained_with_every_section(full_report):
     assert len(sources) >= 9  # ratio, histogram, classes, scatter, fit, 3-D, ROC, 2 scores
     assert all(s.startswith("data:image/png;base64,") for s in sources)
     assert "<link" not in text and "<script" not in text  # nothing fetched when opened
-    assert "Parameters used" in text and "swir_nm" in text and "vnir_nm" in text
+    assert "Parameters used" in text and "ratio bands" in text
     assert "numerator_nm" not in text and "denominator_nm" not in text  # former names
 
 
@@ -332,3 +332,50 @@ def test_figures_drawn_in_threads_equal_figures_drawn_one_by_one(tmp_path):
     with ThreadPoolExecutor(3) as pool:
         threaded = list(pool.map(draw, range(6)))
     assert threaded == serial
+
+
+def _cells(page: str) -> list[str]:
+    import html
+
+    return [
+        " ".join(html.unescape(re.sub(r"<[^>]+>", " ", cell)).split())
+        for cell in re.findall(r"<t[dh][^>]*>(.*?)</t[dh]>", page, flags=re.S)
+    ]
+
+
+def test_the_parameters_are_in_a_readers_words(full_report, scene):
+    """The tables show the files, the ratio's bands in nm and the flight geometry: never the
+    repr of an opened dataset, a value class or an array of wavelengths."""
+    import geoboresight as gb
+
+    out, _, _ = full_report
+    folder, truth = scene
+    cells = _cells(out.read_text(encoding="utf-8"))
+    repr_like = re.compile(r"array\(|\b[A-Z]\w*\(\w+=|DualSensor|SensorFile|dtype")
+    assert not [c for c in cells if repr_like.search(c)]
+    assert max(len(c) for c in cells) < 120
+    rows = dict(zip(cells[2::2], cells[3::2], strict=False))  # after the table's header
+    assert rows["VNIR"] == "vnir.img" and rows["SWIR"] == "swir.img"
+    bands = gb.open_dual(str(folder / "vnir.img"), str(folder / "swir.img")).ratio_bands()
+    assert rows["ratio bands"] == (
+        f"SWIR band {bands.swir_band} ({bands.swir_nm:.1f} nm) / "
+        f"VNIR band {bands.vnir_band} ({bands.vnir_nm:.1f} nm)"
+    )
+    k = abs(truth["disparity_px_per_m"]["along"])
+    assert rows["flight geometry"].startswith(f"height factor {k:.4g} px per metre")
+    assert rows["image"].startswith("40 lines × 286 pixels")
+    # Each step lists the files it read by name.
+    assert "vnir.img, swir.img" in cells and "truth_target_abundance.tif" in cells
+
+
+def test_a_value_is_shown_without_its_repr():
+    import geoboresight as gb
+    from geoboresight.operations._report_page import _show
+
+    assert _show(np.arange(400.0, 1000.0, 6.0)) == "100 values, 400 to 994"
+    assert _show((920.0, 1010.0)) == "920, 1010"
+    assert _show(["/data/a.tif", "/data/b.tif"]) == "a.tif, b.tif"
+    assert _show(np.float32(2.5)) == 2.5
+    assert _show(gb.BandChoice(vnir_nm=922.0)) == (
+        "band_mode wavelength, vnir_nm 922.0, swir_nm 1010.0, tolerance_nm 10.0"
+    )

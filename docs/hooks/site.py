@@ -52,11 +52,18 @@ REFERENCE = (
         "a boolean mask of usable pixels.",
     ),
     (
+        "values",
+        "Option values",
+        "VALUES",
+        "The frozen values the operations take, one per group of options that travel together "
+        "(flat on the command line and in QGIS): `bands=gb.BandChoice(vnir_nm=922)`.",
+    ),
+    (
         "io",
-        "Reading, writing and option values",
+        "Reading, writing, progress and errors",
         "IO",
-        "The dual-sensor reader, windowed maps over a flight line, the writers' options, and "
-        "the frozen option values the operations take.",
+        "The dual-sensor reader, windowed maps over a flight line, the writers' options, "
+        "progress, and the errors a script may catch.",
     ),
 )
 

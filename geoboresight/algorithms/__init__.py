@@ -2,6 +2,12 @@
 :class:`~geoboresight.algorithms.spec.Algorithm`: an operation is registered by its spec, and
 nowhere else (the command line, rio, the engine's schema, QGIS and the top-level Python names
 are derived from the specs and the operations' modules).
+
+Another installed package adds its own operations the same way: a module of its own with
+``ALGORITHMS``, named in the ``geoboresight.algorithms`` entry-point group of its metadata
+(``[project.entry-points."geoboresight.algorithms"] my_ops = "my_package.specs"``), as
+``rio`` finds its plugins. Its operations join every face: the command line, ``rio
+boresight``, the engine (and so QGIS) and batch.
 """
 
 from __future__ import annotations
@@ -15,6 +21,7 @@ from pathlib import Path
 from .spec import GROUPS, Algorithm, execute
 
 __all__ = [
+    "ENTRY_POINTS",
     "GROUPS",
     "Algorithm",
     "execute",
@@ -72,14 +79,38 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
+#: The entry-point group whose entries name modules of other packages holding ``ALGORITHMS``.
+ENTRY_POINTS = "geoboresight.algorithms"
+
+
+def _added_modules() -> list:
+    """The modules other installed packages register in :data:`ENTRY_POINTS`; one that fails
+    to import is left out with a warning naming it (the other operations still run)."""
+    import warnings
+    from importlib.metadata import entry_points
+
+    modules = []
+    for entry in entry_points(group=ENTRY_POINTS):
+        try:
+            modules.append(entry.load())
+        except Exception as exc:  # a broken add-on must not take the built-in operations down
+            warnings.warn(
+                f"operations of {entry.value} ({entry.name}) not loaded: {exc}", stacklevel=2
+            )
+    return modules
+
+
 @cache
 def registry() -> dict[str, Algorithm]:
-    """All algorithms by name, ordered by group (the paper's applications) then name."""
+    """All algorithms by name, ordered by group (the paper's applications) then name: this
+    package's, then those other packages add (:data:`ENTRY_POINTS`)."""
     found: list[Algorithm] = []
     for info in pkgutil.iter_modules(__path__):
         if info.name == "spec" or info.name.startswith("_"):
             continue
         module = importlib.import_module(f"{__name__}.{info.name}")
+        found.extend(getattr(module, "ALGORITHMS", ()))
+    for module in _added_modules():
         found.extend(getattr(module, "ALGORITHMS", ()))
     found.sort(key=lambda a: (GROUPS.index(a.group), a.name))
     names = [a.name for a in found]

@@ -26,7 +26,7 @@ import os
 import shutil
 from collections.abc import Callable
 
-from .._state import VALIDATED
+from .._state import VALIDATED, spec_of
 from ..errors import (
     GeoboresightError,
     InputError,
@@ -65,7 +65,7 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
             bound = sig.bind(*args, **kwargs)
             bound.apply_defaults()
             values = bound.arguments
-            spec = getattr(run, "spec", None)
+            spec = spec_of(run)
             if spec is not None and not VALIDATED.get():
                 # A Python call: the spec's coercion and checks, as the CLI, QGIS, the engine
                 # and batch get them (types, ranges, choices, finite numbers, bands).

@@ -100,11 +100,104 @@ class Section:
 
 
 def _show(value):
+    """A parameter's value as a reader wants it: files by name, a list of numbers by its count
+    and range, a yes or no; never the repr of an array or of an opened dataset."""
+    if value is None or isinstance(value, bool | int | float | np.number):
+        return value.item() if isinstance(value, np.number) else value
+    if hasattr(value, "files"):  # an opened dataset (DualSensor): its files
+        return ", ".join(os.path.basename(f) for f in value.files)
+    if isinstance(value, str | os.PathLike):
+        text = os.fspath(value)
+        return os.path.basename(text) if os.path.sep in text else text
+    if isinstance(value, np.ndarray) or (
+        isinstance(value, list | tuple) and value and all(isinstance(v, int | float) for v in value)
+    ):
+        numbers = np.asarray(value, dtype=float).ravel()
+        if numbers.size <= 4:
+            return ", ".join(f"{v:g}" for v in numbers)
+        return f"{numbers.size} values, {numbers.min():g} to {numbers.max():g}"
     if isinstance(value, list | tuple):
-        return ", ".join(os.path.basename(str(v)) for v in value)
-    if isinstance(value, str) and os.path.sep in value:
-        return os.path.basename(value)
-    return value
+        return ", ".join(str(_show(v)) for v in value)
+    if dataclasses.is_dataclass(value):
+        return ", ".join(
+            f"{f.name} {_show(getattr(value, f.name))}"
+            for f in dataclasses.fields(value)
+            if getattr(value, f.name) is not None
+        )
+    text = str(value)
+    return text if len(text) <= 80 else type(value).__name__
+
+
+def _nm_range(sensor) -> str:
+    wl = np.asarray(sensor.wavelengths, dtype=float)
+    return f"{len(sensor.bands)} bands, {wl.min():.0f}–{wl.max():.0f} nm"
+
+
+def _geometry_text(geometry) -> str:
+    """The flight geometry the relative DEM used, in words and units."""
+    parts = []
+    if geometry.height_factor is not None:
+        parts.append(f"height factor {geometry.height_factor:.4g} px per metre")
+    if geometry.squint_deg is not None:
+        parts.append(f"squint {geometry.squint_deg:g}°")
+    if geometry.flying_height is not None:
+        parts.append(f"flying height {geometry.flying_height:g} m")
+    if geometry.ifov_mrad is not None:
+        parts.append(f"IFOV {geometry.ifov_mrad:g} mrad")
+    if not parts:
+        return "not given (the relative DEM says what it needs)"
+    axis = f"parallax {geometry.parallax_axis}-track" + (
+        ", inverted" if geometry.invert_parallax else ""
+    )
+    return ", ".join([*parts, axis])
+
+
+def report_parameters(values: dict) -> list[tuple[str, object]]:
+    """The "Report parameters" table: the files read, the image's size and geometry, the
+    ratio's two bands in nm, the flight geometry and the optional inputs, in a reader's
+    words (``values`` as :func:`build_report` takes them)."""
+    dual = values["dual"]
+    rows: list[tuple[str, object]] = []
+    if dual.merged or dual.vnir.path == dual.swir.path:
+        rows.append(("VNIR + SWIR", f"{os.path.basename(dual.vnir.path)}"))
+        rows.append(("seam", f"{values['layout'].seam_nm:g} nm"))
+    else:
+        rows.append(("VNIR", os.path.basename(dual.vnir.path)))
+        rows.append(("SWIR", os.path.basename(dual.swir.path)))
+    rows.append(("VNIR bands", _nm_range(dual.vnir)))
+    rows.append(("SWIR bands", _nm_range(dual.swir)))
+    for key in ("vnir_wavelengths", "swir_wavelengths"):
+        if getattr(values["layout"], key, None):
+            rows.append((key.replace("_", " "), _show(getattr(values["layout"], key))))
+    grid = dual.grid
+    where = "raw sensor geometry (no CRS)"
+    if grid.crs is not None and grid.transform is not None:
+        epsg = grid.crs.to_epsg()
+        crs = f"EPSG:{epsg}" if epsg else grid.crs.to_string()
+        crs = crs if len(crs) <= 40 else "a CRS without an EPSG code"
+        where = f"{crs}, pixels {abs(grid.transform.a):g} × {abs(grid.transform.e):g}"
+    rows.append(("image", f"{grid.height} lines × {grid.width} pixels, {where}"))
+    try:
+        b = dual.ratio_bands(values["bands"])
+        rows.append(
+            (
+                "ratio bands",
+                f"SWIR band {b.swir_band} ({b.swir_nm:.1f} nm) / VNIR band {b.vnir_band} "
+                f"({b.vnir_nm:.1f} nm)",
+            )
+        )
+    except GeoboresightError as exc:
+        rows.append(("ratio bands", f"not found: {exc}"))
+    rows.append(("flight geometry", _geometry_text(values["geometry"])))
+    for key, label in (
+        ("shadow_truth", "shadow truth"),
+        ("target_truth", "target truth"),
+        ("cloud_mask", "cloud mask"),
+    ):
+        if values.get(key):
+            rows.append((label, _show(values[key])))
+    rows.append(("detectors", "RX, SVDD" if values.get("svdd") else "RX"))
+    return rows
 
 
 class Runner:
@@ -123,8 +216,10 @@ class Runner:
         """Run the file-level operation ``function`` (e.g. :func:`.ratio.ratio_file`) with
         these arguments; the page shows the keyword arguments that differ from its defaults."""
         name = function.__name__.removesuffix("_file").replace("_", "-")
-        defaults = {k: p.default for k, p in inspect.signature(function).parameters.items()}
-        shown = {}
+        signature = inspect.signature(function)
+        defaults = {k: p.default for k, p in signature.parameters.items()}
+        # The inputs given by position, under their names (the files the step read).
+        shown = {k: v for k, v in signature.bind_partial(*args).arguments.items() if v is not None}
         for k, v in kwargs.items():
             if v is None or v == defaults.get(k):
                 continue
@@ -222,27 +317,52 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
     """Run the operations for the scene described by ``values`` (the ``report`` operation's
     arguments: ``dual`` the opened dataset, ``layout``, ``bands``, ``geometry``, the truths,
     the cloud mask, ``svdd``) with their products in ``work_dir``; the whole HTML page."""
-    from .anomaly import boresight_indicator_file, roc_file, rx_file, svdd_file
-    from .dem import relative_dem_file, view_3d_file
-    from .ratio import ratio_file
-    from .shadow import shadow_classes_file, shadow_cluster_file, shadow_fraction_fit_file
-    from .shadow_map import shadow_map_file
-    from .stats import stats_file
+    from .anomaly import rx_file, svdd_file
 
-    dual = values["dual"]
-    layout = values["layout"]
     detectors = [rx_file, svdd_file] if values.get("svdd") else [rx_file]
     run = Runner(work_dir, progress, n_steps=11 + len(detectors))
-    sections = []
+    ratio_section, ratio_path = _ratio_section(run, values)
+    sections = [
+        ratio_section,
+        _shadow_section(run, values, ratio_path),
+        _dem_section(run, values),
+        _anomaly_section(run, values, ratio_path, detectors),
+    ]
+    progress.update(1.0, "report")
+    return render(
+        "report.html",
+        title="geoboresight scene report",
+        parameters=report_parameters(values),
+        software=[
+            ("geoboresight", __version__),
+            ("Python", platform.python_version()),
+            ("NumPy", np.__version__),
+        ],
+        sections=sections,
+    )
 
-    # 1. Ratio and statistics (Eq. 3, Table 1, Figure 3)
+
+def _numbers(result: dict) -> list[tuple[str, object]]:
+    """The numbers among an operation's results, as table rows."""
+    return [
+        (k, v) for k, v in result.items() if isinstance(v, int | float) and not isinstance(v, bool)
+    ]
+
+
+def _ratio_section(run: Runner, values: dict) -> tuple[Section, str | None]:
+    """Ratio and statistics (Eq. 3, Table 1, Figure 3); the section and the ratio's path (None
+    when it could not be computed)."""
+    from .ratio import ratio_file
+    from .stats import stats_file
+
     s = Section(
         "Boresight ratio and statistics",
         "The boresight band ratio b(1010 nm)/b(920 nm) (Eq. 3) and its descriptive statistics as "
         "SPSS reports them (Table 1), with the histogram (Figure 3).",
     )
-    sections.append(s)
-    ratio = run.run(s, ratio_file, dual, output=run.path("ratio.tif"), bands=values["bands"])
+    ratio = run.run(
+        s, ratio_file, values["dual"], output=run.path("ratio.tif"), bands=values["bands"]
+    )
     ratio_path = ratio.result["output"] if ratio.result else None
     if ratio_path:
         s.figure(
@@ -260,8 +380,13 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
         if stats.result:
             with open(stats.result["output"], encoding="utf-8") as f:
                 s.descriptives(json.load(f), stats.result.get("histogram"))
+    return s, ratio_path
 
-    # 2. Shadow (§3.1, Table 2, Figures 4 and 5)
+
+def _shadow_section(run: Runner, values: dict, ratio_path: str | None) -> Section:
+    """Shadow (§3.1, Table 2, Figures 4 and 5): the shadow map, then what the ratio gives."""
+    from .shadow_map import shadow_map_file
+
     s = Section(
         "Shadow",
         "The shadow product (shadow-map): a shadow mask and Table 2's four shadow-fraction "
@@ -270,14 +395,13 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
         "component in the ratio against 941 nm scatter (Figure 4) and, with ground truth, the "
         "linear shadow-fraction model (Figure 5).",
     )
-    sections.append(s)
     smap = run.run(
         s,
         shadow_map_file,
-        dual,
+        values["dual"],
         output=run.path("shadow_map.tif"),
         mask=run.path("shadow_map_mask.tif"),
-        layout=layout,
+        layout=values["layout"],
         bands=values["bands"],
     )
     if smap.result:
@@ -293,72 +417,91 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
         for w in smap.result.get("warnings", []):
             s.remark(f"shadow-map: {w}")
     if ratio_path:
-        classes = run.run(s, shadow_classes_file, ratio_path, output=run.path("shadow_classes.tif"))
-        if classes.result and classes.result.get("warnings"):
-            s.remark(
-                "Table 2's fixed ratio thresholds are not shown: on this scene they cannot mean "
-                "what Table 2 says (" + "; ".join(classes.result["warnings"]) + "). The shadow "
-                "map above reads the same classes relative to the scene's sunlit ratio."
-            )
-        elif classes.result:
-            s.figure(
-                raster_figure(
-                    classes.result["output"],
-                    "Shadow classes, Table 2's fixed thresholds",
-                    "class",
-                    run.path("classes.png"),
-                ),
-                CLASS_CAPTION.format(what="Table 2's fixed ratio thresholds"),
-            )
-        cluster = run.run(
-            s,
-            shadow_cluster_file,
-            ratio_path,
-            dual.vnir.path,
-            output=run.path("shadow_cluster.tif"),
-            plot=run.path("scatter.png"),
-            vnir_wavelengths=layout.vnir_wavelengths,
-        )
-        if cluster.result:
-            warnings = cluster.result.get("warnings") or []
-            s.figure(
-                cluster.result.get("plot"),
-                "Ratio against the 941 nm band with the fitted shadow component (Figure 4)"
-                + (
-                    ": on this scene it is not a cluster of its own (see the note); the "
-                    "shadow map is the shadow product."
-                    if warnings
-                    else ": an isolated shadow cluster, as in the paper."
-                ),
-            )
-            for w in warnings:
-                s.remark(f"shadow-cluster: {w}")
-        if values.get("shadow_truth"):
-            fit = run.run(
-                s,
-                shadow_fraction_fit_file,
-                ratio_path,
-                values["shadow_truth"],
-                report=run.path("fit.json"),
-                plot=run.path("fit.png"),
-            )
-            if fit.result:
-                s.figure(
-                    fit.result.get("plot"),
-                    "Boresight ratio against the true shadow fraction, with the line fitted on "
-                    "this scene (Figure 5). The paper's Figure 5B line (ratio = −0.74 · "
-                    "fraction + 1.31) is drawn for reference only: it was fitted on the ratio "
-                    "values of the paper's figure (0.57–1.31, falling with shadow), not on DN "
-                    "ratios like this scene's (about 2–4, rising with shadow), so its level and "
-                    "slope differ; what carries over is that the ratio is linear in the shadow "
-                    "fraction (compare the R²).",
-                )
-        else:
-            s.note("No ground-truth shadow fraction given: the Figure 5 model fit is left out.")
+        _ratio_shadow(run, s, values, ratio_path)
     else:
         s.note("The shadow classes need the boresight ratio, which could not be computed.")
+    return s
 
-    # 3. Relative DEM (§3.2, Figure 9)
+
+def _ratio_shadow(run: Runner, s: Section, values: dict, ratio_path: str) -> None:
+    """Table 2's fixed thresholds, the Figure 4 cluster and the Figure 5 fit, on the ratio."""
+    from .shadow import shadow_classes_file, shadow_cluster_file
+
+    classes = run.run(s, shadow_classes_file, ratio_path, output=run.path("shadow_classes.tif"))
+    if classes.result and classes.result.get("warnings"):
+        s.remark(
+            "Table 2's fixed ratio thresholds are not shown: on this scene they cannot mean "
+            "what Table 2 says (" + "; ".join(classes.result["warnings"]) + "). The shadow "
+            "map above reads the same classes relative to the scene's sunlit ratio."
+        )
+    elif classes.result:
+        s.figure(
+            raster_figure(
+                classes.result["output"],
+                "Shadow classes, Table 2's fixed thresholds",
+                "class",
+                run.path("classes.png"),
+            ),
+            CLASS_CAPTION.format(what="Table 2's fixed ratio thresholds"),
+        )
+    cluster = run.run(
+        s,
+        shadow_cluster_file,
+        ratio_path,
+        values["dual"].vnir.path,
+        output=run.path("shadow_cluster.tif"),
+        plot=run.path("scatter.png"),
+        vnir_wavelengths=values["layout"].vnir_wavelengths,
+    )
+    if cluster.result:
+        warnings = cluster.result.get("warnings") or []
+        s.figure(
+            cluster.result.get("plot"),
+            "Ratio against the 941 nm band with the fitted shadow component (Figure 4)"
+            + (
+                ": on this scene it is not a cluster of its own (see the note); the "
+                "shadow map is the shadow product."
+                if warnings
+                else ": an isolated shadow cluster, as in the paper."
+            ),
+        )
+        for w in warnings:
+            s.remark(f"shadow-cluster: {w}")
+    _fraction_fit(run, s, values, ratio_path)
+
+
+def _fraction_fit(run: Runner, s: Section, values: dict, ratio_path: str) -> None:
+    """Figure 5: the ratio against the true shadow fraction, when the truth is given."""
+    from .shadow import shadow_fraction_fit_file
+
+    if not values.get("shadow_truth"):
+        s.note("No ground-truth shadow fraction given: the Figure 5 model fit is left out.")
+        return
+    fit = run.run(
+        s,
+        shadow_fraction_fit_file,
+        ratio_path,
+        values["shadow_truth"],
+        report=run.path("fit.json"),
+        plot=run.path("fit.png"),
+    )
+    if fit.result:
+        s.figure(
+            fit.result.get("plot"),
+            "Boresight ratio against the true shadow fraction, with the line fitted on "
+            "this scene (Figure 5). The paper's Figure 5B line (ratio = −0.74 · "
+            "fraction + 1.31) is drawn for reference only: it was fitted on the ratio "
+            "values of the paper's figure (0.57–1.31, falling with shadow), not on DN "
+            "ratios like this scene's (about 2–4, rising with shadow), so its level and "
+            "slope differ; what carries over is that the ratio is linear in the shadow "
+            "fraction (compare the R²).",
+        )
+
+
+def _dem_section(run: Runner, values: dict) -> Section:
+    """Relative DEM (§3.2, Figure 9)."""
+    from .dem import relative_dem_file, view_3d_file
+
     s = Section(
         "Relative DEM",
         "Heights relative to the lowest region, from the VNIR/SWIR disparity, kriged onto a "
@@ -366,7 +509,7 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
         "σ_h = σ_d·GSD / tan θ: a small squint makes relief nearly invisible, and the product "
         "says so.",
     )
-    sections.append(s)
+    dual = values["dual"]
     dem = run.run(
         s,
         relative_dem_file,
@@ -378,25 +521,25 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
         geometry=values["geometry"],
     )
     if dem.result:
-        rows = [
-            (k, v)
-            for k, v in dem.result.items()
-            if isinstance(v, int | float) and not isinstance(v, bool)
-        ]
+        rows = _numbers(dem.result)
         if rows:
             s.table(rows, caption="Relative DEM")
         view = run.run(s, view_3d_file, dem.result["output"], dual, output=run.path("view3d.png"))
         if view.result:
             s.figure(view.result["output"], "The scene draped on the relative DEM (Figure 9).")
+    return s
 
-    # 4. Anomaly (§3.3, Figure 12)
+
+def _anomaly_section(run: Runner, values: dict, ratio_path: str | None, detectors) -> Section:
+    """Anomaly (§3.3, Figure 12): the boresight indicator against ``detectors``, and ROC."""
+    from .anomaly import boresight_indicator_file
+
     s = Section(
         "Anomaly detection",
         "The boresight ratio as a sub-pixel anomaly indicator, against global RX"
         + (" and SVDD" if len(detectors) > 1 else "")
         + "; with a truth raster, ROC curves (probability of detection against false alarm, Figure 12).",
     )
-    sections.append(s)
     scores, names = [], []
     if ratio_path:
         ind = run.run(s, boresight_indicator_file, ratio_path, output=run.path("indicator.tif"))
@@ -405,29 +548,12 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
             names.append("boresight ratio")
     for det in detectors:
         label = det.__name__.removesuffix("_file")
-        r = run.run(s, det, dual, output=run.path(f"{label}.tif"))
+        r = run.run(s, det, values["dual"], output=run.path(f"{label}.tif"))
         if r.result:
             scores.append(r.result["output"])
             names.append(label.upper())
     if scores and values.get("target_truth"):
-        roc = run.run(
-            s,
-            roc_file,
-            scores,
-            values["target_truth"],
-            output=run.path("roc.png"),
-            csv=run.path("roc.csv"),
-            names=",".join(names),
-        )
-        if roc.result:
-            s.figure(roc.result["output"], "ROC curves of the detectors (Figure 12).")
-            rows = [
-                (k, v)
-                for k, v in roc.result.items()
-                if isinstance(v, int | float) and not isinstance(v, bool)
-            ]
-            if rows:
-                s.table(rows, caption="Detection at the chosen false-alarm rate")
+        _roc(run, s, scores, names, values["target_truth"])
     elif scores:
         s.note(
             "No target truth raster given: ROC curves need one (e.g. truth_target_abundance.tif of a simulated scene)."
@@ -436,23 +562,26 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
         s.figure(
             raster_figure(path, f"{name} score", "score", path + ".png"), f"{name} anomaly score."
         )
+    return s
 
-    progress.update(1.0, "report")
-    return render(
-        "report.html",
-        title="geoboresight scene report",
-        parameters=[
-            (k, _show(v))
-            for k, v in values.items()
-            if v not in (None, "") and k not in ("output", "products")
-        ],
-        software=[
-            ("geoboresight", __version__),
-            ("Python", platform.python_version()),
-            ("NumPy", np.__version__),
-        ],
-        sections=sections,
+
+def _roc(run: Runner, s: Section, scores: list, names: list, truth: str) -> None:
+    from .anomaly import roc_file
+
+    roc = run.run(
+        s,
+        roc_file,
+        scores,
+        truth,
+        output=run.path("roc.png"),
+        csv=run.path("roc.csv"),
+        names=",".join(names),
     )
+    if roc.result:
+        s.figure(roc.result["output"], "ROC curves of the detectors (Figure 12).")
+        rows = _numbers(roc.result)
+        if rows:
+            s.table(rows, caption="Detection at the chosen false-alarm rate")
 
 
-__all__ = ["Runner", "Section", "Step", "build_report", "raster_figure"]
+__all__ = ["Runner", "Section", "Step", "build_report", "raster_figure", "report_parameters"]

@@ -13,7 +13,7 @@ import numpy as np
 from .. import io
 from ..errors import InputError, ParameterError
 from ..io import georef
-from ..io.bands import BoresightOffset
+from ..io.bands import BoresightOffset, MatchBands, open_matching_pair
 from ..io.dark import dark_level_of
 from ..shadow import illumination as ill
 from ..shadow import map as smap
@@ -534,3 +534,37 @@ def open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> Op
         shape=(dual.height, dual.width),
     )
     return OpenedSurface(src, prior, halo, how)
+
+
+#: How the user gives the offset instead of measuring it (the error of a line too small).
+GIVE_OFFSET = ": give it ('offset_along', 'offset_across')"
+
+
+def measured_offset(
+    dual, given: BoresightOffset, progress, hint: str = GIVE_OFFSET
+) -> tuple[float, float, str]:
+    """The boresight offset δ: given, else measured as ``boresight-offset`` measures it (the
+    ratio's bands, Fourier cross-correlation over the whole line); ``hint`` ends the error of
+    a line too small to measure it on."""
+    if given.offset_along is not None or given.offset_across is not None:
+        return float(given.offset_along or 0.0), float(given.offset_across or 0.0), "given"
+    from .offset import line_offset
+
+    with open_matching_pair(dual, MatchBands()) as pair:
+        off, _ = line_offset(pair, 0, progress, given=hint)
+    return off.along, off.across, "measured (boresight-offset)"
+
+
+def sensor_dark_levels(sensor, bands, given, sample, progress):
+    """One instrument's dark level for ``bands`` (1-based file bands), for a detector that
+    needs it only when nothing else gives it: given, the product's dark reference or the
+    header (:func:`geoboresight.io.dark.dark_level_of`, as :func:`dark_level`), else the dark
+    object of ``sample()`` (n_bands, n_pixels), drawn only then. Returns (level per band,
+    :class:`~geoboresight.shadow.map.DarkLevel`)."""
+    with io.open_raster(sensor.reads, sensor.name) as src:
+        level = dark_level_of(sensor, bands, src.tags(ns="ENVI"), src.count, given)
+    if level is None:
+        values, ok = sample()
+        level = smap.dark_level(values, ok)
+    progress.info(level.describe(sensor.name))
+    return np.broadcast_to(np.asarray(level.for_bands(bands, bands), float), (len(bands),)), level

@@ -28,6 +28,7 @@ from ..io.bands import BoresightOffset, Coregistration
 from ..io.dark import DarkLevels
 from ..io.dual import DualLayout
 from ._operation import operation
+from ._shared import GIVE_OFFSET, measured_offset, sensor_dark_levels
 
 #: Pixels drawn at random for the dark-object estimate of a detector's detectability.
 DARK_SAMPLE = 4000
@@ -106,42 +107,6 @@ def _cube_index(dual, sensor):
             counts.append(src.count)
     starts = np.cumsum([0, *counts])[:-1]
     return starts[reads.index(sensor.reads)] + np.asarray(sensor.bands, int) - 1
-
-
-#: How the user gives the offset instead of measuring it (the error of a line too small).
-GIVE_OFFSET = ": give it ('offset_along', 'offset_across')"
-
-
-def measured_offset(
-    dual, given: BoresightOffset, progress, hint: str = GIVE_OFFSET
-) -> tuple[float, float, str]:
-    """The boresight offset δ: given, else measured as ``boresight-offset`` measures it (the
-    ratio's bands, Fourier cross-correlation over the whole line); ``hint`` ends the error of
-    a line too small to measure it on."""
-    if given.offset_along is not None or given.offset_across is not None:
-        return float(given.offset_along or 0.0), float(given.offset_across or 0.0), "given"
-    from ..io.bands import MatchBands, open_matching_pair
-    from .offset import line_offset
-
-    with open_matching_pair(dual, MatchBands()) as pair:
-        off, _ = line_offset(pair, 0, progress, given=hint)
-    return off.along, off.across, "measured (boresight-offset)"
-
-
-def _sensor_dark(sensor, bands, given, sample, progress):
-    """One instrument's dark level for ``bands`` (1-based file bands): given, the product's
-    dark reference or the header (io.dark, as shadow-map), else the dark object of
-    ``sample()`` (n_bands, n_pixels). Returns (level per band, description)."""
-    from ..io.dark import dark_level_of
-    from ..shadow import map as smap
-
-    with io.open_raster(sensor.reads, sensor.name) as src:
-        level = dark_level_of(sensor, bands, src.tags(ns="ENVI"), src.count, given)
-    if level is None:
-        values, ok = sample()
-        level = smap.dark_level(values, ok)
-    progress.info(level.describe(sensor.name))
-    return np.broadcast_to(np.asarray(level.for_bands(bands, bands), float), (len(bands),)), level
 
 
 def _sample_reader(read, height, width, seed=0):
@@ -326,7 +291,9 @@ def _prepare_image(vnir, swir, layout, spectral, dark, offset, coregistered, pro
                     v, ok = sampled()
                     return v[mask], ok
 
-                dark_per_band[mask], _ = _sensor_dark(sensor, file_bands, given, sub, progress)
+                dark_per_band[mask], _ = sensor_dark_levels(
+                    sensor, file_bands, given, sub, progress
+                )
         else:
             from ..shadow import map as smap
 
@@ -338,6 +305,65 @@ def _prepare_image(vnir, swir, layout, spectral, dark, offset, coregistered, pro
         cube.close()
         raise
     return cube, bands, wl, read, info, dark_per_band
+
+
+def _rx_statistics(read, n_bands: int, strips: dict, progress):
+    """RX's first pass: the scene mean and covariance of ``n_bands`` bands over the strips,
+    read in the files' own type (no float copy); the shift comes from the first strip so
+    that the sums do not depend on thread timing."""
+    from ..anomaly import rx
+
+    first, first_valid = read(0, min(strips["block_rows"], strips["height"]))
+    acc = rx.CovarianceAccumulator(
+        n_bands, shift=rx.CovarianceAccumulator.strip_shift(first, first_valid)
+    )
+    del first, first_valid
+    for _ in io.map_windows(
+        read, acc.add_cube, **strips, progress=progress, message="RX: background statistics"
+    ):
+        pass
+    return acc.stats()
+
+
+def _rx_scores(det, read, read64, background, precision, strips: dict, progress):
+    """RX's second pass: (window, score) of each strip, against the scene mean (global) or
+    the mean of ``background``'s windows around each pixel (local, from float64 strips)."""
+    from ..anomaly import rx
+
+    if not background.local:
+        return io.map_windows(
+            read,
+            lambda data, valid: det.score_cube(data, valid, precision),
+            **strips,
+            progress=progress,
+            message="RX: scoring",
+        )
+    inner, outer = background.inner, background.outer
+
+    def score(data, valid, block):
+        return rx.local_rx(
+            data,
+            det,
+            inner,
+            outer,
+            valid,
+            first_row=block.row0,
+            height=block.height,
+            rows=block.rows,
+            precision=precision,
+        )
+
+    return io.map_windows(
+        read64,
+        score,
+        **strips,
+        # Windows are shifted to stay inside the image (as Spectral Python's), so a pixel
+        # near the first or last line reaches up to outer - 1 lines away.
+        halo=(outer - 1, outer - 1),
+        pass_block=True,
+        progress=progress,
+        message="RX: scoring",
+    )
 
 
 @operation(inputs=("vnir", "swir"), outputs=("output",))
@@ -432,22 +458,7 @@ def rx_file(
             "block_rows": block_rows,
             "workers": io.windows.default_workers(),
         }
-        # Pass 1: strips in the files' own type (no float copy); the shift comes from the
-        # first strip so that the sums do not depend on thread timing.
-        first, first_valid = read(0, min(block_rows, cube.height))
-        acc = rx.CovarianceAccumulator(
-            len(bands), shift=rx.CovarianceAccumulator.strip_shift(first, first_valid)
-        )
-        del first, first_valid
-        for _ in io.map_windows(
-            read,
-            acc.add_cube,
-            **strips,
-            progress=progress.sub(0.0, 0.5),
-            message="RX: background statistics",
-        ):
-            pass
-        stats = acc.stats()
+        stats = _rx_statistics(read, len(bands), strips, progress.sub(0.0, 0.5))
         det = rx.RXDetector(stats, regularize, wavelengths=wl, band_numbers=bands + 1)
         progress.info(f"RX on {len(bands)} bands, {stats.n} background pixels")
         dp = _detectability_result(
@@ -465,39 +476,9 @@ def rx_file(
         }
         if local:
             tags["window"] = f"inner {inner} px, outer {outer} px"
-
-            def score(data, valid, block):
-                return rx.local_rx(
-                    data,
-                    det,
-                    inner,
-                    outer,
-                    valid,
-                    first_row=block.row0,
-                    height=block.height,
-                    rows=block.rows,
-                    precision=precision,
-                )
-
-            scored = io.map_windows(
-                read64,
-                score,
-                **strips,
-                # Windows are shifted to stay inside the image (as Spectral Python's), so a
-                # pixel near the first or last line reaches up to outer - 1 lines away.
-                halo=(outer - 1, outer - 1),
-                pass_block=True,
-                progress=progress.sub(0.5, 1.0),
-                message="RX: scoring",
-            )
-        else:
-            scored = io.map_windows(
-                read,
-                lambda data, valid: det.score_cube(data, valid, precision),
-                **strips,
-                progress=progress.sub(0.5, 1.0),
-                message="RX: scoring",
-            )
+        scored = _rx_scores(
+            det, read, read64, background, precision, strips, progress.sub(0.5, 1.0)
+        )
         with io.create_raster(output, cube.grid, tags=tags, band_names=["RX score"]) as dst:
             for win, s in scored:
                 dst.write(to_float32(s), 1, window=win)
@@ -748,6 +729,45 @@ def boresight_indicator_file(
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.3, Figure 11D).
     """
+    method = _indicator_method(method, vnir, swir, ratio, dipole, dark)
+    if method == "physical":
+        return _physical_indicator_file(
+            vnir,
+            swir,
+            output=output,
+            anomalies=anomalies,
+            threshold=threshold,
+            sign=dipole.target_sign,
+            window=dipole.dipole_window,
+            layout=layout,
+            dark=dark,
+            offset=BoresightOffset(dipole.offset_along, dipole.offset_across),
+            target=detectability,
+            block_rows=block_rows,
+            progress=progress,
+        )
+    progress.info(
+        "method eq3: the paper's robust z-score of the raw-DN ratio (a reproduction; "
+        "docs/anomaly.md explains why it scores grey sub-pixel targets below chance)"
+    )
+    return {
+        **_eq3_indicator_file(
+            ratio,
+            output,
+            anomalies,
+            threshold,
+            reference.tail,
+            reference.window,
+            block_rows,
+            progress,
+        ),
+        "method": "eq3",
+    }
+
+
+def _indicator_method(method: str, vnir, swir, ratio, dipole, dark) -> str:
+    """The indicator's method ("auto": physical with the cube, else eq3), its inputs checked:
+    each method refuses what only the other one uses."""
     from ..errors import ParameterError
 
     if method not in INDICATOR_METHODS:
@@ -770,21 +790,7 @@ def boresight_indicator_file(
                 "is given): leave 'ratio' empty, or choose method 'eq3' for the paper's Eq. 3 "
                 "on the ratio raster"
             )
-        return _physical_indicator_file(
-            vnir,
-            swir,
-            output=output,
-            anomalies=anomalies,
-            threshold=threshold,
-            sign=dipole.target_sign,
-            window=dipole.dipole_window,
-            layout=layout,
-            dark=dark,
-            offset=BoresightOffset(dipole.offset_along, dipole.offset_across),
-            target=detectability,
-            block_rows=block_rows,
-            progress=progress,
-        )
+        return method
     unused = [
         n
         for n, v in (
@@ -809,23 +815,7 @@ def boresight_indicator_file(
             "method 'eq3' needs the boresight ratio raster: give 'ratio' (the 'ratio' operation's "
             "output)"
         )
-    progress.info(
-        "method eq3: the paper's robust z-score of the raw-DN ratio (a reproduction; "
-        "docs/anomaly.md explains why it scores grey sub-pixel targets below chance)"
-    )
-    return {
-        **_eq3_indicator_file(
-            ratio,
-            output,
-            anomalies,
-            threshold,
-            reference.tail,
-            reference.window,
-            block_rows,
-            progress,
-        ),
-        "method": "eq3",
-    }
+    return "eq3"
 
 
 def _physical_indicator_file(
@@ -876,8 +866,8 @@ def _physical_indicator_file(
 
             return get
 
-        dv, _ = _sensor_dark(dual.vnir, pair.vnir_bands, dark.vnir_dark, part(0), progress)
-        ds, _ = _sensor_dark(dual.swir, pair.swir_bands, dark.swir_dark, part(1), progress)
+        dv, _ = sensor_dark_levels(dual.vnir, pair.vnir_bands, dark.vnir_dark, part(0), progress)
+        ds, _ = sensor_dark_levels(dual.swir, pair.swir_bands, dark.swir_dark, part(1), progress)
         vd, sd = float(np.mean(dv)), float(np.mean(ds))
 
         def kernel(data, ok):

@@ -174,6 +174,43 @@ def shadow_classes_file(
 # ------------------------------------------------------------------------------ shadow-cluster
 
 
+def _label_cluster(
+    read, cluster, probability, grid, tags, output, probability_output, block_rows, progress
+) -> int:
+    """Write the shadow mask of the pixels whose shadow-component probability reaches
+    ``probability`` (and the probability itself to ``probability_output``); the number of
+    shadow pixels."""
+
+    def kernel(pair, valid):
+        p = cluster.probability(pair[0], pair[1], valid)
+        return p, shadow_mask(p, probability)
+
+    n_shadow = 0
+    with contextlib.ExitStack() as stack:
+        dst = stack.enter_context(mask_raster(output, grid, tags, "shadow mask"))
+        pdst = None
+        if probability_output:
+            pdst = stack.enter_context(
+                io.create_raster(
+                    probability_output, grid, tags=tags, band_names=["shadow probability"]
+                )
+            )
+        for win, (p, m) in io.map_windows(
+            read,
+            kernel,
+            height=grid.height,
+            width=grid.width,
+            block_rows=block_rows,
+            progress=progress,
+            message="labelling",
+        ):
+            dst.write(m, 1, window=win)
+            n_shadow += int((m == cls.MASK_SHADOW).sum())
+            if pdst is not None:
+                pdst.write(np.where(np.isfinite(p), p, io.FLOAT_NODATA), 1, window=win)
+    return n_shadow
+
+
 @operation(inputs=("ratio", "vnir"), outputs=("output", "probability_output", "plot"))
 def shadow_cluster_file(
     ratio,
@@ -288,35 +325,19 @@ def shadow_cluster_file(
             "probability_threshold": probability,
         }
 
-        def kernel(pair, valid):
-            p = cluster.probability(pair[0], pair[1], valid)
-            return p, shadow_mask(p, probability)
-
-        n_shadow = 0
-        with contextlib.ExitStack() as stack:
-            dst = stack.enter_context(mask_raster(output, grid, tags, "shadow mask"))
-            pdst = None
-            if probability_output:
-                pdst = stack.enter_context(
-                    io.create_raster(
-                        probability_output, grid, tags=tags, band_names=["shadow probability"]
-                    )
-                )
-            for win, (p, m) in io.map_windows(
-                read,
-                kernel,
-                height=grid.height,
-                width=grid.width,
-                block_rows=block_rows,
-                progress=progress.sub(0.3, 0.95),
-                message="labelling",
-            ):
-                dst.write(m, 1, window=win)
-                n_shadow += int((m == cls.MASK_SHADOW).sum())
-                if pdst is not None:
-                    pdst.write(np.where(np.isfinite(p), p, io.FLOAT_NODATA), 1, window=win)
-            if plot:
-                _cluster_plot(plot, pixels[:, good], cluster, probability, nir_found)
+        n_shadow = _label_cluster(
+            read,
+            cluster,
+            probability,
+            grid,
+            tags,
+            output,
+            probability_output,
+            block_rows,
+            progress.sub(0.3, 0.95),
+        )
+        if plot:
+            _cluster_plot(plot, pixels[:, good], cluster, probability, nir_found)
     out = {
         "output": output,
         "components": cluster.n_components,

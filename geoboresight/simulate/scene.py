@@ -363,15 +363,7 @@ def simulate_scene(
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (section 2: the
     AISA-Dual's two optics and their boresight offset; Eq. 3; section 3.3: the targets).
     """
-    if preset not in _presets.SCENES:
-        raise ParameterError(
-            f"parameter 'preset': {preset!r} is not one of {', '.join(_presets.SCENES)}"
-        )
-    lines = int(lines)
-    if lines < MIN_LINES:
-        raise ParameterError(
-            f"parameter 'lines': {lines} is too few; simulate at least {MIN_LINES} lines"
-        )
+    lines = _check_scene(preset, lines)
     progress = as_progress(progress)
     geo = flight_geometry(
         geometry,
@@ -419,32 +411,12 @@ def simulate_scene(
         cast_shadows=cast_shadows,
         sky_obstruction=sky_obstruction,
     )
-    target_list, target_abundance = [], np.zeros((lines, COLS), "float32")
-    if n_targets:
-        target_list = place_targets(rng, n_targets, names, truth, footprints["vnir"])
-        if len(target_list) < n_targets:
-            progress.info(
-                f"only {len(target_list)} of {n_targets} targets fit on open, flat, sunlit ground "
-                "at least 6 pixels apart: simulate more lines for more targets"
-            )
-        target_abundance = add_targets(target_list, names.index(TARGET), footprints, truth)
+    target_list, target_abundance = _targets(
+        rng, n_targets, names, truth, footprints, lines, progress
+    )
 
     # 5–6. Radiance and DN, per instrument.
-    spec = np.stack([spectra[n] for n in names])  # (K, 198)
-    nv = len(vwl)
-    cubes = {}
-    for n_inst, (inst, det, sl) in enumerate(
-        (("vnir", VNIR, slice(0, nv)), ("swir", SWIR, slice(nv, None)))
-    ):
-        cubes[inst] = instrument_cube(
-            psf_blur(footprints[inst], det.psf_sigma_px),
-            det,
-            spec[:, sl],
-            spectra["cloud"][sl],
-            _band_slice(ill, sl),
-            all_wl[sl],
-            None if noise_free else np.random.default_rng([seed, 101 + n_inst]),
-        )
+    cubes = _cubes(footprints, names, spectra, ill, all_wl, len(vwl), seed, noise_free)
     progress.update(0.95, "radiometry done")
 
     material, material_names = material_map(truth.abundances, names, has_target=bool(n_targets))
@@ -488,6 +460,56 @@ def simulate_scene(
         surface=surface,
         extent=tuple(float(v) for v in extent),
     )
+
+
+def _check_scene(preset: str, lines) -> int:
+    """The preset checked and the number of lines as an int (at least :data:`MIN_LINES`)."""
+    if preset not in _presets.SCENES:
+        raise ParameterError(
+            f"parameter 'preset': {preset!r} is not one of {', '.join(_presets.SCENES)}"
+        )
+    lines = int(lines)
+    if lines < MIN_LINES:
+        raise ParameterError(
+            f"parameter 'lines': {lines} is too few; simulate at least {MIN_LINES} lines"
+        )
+    return lines
+
+
+def _targets(rng, n_targets, names, truth, footprints, lines, progress):
+    """Step 4: ``n_targets`` targets placed on open, flat, sunlit ground and added to the
+    footprints and the truth; (their list, their abundance on the VNIR grid)."""
+    target_list, target_abundance = [], np.zeros((lines, COLS), "float32")
+    if n_targets:
+        target_list = place_targets(rng, n_targets, names, truth, footprints["vnir"])
+        if len(target_list) < n_targets:
+            progress.info(
+                f"only {len(target_list)} of {n_targets} targets fit on open, flat, sunlit ground "
+                "at least 6 pixels apart: simulate more lines for more targets"
+            )
+        target_abundance = add_targets(target_list, names.index(TARGET), footprints, truth)
+    return target_list, target_abundance
+
+
+def _cubes(footprints, names, spectra, ill, all_wl, nv, seed, noise_free) -> dict:
+    """Steps 5–6: each instrument's DN cube from its footprints (blurred by its PSF), the
+    materials' spectra and the illumination at its bands (``nv`` VNIR bands first); the
+    noise of each drawn from its own generator."""
+    spec = np.stack([spectra[n] for n in names])  # (K, 198)
+    cubes = {}
+    for n_inst, (inst, det, sl) in enumerate(
+        (("vnir", VNIR, slice(0, nv)), ("swir", SWIR, slice(nv, None)))
+    ):
+        cubes[inst] = instrument_cube(
+            psf_blur(footprints[inst], det.psf_sigma_px),
+            det,
+            spec[:, sl],
+            spectra["cloud"][sl],
+            _band_slice(ill, sl),
+            all_wl[sl],
+            None if noise_free else np.random.default_rng([seed, 101 + n_inst]),
+        )
+    return cubes
 
 
 def flight_geometry(
