@@ -25,7 +25,8 @@ from geoboresight.io import quiet_georef
 ENMAP_VNIR_WL = 418.0 + 12.5 * np.arange(47)
 ENMAP_SWIR_WL = 904.0 + 25.0 * np.arange(62)
 #: SWIR image content this many lines along-track from the VNIR image, as in real L1B
-#: (about 20 px: EnPT issue #12): a feature at VNIR line r is at SWIR line r + 20.
+#: (about 20 px, as noted in EnPT's issue tracker): a feature at VNIR line r is at SWIR
+#: line r + 20.
 ENMAP_SHIFT = 20
 
 

@@ -1,4 +1,4 @@
-"""Issue 24: co-registered RX/SVDD, the physical boresight indicator and the detectability d′.
+"""Co-registered RX/SVDD, the physical boresight indicator and the detectability d′.
 
 Independent truths: a cube whose SWIR was shifted by a known offset (the un-shifted cube is the
 truth of co-registration); a scene synthesised on a 4× finer grid and box-averaged into pixels

@@ -624,7 +624,7 @@ def _specific_cases() -> list[Case]:
     return c
 
 
-# --- The georeferencing group, writer options and shadow-map (issue 23) ----------------------
+# --- The georeferencing group, writer options and shadow-map -----------------------------
 _UTM_GCP = f"# CRS: {UTM36}\npixel,line,x,y\n"
 
 

@@ -6,8 +6,6 @@ model (``validation/scene_model2.py``, no code shared with the simulator)."""
 from __future__ import annotations
 
 import math
-import os
-import sys
 
 import numpy as np
 import pytest
@@ -20,9 +18,7 @@ from geoboresight.dem.height import (
     window_centres,
 )
 from geoboresight.errors import InputError
-
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "validation"))
-from scene_model2 import simulate2  # noqa: E402
+from validation.scene_model2 import simulate2
 
 K = HeightFactor(0.05)  # px per metre
 SIGMA_D = 0.1  # px: σ_h = 2 m

@@ -11,18 +11,15 @@ from __future__ import annotations
 
 import json
 import os
-import sys
 
 import numpy as np
 import pytest
 import rasterio
+from synth import write_gtiff  # noqa: E402
 
 from geoboresight.operations.deshadow import deshadow_file
 from geoboresight.shadow import deshadow as ds
-
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "validation"))
-from scene_model2 import simulate2, write_scene2  # noqa: E402
-from synth import write_gtiff  # noqa: E402
+from validation.scene_model2 import simulate2, write_scene2
 
 WL = np.linspace(420.0, 2400.0, 40)
 
@@ -306,7 +303,7 @@ def _model2_additive_truth(sc, levels):
     """Model 2's signal the sun does not scale, per band, above the levels subtracted: path
     radiance (3 % of the sky's light, through the model's band responses and gains) plus the
     per-band dark level less the one level per instrument."""
-    from scene_model2 import FINE, band_matrix, spctral2
+    from validation.scene_model2 import FINE, band_matrix, spctral2
 
     _, diffuse = spctral2(FINE, sc.truth["sun"]["zenith_deg"], aot500=sc.truth["aot500"])
     path = 0.03 * diffuse / np.pi

@@ -10,19 +10,16 @@ from __future__ import annotations
 
 import json
 import os
-import sys
 
 import numpy as np
 import pytest
 import rasterio
+from synth import write_gtiff  # noqa: E402
 
 from geoboresight.errors import ParameterError
 from geoboresight.operations.deshadow import deshadow_file
 from geoboresight.shadow import deshadow as ds
-
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "validation"))
-from scene_model2 import simulate2, write_scene2  # noqa: E402
-from synth import write_gtiff  # noqa: E402
+from validation.scene_model2 import simulate2, write_scene2
 
 WL = np.linspace(420.0, 2400.0, 40)
 

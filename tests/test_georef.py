@@ -1,5 +1,5 @@
 """Georeferencing: transforms against GDAL's, GCP files, IGM/GLT geolocation through GDAL's
-geolocation-array warper, reproject-to, and every bad input of issue 12 (one line, nothing
+geolocation-array warper, reproject-to, and every bad input of georeferencing (one line, nothing
 left on disk)."""
 
 from __future__ import annotations

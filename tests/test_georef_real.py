@@ -1,4 +1,4 @@
-"""Geolocation as processing chains write it, and everyday files (issue 21).
+"""Geolocation as processing chains write it, and everyday files.
 
 Every fixture is written to a published layout; each docstring names the source of the
 layout facts it relies on (see docs/sensors.md and docs/georef.md: "Geolocation written by processing

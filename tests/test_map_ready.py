@@ -1,4 +1,4 @@
-"""Map-ready rasters (issue 12): every GeoTIFF output can be a Cloud-Optimised GeoTIFF with
+"""Map-ready rasters: every GeoTIFF output can be a Cloud-Optimised GeoTIFF with
 overviews and rio's ``--co NAME=VALUE`` creation options, set once for every operation."""
 
 import numpy as np

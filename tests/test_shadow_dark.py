@@ -65,7 +65,7 @@ def test_a_non_finite_member_of_a_group_is_refused_before_any_work(tmp_path):
 
 
 def test_calibration_sample_checks_refuse_what_the_physics_cannot_use():
-    """shadow-map's physics checks (issue 23): a saturated or signal-less sample, a dark level
+    """shadow-map's physics checks: a saturated or signal-less sample, a dark level
     below the data or above its signal, each refused naming the instrument; a sound sample
     passes and counts its saturated pixels."""
     import numpy as np

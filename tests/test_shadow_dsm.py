@@ -10,7 +10,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import sys
 
 import numpy as np
 import pytest
@@ -23,9 +22,7 @@ from geoboresight.operations.shadow_map import SurfaceModel, shadow_map_file
 from geoboresight.shadow import deshadow as ds
 from geoboresight.shadow import illumination as ill
 from geoboresight.shadow import map as smap
-
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "validation"))
-from scene_model2 import simulate2, write_scene2  # noqa: E402
+from validation.scene_model2 import simulate2, write_scene2
 
 SUN = dict(sun_zenith=40.0, sun_azimuth=180.0)  # from the south: shadows fall north (up)
 

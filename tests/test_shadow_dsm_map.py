@@ -12,23 +12,20 @@ from __future__ import annotations
 
 import math
 import os
-import sys
 
 import numpy as np
 import pytest
 import rasterio
 from rasterio.crs import CRS
 from rasterio.transform import from_origin
+from synth import write_gtiff  # noqa: E402
 
 from geoboresight.errors import InputError, ParameterError
 from geoboresight.io.georef import true_north_bearing, write_igm
 from geoboresight.io.sample import raw_grid_matrix, sample_bilinear
 from geoboresight.operations.shadow_map import SurfaceModel, shadow_map_file
 from geoboresight.shadow.solar import parse_time, sun_position
-
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "validation"))
-from scene_model2 import simulate2, write_scene2  # noqa: E402
-from synth import write_gtiff  # noqa: E402
+from validation.scene_model2 import simulate2, write_scene2
 
 UTM36N = CRS.from_epsg(32636)
 HEADING = 30.0  # the raw grid's up (flight direction), clockwise from north

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 import os
-import sys
 
 import numpy as np
 import pytest
@@ -35,9 +34,7 @@ from geoboresight.shadow.classes import (
 from geoboresight.shadow.cluster import fit_shadow_cluster
 from geoboresight.shadow.fraction import PAPER_INTERCEPT, PAPER_SLOPE, FractionModel
 from geoboresight.shadow.surface import choose_surface, surface_walls
-
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "validation"))
-from scene_model2 import DARK_MATERIALS, MATERIALS, simulate2, write_scene2  # noqa: E402
+from validation.scene_model2 import DARK_MATERIALS, MATERIALS, simulate2, write_scene2
 
 
 def read(path):
@@ -277,7 +274,7 @@ def test_shadow_map_on_independent_scene(model2_scene, tmp_path):
     f1 = _f1((m == 1) & ok, truth & ok)
     dark_ids = [k for k, v in MATERIALS.items() if v in DARK_MATERIALS]
     sunlit_dark = np.isin(sc.material, dark_ids) & (sc.shadow_fraction < 0.1) & ok
-    # The issue's goal for false alarms (≤ 10 % of sunlit dark roofs, asphalt, water, char).
+    # The goal for false alarms (≤ 10 % of sunlit dark roofs, asphalt, water, char).
     assert (m[sunlit_dark] == 1).mean() <= 0.10
     # What it calls shadow is shadow (the paper: better to underestimate than to take dark
     # targets for shadow).
@@ -304,7 +301,7 @@ def test_shadow_map_on_independent_scene(model2_scene, tmp_path):
     strict=True,
     reason="goals not met on this scene: F1 0.71 (precision 0.92, recall 0.58: shadows lit "
     "by sunlit walls and ground keep more than a sixth of the sunlit signal), dark-pixel "
-    "baseline 0.74 (the method unchanged in issue 15's second session); see docs/shadow.md",
+    "baseline 0.74; see docs/shadow.md",
 )
 def test_shadow_map_f1_goal_on_independent_scene(model2_scene, tmp_path):
     sc, folder = model2_scene

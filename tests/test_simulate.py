@@ -2,7 +2,7 @@
 
 - flat-ground offset between the 920 and 1,010 nm images (phase correlation, written here with
   NumPy FFTs) equals the configured offset; on raised ground it changes by h × disparity/m;
-- the truth offset follows (H_nom − H)·tan θ / Δ (the issue's formula, computed independently);
+- the truth offset follows (H_nom − H)·tan θ / Δ (computed independently);
 - cast shadows agree with a brute-force ray march and with h·tan(zenith) for a box;
 - shadowed pixels have a higher b1010/b920 DN ratio than sunlit pixels of the same material;
 - abundances, shadow fractions and reflectances stay in their physical ranges;

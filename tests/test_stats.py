@@ -123,7 +123,7 @@ def test_band_out_of_range_and_all_nodata(tmp_path):
         STATS(input=p, percentiles="5,150", output=tmp_path / "s.json")
 
 
-# --- exact order statistics in bounded memory (issue 14: memory flat in line length) ---------
+# --- exact order statistics in bounded memory (memory flat in line length) ------------------
 
 
 def _stream(x, n_blocks):

@@ -1,4 +1,4 @@
-"""The boresight indicator made physical, and the detectability of a scene (issue 24).
+"""The boresight indicator made physical, and the detectability of a scene.
 
 The paper's indicator (Eq. 3, :mod:`.indicator`) takes the ratio b(1010)/b(920) of raw DN and
 scores it two-sided against the whole scene. Three things hide a sub-pixel target there:
@@ -72,7 +72,7 @@ WINDOW = 7
 SIGMA_FLOOR = 1e-4
 #: Target sign: "unknown" scores |z|; "darker" z (D > 0); "brighter" −z.
 SIGNS = ("unknown", "darker", "brighter")
-#: Typical sub-pixel target (issue 24): 9 % of a pixel, 30 % contrast.
+#: Typical sub-pixel target: 9 % of a pixel, 30 % contrast.
 TARGET_FRACTION = 0.09
 TARGET_CONTRAST = 0.3
 #: Below this d′ a detector cannot separate such targets from the background.

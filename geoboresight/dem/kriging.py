@@ -22,10 +22,10 @@ moving-window mode solves one system per pixel, minutes for a flight line. Here:
 
 The kriging system is PyKrige's (``OrdinaryKriging(..., exact_values=False)``: semivariances
 with a zero diagonal, the nugget smooths noisy heights; kriging variance ``−xᵀb``), with the
-variogram as fitted, ``[psill, range, nugget]``. The previous version handed that list back to
-PyKrige, which reads a list as ``[sill, range, nugget]``: it kriged with a partial sill of
-``psill − nugget``, negative whenever the fitted nugget exceeds the partial sill — then the DEM
-was mostly noise (r 0.35, RMSE 15.2 m against the true surface on a 5,000-line simulated line;
+variogram as fitted, ``[psill, range, nugget]``, not handed back to PyKrige as a list: PyKrige
+reads a list as ``[sill, range, nugget]``, which would krige with a partial sill of
+``psill − nugget``, negative whenever the fitted nugget exceeds the partial sill, and make the
+DEM mostly noise (r 0.35, RMSE 15.2 m against the true surface on a 5,000-line simulated line;
 r 0.88, RMSE 3.4 m kriged with the fitted model). The tests compare with PyKrige on the same points.
 """
 

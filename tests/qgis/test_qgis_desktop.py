@@ -1,4 +1,4 @@
-"""A new user's first session, in the real QGIS desktop under Xvfb: a fresh profile (temporary
+"""A new user's first run of the real QGIS desktop under Xvfb: a fresh profile (temporary
 HOME and --profiles-path), QGIS's own Python with no geoboresight and no PYTHONPATH.
 
 In one QGIS process (desktop_script.py): install the zip as *Install from ZIP* does; the tools

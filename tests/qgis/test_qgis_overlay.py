@@ -1,5 +1,5 @@
-"""Issue 12 in real QGIS, with QGIS core APIs on files (no provider): a geolocated product
-overlays a reference orthophoto in one project, and a raw-geometry product written with its
+"""Map-ready products in real QGIS, with QGIS core APIs on files (no provider): a geolocated
+product overlays a reference orthophoto in one project, and a raw-geometry product written with its
 ground sample distance opens in metres, not on degrees, without claiming an Earth position.
 
 The library runs in this process only to make the files (simulate-ortho, geolocate, ratio);
@@ -131,7 +131,7 @@ def test_raw_geometry_with_its_gsd_opens_in_metres_not_degrees(qgis_app, tmp_pat
         got = _sample(layer, (c + 0.5) * 1.5, -(r + 0.5) * 1.5)
         assert got == pytest.approx(float(values[r, c]), rel=1e-6)
 
-    # Without the GSD the product stays raw: QGIS finds no CRS (what the issue complains of;
+    # Without the GSD the product stays raw: QGIS finds no CRS (a user sees it on degrees;
     # the library does not invent one).
     plain = QgsRasterLayer(bare, "ratio raw")
     assert plain.isValid() and not plain.crs().isValid()

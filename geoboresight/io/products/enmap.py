@@ -15,8 +15,8 @@ W m⁻² sr⁻¹ nm⁻¹ (EnPT multiplies by 1000 to get mW m⁻² sr⁻¹ nm⁻
 W m⁻² sr⁻¹ nm⁻¹). ``*-QL_PIXELMASK_VNIR/_SWIR`` becomes a per-band mask: nonzero = defective
 (EnPT turns the map into booleans, True = dead pixel), when it has the image's rows and columns.
 The images stay in raw (sensor) geometry: the per-band RPCs are not used, and the SWIR image sees
-the ground about 20 lines from the VNIR image (EnPT issue #12), which is what the boresight
-operations measure.
+the ground about 20 lines from the VNIR image (a known property of L1B, noted in EnPT's issue
+tracker), which is what the boresight operations measure.
 """
 
 from __future__ import annotations
