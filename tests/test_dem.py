@@ -840,12 +840,13 @@ def test_coregister_stack_is_each_band_alone_and_one_mask(tex, order):
     gives the same (the drift path)."""
     from geoboresight.dem.coregister import coregister_stack
 
-    stack = np.stack([tex * (i + 1) + 3000 for i in range(3)]).astype(np.uint16)
+    # More bands and lines than one group and chunk of the kernel, neither a multiple of them.
+    stack = np.stack([tex * (1 + 0.1 * i) + 3000 for i in range(37)]).astype(np.uint16)
     valid = np.ones(tex.shape, bool)
     valid[30:33, 40:45] = False
     out, ok = coregister_stack(stack, 1.45, -0.3, valid, order=order)
     assert out.dtype == np.float32 and ok.shape == tex.shape
-    for i in range(3):
+    for i in range(37):
         one, one_ok = coregister(stack[i], 1.45, -0.3, valid, order=order)
         np.testing.assert_array_equal(one_ok, ok)
         np.testing.assert_array_equal(out[i][ok], one[ok])

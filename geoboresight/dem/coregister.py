@@ -24,9 +24,13 @@ ORDERS = {0: "nearest", 1: "linear", 3: "cubic convolution (Keys, a = -0.5)"}
 #: The default: cubic convolution keeps a sub-pixel target's peak sharper than linear
 #: interpolation, which averages two pixels' noise at half a pixel.
 DEFAULT_ORDER = 3
-#: Output lines shifted at a time: a band's chunk and its temporaries (~64 lines of a few
-#: hundred columns in float32) stay in a core's L2 cache across the taps.
-CHUNK_LINES = 64
+#: Lines and bands shifted at a time: a group's chunk and its temporaries (16 bands × 32 lines
+#: of a few hundred columns in float32, about half a MB each) stay in a core's cache across
+#: the taps, and each array operation is long enough to run without Python's lock, so that
+#: the strips' worker threads shift at once (measured on 2 cores: rx on a 4,000-line line
+#: 3.3–3.6 s, against 5.0 s band by band).
+CHUNK_LINES = 32
+BAND_GROUP = 16
 #: Keys' parameter: −1/2 makes the cubic convolution third-order accurate (it reproduces
 #: quadratics exactly); Keys (1981), Eq. 15.
 KEYS_A = -0.5
@@ -118,9 +122,9 @@ def _span(first: int, taps: int, n: int) -> tuple[int, int]:
 
 
 def _constant(stack, ok, along, across, order, out, lines):
-    """The constant-offset case: per band, the band converted to float32 once, then a few
-    slices and multiply–adds (a band of a strip stays in the CPU's cache across its taps); the
-    mask once, for all bands. Only output lines ``lines`` are computed."""
+    """The constant-offset case: per group of bands and lines, converted to float32 once, then
+    a few slices and multiply–adds (:data:`CHUNK_LINES`, :data:`BAND_GROUP`); the mask once,
+    for all bands. Only output lines ``lines`` are computed."""
     k, rows, cols = stack.shape
     l0, l1 = lines
     r_first, r_w = _live(*shift_taps(float(along), order))
@@ -137,23 +141,25 @@ def _constant(stack, ok, along, across, order, out, lines):
     if i1 <= i0 or j1 <= j0:
         return out, valid
     m, nt = j1 - j0, len(r_w)
-    x = np.empty((CHUNK_LINES + nt - 1, cols), np.float32)
-    tmp, t_r = np.empty((CHUNK_LINES, cols), np.float32), np.empty((CHUNK_LINES, cols), np.float32)
-    t_c = np.empty((CHUNK_LINES, m), np.float32)
+    g = min(k, BAND_GROUP)
+    x = np.empty((g, CHUNK_LINES + nt - 1, cols), np.float32)
+    tmp, t_r = (np.empty((g, CHUNK_LINES, cols), np.float32) for _ in range(2))
+    t_c = np.empty((g, CHUNK_LINES, m), np.float32)
     for a in range(i0, i1, CHUNK_LINES):
         n = min(CHUNK_LINES, i1 - a)
         x0 = a + r_first  # the first input line the chunk's taps read
-        xs, ts, tr, tc = x[: n + nt - 1], tmp[:n], t_r[:n], t_c[:n]
-        for b in range(k):
-            np.copyto(xs, stack[b, x0 : x0 + n + nt - 1], casting="unsafe")
-            np.multiply(xs[0:n], r_w[0], out=ts)
+        for b0 in range(0, k, g):
+            h = min(g, k - b0)
+            xs, ts, tr, tc = x[:h, : n + nt - 1], tmp[:h, :n], t_r[:h, :n], t_c[:h, :n]
+            np.copyto(xs, stack[b0 : b0 + h, x0 : x0 + n + nt - 1], casting="unsafe")
+            np.multiply(xs[:, 0:n], r_w[0], out=ts)
             for j in range(1, nt):
-                np.multiply(xs[j : j + n], r_w[j], out=tr)
+                np.multiply(xs[:, j : j + n], r_w[j], out=tr)
                 ts += tr
-            o = out[b, a - l0 : a - l0 + n, j0:j1]
-            np.multiply(ts[:, j0 + c_first : j1 + c_first], c_w[0], out=o)
+            o = out[b0 : b0 + h, a - l0 : a - l0 + n, j0:j1]
+            np.multiply(ts[..., j0 + c_first : j1 + c_first], c_w[0], out=o)
             for j in range(1, len(c_w)):
-                np.multiply(ts[:, j0 + c_first + j : j1 + c_first + j], c_w[j], out=tc)
+                np.multiply(ts[..., j0 + c_first + j : j1 + c_first + j], c_w[j], out=tc)
                 o += tc
     n, x0 = i1 - i0, i0 + r_first
     inside = valid[i0 - l0 : i1 - l0, j0:j1]
