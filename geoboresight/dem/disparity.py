@@ -95,13 +95,18 @@ def _warp(b, coef, vb, rows, cols, dy, dx, all_valid=False):
         return b[ri, ci], vb[ri, ci] & inside
     r, c = np.broadcast_arrays(r, c)
     out = ndimage.map_coordinates(coef, [r, c], order=3, mode="nearest", prefilter=False)
+    return out, _warped_valid(vb, r, c, all_valid)
+
+
+def _warped_valid(vb, r, c, all_valid):
+    """Where the moving image sampled at ``(r, c)`` is valid: its validity ``vb`` interpolated
+    bilinearly (0 outside the image) at least 0.999."""
     if all_valid:
-        # The bilinear validity below of an all-valid image, without interpolating it: valid
-        # within 0.001 px of the image (beyond, the blend with the 0 outside drops under 0.999).
-        ok = (r > -1e-3) & (r < height - 1 + 1e-3) & (c > -1e-3) & (c < width - 1 + 1e-3)
-    else:
-        ok = ndimage.map_coordinates(vb.astype(np.float32), [r, c], order=1, cval=0.0) > 0.999
-    return out, ok
+        # The same, for an all-valid image, without interpolating it: valid within 0.001 px
+        # of the image (beyond, the blend with the 0 outside drops under 0.999).
+        height, width = vb.shape
+        return (r > -1e-3) & (r < height - 1 + 1e-3) & (c > -1e-3) & (c < width - 1 + 1e-3)
+    return ndimage.map_coordinates(vb.astype(np.float32), [r, c], order=1, cval=0.0) > 0.999
 
 
 def _bspline3(t: np.ndarray) -> np.ndarray:
@@ -135,13 +140,7 @@ def _warps(coef, vb, rows, cols, base_a, base_c, shifts, all_valid=False):
             for j in range(4):
                 line += wc[j] * flat.take(line_at[dy - 1 + i] + col_at[dx - 1 + j])
             value += wr[i] * line
-        rr, cc = r + dy, c + dx
-        if all_valid:
-            ok = (rr > -1e-3) & (rr < height - 1 + 1e-3) & (cc > -1e-3) & (cc < width - 1 + 1e-3)
-        else:
-            ok = ndimage.map_coordinates(vb.astype(np.float32), [rr, cc], order=1, cval=0.0)
-            ok = ok > 0.999
-        out[(dy, dx)] = value, ok
+        out[(dy, dx)] = value, _warped_valid(vb, r + dy, c + dx, all_valid)
     return out
 
 

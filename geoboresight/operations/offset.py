@@ -29,7 +29,7 @@ from ..dem.offset import (
 )
 from ..errors import InputError, ParameterError
 from ..io.bands import MatchBands, open_matching_pair
-from ..io.cache import files_key, remembered
+from ..io.cache import cache_dir, files_key, remembered
 from ..io.dual import DualLayout
 from ..progress import as_progress
 from ._operation import operation
@@ -44,12 +44,12 @@ MIN_BLOCK = 8
 
 def line_offset(pair, profile_rows: int = 0, progress=None, *, given: str = ""):
     """:func:`measure_line_offset`, remembered between runs for the same files and bands
-    (:func:`geoboresight.remembered`): the operations of a flight line that need the
-    offset then read the line for it once."""
+    (:func:`geoboresight.io.cache.remembered`): the operations of a flight line that need
+    the offset then read the line for it once."""
     progress = as_progress(progress)
     dual = getattr(pair, "dual", None)
     files = None
-    if dual is not None:
+    if dual is not None and cache_dir() is not None:  # no files opened for a cache turned off
         files = files_key([dual.vnir.reads, dual.swir.reads, pair.cloud_mask])
     key = None
     if files is not None:
