@@ -3,7 +3,7 @@
 Cast shadows of a 500 × 500 DSM (default; 2000 × 2000 took r.sunmask > 9 min) (1 m cells, buildings on a hill, 30 m relief) at zenith 60°:
 our ray march (`cast_shadow`, whole-array shifts) vs GRASS `r.sunmask` (same algorithm, C, per
 cell), and the hillshade vs `gdaldem hillshade`. Each case runs in its own process (wall time
-and peak RSS); GRASS's time includes its session start-up and import, gdaldem's its file I/O,
+and peak RSS); GRASS's time includes its start-up and import, gdaldem's its file I/O,
 ours the GeoTIFF read. One run, side by side.
 
     python benchmarks/shadow.py [--size 2000] [--append benchmarks/RESULTS.md]
@@ -119,7 +119,7 @@ subprocess.run(["gdaldem", "hillshade", "-q", "-az", "205.8", "-alt", "30", {dsm
         "| case | time (s) | peak memory (MB) | time ratio vs ours | memory ratio vs ours |",
         "|---|---|---|---|---|",
         row("geoboresight cast_shadow (ray march, whole-array shifts)", ours_cast, ours_cast),
-        row("GRASS r.sunmask (incl. session start + r.in.gdal)", grass, ours_cast, True),
+        row("GRASS r.sunmask (incl. GRASS start-up + r.in.gdal)", grass, ours_cast, True),
         row("geoboresight hillshade (Horn)", ours_hs, ours_hs),
         row("gdaldem hillshade (incl. writing the GeoTIFF)", gdal, ours_hs, True),
         "",
