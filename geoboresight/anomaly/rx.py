@@ -111,7 +111,9 @@ class CovarianceAccumulator:
                 if self.shift is None:
                     self.shift = self.strip_shift(cube, valid)
         acc, X = self._workspace(n)
-        np.subtract(cube.reshape(k, n), self.shift[:, None], out=X[:k], casting="unsafe")
+        # Converted, then shifted in place: a subtraction across types is twice as slow.
+        np.copyto(X[:k], cube.reshape(k, n), casting="unsafe")
+        X[:k] -= self.shift[:, None]
         X[k] = 1.0
         if valid is not None and not valid.all():
             X[:, ~valid.ravel()] = 0.0
@@ -273,7 +275,8 @@ class RXDetector:
             setattr(self._local, dt.__name__, buf)
         D = buf[: k * n].reshape(k, n)
         Z = buf[k * n : 2 * k * n].reshape(k, n)
-        np.subtract(cube.reshape(k, n), self._mu[dt][:, None], out=D, casting="unsafe")
+        np.copyto(D, cube.reshape(k, n), casting="unsafe")
+        D -= self._mu[dt][:, None]
         if v is not None:
             D[:, ~v] = 0.0
         for Wb, a, b in self._W[dt]:  # rows a:b of Z = W[a:b, :b] D[:b]

@@ -3,7 +3,7 @@
 Per-pixel spectral work (RX, SVDD, unmixing) needs every band of a strip at once. GDAL reads an
 ENVI BIL cube band by band and line by line, which is ~10× slower than the disk; for uncompressed
 ENVI files (BSQ, BIL, BIP; any byte order, any header offset) the strip is read with one
-sequential ``readinto`` and reordered in NumPy. Other formats go through rasterio.
+sequential read and reordered in NumPy. Other formats go through rasterio.
 
 :meth:`Cube.reader` gives :func:`~geoboresight.io.windows.map_windows` a thread-safe reader
 that reuses one buffer per worker thread, so memory stays bounded by a few strips whatever the
@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import InputError
 from .envi import RawLayout, raw_layout
 from .grid import Grid
 from .raster import open_raster
@@ -156,12 +157,7 @@ class Cube:
         rows, width, count = row1 - row0, self.width, part.count
 
         def read_at(pos, buf):
-            # One shared handle per file; seek + read under its lock (threads call read()).
-            with part._lock:
-                if part._fh is None:
-                    part._fh = open(raw.file, "rb", buffering=0)
-                part._fh.seek(pos)
-                part._fh.readinto(memoryview(buf).cast("B"))
+            _read_bytes(part, pos, buf)
 
         if raw.interleave == "bsq":
             buf = self._raw_buffer(part, (rows, width))
@@ -184,6 +180,57 @@ class Cube:
             for b, j in zip(local, sel, strict=True):
                 data[j] = buf[:, :, b]
 
+    def _interleaved(self) -> bool:
+        """Every file is uncompressed ENVI with a line's bands together (BIL or BIP)."""
+        return all(p.raw is not None and p.raw.interleave != "bsq" for p in self._parts)
+
+    def pixels(self, positions, bands=None, dtype="float64"):
+        """Bands ``bands`` of the pixels at sorted flat ``positions`` (line × width + column),
+        reading each line that holds one once; None unless every file is BIL or BIP ENVI.
+
+        Returns ``(values (len(bands), n), valid (n,))`` as :meth:`read` would give them at
+        those pixels. A line of a band-interleaved file holds every band of every pixel of
+        the line, so a random sample of a long flight line costs one small read per line
+        drawn, without reordering or converting the line (a strip read does both).
+        """
+        if not self._interleaved():
+            return None
+        dtype = self.dtype if dtype is None else dtype
+        bands = np.arange(self.count) if bands is None else np.asarray(bands, dtype=int)
+        pos = np.asarray(positions, dtype=np.int64)
+        rows, cols = np.divmod(pos, self.width)
+        # Positions are sorted: each line's pixels are one run.
+        starts = np.flatnonzero(np.r_[True, rows[1:] != rows[:-1]]) if pos.size else []
+        ends = np.r_[starts[1:], pos.size] if pos.size else []
+        values = np.empty((len(bands), pos.size), dtype=dtype)
+        valid = np.ones(pos.size, bool)
+        start = 0
+        for part in self._parts:
+            local = bands - start
+            sel = np.flatnonzero((local >= 0) & (local < part.count))
+            start += part.count
+            if sel.size == 0:
+                continue
+            raw, line = part.raw, part.count * self.width
+            buf = np.empty(line, raw.dtype)
+            shape = (
+                (part.count, self.width) if raw.interleave == "bil" else (self.width, part.count)
+            )
+            grid = buf.reshape(shape)
+            for a, b in zip(starts, ends, strict=True):
+                _read_bytes(part, raw.offset + int(rows[a]) * line * raw.dtype.itemsize, buf)
+                got = (
+                    grid[local[sel][:, None], cols[a:b]]
+                    if raw.interleave == "bil"
+                    else (grid[cols[a:b]][:, local[sel]].T)
+                )
+                values[sel, a:b] = got
+            if part.nodata is not None:
+                valid &= (values[sel] != part.nodata).all(axis=0)
+        if values.dtype.kind == "f":
+            valid &= np.isfinite(values).all(axis=0)
+        return values, valid
+
     def reader(self, bands=None, dtype="float64"):
         """``read(row0, row1) -> (data, valid)`` for :func:`~geoboresight.io.windows.map_windows`:
         :meth:`read` of ``bands`` in ``dtype`` (None: the files' own type), into one buffer
@@ -198,7 +245,28 @@ class Cube:
                 local.buf = data
             return data, valid
 
+        if self._interleaved():
+            # read_pixels draws a sample through this instead of reading lines as strips.
+            read.pixels = lambda positions: self.pixels(positions, bands, dtype)
         return read
+
+
+def _read_bytes(part: _Part, pos: int, buf: np.ndarray) -> None:
+    """Fill ``buf`` from byte ``pos`` of a part's raw file. One handle per file, read with
+    ``pread`` (no shared file position), so worker threads read at once."""
+    if part._fh is None:
+        with part._lock:
+            if part._fh is None:
+                part._fh = open(part.raw.file, "rb", buffering=0)
+    view, fd, done = memoryview(buf).cast("B"), part._fh.fileno(), 0
+    while done < len(view):
+        got = os.preadv(fd, [view[done:]], pos + done)
+        if got <= 0:
+            raise InputError(
+                f"{part.raw.file}: the file ends before byte {pos + len(view)} (was it "
+                "truncated while being read?)"
+            )
+        done += got
 
 
 def open_cube(paths, label: str = "image") -> Cube:

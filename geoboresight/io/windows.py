@@ -296,6 +296,14 @@ def read_pixels(
     reads a thousand lines, not the line. Returns ``(values (n_bands, n) or (n,), valid (n,))`` in the order of ``positions``.
     """
     pos = np.asarray(positions, dtype=np.int64)
+    direct = getattr(read, "pixels", None)
+    if direct is not None and pos.size:
+        # A reader of band-interleaved files reads the sampled pixels itself (Cube.pixels).
+        progress = as_progress(progress)
+        progress.check()
+        values, ok = direct(pos)
+        progress.update(1.0, message)
+        return values, ok
     rows = np.unique(pos // width)
 
     def take(data, row0, flat):

@@ -171,29 +171,37 @@ class _Coregistered:
     def reader(self):
         from ..dem.coregister import coregister_stack
 
-        cube, h, k = self.cube, self.halo, len(self.bands)
-        raw = cube.reader(self.bands, None)  # the files' own type, a buffer per thread
-        local = threading.local()  # one output buffer per worker thread, reused
+        cube, h = self.cube, self.halo
+        k = len(self.bands)
+        # The VNIR bands are read straight into the output in float32 (their own lines
+        # only), the SWIR bands in the files' own type with the lines the taps reach.
+        vnir_bands, swir_bands = self.bands[self.vnir], self.bands[self.swir]
+        local = threading.local()  # per worker thread: the output and the SWIR buffers
 
         def read(row0, row1):
             r0, r1 = max(0, row0 - h[0]), min(cube.height, row1 + h[1])
-            data, read_ok = raw(r0, r1)
-            buf = getattr(local, "buf", None)
-            if buf is None or buf.shape[1] < row1 - row0:
-                buf = local.buf = np.empty((k, row1 - row0, cube.width), np.float32)
-            out = buf[:, : row1 - row0]
-            inner = slice(row0 - r0, row1 - r0)
-            np.copyto(out[self.vnir], data[self.vnir, inner], casting="unsafe")
+            if getattr(local, "rows", 0) < row1 - row0:
+                local.out = np.empty((k, row1 - row0, cube.width), np.float32)
+                local.rows, local.swir = row1 - row0, None
+            out = local.out[:, : row1 - row0]
+            if isinstance(self.vnir, slice):
+                _, ok = cube.read(row0, row1, vnir_bands, np.float32, out=out[self.vnir])
+            else:
+                v, ok = cube.read(row0, row1, vnir_bands, np.float32)
+                out[self.vnir] = v
+            s, s_ok = cube.read(r0, r1, swir_bands, None, out=local.swir)
+            if local.swir is None or local.swir.shape[1] < s.shape[1]:
+                local.swir = s
             _, valid = coregister_stack(
-                data[self.swir],
+                s,
                 self.along,
                 self.across,
-                read_ok,
+                s_ok,
                 out=out[self.swir],
-                lines=(inner.start, inner.stop),
+                lines=(row0 - r0, row1 - r0),
             )
             # Values at invalid pixels are left as they are: RX and SVDD skip them.
-            return out, valid & read_ok[inner]
+            return out, valid & ok
 
         return read
 
