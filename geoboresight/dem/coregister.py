@@ -15,6 +15,8 @@ lines, and a valid output never depends on an invalid input pixel.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..errors import InputError, ParameterError
@@ -28,7 +30,7 @@ DEFAULT_ORDER = 3
 #: bands × 32 lines of a few hundred columns, about half a MB each) stay in a core's cache
 #: between the two products.
 CHUNK_LINES = 32
-BAND_GROUP = 16
+BAND_GROUP = 128
 #: Output columns per across-track product: each is a (lines × (TILE + taps − 1)) by
 #: ((TILE + taps − 1) × TILE) matrix product, so the zeros of the band matrix cost (taps − 1)
 #: / TILE extra work while each product stays large enough for BLAS (measured on 80 bands ×
@@ -80,14 +82,22 @@ def shift_taps(shift: np.ndarray, order: int = DEFAULT_ORDER) -> tuple[np.ndarra
     return (base - 1).astype(np.int64), _keys(frac - np.arange(-1, 3))
 
 
+def tap_lines(along: float | np.ndarray, order: int = DEFAULT_ORDER) -> tuple[int, int]:
+    """``(first, stop)``: output line ``r`` of :func:`coregister_stack` reads input lines
+    ``r + first … r + stop − 1`` (of the smallest and the largest along-track shift; taps of
+    zero weight left out, so a whole-pixel shift reads one line)."""
+    along = np.asarray(along, dtype=np.float64)
+    low, low_w = _live(*shift_taps(along.min(), order))
+    high, high_w = _live(*shift_taps(along.max(), order))
+    return low, high + len(high_w)
+
+
 def coregister_halo(along: float | np.ndarray, order: int = DEFAULT_ORDER) -> tuple[int, int]:
     """``(above, below)``: the lines above and below a strip that :func:`coregister_stack`
     reads to give, on the strip, the values of the whole image (the taps of the smallest and
     the largest along-track shift)."""
-    along = np.asarray(along, dtype=np.float64)
-    low, _ = shift_taps(along.min(), order)
-    high, weights = shift_taps(along.max(), order)
-    return max(0, -int(low)), max(0, int(high) + weights.shape[-1] - 1)
+    first, stop = tap_lines(along, order)
+    return max(0, -first), max(0, stop - 1)
 
 
 def _check(stack, along, across, order):
@@ -124,6 +134,22 @@ def _span(first: int, taps: int, n: int) -> tuple[int, int]:
     return i0, max(i0, i1)
 
 
+@functools.lru_cache(maxsize=32)
+def _constant_taps(along: float, across: float, order: int):
+    """``(first line, line weights, first column, column weights)`` of a constant shift, and
+    the band matrices of its chunks (:func:`_band_matrix`): worked out once per offset,
+    since a flight line is shifted strip after strip."""
+    r_first, r_w = _live(*shift_taps(along, order))
+    c_first, c_w = _live(*shift_taps(across, order))
+    return (
+        r_first,
+        r_w,
+        c_first,
+        c_w,
+        functools.lru_cache(maxsize=8)(lambda w, n: _band_matrix(r_w if w == "r" else c_w, n)),
+    )
+
+
 def _band_matrix(weights: np.ndarray, n: int) -> np.ndarray:
     """The ``(n + taps − 1, n)`` matrix ``M`` with ``(x @ M)[j] = Σ_t w_t x[j + t]``."""
     taps = len(weights)
@@ -141,8 +167,7 @@ def _constant(stack, ok, along, across, order, out, lines):
     bands. Only output lines ``lines`` are computed."""
     k, rows, cols = stack.shape
     l0, l1 = lines
-    r_first, r_w = _live(*shift_taps(float(along), order))
-    c_first, c_w = _live(*shift_taps(float(across), order))
+    r_first, r_w, c_first, c_w, matrix = _constant_taps(float(along), float(across), order)
     i0, i1 = _span(r_first, len(r_w), rows)
     i0, i1 = max(i0, l0), max(min(i1, l1), max(i0, l0))
     j0, j1 = _span(c_first, len(c_w), cols)
@@ -162,16 +187,21 @@ def _constant(stack, ok, along, across, order, out, lines):
     g, lines_in = min(k, BAND_GROUP), min(CHUNK_LINES, n) + nr - 1
     # Flat buffers, viewed at each chunk's shape: the products need contiguous rows.
     x_buf, u_buf = np.empty(g * lines_in * cols, np.float32), np.empty(g * lines_in * m, np.float32)
-    across_m = _band_matrix(c_w, min(TILE, m))
+    across_m = matrix("c", min(TILE, m))
     for a in range(0, n, CHUNK_LINES):
         h = min(CHUNK_LINES, n - a)
-        along_m = _band_matrix(r_w, h).T  # (h, h + nr − 1): output line i reads i … i + nr − 1
+        along_m = matrix("r", h).T  # (h, h + nr − 1): output line i reads i … i + nr − 1
         for b0 in range(0, k, g):
             kb = min(g, k - b0)
             hin = h + nr - 1
-            xs = x_buf[: kb * hin * cols].reshape(kb, hin, cols)
             us = u_buf[: kb * hin * m].reshape(kb, hin, m)
-            np.copyto(xs, stack[b0 : b0 + kb, x0 + a : x0 + a + hin], casting="unsafe")
+            xs = stack[b0 : b0 + kb, x0 + a : x0 + a + hin]
+            if bad is not None or xs.dtype != np.float32 or not xs.flags.c_contiguous:
+                # The products read a contiguous float32 chunk: converted once into it
+                # (a float32 strip read with its halo is used as it is).
+                chunk = x_buf[: kb * hin * cols].reshape(kb, hin, cols)
+                np.copyto(chunk, xs, casting="unsafe")
+                xs = chunk
             if bad is not None:
                 # A zero weight times a NaN is still NaN: invalid values must not reach the
                 # products (their outputs are invalid anyway; their neighbours are not).
@@ -280,7 +310,9 @@ def coregister_stack(
         raise InputError(f"expected a stack of 2-D bands, got an array of shape {stack.shape}")
     along, across = _check(stack, along, across, order)
     k, rows, cols = stack.shape
-    lines = (0, rows) if lines is None else (max(0, lines[0]), min(rows, lines[1]))
+    lines = (0, rows) if lines is None else (max(0, lines[0]), lines[1])
+    if lines[1] > rows and (np.ptp(along) or np.ptp(across)):
+        raise InputError(f"lines {lines} of a per-line offset beyond the stack's {rows} lines")
     if out is None:
         out = np.empty((k, lines[1] - lines[0], cols), np.float32)
     ok = None if valid is None else np.asarray(valid, bool)

@@ -69,6 +69,7 @@ class Cube:
         self.good = np.ones(self.count, bool) if good is None else np.asarray(good, bool)
         self.paths = [p.path for p in parts]
         self._local = threading.local()
+        self._selections: dict[bytes, list] = {}
 
     def close(self):
         for p in self._parts:
@@ -116,20 +117,32 @@ class Cube:
         else:
             data = out[:, :rows]
         valid = np.ones((rows, self.width), dtype=bool)
-        start = 0
-        for part in self._parts:
-            local = bands - start
-            sel = np.flatnonzero((local >= 0) & (local < part.count))
-            start += part.count
-            if sel.size == 0:
-                continue
-            self._read_part(part, row0, row1, local[sel], data, sel)
-            if part.nodata is not None:
-                for j in sel:
-                    valid &= data[j] != part.nodata
-        if data.dtype.kind == "f":
-            valid &= np.isfinite(data).all(axis=0)
+        for part, local, sel, runs in self._selection(bands):
+            self._read_part(part, row0, row1, local, data, sel, runs)
+            for _, j0, n in runs:
+                block = data[j0 : j0 + n]
+                if part.nodata is not None:
+                    valid &= (block != part.nodata).all(axis=0)
+                # Integers converted to floats are finite: only a float file needs the check.
+                if data.dtype.kind == "f" and part.dtype.kind == "f":
+                    valid &= np.isfinite(block).all(axis=0)
         return data, valid
+
+    def _selection(self, bands: np.ndarray):
+        """``(part, file bands, output bands, runs)`` of each part holding some of ``bands``
+        (:func:`_runs`), worked out once per band list: strips are read many times over."""
+        key = bands.tobytes()
+        found = self._selections.get(key)
+        if found is None:
+            found, start = [], 0
+            for part in self._parts:
+                local = bands - start
+                sel = np.flatnonzero((local >= 0) & (local < part.count))
+                start += part.count
+                if sel.size:
+                    found.append((part, local[sel], sel, tuple(_runs(local[sel], sel))))
+            self._selections[key] = found
+        return found
 
     def _raw_buffer(self, part, shape):
         """A per-thread, reused buffer for raw reads (a new one per strip would be page-faulted
@@ -141,7 +154,7 @@ class Cube:
             buf = bufs[id(part)] = np.empty(n, dtype=part.raw.dtype)
         return buf[:n].reshape(shape)
 
-    def _read_part(self, part, row0, row1, local, data, sel):
+    def _read_part(self, part, row0, row1, local, data, sel, runs):
         if part.raw is None:
             from rasterio.windows import Window
 
@@ -170,15 +183,17 @@ class Cube:
         read_at(raw.offset + row0 * line * dt.itemsize, buf)
         if raw.interleave == "bil":
             buf = buf.reshape(rows, count, width)
-            if len(local) == count and np.array_equal(local, np.arange(count)):
-                np.copyto(data[sel[0] : sel[0] + count], buf.transpose(1, 0, 2), casting="unsafe")
-            else:
-                for b, j in zip(local, sel, strict=True):
-                    data[j] = buf[:, b, :]
+            # One reordering copy per run of consecutive bands (bad bands left out split them).
+            for b0, j0, n in runs:
+                np.copyto(
+                    data[j0 : j0 + n], buf[:, b0 : b0 + n].transpose(1, 0, 2), casting="unsafe"
+                )
         else:  # bip
             buf = buf.reshape(rows, width, count)
-            for b, j in zip(local, sel, strict=True):
-                data[j] = buf[:, :, b]
+            for b0, j0, n in runs:
+                np.copyto(
+                    data[j0 : j0 + n], buf[:, :, b0 : b0 + n].transpose(2, 0, 1), casting="unsafe"
+                )
 
     def _interleaved(self) -> bool:
         """Every file is uncompressed ENVI with a line's bands together (BIL or BIP)."""
@@ -249,6 +264,13 @@ class Cube:
             # read_pixels draws a sample through this instead of reading lines as strips.
             read.pixels = lambda positions: self.pixels(positions, bands, dtype)
         return read
+
+
+def _runs(local: np.ndarray, sel: np.ndarray):
+    """``(file band, output band, length)`` of each run where both go up by one."""
+    breaks = np.flatnonzero((np.diff(local) != 1) | (np.diff(sel) != 1)) + 1
+    for a, b in zip(np.r_[0, breaks], np.r_[breaks, len(local)], strict=True):
+        yield int(local[a]), int(sel[a]), int(b - a)
 
 
 def _read_bytes(part: _Part, pos: int, buf: np.ndarray) -> None:

@@ -157,7 +157,7 @@ class _Coregistered:
     the line, beyond the memory bound."""
 
     def __init__(self, cube, bands, is_swir, along, across):
-        from ..dem.coregister import coregister_halo
+        from ..dem.coregister import tap_lines
 
         self.cube, self.bands = cube, np.asarray(bands)
         # A dual dataset stacks VNIR then SWIR: slices, not copies, of each strip.
@@ -166,20 +166,22 @@ class _Coregistered:
             _as_slice(np.flatnonzero(is_swir)),
         )
         self.along, self.across = along, across
-        self.halo = coregister_halo(along)
+        self.taps = tap_lines(along)
 
     def reader(self):
         from ..dem.coregister import coregister_stack
 
-        cube, h = self.cube, self.halo
+        cube, (first, stop) = self.cube, self.taps
         k = len(self.bands)
         # The VNIR bands are read straight into the output in float32 (their own lines
-        # only), the SWIR bands in the files' own type with the lines the taps reach.
+        # only), the SWIR bands in float32 from the first line the taps reach to the last:
+        # the shift's input as it is, without another copy.
         vnir_bands, swir_bands = self.bands[self.vnir], self.bands[self.swir]
         local = threading.local()  # per worker thread: the output and the SWIR buffers
 
         def read(row0, row1):
-            r0, r1 = max(0, row0 - h[0]), min(cube.height, row1 + h[1])
+            r0 = min(max(0, row0 + first), cube.height - 1)
+            r1 = max(min(cube.height, row1 + stop - 1), r0 + 1)
             if getattr(local, "rows", 0) < row1 - row0:
                 local.out = np.empty((k, row1 - row0, cube.width), np.float32)
                 local.rows, local.swir = row1 - row0, None
@@ -189,16 +191,18 @@ class _Coregistered:
             else:
                 v, ok = cube.read(row0, row1, vnir_bands, np.float32)
                 out[self.vnir] = v
-            s, s_ok = cube.read(r0, r1, swir_bands, None, out=local.swir)
+            s, s_ok = cube.read(r0, r1, swir_bands, np.float32, out=local.swir)
             if local.swir is None or local.swir.shape[1] < s.shape[1]:
                 local.swir = s
+            # Output line i of the strip samples image line row0 + i + along, which is
+            # line i + (along − (r0 − row0)) of what was read: the same taps.
             _, valid = coregister_stack(
                 s,
-                self.along,
+                self.along - (r0 - row0),
                 self.across,
                 s_ok,
                 out=out[self.swir],
-                lines=(row0 - r0, row1 - r0),
+                lines=(0, row1 - row0),
             )
             # Values at invalid pixels are left as they are: RX and SVDD skip them.
             return out, valid & ok
