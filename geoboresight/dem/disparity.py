@@ -119,8 +119,10 @@ def _bspline3(t: np.ndarray) -> np.ndarray:
 def _warps(coef, vb, rows, cols, base_a, base_c, shifts, all_valid=False):
     """:func:`_warp` at ``(base_a + dy, base_c + dx)`` for every integer shift ``(dy, dx)`` of
     ``shifts``, as a dict. The cubic B-spline's weights depend only on the fractional part of
-    the position, the same for every integer shift: they are computed once, and each shift
-    gathers its 16 coefficients (the edge clamped, as ``map_coordinates``' "nearest")."""
+    the position, the same for every integer shift: they are computed once. Each line tap's
+    across-track sum (4 gathered coefficients, the edge clamped as ``map_coordinates``'
+    "nearest") serves every shift that reaches that line (the ±1 px refinement: 6 line taps
+    × 3 columns instead of 9 shifts × 4), with the same arithmetic as one shift alone."""
     height, width = coef.shape
     r, c = np.broadcast_arrays(rows[:, None] + base_a, cols[None, :] + base_c)
     r0, c0 = np.floor(r), np.floor(c)
@@ -132,14 +134,21 @@ def _warps(coef, vb, rows, cols, base_a, base_c, shifts, all_valid=False):
     line_at = {k: np.clip(r0 + k, 0, height - 1) * width for k in range(lo_r, hi_r + 1)}
     col_at = {k: np.clip(c0 + k, 0, width - 1) for k in range(lo_c, hi_c + 1)}
     flat = coef.ravel()
+    lines: dict = {}  # (line tap, dx) -> the across-track sum, shared by the shifts' dy
+
+    def line(k, dx):
+        if (k, dx) not in lines:
+            acc = np.zeros(r.shape)
+            for j in range(4):
+                acc += wc[j] * flat.take(line_at[k] + col_at[dx - 1 + j])
+            lines[(k, dx)] = acc
+        return lines[(k, dx)]
+
     out = {}
     for dy, dx in shifts:
         value = np.zeros(r.shape)
         for i in range(4):
-            line = np.zeros(r.shape)
-            for j in range(4):
-                line += wc[j] * flat.take(line_at[dy - 1 + i] + col_at[dx - 1 + j])
-            value += wr[i] * line
+            value += wr[i] * line(dy - 1 + i, dx)
         out[(dy, dx)] = value, _warped_valid(vb, r + dy, c + dx, all_valid)
     return out
 
