@@ -1,0 +1,112 @@
+"""Reading a flight line strip by strip for the detectors: sampled pixels read line by line
+equal the strips' values, co-registered strips equal the whole image co-registered at once
+(edges included), and the shift neither modifies its input nor spreads an invalid value."""
+
+import os
+
+import numpy as np
+import pytest
+
+from geoboresight import io
+from geoboresight.dem.coregister import coregister_stack, tap_lines
+from geoboresight.errors import InputError
+from geoboresight.io import write_envi
+from geoboresight.io.cube import open_cube
+from geoboresight.operations.anomaly import _Coregistered
+
+
+def _cube_file(tmp_path, name, k, interleave, nodata=None, dtype=np.uint16, seed=0):
+    rng = np.random.default_rng(seed)
+    cube = rng.integers(100, 4000, (k, 41, 23)).astype(dtype)
+    if nodata is not None:
+        cube[:, 7, 3:6] = nodata
+    path = str(tmp_path / f"{name}_{interleave}.img")
+    write_envi(path, cube, np.linspace(400, 900, k), interleave=interleave, nodata=nodata)
+    return path, cube
+
+
+@pytest.mark.parametrize("interleave", ["bil", "bip"])
+@pytest.mark.parametrize("dtype", ["float64", None])
+def test_sampled_pixels_equal_the_strips(tmp_path, interleave, dtype):
+    path, cube = _cube_file(tmp_path, "c", 9, interleave, nodata=0)
+    bands = np.array([0, 1, 2, 5, 6, 8])  # two runs of consecutive bands
+    rng = np.random.default_rng(1)
+    pos = np.sort(rng.choice(41 * 23, 150, replace=False))
+    pos = np.union1d(pos, 7 * 23 + np.arange(3, 6))  # the nodata pixels too
+    with open_cube(path) as c:
+        read = c.reader(bands, dtype)
+        assert hasattr(read, "pixels")  # the direct path is taken
+        values, ok = io.read_pixels(read, pos, height=c.height, width=c.width)
+        whole, whole_ok = c.read(0, c.height, bands, dtype)
+        del read.pixels
+        generic, generic_ok = io.read_pixels(read, pos, height=c.height, width=c.width)
+    r, col = np.divmod(pos, 23)
+    np.testing.assert_array_equal(values, whole[:, r, col])
+    np.testing.assert_array_equal(ok, whole_ok[r, col])
+    np.testing.assert_array_equal(values, generic)
+    np.testing.assert_array_equal(ok, generic_ok)
+    assert values.dtype == generic.dtype and (~ok).sum() == 3
+
+
+def test_band_sequential_files_are_sampled_through_strips(tmp_path):
+    path, _ = _cube_file(tmp_path, "c", 4, "bsq")
+    with open_cube(path) as c:
+        assert c.pixels([3, 40]) is None
+        assert not hasattr(c.reader(None, None), "pixels")
+
+
+@pytest.mark.parametrize("along", [2.37, -1.6, 0.5, 3.0])
+def test_coregistered_strips_equal_the_whole_image(tmp_path, along):
+    """Every strip of the detectors' reader, the first and last ones included, holds what
+    co-registering the whole SWIR at once gives, and one validity."""
+    across = -0.45
+    v, vnir = _cube_file(tmp_path, "v", 4, "bil", seed=2)
+    s, swir = _cube_file(tmp_path, "s", 5, "bil", nodata=0, seed=3)
+    is_swir = np.arange(9) >= 4
+    with open_cube([v, s]) as c:
+        read = _Coregistered(c, np.arange(9), is_swir, along, across).reader()
+        strips = list(
+            io.map_windows(
+                read,
+                lambda d, ok: (d.copy(), ok.copy()),
+                height=c.height,
+                width=c.width,
+                block_rows=6,
+            )
+        )
+    data = np.concatenate([d for _, (d, _) in strips], axis=1)
+    valid = np.vstack([ok for _, (_, ok) in strips])
+    ref, ref_ok = coregister_stack(swir, along, across, swir[0] != 0)
+    np.testing.assert_array_equal(valid, ref_ok)
+    np.testing.assert_array_equal(data[:4], vnir)
+    # The same taps on the same values; the strips' products sum in another order.
+    np.testing.assert_allclose(data[4:][:, valid], ref[:, valid], rtol=2e-6)
+    # Lines whose taps leave the image are invalid; the others are valid away from nodata.
+    first, stop = tap_lines(along)
+    line = np.arange(41)
+    outside = (line + first < 0) | (line + stop - 1 > 40)
+    assert outside.any() and not valid[outside].any()
+    assert valid[~outside].mean() > 0.5
+
+
+def test_the_shift_leaves_its_input_and_keeps_a_nan_to_itself():
+    rng = np.random.default_rng(5)
+    stack = rng.normal(1000, 50, (6, 40, 30)).astype(np.float32)
+    ok = np.ones((40, 30), bool)
+    stack[:, 20, 15], ok[20, 15] = np.nan, False
+    before = stack.copy()
+    out, out_ok = coregister_stack(stack, 1.3, 0.6, ok)
+    np.testing.assert_array_equal(stack, before)  # NaN and all
+    zeroed = np.where(ok, stack, 0)
+    ref, ref_ok = coregister_stack(zeroed, 1.3, 0.6, ok)
+    np.testing.assert_array_equal(out_ok, ref_ok)
+    assert np.isfinite(out[:, out_ok]).all() and (~out_ok[16:22, 12:18]).sum() == 16
+    np.testing.assert_array_equal(out[:, out_ok], ref[:, out_ok])
+
+
+def test_a_file_cut_short_while_read_is_named(tmp_path):
+    path, _ = _cube_file(tmp_path, "c", 3, "bil")
+    with open_cube(path) as c:
+        os.truncate(path, os.path.getsize(path) // 2)
+        with pytest.raises(InputError, match="c_bil.img: the file ends before byte"):
+            c.read(30, 41, None, None)
