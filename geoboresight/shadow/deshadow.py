@@ -494,7 +494,8 @@ def combine_additive(
     ``dark``: :func:`dark_object`, c plus the dark object's own signal ``ρ_d·S_b`` (S_b the
     light in shadow times the gain). ``shadowed``: a typical shadowed signal per band (the
     median of the pairs' shadowed sides), ``c + ρ̄·S_b``. The dark object's own signal is
-    taken as a share ``α`` of the typical shadowed signal above c, ``α·(shadowed − c)``: the
+    taken as a share ``α`` of the typical shadowed signal above c, ``α·(shadowed − c)`` (c
+    from the line where its error is below ``shadowed − dark``, else ``dark``): the
     bias of a dark surface is its reflectance times the shadow's light, small where the
     shadow gets little light (the SWIR: k 10–30) and large where the sky lights the shadow
     (the blue). ``α`` is the median of ``(dark − c_line)/(shadowed − c_line)`` over the
@@ -511,7 +512,12 @@ def combine_additive(
     meas = np.isfinite(e_l) & (e_l > 0) & np.isfinite(c_l)
     if meas.sum() < 3 or not np.isfinite(d).all() or not np.isfinite(s).all():
         return np.where(meas, c_l, 0.0), np.where(meas, e_l, np.inf)
-    above = np.maximum(s - np.where(meas, c_l, d), MIN_SIGNAL)
+    # The line's intercept says where c is only where its error is below the shadowed
+    # signal above the dark object; beyond (a band without shadow contrast, e.g. in a water
+    # absorption, where the fit is singular) it would move the dark object's estimate by its
+    # own noise, and the dark object stands for it.
+    informative = meas & (e_l < np.maximum(s - d, MIN_SIGNAL))
+    above = np.maximum(s - np.where(informative, c_l, d), MIN_SIGNAL)
     share = (d - c_l)[meas] / above[meas]
     w = (above[meas] / e_l[meas]) ** 2
     order = np.argsort(share)
