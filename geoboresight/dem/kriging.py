@@ -32,6 +32,7 @@ r 0.88, RMSE 3.4 m kriged with the fitted model). The tests compare with PyKrige
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -319,6 +320,7 @@ class LocalKriging:
     n_closest_points: int = N_CLOSEST_POINTS
     step: int | None = None
     _cache: dict = field(default_factory=dict, repr=False)
+    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     def __post_init__(self):
         x, y, z = _check_points(self.x, self.y, self.z)
@@ -439,8 +441,10 @@ class LocalKriging:
     def _node_rows(self, block_row: int, width: int):
         """Estimate and variance on the node rows of one global row of blocks (cached: the
         strip below needs the last node row again)."""
-        if block_row in self._cache:
-            return self._cache[block_row]
+        with self._lock:
+            hit = self._cache.get(block_row)
+        if hit is not None:
+            return hit
         g = self.step
         bn = self._block_nodes()
         nj = -(-(width - 1) // g) + 1 if g > 1 else width
@@ -455,9 +459,10 @@ class LocalKriging:
         # back to (node rows, node cols); padded columns repeat the last node (same values)
         e = e.reshape(nbj, bn, bn).transpose(1, 0, 2).reshape(bn, nbj * bn)[:, :nj]
         v = v.reshape(nbj, bn, bn).transpose(1, 0, 2).reshape(bn, nbj * bn)[:, :nj]
-        if len(self._cache) >= 4:
-            self._cache.pop(next(iter(self._cache)))
-        self._cache[block_row] = (e, v)
+        with self._lock:  # strips are kriged by worker threads
+            if len(self._cache) >= 4:
+                self._cache.pop(next(iter(self._cache)))
+            self._cache[block_row] = (e, v)
         return e, v
 
     def grid_rows(

@@ -495,6 +495,9 @@ def _write_kriged(kriging, valid_strips, rows, grid, output, variance, tags, pro
             width=width,
             block_rows=rows,
             pass_block=True,
+            # Each strip's systems are solved by LAPACK without Python's lock: two strips
+            # at once (the node rows two strips share are cached under a lock).
+            workers=io.windows.default_workers(),
             progress=progress,
             message="kriging",
         ):
