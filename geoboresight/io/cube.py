@@ -219,26 +219,14 @@ class Cube:
         ends = np.r_[starts[1:], pos.size] if pos.size else []
         values = np.empty((len(bands), pos.size), dtype=dtype)
         valid = np.ones(pos.size, bool)
-        start = 0
-        for part in self._parts:
-            local = bands - start
-            sel = np.flatnonzero((local >= 0) & (local < part.count))
-            start += part.count
-            if sel.size == 0:
-                continue
+        for part, local, sel, _ in self._selection(bands):
             raw, line = part.raw, part.count * self.width
             buf = np.empty(line, raw.dtype)
-            shape = (
-                (part.count, self.width) if raw.interleave == "bil" else (self.width, part.count)
-            )
-            grid = buf.reshape(shape)
+            bil = raw.interleave == "bil"
+            grid = buf.reshape((part.count, self.width) if bil else (self.width, part.count))
             for a, b in zip(starts, ends, strict=True):
                 _read_bytes(part, raw.offset + int(rows[a]) * line * raw.dtype.itemsize, buf)
-                got = (
-                    grid[local[sel][:, None], cols[a:b]]
-                    if raw.interleave == "bil"
-                    else (grid[cols[a:b]][:, local[sel]].T)
-                )
+                got = grid[local[:, None], cols[a:b]] if bil else grid[cols[a:b]][:, local].T
                 values[sel, a:b] = got
             if part.nodata is not None:
                 valid &= (values[sel] != part.nodata).all(axis=0)
