@@ -198,7 +198,11 @@ def fit_shadow_cluster(
     Bhattacharyya, A. On a measure of divergence between two statistical populations defined
     by their probability distributions. Bull. Calcutta Math. Soc. 1943, 35, 99–109.
     """
+    from concurrent.futures import ThreadPoolExecutor
+
     from sklearn.mixture import GaussianMixture
+
+    from ..io.windows import default_workers, single_threaded_blas
 
     ratio = np.asarray(ratio, dtype=np.float64).ravel()
     nir = np.asarray(nir, dtype=np.float64).ravel()
@@ -219,11 +223,22 @@ def fit_shadow_cluster(
         candidates = [int(n_components)]
     else:
         candidates = list(range(2, max(2, int(max_components)) + 1))
-    best, best_bic = None, np.inf
-    for k in candidates:
+
+    def fit(k):
         gm = GaussianMixture(k, covariance_type="full", n_init=2, random_state=seed, reg_covar=1e-4)
         gm.fit(x)
-        bic = gm.bic(x)
+        return gm, gm.bic(x)
+
+    # The candidates are independent fits (NumPy releases Python's lock in their E and M
+    # steps): fitted in worker threads, then compared in order, so the first of equal BICs
+    # wins as in a loop (the same mixture).
+    with (
+        single_threaded_blas(),
+        ThreadPoolExecutor(min(len(candidates), default_workers())) as pool,
+    ):
+        fits = list(pool.map(fit, candidates))
+    best, best_bic = None, np.inf
+    for gm, bic in fits:
         if bic < best_bic:
             best, best_bic = gm, bic
     means, covs, weights = best.means_, best.covariances_, best.weights_
