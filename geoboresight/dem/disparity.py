@@ -164,8 +164,8 @@ class _Stats:
     are valid. ``w`` changes with the shift only where the moving window leaves the image (edge
     columns and lines), so the few distinct patterns are computed once each."""
 
-    def __init__(self, a, va, size):
-        self.a, self.va, self.size = a, va, size
+    def __init__(self, a, va, size, min_fill):
+        self.a, self.va, self.size, self.min_fill = a, va, size, min_fill
         self._cache: dict = {}
         self._scratch: dict = {}
 
@@ -178,7 +178,9 @@ class _Stats:
         return ndimage.uniform_filter(x, self.size, mode="constant", output=out)
 
     def moments(self, w):
-        """(count, a·w, mean, variance) of ``a`` over the pixels ``w``, box-filtered."""
+        """(count, a·w, mean, variance, no match) of ``a`` over the pixels ``w``, box-filtered;
+        "no match" where the window holds too few pixels (``min_fill``, a share of the window)
+        or no texture of ``a``, which no shift changes."""
         key = hash(np.packbits(w).tobytes())
         hit = self._cache.get(key)
         if hit is not None and np.array_equal(hit[0], w):
@@ -189,26 +191,27 @@ class _Stats:
         with np.errstate(invalid="ignore", divide="ignore"):
             ma = f(aa, self.size, mode="constant") / n
             var_a = f(aa * aa, self.size, mode="constant") / n - ma * ma
-        moments = (n, aa, ma, var_a)
+        none = (n < self.min_fill) | (var_a <= 1e-12 * (ma * ma + 1.0))
+        moments = (n, aa, ma, var_a, none)
         if len(self._cache) < PATTERNS:
             self._cache[key] = (w, moments)
         return moments
 
 
-def _ncc(stats, bs, vbs, min_fill):
+def _ncc(stats, bs, vbs):
     """Windowed NCC of ``a`` and ``bs`` over their common valid pixels (box filters)."""
     w = stats.va & vbs
-    n, aa, ma, var_a = stats.moments(w)
+    n, aa, ma, var_a, none = stats.moments(w)
     bb = np.where(w, bs, 0.0)
     f = stats.box  # the three sums are used before the next shift reuses the buffers
     with np.errstate(invalid="ignore", divide="ignore"):
         mb = f(bb, 0) / n
+        mb2 = mb * mb
         cov = f(aa * bb, 1) / n - ma * mb
-        var_b = f(bb * bb, 2) / n - mb * mb
+        var_b = f(bb * bb, 2) / n - mb2
         ncc = cov / np.sqrt(var_a * var_b)
     # Too few valid pixels, or no texture (variance at round-off level): no match.
-    flat = (var_a <= 1e-12 * (ma * ma + 1.0)) | (var_b <= 1e-12 * (mb * mb + 1.0))
-    ncc[(n < min_fill) | flat | ~np.isfinite(ncc)] = np.nan
+    ncc[none | (var_b <= 1e-12 * (mb2 + 1.0)) | ~np.isfinite(ncc)] = np.nan
     return ncc
 
 
@@ -224,7 +227,7 @@ def _match(a, va, b, coef, vb, rows, cols, base_a, base_c, sa, sc, size, min_fil
     """Best shift around (base_a, base_c) within ±sa, ±sc; sub-pixel by parabolas."""
     shifts = [(dy, dx) for dy in range(-sa, sa + 1) for dx in range(-sc, sc + 1)]
     stack = np.empty((len(shifts),) + a.shape, dtype=np.float32)
-    stats = _Stats(a, va, size)
+    stats = _Stats(a, va, size, min_fill)
     all_valid = bool(vb.all())
     if np.ndim(base_a) == 0 and np.ndim(base_c) == 0:
         # One shift for the whole image: warp once by it on the lines and columns the search
@@ -245,7 +248,7 @@ def _match(a, va, b, coef, vb, rows, cols, base_a, base_c, sa, sc, size, min_fil
 
     for k, (dy, dx) in enumerate(shifts):
         bs, vbs = moved(dy, dx)
-        stack[k] = _ncc(stats, bs, vbs, min_fill)
+        stack[k] = _ncc(stats, bs, vbs)
     grid = stack.reshape(2 * sa + 1, 2 * sc + 1, *a.shape)
     any_peak = np.isfinite(stack).any(axis=0)
     best = np.argmax(np.where(np.isfinite(stack), stack, -np.inf), axis=0)
