@@ -14,8 +14,6 @@ one call on the whole array.
 
 from __future__ import annotations
 
-import contextlib
-import os
 from collections import deque
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
@@ -25,6 +23,9 @@ from typing import Any
 import numpy as np
 from rasterio.windows import Window
 
+# default_workers: the worker count the operations use, kept here beside map_windows.
+from .._threads import default_workers as default_workers
+from .._threads import single_threaded_blas
 from ..progress import Progress, as_progress
 
 #: Rows per block when streaming a flight line.
@@ -165,23 +166,6 @@ def reduce_windows(
     for _, part in map_windows(read, func, **options):
         total = merge(total, part)
     return total
-
-
-def default_workers() -> int:
-    """Worker threads for per-pixel spectral work: the CPU count, at most 4."""
-    return max(1, min(os.cpu_count() or 1, 4))
-
-
-@contextlib.contextmanager
-def single_threaded_blas():
-    """One BLAS thread while worker threads run (threadpoolctl ships with scikit-learn)."""
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # pragma: no cover - then BLAS keeps its own threads
-        yield
-        return
-    with threadpool_limits(1, user_api="blas"):
-        yield
 
 
 def read_masked(

@@ -202,7 +202,7 @@ def fit_shadow_cluster(
 
     from sklearn.mixture import GaussianMixture
 
-    from ..io.windows import default_workers, single_threaded_blas
+    from .._threads import default_workers, single_threaded_blas
 
     ratio = np.asarray(ratio, dtype=np.float64).ravel()
     nir = np.asarray(nir, dtype=np.float64).ravel()
