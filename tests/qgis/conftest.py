@@ -1,4 +1,4 @@
-"""Real QGIS, in process: one QgsApplication per session, Processing initialised, and the
+"""Real QGIS, in process: one QgsApplication per test run, Processing initialised, and the
 plugin's provider registered through the plugin class itself (``classFactory`` ->
 ``initProcessing``), exactly as QGIS does it. No mocks. The provider runs every operation in
 the engine (GEOBORESIGHT_ENGINE = the project's .venv/bin/geoboresight, numpy 2); this pytest

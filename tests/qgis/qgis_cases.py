@@ -10,7 +10,7 @@ import os
 import re
 
 #: Extra or overriding values per algorithm: {algorithm: {parameter: value or callable(inputs)}},
-#: where ``inputs`` is the :class:`Inputs` of the session (scene files, derived rasters).
+#: where ``inputs`` is the :class:`Inputs` of the test run (scene files, derived rasters).
 CASES: dict[str, dict] = {
     "shadow-fraction-fit": {"truth": lambda i: i.raster("truth_shadow_fraction")},
     # The scene's DSM (matched by name) needs its sun, as for shadow-map below.
@@ -79,7 +79,7 @@ _ALIASES = {
 
 
 class Inputs:
-    """The session's input files: the scene plus a boresight ratio raster made by the library."""
+    """The test run's input files: the scene plus a boresight ratio raster made by the library."""
 
     def __init__(self, scene: dict, ratio: str, work_dir: str):
         self.scene = scene

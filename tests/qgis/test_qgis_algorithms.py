@@ -2,7 +2,7 @@
 real QGIS (the provider starts the engine, the project's .venv/bin/geoboresight).
 
 Every operation against the library's own outputs, results, declared outputs and styles: see
-test_qgis_desktop.py (one QGIS desktop session in a fresh profile runs them all).
+test_qgis_desktop.py (one QGIS desktop run in a fresh profile runs them all).
 """
 
 from __future__ import annotations

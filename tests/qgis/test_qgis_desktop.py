@@ -36,7 +36,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 
 @pytest.fixture(scope="module")
 def desktop(tmp_path_factory, inputs):
-    """Run the whole session once; the report and the folders of both runs."""
+    """Run the whole desktop script once; the report and the folders of both runs."""
     for tool in ("qgis", "xvfb-run"):
         if not shutil.which(tool):
             pytest.skip(f"{tool} not found (apt packages qgis, xvfb)")
