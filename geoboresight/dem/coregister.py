@@ -9,8 +9,9 @@ The interpolation is a separable convolution with a kernel of a few taps: linear
 axis) or Keys' cubic convolution (4 taps, ``a = −1/2``, the cubic GDAL and most resamplers
 use). A constant offset gives the same taps to every pixel and every band, so a whole strip of
 bands is shifted by two matrix products (BLAS, float32: across-track by a band matrix in
-tiles of columns, then along-track), and the valid mask is shifted once for all bands. The kernel is finite, so a strip's halo is the shift plus two
-lines, and a valid output never depends on an invalid input pixel.
+tiles of columns, then along-track), and the valid mask is shifted once for all bands. The
+kernel is finite, so a strip's halo is the shift plus two lines, and a valid output never
+depends on an invalid input pixel.
 """
 
 from __future__ import annotations
@@ -89,7 +90,7 @@ def tap_lines(along: float | np.ndarray, order: int = DEFAULT_ORDER) -> tuple[in
     ``r + first … r + stop − 1`` (of the smallest and the largest along-track shift; taps of
     zero weight left out, so a whole-pixel shift reads one line)."""
     along = np.asarray(along, dtype=np.float64)
-    low, low_w = _live(*shift_taps(along.min(), order))
+    low, _ = _live(*shift_taps(along.min(), order))
     high, high_w = _live(*shift_taps(along.max(), order))
     return low, high + len(high_w)
 
@@ -138,26 +139,23 @@ def _span(first: int, taps: int, n: int) -> tuple[int, int]:
 
 @functools.lru_cache(maxsize=32)
 def _constant_taps(along: float, across: float, order: int):
-    """``(first line, line weights, first column, column weights)`` of a constant shift, and
-    the band matrices of its chunks (:func:`_band_matrix`): worked out once per offset,
-    since a flight line is shifted strip after strip."""
+    """``(first line, line weights, first column, column weights)`` of a constant shift, the
+    weights as tuples (:func:`_band_matrix`'s cache key): worked out once per offset, since a
+    flight line is shifted strip after strip."""
     r_first, r_w = _live(*shift_taps(along, order))
     c_first, c_w = _live(*shift_taps(across, order))
-    return (
-        r_first,
-        r_w,
-        c_first,
-        c_w,
-        functools.lru_cache(maxsize=8)(lambda w, n: _band_matrix(r_w if w == "r" else c_w, n)),
-    )
+    return r_first, tuple(r_w), c_first, tuple(c_w)
 
 
-def _band_matrix(weights: np.ndarray, n: int) -> np.ndarray:
-    """The ``(n + taps − 1, n)`` matrix ``M`` with ``(x @ M)[j] = Σ_t w_t x[j + t]``."""
+@functools.lru_cache(maxsize=32)
+def _band_matrix(weights: tuple, n: int) -> np.ndarray:
+    """The ``(n + taps − 1, n)`` matrix ``M`` with ``(x @ M)[j] = Σ_t w_t x[j + t]`` (cached:
+    every strip of a line uses the same few; read-only)."""
     taps = len(weights)
     m = np.zeros((n + taps - 1, n), np.float32)
     for t, w in enumerate(weights):
         m[np.arange(n) + t, np.arange(n)] = w
+    m.flags.writeable = False
     return m
 
 
@@ -169,7 +167,7 @@ def _constant(stack, ok, along, across, order, out, lines):
     bands. Only output lines ``lines`` are computed."""
     k, rows, cols = stack.shape
     l0, l1 = lines
-    r_first, r_w, c_first, c_w, matrix = _constant_taps(float(along), float(across), order)
+    r_first, r_w, c_first, c_w = _constant_taps(float(along), float(across), order)
     i0, i1 = _span(r_first, len(r_w), rows)
     i0, i1 = max(i0, l0), max(min(i1, l1), max(i0, l0))
     j0, j1 = _span(c_first, len(c_w), cols)
@@ -189,10 +187,10 @@ def _constant(stack, ok, along, across, order, out, lines):
     g, lines_in = min(k, BAND_GROUP), min(CHUNK_LINES, n) + nr - 1
     # Flat buffers, viewed at each chunk's shape: the products need contiguous rows.
     x_buf, u_buf = np.empty(g * lines_in * cols, np.float32), np.empty(g * lines_in * m, np.float32)
-    across_m = matrix("c", min(TILE, m))
+    across_m = _band_matrix(c_w, min(TILE, m))
     for a in range(0, n, CHUNK_LINES):
         h = min(CHUNK_LINES, n - a)
-        along_m = matrix("r", h).T  # (h, h + nr − 1): output line i reads i … i + nr − 1
+        along_m = _band_matrix(r_w, h).T  # (h, h + nr − 1): output line i reads i … i + nr − 1
         for b0 in range(0, k, g):
             kb = min(g, k - b0)
             hin = h + nr - 1

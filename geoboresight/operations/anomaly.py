@@ -176,24 +176,23 @@ class _Coregistered:
         # The VNIR bands are read straight into the output in float32 (their own lines
         # only), the SWIR bands in float32 from the first line the taps reach to the last:
         # the shift's input as it is, without another copy.
-        vnir_bands, swir_bands = self.bands[self.vnir], self.bands[self.swir]
-        local = threading.local()  # per worker thread: the output and the SWIR buffers
+        vnir_bands = self.bands[self.vnir]
+        read_swir = cube.reader(self.bands[self.swir], np.float32)  # a buffer per thread
+        local = threading.local()  # per worker thread: the output buffer
 
         def read(row0, row1):
             r0 = min(max(0, row0 + first), cube.height - 1)
             r1 = max(min(cube.height, row1 + stop - 1), r0 + 1)
             if getattr(local, "rows", 0) < row1 - row0:
                 local.out = np.empty((k, row1 - row0, cube.width), np.float32)
-                local.rows, local.swir = row1 - row0, None
+                local.rows = row1 - row0
             out = local.out[:, : row1 - row0]
             if isinstance(self.vnir, slice):
                 _, ok = cube.read(row0, row1, vnir_bands, np.float32, out=out[self.vnir])
             else:
                 v, ok = cube.read(row0, row1, vnir_bands, np.float32)
                 out[self.vnir] = v
-            s, s_ok = cube.read(r0, r1, swir_bands, np.float32, out=local.swir)
-            if local.swir is None or local.swir.shape[1] < s.shape[1]:
-                local.swir = s
+            s, s_ok = read_swir(r0, r1)
             # Output line i of the strip samples image line row0 + i + along, which is
             # line i + (along − (r0 − row0)) of what was read: the same taps.
             _, valid = coregister_stack(
