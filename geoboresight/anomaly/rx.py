@@ -17,7 +17,6 @@ import threading
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg
 
 from ..errors import InputError, ParameterError
 from .bands import band_label
@@ -112,7 +111,9 @@ class CovarianceAccumulator:
                     self.shift = self.strip_shift(cube, valid)
         acc, X = self._workspace(n)
         # Converted, then shifted in place: a subtraction across types is twice as slow.
-        np.copyto(X[:k], cube.reshape(k, n), casting="unsafe")
+        # Copied as the strip lies (any layout: a reshape of a strip laid out line by line
+        # would be a copy of its own).
+        np.copyto(X[:k].reshape(cube.shape), cube, casting="unsafe")
         X[:k] -= self.shift[:, None]
         X[k] = 1.0
         if valid is not None and not valid.all():
@@ -209,10 +210,14 @@ class RXDetector:
                 f"pixels ({', '.join(names(i) for i in const[:12])}{' …' if const.size > 12 else ''}). "
                 "Exclude them (exclude_nm) or pass regularize > 0"
             )
+        # NumPy's LAPACK, not SciPy's: the same factorisation, and RX (and every command that
+        # imports it) starts without loading SciPy (0.2 s a process).
         try:
-            L = linalg.cholesky(cov, lower=True, check_finite=True)
+            if not np.isfinite(cov).all():
+                raise np.linalg.LinAlgError("non-finite covariance")
+            L = np.linalg.cholesky(cov)
             unexplained = np.diag(L) ** 2 / var
-        except (linalg.LinAlgError, ValueError):
+        except np.linalg.LinAlgError:
             unexplained = np.zeros(k)
         bad = np.flatnonzero(unexplained < SINGULAR_TOLERANCE)
         if bad.size:
@@ -226,7 +231,8 @@ class RXDetector:
             )
         self.L = L
         # W = L⁻¹ once: scoring is then ‖W (x − μ)‖², a triangular matrix product per strip.
-        self.W = linalg.solve_triangular(L, np.eye(k), lower=True)
+        # (solved by LU: as accurate as a triangular solve here, its upper triangle dropped)
+        self.W = np.tril(np.linalg.solve(L, np.eye(k)))
         self._W = {dt: _triangular_blocks(self.W, dt) for dt in (np.float64, np.float32)}
         self._mu = {np.float64: stats.mean, np.float32: stats.mean.astype(np.float32)}
         self._local = threading.local()
@@ -275,7 +281,7 @@ class RXDetector:
             setattr(self._local, dt.__name__, buf)
         D = buf[: k * n].reshape(k, n)
         Z = buf[k * n : 2 * k * n].reshape(k, n)
-        np.copyto(D, cube.reshape(k, n), casting="unsafe")
+        np.copyto(D.reshape(cube.shape), cube, casting="unsafe")
         D -= self._mu[dt][:, None]
         if v is not None:
             D[:, ~v] = 0.0
@@ -307,6 +313,8 @@ def _dependent_bands(cov: np.ndarray) -> np.ndarray:
     """Bands left over by a rank-revealing (pivoted) QR of the correlation matrix."""
     d = np.sqrt(np.maximum(np.diag(cov), np.finfo(float).tiny))
     corr = cov / np.outer(d, d)
+    from scipy import linalg  # NumPy's QR does not pivot; only this error path needs it
+
     _, R, piv = linalg.qr(corr, pivoting=True)
     diag = np.abs(np.diag(R))
     rank = int(np.sum(diag > np.sqrt(SINGULAR_TOLERANCE) * diag[0]))

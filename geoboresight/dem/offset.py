@@ -16,7 +16,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
 from ..errors import InputError, ParameterError
 
@@ -147,6 +146,8 @@ def cross_power(
     """The cross-power spectrum of one block, masked pixels handled as in
     :func:`estimate_offset` (which is :func:`offset_of` of it); sum blocks of one size to
     measure a flight line's offset block by block."""
+    from scipy import ndimage
+
     a, b, ok = _checked(vnir, swir, valid, upsample)
     weight = ndimage.gaussian_filter(ok.astype(np.float64), 2.0) * ok
     power = _spectra(a, b, weight, weight)

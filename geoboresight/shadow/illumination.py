@@ -26,7 +26,6 @@ import math
 from typing import Any
 
 import numpy as np
-from scipy import ndimage
 
 from ..errors import ParameterError
 
@@ -214,6 +213,8 @@ def plane_incidence(
     from the least-squares plane of the ``(2·half + 1)²`` cells around it (a smoother slope
     than :func:`hillshade`'s 3 × 3, whose noise on a noisy DSM is as large as the relief).
     Invalid cells are filled with the mean valid height."""
+    from scipy import ndimage
+
     z, a = check_sun(sun_zenith, sun_azimuth)
     m = grid_matrix(transform, cell_size)
     d, ok = _filled(np.asarray(dsm, np.float64), valid)

@@ -44,7 +44,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
 from ..errors import InputError, ParameterError
 from .classes import MASK_NODATA, MASK_NOT_SHADOW, MASK_SHADOW, NO_SHADOW, NODATA_CLASS, ClassTable
@@ -476,6 +475,8 @@ def _where_valid(x: np.ndarray, valid=None) -> np.ndarray:
 
 
 def _local_mean(x: np.ndarray, weight: np.ndarray, size: int) -> np.ndarray:
+    from scipy import ndimage
+
     num = ndimage.uniform_filter(np.where(weight, x, 0.0), size, mode="nearest")
     den = ndimage.uniform_filter(weight.astype(np.float64), size, mode="nearest")
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -543,6 +544,8 @@ def _unmix(d, ok, core_px, edge_pixels, window, allowed=None, whole=None) -> np.
     others get their unmixed fraction), pixels within ``edge_pixels`` of the core unmixed
     between the local sunlit and core-shadow signals (``exp(d)``), 0 elsewhere and outside
     ``allowed``; NaN where not ``ok``."""
+    from scipy import ndimage
+
     f = np.zeros(d.shape, np.float64)
     if core_px.any():
         s = np.exp(np.where(ok, d, 0.0))
@@ -684,6 +687,8 @@ def dsm_shadow_fraction(
     Brook, A.; Ben-Dor, E. Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484
     (§3.1: the shadow simulated from a surface model and the sun).
     """
+    from scipy import ndimage
+
     d, ok, p, z = _checked_inputs(dark, valid, prior, heights, edge_pixels, window, tolerance)
     shaded = p >= PREDICTED_SHADOW
     # Where the model shades at least half a pixel, give or take the tolerance (sub-cells
@@ -791,6 +796,8 @@ def _cap_beside_zone(f, d, ok, zone, shaded, shadow_px, window) -> None:
     pixel beside it, taken as its sunlit end: a dark material running on past the zone is as
     dark there, in the sun, so it is not taken for shade; a shaded pixel beside brighter lit
     ground keeps its fraction."""
+    from scipy import ndimage
+
     beside = ok & ~zone
     if not beside.any():
         return

@@ -25,7 +25,6 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
-from scipy import ndimage
 
 from . import illumination as ill
 from . import map as smap
@@ -223,6 +222,8 @@ def registered_heights(
         Moved bilinearly (:func:`scipy.ndimage.shift`); NaN where the nearest source cell
         has no height, or is invalid.
     """
+    from scipy import ndimage
+
     z = np.asarray(heights, np.float64) if valid is None else np.where(valid, heights, np.nan)
     if tuple(surface_prior.shift) == (0.0, 0.0):
         return z
@@ -372,6 +373,8 @@ def prior_map_block(
         :data:`~geoboresight.shadow.map.LIT_DARKNESS`; ``unseen`` and ``holes`` (all
         where the fraction is defined).
     """
+    from scipy import ndimage
+
     ok = np.ones(np.shape(heights), bool) if valid is None else np.asarray(valid, bool)
     kw = dict(calibration=calibration, dark_levels=dark_levels, edge_pixels=edge_pixels)
     prior = prior_fraction(heights, heights_valid, surface_prior=surface_prior)
