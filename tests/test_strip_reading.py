@@ -172,3 +172,24 @@ def test_svdd_scores_a_strip_in_any_layout():
     np.testing.assert_array_equal(
         model.score_cube(strip, valid), model.score_cube(np.ascontiguousarray(strip), valid)
     )
+
+
+@pytest.mark.parametrize("along", [2.37, -1.6, 3.0])
+def test_coregistered_pixels_equal_the_strips(tmp_path, along):
+    """A sample drawn through the detectors' reader (the pixels' lines and their SWIR taps'
+    lines only) holds what the co-registered strips hold there: validity exactly (edges and
+    nodata included), values to float32 rounding."""
+    v, _ = _cube_file(tmp_path, "v", 4, "bil", seed=2)
+    s, _ = _cube_file(tmp_path, "s", 5, "bil", nodata=0, seed=3)
+    pos = np.sort(np.random.default_rng(4).choice(41 * 23, 300, replace=False))
+    pos = np.union1d(pos, [0, 22, 40 * 23, 41 * 23 - 1, 6 * 23 + 4, 8 * 23 + 5])
+    with open_cube([v, s]) as c:
+        read = _Coregistered(c, np.arange(9), np.arange(9) >= 4, along, -0.45).reader()
+        assert hasattr(read, "pixels")
+        values, ok = io.read_pixels(read, pos, height=c.height, width=c.width)
+        whole, whole_ok = read(0, c.height)
+    r, col = np.divmod(pos, 23)
+    np.testing.assert_array_equal(ok, whole_ok[r, col])
+    assert 0 < ok.sum() < len(pos)
+    np.testing.assert_array_equal(values[:4], whole[:4, r, col])
+    np.testing.assert_allclose(values[4:, ok], whole[4:, r, col][:, ok], rtol=2e-6)

@@ -101,6 +101,44 @@ def tap_lines(along: float | np.ndarray, order: int = DEFAULT_ORDER) -> tuple[in
     return low, high + len(high_w)
 
 
+def pixel_taps(
+    positions, along: float, across: float, height: int, width: int, order=DEFAULT_ORDER
+):
+    """The input pixels a constant shift reads for the output pixels at flat ``positions``
+    (line × width + column), as :func:`coregister_stack` reads them: for a sample of pixels
+    of a long flight line, without shifting the lines that hold them.
+
+    Returns
+    -------
+    taps : int64 array (n, line taps, column taps)
+        Flat positions of the input pixels, clipped into the image.
+    weights : (line weights, column weights), float32
+        :func:`shift_sampled` combines the taps' values with them.
+    inside : bool array (n,)
+        Output pixels whose every tap lies inside the image (the others are invalid).
+    """
+    r_first, r_w, c_first, c_w = _constant_taps(float(along), float(across), order)
+    rows, cols = np.divmod(np.asarray(positions, np.int64), width)
+    tr = rows[:, None] + r_first + np.arange(len(r_w))
+    tc = cols[:, None] + c_first + np.arange(len(c_w))
+    inside = (tr.min(1) >= 0) & (tr.max(1) < height) & (tc.min(1) >= 0) & (tc.max(1) < width)
+    taps = np.clip(tr, 0, height - 1)[:, :, None] * width + np.clip(tc, 0, width - 1)[:, None, :]
+    return taps, (np.asarray(r_w, np.float32), np.asarray(c_w, np.float32)), inside
+
+
+def shift_sampled(values: np.ndarray, valid: np.ndarray, weights) -> tuple[np.ndarray, np.ndarray]:
+    """``(values (k, n) float32, valid (n,))`` of sampled output pixels from their taps'
+    ``values`` (k, n, line taps, column taps) and ``valid`` (n, line taps, column taps), with
+    :func:`pixel_taps`' weights: across-track, then along-track, in float32, as the strips are
+    shifted (equal to them to float32 rounding). An output is valid when all its taps are."""
+    r_w, c_w = weights
+    ok = valid.all(axis=(1, 2))
+    # A zero weight times a NaN is still NaN: invalid taps count as 0 (their outputs are
+    # invalid anyway).
+    x = np.where(valid, np.asarray(values, np.float32), np.float32(0))
+    return (x @ c_w) @ r_w, ok
+
+
 def coregister_halo(along: float | np.ndarray, order: int = DEFAULT_ORDER) -> tuple[int, int]:
     """``(above, below)``: the lines above and below a strip that :func:`coregister_stack`
     reads to give, on the strip, the values of the whole image (the taps of the smallest and

@@ -195,8 +195,10 @@ class Cube:
                     data[j0 : j0 + n], buf[:, :, b0 : b0 + n].transpose(2, 0, 1), casting="unsafe"
                 )
 
-    def _interleaved(self) -> bool:
-        """Every file is uncompressed ENVI with a line's bands together (BIL or BIP)."""
+    @property
+    def samples_by_line(self) -> bool:
+        """Whether :meth:`pixels` reads sampled pixels line by line: every file is
+        uncompressed ENVI with a line's bands together (BIL or BIP)."""
         return all(p.raw is not None and p.raw.interleave != "bsq" for p in self._parts)
 
     def pixels(self, positions, bands=None, dtype="float64"):
@@ -208,7 +210,7 @@ class Cube:
         the line, so a random sample of a long flight line costs one small read per line
         drawn, without reordering or converting the line (a strip read does both).
         """
-        if not self._interleaved():
+        if not self.samples_by_line:
             return None
         dtype = self.dtype if dtype is None else dtype
         bands = np.arange(self.count) if bands is None else np.asarray(bands, dtype=int)
@@ -257,7 +259,7 @@ class Cube:
                 local.buf = data
             return data, valid
 
-        if self._interleaved():
+        if self.samples_by_line:
             # read_pixels draws a sample through this instead of reading lines as strips.
             read.pixels = lambda positions: self.pixels(positions, bands, dtype)
         return read

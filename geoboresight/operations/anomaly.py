@@ -207,7 +207,28 @@ class _Coregistered:
             # Values at invalid pixels are left as they are: RX and SVDD skip them.
             return out, valid & ok
 
+        if cube.samples_by_line:
+            read.pixels = self.pixels
         return read
+
+    def pixels(self, positions):
+        """``(values (bands, n) float32, valid (n,))`` at sorted flat ``positions``, as the
+        strips hold them, reading only the lines of the pixels and of their SWIR taps
+        (:meth:`Cube.pixels`): SVDD's training sample of a long line without shifting whole
+        strips for one pixel each."""
+        from ..dem.coregister import pixel_taps, shift_sampled
+
+        cube = self.cube
+        out = np.empty((len(self.bands), len(positions)), np.float32)
+        out[self.vnir], ok = cube.pixels(positions, self.bands[self.vnir], np.float32)
+        taps, weights, inside = pixel_taps(
+            positions, self.along, self.across, cube.height, cube.width
+        )
+        at, where = np.unique(taps, return_inverse=True)
+        values, valid = cube.pixels(at, self.bands[self.swir], np.float32)
+        where = where.reshape(taps.shape)
+        out[self.swir], s_ok = shift_sampled(values[:, where], valid[where], weights)
+        return out, ok & s_ok & inside
 
 
 def _as_slice(index: np.ndarray):
