@@ -162,56 +162,83 @@ PATTERNS = 9
 class _Stats:
     """The box-filtered moments of the fixed image ``a`` over the pixels ``w`` where both images
     are valid. ``w`` changes with the shift only where the moving window leaves the image (edge
-    columns and lines), so the few distinct patterns are computed once each."""
+    columns and lines) or meets an invalid moving pixel, so the few distinct patterns of an
+    image without invalid pixels are computed once each.
+
+    Every array of a shift's match is a buffer of its own, reused by the next shift (a new
+    array per operation was page-faulted in each time); the arithmetic is the same, operation
+    by operation."""
 
     def __init__(self, a, va, size, min_fill):
         self.a, self.va, self.size, self.min_fill = a, va, size, min_fill
         self._cache: dict = {}
         self._scratch: dict = {}
 
-    def box(self, x, slot):
-        """Box mean of ``x`` (zero outside) into a buffer reused by every shift: a new output
-        per filter was zero-filled and page-faulted in each time (6 % of the matching)."""
+    def buf(self, slot, dtype=np.float64):
+        """A strip-sized buffer for ``slot``, reused by every shift."""
         out = self._scratch.get(slot)
         if out is None:
-            out = self._scratch[slot] = np.empty(self.a.shape)
-        return ndimage.uniform_filter(x, self.size, mode="constant", output=out)
+            out = self._scratch[slot] = np.empty(self.a.shape, dtype)
+        return out
+
+    def box(self, x, slot):
+        """Box mean of ``x`` (zero outside) into the buffer ``slot``."""
+        return ndimage.uniform_filter(x, self.size, mode="constant", output=self.buf(slot))
 
     def moments(self, w):
         """(count, a·w, mean, variance, no match) of ``a`` over the pixels ``w``, box-filtered;
         "no match" where the window holds too few pixels (``min_fill``, a share of the window)
-        or no texture of ``a``, which no shift changes."""
+        or no texture of ``a``, which no shift changes. Kept for :data:`PATTERNS` patterns;
+        the moments of any other pattern are valid until the next call."""
         key = hash(np.packbits(w).tobytes())
         hit = self._cache.get(key)
         if hit is not None and np.array_equal(hit[0], w):
             return hit[1]
+        keep = len(self._cache) < PATTERNS
+        n, aa, ma, var_a = (np.empty(self.a.shape) if keep else self.buf(f"m{i}") for i in range(4))
+        none = np.empty(self.a.shape, bool) if keep else self.buf("none", bool)
+        t, low = self.buf("t"), self.buf("low", bool)
         f = ndimage.uniform_filter
-        aa = np.where(w, self.a, 0.0)
-        n = f(w.astype(np.float64), self.size, mode="constant")
+        aa.fill(0.0)
+        np.copyto(aa, self.a, where=w)
+        np.copyto(t, w)
+        f(t, self.size, mode="constant", output=n)
         with np.errstate(invalid="ignore", divide="ignore"):
-            ma = f(aa, self.size, mode="constant") / n
-            var_a = f(aa * aa, self.size, mode="constant") / n - ma * ma
-        none = (n < self.min_fill) | (var_a <= 1e-12 * (ma * ma + 1.0))
+            np.divide(f(aa, self.size, mode="constant", output=ma), n, out=ma)
+            np.multiply(aa, aa, out=t)
+            np.divide(f(t, self.size, mode="constant", output=var_a), n, out=var_a)
+            np.subtract(var_a, np.multiply(ma, ma, out=t), out=var_a)
+            np.multiply(1e-12, np.add(t, 1.0, out=t), out=t)
+        np.less_equal(var_a, t, out=none)
+        np.logical_or(np.less(n, self.min_fill, out=low), none, out=none)
         moments = (n, aa, ma, var_a, none)
-        if len(self._cache) < PATTERNS:
-            self._cache[key] = (w, moments)
+        if keep:
+            self._cache[key] = (w.copy(), moments)
         return moments
 
 
 def _ncc(stats, bs, vbs):
-    """Windowed NCC of ``a`` and ``bs`` over their common valid pixels (box filters)."""
-    w = stats.va & vbs
+    """Windowed NCC of ``a`` and ``bs`` over their common valid pixels (box filters), in
+    :class:`_Stats`' buffers: valid until the next shift."""
+    w = np.logical_and(stats.va, vbs, out=stats.buf("w", bool))
     n, aa, ma, var_a, none = stats.moments(w)
-    bb = np.where(w, bs, 0.0)
+    bb, t, u = stats.buf("bb"), stats.buf("t"), stats.buf("u")
+    bb.fill(0.0)
+    np.copyto(bb, bs, where=w)
     f = stats.box  # the three sums are used before the next shift reuses the buffers
     with np.errstate(invalid="ignore", divide="ignore"):
-        mb = f(bb, 0) / n
-        mb2 = mb * mb
-        cov = f(aa * bb, 1) / n - ma * mb
-        var_b = f(bb * bb, 2) / n - mb2
-        ncc = cov / np.sqrt(var_a * var_b)
+        mb = np.divide(f(bb, 0), n, out=stats.buf(0))
+        mb2 = np.multiply(mb, mb, out=t)
+        cov = np.divide(f(np.multiply(aa, bb, out=u), 1), n, out=stats.buf(1))
+        np.subtract(cov, np.multiply(ma, mb, out=u), out=cov)
+        var_b = np.divide(f(np.multiply(bb, bb, out=bb), 2), n, out=stats.buf(2))
+        np.subtract(var_b, mb2, out=var_b)
+        ncc = np.divide(cov, np.sqrt(np.multiply(var_a, var_b, out=u), out=u), out=u)
+        flat = np.less_equal(var_b, np.multiply(1e-12, np.add(mb2, 1.0, out=t), out=t))
     # Too few valid pixels, or no texture (variance at round-off level): no match.
-    ncc[none | (var_b <= 1e-12 * (mb2 + 1.0)) | ~np.isfinite(ncc)] = np.nan
+    bad = np.logical_or(none, flat, out=stats.buf("bad", bool))
+    bad |= ~np.isfinite(ncc)
+    ncc[bad] = np.nan
     return ncc
 
 
