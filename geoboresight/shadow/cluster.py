@@ -115,7 +115,10 @@ def _log_gauss(x, mean, cov):
     d = x - mean
     inv = np.linalg.inv(cov)
     _, logdet = np.linalg.slogdet(cov)
-    return -0.5 * (np.einsum("ni,ij,nj->n", d, inv, d) + logdet + 2 * np.log(2 * np.pi))
+    # (d Σ⁻¹) · d row by row: one small matrix product, not a three-operand einsum (which
+    # loops over the pixels and took half of the labelling of a long line).
+    quad = np.einsum("ni,ni->n", d @ inv, d)
+    return -0.5 * (quad + logdet + 2 * np.log(2 * np.pi))
 
 
 def _moment_match(weights, means, covs, idx):
