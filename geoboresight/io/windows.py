@@ -14,6 +14,7 @@ one call on the whole array.
 
 from __future__ import annotations
 
+import threading
 from collections import deque
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
@@ -204,14 +205,17 @@ def band_reader(src, band: int) -> Callable[[int, int], tuple[np.ndarray, np.nda
 
 def bands_reader(sources) -> Callable[[int, int], tuple[np.ndarray, np.ndarray]]:
     """``read(row0, row1) -> (values (n, rows, cols), valid)`` of several (dataset, band)
-    pairs on one grid: valid where every band is valid."""
+    pairs on one grid: valid where every band is valid. Thread-safe: an open dataset is one
+    GDAL handle, so worker threads read one at a time (and compute at once)."""
+    lock = threading.Lock()
 
     def read(row0: int, row1: int):
         vals, valid = [], None
-        for src, band in sources:
-            v, ok = read_masked(src, band, Window(0, row0, src.width, row1 - row0))
-            vals.append(v)
-            valid = ok if valid is None else valid & ok
+        with lock:
+            for src, band in sources:
+                v, ok = read_masked(src, band, Window(0, row0, src.width, row1 - row0))
+                vals.append(v)
+                valid = ok if valid is None else valid & ok
         return np.stack(vals), valid
 
     return read

@@ -201,6 +201,7 @@ def _label_cluster(
             height=grid.height,
             width=grid.width,
             block_rows=block_rows,
+            workers=io.windows.default_workers(),
             progress=progress,
             message="labelling",
         ):
