@@ -153,9 +153,9 @@ def _warps(coef, vb, rows, cols, base_a, base_c, shifts, all_valid=False):
     return out
 
 
-#: Validity patterns whose moments a strip keeps: one per across-track shift of the search
-#: (the moving window leaves the image at the strip's side columns), times the lines at the
-#: line's first and last strip; each costs four strip-sized arrays.
+#: Validity patterns whose moments a strip keeps. Every shift of a search has the same one
+#: unless the moving image has invalid pixels (then each shift moves them); each costs four
+#: strip-sized arrays.
 PATTERNS = 9
 
 
@@ -250,6 +250,21 @@ def _parabola(cm, c0, cp):
     return np.clip(delta, -0.5, 0.5), -denom / 2.0
 
 
+def _inside_every_shift(rows, cols, base_a, base_c, sa, sc, shape):
+    """Where the moving image sampled at ``(rows + base_a + dy, cols + base_c + dx)`` lies
+    inside it for every integer shift ``|dy| <= sa``, ``|dx| <= sc`` (within :func:`_warp`'s
+    0.001 px)."""
+    height, width = shape
+    r = np.asarray(rows)[:, None] + base_a
+    c = np.asarray(cols)[None, :] + base_c
+    return (
+        (r - sa > -1e-3)
+        & (r + sa < height - 1 + 1e-3)
+        & (c - sc > -1e-3)
+        & (c + sc < width - 1 + 1e-3)
+    )
+
+
 def _match(a, va, b, coef, vb, rows, cols, base_a, base_c, sa, sc, size, min_fill):
     """Best shift around (base_a, base_c) within ±sa, ±sc; sub-pixel by parabolas."""
     shifts = [(dy, dx) for dy in range(-sa, sa + 1) for dx in range(-sc, sc + 1)]
@@ -273,9 +288,15 @@ def _match(a, va, b, coef, vb, rows, cols, base_a, base_c, sa, sc, size, min_fil
         def moved(dy, dx):
             return warped.pop((dy, dx))
 
+    # Only pixels whose every shift samples the moving image inside it take part: the shifts
+    # are then compared over the same pixels (at the image's and the strip's ends a shift
+    # would otherwise lose lines or columns of its windows that its neighbour keeps), and
+    # with a moving image without invalid pixels every shift has one validity, whose moments
+    # are computed once.
+    inside = _inside_every_shift(rows, cols, base_a, base_c, sa, sc, b.shape)
     for k, (dy, dx) in enumerate(shifts):
         bs, vbs = moved(dy, dx)
-        stack[k] = _ncc(stats, bs, vbs)
+        stack[k] = _ncc(stats, bs, np.logical_and(vbs, inside, out=stats.buf("vb", bool)))
     grid = stack.reshape(2 * sa + 1, 2 * sc + 1, *a.shape)
     any_peak = np.isfinite(stack).any(axis=0)
     best = np.argmax(np.where(np.isfinite(stack), stack, -np.inf), axis=0)
@@ -402,9 +423,7 @@ def disparity_map(
     coef = ndimage.spline_filter(b_full, order=3, mode="nearest")
     height, width = a_full.shape
     min_fill = 0.5
-    # A block needs its neighbours: half a window for the filters, twice over when the
-    # disparity is smoothed between passes.
-    halo = (size[0] // 2 + 1) * (refine + 1) + 1
+    halo = _block_halo(size, refine, sa)
     out = {k: np.full((height, width), np.nan, np.float32) for k in ("al", "ac", "pk", "sh")}
     cols = np.arange(width, dtype=np.float64)
     block_rows = max(int(block_rows), 8)
@@ -467,13 +486,22 @@ def disparity_halo(
     center_along: float = 0.0,
 ) -> int:
     """Lines a strip must be read with, above and below, for :func:`disparity_map` on the strip
-    to give its own lines as on the whole image: the matching windows (twice over when the
-    disparity is smoothed between passes), the lines the search reaches in the SWIR image, the
+    to give its own lines as on the whole image: a block's own (the matching windows, and the
+    disparity smoothed between passes), the lines the search reaches in the SWIR image, the
     cubic spline's support and the decay of its prefilter (0.268ⁿ: 12 lines, < 10⁻⁶)."""
     size = _window(window)
-    fixed = (size[0] // 2 + 1) * (int(refine) + 1) + 1
+    fixed = _block_halo(size, int(refine), int(search_along))
     reach = math.ceil(abs(float(center_along))) + int(search_along) + int(refine) + 1
     return fixed + reach + 2 + 12
+
+
+def _block_halo(size, refine: int, search_along: int) -> int:
+    """Lines a block of :func:`disparity_map` is matched with, above and below, for its own
+    lines to be matched as in the whole image: the first match's window, then per refinement
+    pass the window the disparity is smoothed over and the pass's own window (half a window
+    each, a line more for the box filters' edge), and the search's reach into the lines that
+    every shift excludes at the moving image's ends."""
+    return (size[0] // 2 + 1) * (2 * refine + 1) + search_along + 1
 
 
 def second_differences(
