@@ -165,12 +165,17 @@ def test_svdd_scores_a_strip_in_any_layout():
     valid = rng.random((9, 13)) > 0.2
     # Chunks of whole lines rather than of pixels: BLAS may round a product of another
     # width in the last bit.
-    for chunk in (None, 13, 20, 1000):
+    for chunk in (None, 5, 13, 20, 1000):
         np.testing.assert_allclose(
             model.decision(strip, chunk), model.decision(flat, chunk), rtol=1e-12, atol=1e-15
         )
     np.testing.assert_array_equal(
         model.score_cube(strip, valid), model.score_cube(np.ascontiguousarray(strip), valid)
+    )
+    # One line longer than a chunk (a sample scored as one line of pixels).
+    line = rng.normal(0, 1.5, (6, 1, 40_000))
+    np.testing.assert_allclose(
+        model.score_cube(line)[0], model.score(line[:, 0]), rtol=1e-12, atol=1e-15
     )
 
 

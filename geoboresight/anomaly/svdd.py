@@ -123,17 +123,23 @@ class SVDDModel:
 
 
 def _chunks(X: np.ndarray, chunk: int):
-    """``(first pixel, pixels)`` of each chunk of about ``chunk`` pixels of ``X`` (k, n), or
-    of ``X`` (k, lines, columns) in whole lines, as views: a strip laid out line by line (as
-    the co-registered detectors read it) is converted chunk by chunk without a flat copy."""
-    if X.ndim == 2:
-        for a in range(0, X.shape[1], chunk):
-            yield a, X[:, a : a + chunk]
-        return
-    rows, cols = X.shape[1], X.shape[2]
-    step = max(1, chunk // max(cols, 1))
-    for r in range(0, rows, step):
-        yield r * cols, X[:, r : r + step]
+    """``(first pixel, pixels)`` of each chunk of at most ``chunk`` pixels of ``X`` (k, n) or
+    (k, lines, columns), as views: a strip laid out line by line (as the co-registered
+    detectors read it) goes by whole lines, or by parts of a line longer than ``chunk``,
+    without a flat copy."""
+    if X.ndim == 3:
+        k, rows, cols = X.shape
+        isz = X.itemsize
+        if X.strides[2] == isz and (rows < 2 or X.strides[1] == cols * isz):
+            X = X.reshape(k, -1)  # each band's lines follow each other: a view
+        else:
+            step = max(1, chunk // max(cols, 1))
+            for r in range(0, rows, step):
+                for c in range(0, cols, chunk):
+                    yield r * cols + c, X[:, r : r + step, c : c + chunk]
+            return
+    for a in range(0, X.shape[1], chunk):
+        yield a, X[:, a : a + chunk]
 
 
 def median_sigma(sample: np.ndarray, max_pairs: int = 2000, seed: int = 0) -> float:
