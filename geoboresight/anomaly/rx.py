@@ -111,7 +111,7 @@ class CovarianceAccumulator:
                     self.shift = self.strip_shift(cube, valid)
         acc, X = self._workspace(n)
         # Converted, then shifted in place: a subtraction across types is twice as slow.
-        # Copied as the strip lies (any layout: a reshape of a strip laid out line by line
+        # Copied as the strip lies (a reshape of a strip that is a view of a larger array
         # would be a copy of its own).
         np.copyto(X[:k].reshape(cube.shape), cube, casting="unsafe")
         X[:k] -= self.shift[:, None]

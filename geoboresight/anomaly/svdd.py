@@ -70,8 +70,7 @@ class SVDDModel:
         return threading.local()
 
     def decision(self, X: np.ndarray, chunk: int | None = None) -> np.ndarray:
-        """``OneClassSVM.decision_function`` of pixels ``X`` (k, n), or (k, lines, columns)
-        in any layout: Σ αᵢ K(y, xᵢ) − ρ.
+        """``OneClassSVM.decision_function`` of pixels ``X`` (k, n): Σ αᵢ K(y, xᵢ) − ρ.
 
         Positive inside the description (background), negative outside. ``X`` may be of any
         numeric type (integer DN are converted chunk by chunk into a reused buffer). Computed
@@ -79,7 +78,7 @@ class SVDDModel:
         GEMM each; thread-safe (each thread has its own buffers).
         """
         X = np.asarray(X)
-        k, n = X.shape[0], X[0].size
+        k, n = X.shape
         A = self._kernel_rows
         m = A.shape[0]
         if chunk is None:  # ~10⁶ kernel values per chunk, chunks of about equal size
@@ -91,11 +90,10 @@ class SVDDModel:
             ws.Y = np.empty((k + 2) * c_max)
             ws.G = np.empty(m * c_max)
         out = np.empty(n)
-        for a, src in _chunks(X, chunk):
-            c = src[0].size
+        for a in range(0, n, chunk):
+            c = min(chunk, n - a)
             Y = ws.Y[: (k + 2) * c].reshape(k + 2, c)
-            center = self.center.reshape((k,) + (1,) * (src.ndim - 1))
-            np.subtract(src, center, out=Y[:k].reshape(src.shape), casting="unsafe")
+            np.subtract(X[:, a : a + c], self.center[:, None], out=Y[:k], casting="unsafe")
             Y[k] = 1.0
             np.einsum("ij,ij->j", Y[:k], Y[:k], out=Y[k + 1])
             G = ws.G[: m * c].reshape(m, c)
@@ -111,35 +109,16 @@ class SVDDModel:
         return -2.0 * self.decision(X, chunk) / float(self.alpha.sum())
 
     def score_cube(self, cube: np.ndarray, valid: np.ndarray | None = None) -> np.ndarray:
-        """Scores of a (k, rows, cols) cube of any numeric type and layout; NaN where not
-        valid."""
+        """Scores of a (k, rows, cols) cube of any numeric type; NaN where not valid."""
         k, rows, cols = cube.shape
+        flat = cube.reshape(k, -1)
         out = np.full(rows * cols, np.nan)
         if valid is None or valid.all():
-            out[:] = self.score(cube)
+            out[:] = self.score(flat)
         elif valid.any():
-            out[valid.ravel()] = self.score(cube[:, valid])
+            v = valid.ravel()
+            out[v] = self.score(flat[:, v])
         return out.reshape(rows, cols)
-
-
-def _chunks(X: np.ndarray, chunk: int):
-    """``(first pixel, pixels)`` of each chunk of at most ``chunk`` pixels of ``X`` (k, n) or
-    (k, lines, columns), as views: a strip laid out line by line (as the co-registered
-    detectors read it) goes by whole lines, or by parts of a line longer than ``chunk``,
-    without a flat copy."""
-    if X.ndim == 3:
-        k, rows, cols = X.shape
-        isz = X.itemsize
-        if X.strides[2] == isz and (rows < 2 or X.strides[1] == cols * isz):
-            X = X.reshape(k, -1)  # each band's lines follow each other: a view
-        else:
-            step = max(1, chunk // max(cols, 1))
-            for r in range(0, rows, step):
-                for c in range(0, cols, chunk):
-                    yield r * cols + c, X[:, r : r + step, c : c + chunk]
-            return
-    for a in range(0, X.shape[1], chunk):
-        yield a, X[:, a : a + chunk]
 
 
 def median_sigma(sample: np.ndarray, max_pairs: int = 2000, seed: int = 0) -> float:

@@ -17,7 +17,6 @@ depends on an invalid input pixel.
 from __future__ import annotations
 
 import functools
-import threading
 
 import numpy as np
 
@@ -35,11 +34,6 @@ DEFAULT_ORDER = 3
 #: a pass over 20,000 lines). A whole image goes 32 lines at a time, its temporaries a few MB.
 CHUNK_LINES = 32
 BAND_GROUP = 128
-#: Output lines per along-track product of a strip laid out line by line: a product of h
-#: lines reads h + taps − 1, so short products waste fewer multiply–adds on zero weights, and
-#: each still spans every band and column of its lines (measured on 80 bands × 16 lines × 286
-#: columns: 0.16 ms in products of 4 lines, 0.31 ms of 8, 0.27 ms as one of 16).
-ALONG_LINES = 4
 #: Output columns per across-track product: each is a (lines × (TILE + taps − 1)) by
 #: ((TILE + taps − 1) × TILE) matrix product, so the zeros of the band matrix cost (taps − 1)
 #: / TILE extra work while each product stays large enough for BLAS (measured on 80 bands ×
@@ -205,11 +199,10 @@ def _band_matrix(weights: tuple, n: int) -> np.ndarray:
 
 def _constant(stack, ok, along, across, order, out, lines):
     """The constant-offset case: the same taps for every pixel and band, so the shift is two
-    matrix products per chunk of :data:`CHUNK_LINES` lines, one across-track (tiles of
-    :data:`TILE` columns) and one along-track, in float32 with BLAS (a handful of
-    multiply–adds per value, without Python's lock); the mask once, for all bands. Only output
-    lines ``lines`` are computed. A stack laid out line by line (a BIL strip) is shifted as it
-    lies (:func:`_products_by_line`), any other band by band (:func:`_products_by_band`)."""
+    matrix products per chunk of :data:`CHUNK_LINES` lines and :data:`BAND_GROUP` bands, one
+    across-track (tiles of :data:`TILE` columns) and one along-track, in float32 with BLAS
+    (a handful of multiply–adds per value, without Python's lock); the mask once, for all
+    bands. Only output lines ``lines`` are computed."""
     k, rows, cols = stack.shape
     l0, l1 = lines
     r_first, r_w, c_first, c_w = _constant_taps(float(along), float(across), order)
@@ -224,17 +217,40 @@ def _constant(stack, ok, along, across, order, out, lines):
     out[:, :, j1:] = 0.0
     if i1 <= i0 or j1 <= j0:
         return out, valid
-    n, x0, nr = i1 - i0, i0 + r_first, len(r_w)
+    n, x0, m = i1 - i0, i0 + r_first, j1 - j0
+    nr, nc = len(r_w), len(c_w)
     bad = None if ok is None else ~ok[x0 : x0 + n + nr - 1]
     if bad is not None and not bad.any():
         bad = None
-    taps = (r_w, c_first, c_w, j0, j1)
-    dest = out[:, i0 - l0 : i1 - l0]
-    x_lines, dest_lines = _line_rows(stack[:, x0 : x0 + n + nr - 1]), _line_rows(dest)
-    if stack.dtype == np.float32 and x_lines is not None and dest_lines is not None:
-        _products_by_line(x_lines, bad, dest_lines, n, k, cols, taps)
-    else:
-        _products_by_band(stack[:, x0:], bad, dest, n, taps)
+    g, lines_in = min(k, BAND_GROUP), min(CHUNK_LINES, n) + nr - 1
+    # Flat buffers, viewed at each chunk's shape: the products need contiguous rows.
+    x_buf, u_buf = np.empty(g * lines_in * cols, np.float32), np.empty(g * lines_in * m, np.float32)
+    across_m = _band_matrix(c_w, min(TILE, m))
+    for a in range(0, n, CHUNK_LINES):
+        h = min(CHUNK_LINES, n - a)
+        along_m = _band_matrix(r_w, h).T  # (h, h + nr − 1): output line i reads i … i + nr − 1
+        for b0 in range(0, k, g):
+            kb = min(g, k - b0)
+            hin = h + nr - 1
+            us = u_buf[: kb * hin * m].reshape(kb, hin, m)
+            xs = stack[b0 : b0 + kb, x0 + a : x0 + a + hin]
+            if bad is not None or xs.dtype != np.float32 or not xs.flags.c_contiguous:
+                # The products read a contiguous float32 chunk: converted once into it
+                # (a float32 strip read with its halo is used as it is).
+                chunk = x_buf[: kb * hin * cols].reshape(kb, hin, cols)
+                np.copyto(chunk, xs, casting="unsafe")
+                xs = chunk
+            if bad is not None:
+                # A zero weight times a NaN is still NaN: invalid values must not reach the
+                # products (their outputs are invalid anyway; their neighbours are not).
+                xs[:, bad[a : a + hin]] = 0.0
+            flat_x, flat_u = xs.reshape(-1, cols), us.reshape(-1, m)
+            for c in range(0, m, TILE):
+                w = min(TILE, m - c)
+                src = flat_x[:, j0 + c_first + c : j0 + c_first + c + w + nc - 1]
+                np.matmul(src, across_m[: w + nc - 1, :w], out=flat_u[:, c : c + w])
+            o = out[b0 : b0 + kb, i0 - l0 + a : i0 - l0 + a + h, j0:j1]
+            np.matmul(along_m, us, out=o)
     inside = valid[i0 - l0 : i1 - l0, j0:j1]
     if ok is None:
         inside[:] = True
@@ -242,106 +258,9 @@ def _constant(stack, ok, along, across, order, out, lines):
     # An output is valid when every tap it uses is: AND over the taps, along then across.
     v_r = np.logical_and.reduce([ok[x0 + j : x0 + j + n] for j in range(nr)])
     inside[:] = np.logical_and.reduce(
-        [v_r[:, j0 + c_first + j : j1 + c_first + j] for j in range(len(c_w))]
+        [v_r[:, j0 + c_first + j : j1 + c_first + j] for j in range(nc)]
     )
     return out, valid
-
-
-_local = threading.local()
-
-
-def _scratch(name: str, size: int) -> np.ndarray:
-    """A flat float32 buffer of at least ``size`` values, kept per thread: the strips of a
-    flight line are shifted one after another, and fresh buffers would be page-faulted in
-    for each."""
-    buf = getattr(_local, name, None)
-    if buf is None or buf.size < size:
-        buf = np.empty(size, np.float32)
-        setattr(_local, name, buf)
-    return buf[:size]
-
-
-def _line_rows(a: np.ndarray):
-    """A (bands, lines, columns) array laid out line by line, with each line's bands
-    contiguous (a BIL strip, or a run of its bands), as a (lines, bands × columns) matrix view;
-    None otherwise."""
-    k, rows, cols = a.shape
-    isz = a.itemsize
-    if a.strides[2] != isz or (k > 1 and a.strides[0] != cols * isz):
-        return None
-    if rows > 1 and abs(a.strides[1]) < k * cols * isz:
-        return None
-    return np.lib.stride_tricks.as_strided(a, (rows, k * cols), (a.strides[1], isz))
-
-
-def _products_by_line(x, bad, dest, n, k, cols, taps):
-    """The shift of a strip laid out line by line, ``x`` its input lines and ``dest`` its
-    output lines as (lines, bands × columns) matrices: each chunk of input lines is shifted
-    across-track as one (lines × bands, columns) matrix, into a buffer as wide as the image
-    (0 beyond the columns the taps reach), then along-track straight into ``dest`` by products
-    of :data:`ALONG_LINES` lines (few taps of zero weight, unlike one product per chunk)."""
-    r_w, c_first, c_w, j0, j1 = taps
-    nr, nc, m = len(r_w), len(c_w), j1 - j0
-    size = (min(CHUNK_LINES, n) + nr - 1) * k * cols
-    u_buf = _scratch("u", size).reshape(-1, cols)
-    x_buf = None if bad is None else _scratch("x", size)
-    across_m = _band_matrix(c_w, min(TILE, m))
-    for a in range(0, n, CHUNK_LINES):
-        h = min(CHUNK_LINES, n - a)
-        hin = h + nr - 1
-        xs = x[a : a + hin].reshape(hin * k, cols)
-        if bad is not None:
-            # A zero weight times a NaN is still NaN: invalid values must not reach the
-            # products (their outputs are invalid anyway; their neighbours are not).
-            chunk = x_buf[: hin * k * cols].reshape(hin, k, cols)
-            np.copyto(chunk, xs.reshape(hin, k, cols))
-            chunk.transpose(0, 2, 1)[bad[a : a + hin]] = 0.0
-            xs = chunk.reshape(hin * k, cols)
-        u = u_buf[: hin * k]
-        u[:, :j0] = 0.0
-        u[:, j1:] = 0.0
-        for c in range(0, m, TILE):
-            w = min(TILE, m - c)
-            src = xs[:, j0 + c_first + c : j0 + c_first + c + w + nc - 1]
-            np.matmul(src, across_m[: w + nc - 1, :w], out=u[:, j0 + c : j0 + c + w])
-        u = u.reshape(hin, k * cols)
-        for b in range(0, h, ALONG_LINES):
-            hb = min(ALONG_LINES, h - b)
-            along_m = _band_matrix(r_w, hb).T
-            np.matmul(along_m, u[b : b + hb + nr - 1], out=dest[a + b : a + b + hb])
-
-
-def _products_by_band(stack, bad, dest, n, taps):
-    """The shift band by band: ``stack`` from its first input line, ``dest`` the output
-    lines; chunks of :data:`BAND_GROUP` bands converted to float32 when they are not already
-    (a float32 strip read with its halo is used as it is)."""
-    r_w, c_first, c_w, j0, j1 = taps
-    k, _, cols = stack.shape
-    nr, nc, m = len(r_w), len(c_w), j1 - j0
-    g, lines_in = min(k, BAND_GROUP), min(CHUNK_LINES, n) + nr - 1
-    # Flat buffers, viewed at each chunk's shape: the products need contiguous rows.
-    x_buf, u_buf = _scratch("x", g * lines_in * cols), _scratch("u", g * lines_in * m)
-    across_m = _band_matrix(c_w, min(TILE, m))
-    for a in range(0, n, CHUNK_LINES):
-        h = min(CHUNK_LINES, n - a)
-        along_m = _band_matrix(r_w, h).T  # (h, h + nr − 1): output line i reads i … i + nr − 1
-        hin = h + nr - 1
-        for b0 in range(0, k, g):
-            kb = min(g, k - b0)
-            us = u_buf[: kb * hin * m].reshape(kb, hin, m)
-            xs = stack[b0 : b0 + kb, a : a + hin]
-            if bad is not None or xs.dtype != np.float32 or not xs.flags.c_contiguous:
-                chunk = x_buf[: kb * hin * cols].reshape(kb, hin, cols)
-                np.copyto(chunk, xs, casting="unsafe")
-                xs = chunk
-            if bad is not None:
-                xs[:, bad[a : a + hin]] = 0.0
-            flat_x, flat_u = xs.reshape(-1, cols), us.reshape(-1, m)
-            for c in range(0, m, TILE):
-                w = min(TILE, m - c)
-                src = flat_x[:, j0 + c_first + c : j0 + c_first + c + w + nc - 1]
-                np.matmul(src, across_m[: w + nc - 1, :w], out=flat_u[:, c : c + w])
-            np.matmul(along_m, us, out=dest[b0 : b0 + kb, a : a + h, j0:j1])
 
 
 def _per_line(stack, ok, along, across, order, out, lines):

@@ -236,24 +236,15 @@ class Cube:
             valid &= np.isfinite(values).all(axis=0)
         return values, valid
 
-    def reader(self, bands=None, dtype="float64", by_line=False):
+    def reader(self, bands=None, dtype="float64"):
         """``read(row0, row1) -> (data, valid)`` for :func:`~geoboresight.io.windows.map_windows`:
         :meth:`read` of ``bands`` in ``dtype`` (None: the files' own type), into one buffer
         reused per thread (a new one per strip would be page-faulted in again each time:
-        measured as much time as the read itself). A kernel must not keep the buffer.
-
-        ``by_line=True`` lays the buffer out line by line, as a BIL file is, and gives its
-        (bands, lines, columns) view: a BIL strip is then converted without being reordered,
-        and a kernel working on whole lines of bands (the co-registration's shift) reads it
-        as it lies."""
+        measured as much time as the read itself). A kernel must not keep the buffer."""
         local = threading.local()
-        n = self.count if bands is None else len(bands)
 
         def read(row0: int, row1: int):
             buf = getattr(local, "buf", None)
-            if by_line and (buf is None or buf.shape[1] < row1 - row0):
-                dt = self.dtype if dtype is None else dtype
-                buf = local.buf = np.empty((row1 - row0, n, self.width), dt).transpose(1, 0, 2)
             data, valid = self.read(row0, row1, bands, dtype, out=buf)
             if buf is None or buf.shape[1] < data.shape[1]:
                 local.buf = data

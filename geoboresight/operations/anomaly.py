@@ -173,21 +173,20 @@ class _Coregistered:
 
         cube, (first, stop) = self.cube, self.taps
         k = len(self.bands)
-        # Strips are laid out line by line, as BIL files are: converted without reordering,
-        # and shifted as they lie. The VNIR bands are read straight into the output in
-        # float32 (their own lines only), the SWIR bands in float32 from the first line the
-        # taps reach to the last: the shift's input as it is, without another copy.
+        # The VNIR bands are read straight into the output in float32 (their own lines
+        # only), the SWIR bands in float32 from the first line the taps reach to the last:
+        # the shift's input as it is, without another copy.
         vnir_bands = self.bands[self.vnir]
-        read_swir = cube.reader(self.bands[self.swir], np.float32, by_line=True)
+        read_swir = cube.reader(self.bands[self.swir], np.float32)  # a buffer per thread
         local = threading.local()  # per worker thread: the output buffer
 
         def read(row0, row1):
             r0 = min(max(0, row0 + first), cube.height - 1)
             r1 = max(min(cube.height, row1 + stop - 1), r0 + 1)
             if getattr(local, "rows", 0) < row1 - row0:
-                local.out = np.empty((row1 - row0, k, cube.width), np.float32)
+                local.out = np.empty((k, row1 - row0, cube.width), np.float32)
                 local.rows = row1 - row0
-            out = local.out[: row1 - row0].transpose(1, 0, 2)
+            out = local.out[:, : row1 - row0]
             if isinstance(self.vnir, slice):
                 _, ok = cube.read(row0, row1, vnir_bands, np.float32, out=out[self.vnir])
             else:
