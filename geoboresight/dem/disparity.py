@@ -153,9 +153,9 @@ def _warps(coef, vb, rows, cols, base_a, base_c, shifts, all_valid=False):
     return out
 
 
-#: Validity patterns whose moments a strip keeps. Every shift of a search has the same one
-#: unless the moving image has invalid pixels (then each shift moves them); each costs four
-#: strip-sized arrays.
+#: Validity patterns whose moments a strip keeps: one per across-track shift of the search
+#: (the moving window leaves the image at the strip's side columns), times the lines at the
+#: line's first and last strip; each costs four strip-sized arrays.
 PATTERNS = 9
 
 
@@ -250,22 +250,24 @@ def _parabola(cm, c0, cp):
     return np.clip(delta, -0.5, 0.5), -denom / 2.0
 
 
-def _inside_every_shift(rows, cols, base_a, base_c, sa, sc, shape):
-    """Where the moving image sampled at ``(rows + base_a + dy, cols + base_c + dx)`` lies
-    inside it for every integer shift ``|dy| <= sa``, ``|dx| <= sc`` (within :func:`_warp`'s
-    0.001 px)."""
-    height, width = shape
+def _inside_every_shift(rows, base_a, sa, height, open_ends):
+    """Where the moving image sampled at line ``rows + base_a + dy`` stays inside it for every
+    integer shift ``|dy| <= sa`` (within :func:`_warp`'s 0.001 px), judged only at the ends in
+    ``open_ends`` (first line, last line); None when neither end is open."""
+    if not any(open_ends):
+        return None
     r = np.asarray(rows)[:, None] + base_a
-    c = np.asarray(cols)[None, :] + base_c
-    return (
-        (r - sa > -1e-3)
-        & (r + sa < height - 1 + 1e-3)
-        & (c - sc > -1e-3)
-        & (c + sc < width - 1 + 1e-3)
-    )
+    inside = np.ones(np.broadcast_shapes(r.shape, (1, 1)), bool)
+    if open_ends[0]:
+        inside &= r - sa > -1e-3
+    if open_ends[1]:
+        inside &= r + sa < height - 1 + 1e-3
+    return inside
 
 
-def _match(a, va, b, coef, vb, rows, cols, base_a, base_c, sa, sc, size, min_fill):
+def _match(
+    a, va, b, coef, vb, rows, cols, base_a, base_c, sa, sc, size, min_fill, open_ends=(0, 0)
+):
     """Best shift around (base_a, base_c) within ±sa, ±sc; sub-pixel by parabolas."""
     shifts = [(dy, dx) for dy in range(-sa, sa + 1) for dx in range(-sc, sc + 1)]
     stack = np.empty((len(shifts),) + a.shape, dtype=np.float32)
@@ -288,15 +290,17 @@ def _match(a, va, b, coef, vb, rows, cols, base_a, base_c, sa, sc, size, min_fil
         def moved(dy, dx):
             return warped.pop((dy, dx))
 
-    # Only pixels whose every shift samples the moving image inside it take part: the shifts
-    # are then compared over the same pixels (at the image's and the strip's ends a shift
-    # would otherwise lose lines or columns of its windows that its neighbour keeps), and
-    # with a moving image without invalid pixels every shift has one validity, whose moments
-    # are computed once.
-    inside = _inside_every_shift(rows, cols, base_a, base_c, sa, sc, b.shape)
+    # Near an open end (the strip goes on beyond it), only pixels whose every shift samples
+    # the moving image inside the strip take part: there every shift has the same validity,
+    # whose moments are computed once, instead of a pattern of its own per shift. Those lines
+    # are the strip's halo. At the image's own ends each shift keeps the pixels it reaches
+    # (a short image would lose the lines its search leaves).
+    inside = _inside_every_shift(rows, base_a, sa, b.shape[0], open_ends)
     for k, (dy, dx) in enumerate(shifts):
         bs, vbs = moved(dy, dx)
-        stack[k] = _ncc(stats, bs, np.logical_and(vbs, inside, out=stats.buf("vb", bool)))
+        if inside is not None:
+            vbs = np.logical_and(vbs, inside, out=stats.buf("vb", bool))
+        stack[k] = _ncc(stats, bs, vbs)
     grid = stack.reshape(2 * sa + 1, 2 * sc + 1, *a.shape)
     any_peak = np.isfinite(stack).any(axis=0)
     best = np.argmax(np.where(np.isfinite(stack), stack, -np.inf), axis=0)
@@ -341,6 +345,7 @@ def disparity_map(
     min_peak: float = MIN_PEAK,
     min_sharpness: float = MIN_SHARPNESS,
     block_rows: int = 256,
+    open_ends: tuple[bool, bool] = (False, False),
     progress: Progress | None = None,
 ) -> Disparity:
     """Dense sub-pixel disparity of ``swir`` relative to ``vnir``.
@@ -365,6 +370,11 @@ def disparity_map(
         Reliability thresholds on the NCC peak (0–1) and on its curvature.
     block_rows : int
         Lines per block (at least 8): memory is bounded by a block, not by the flight line.
+    open_ends : (bool, bool)
+        Whether the images are a strip whose flight line goes on beyond their first / last
+        line (read with :func:`disparity_halo`'s lines). Near such an end, only pixels that
+        every shift of the search samples inside the strip take part, so the search's shifts
+        share one validity there (computed once); the strip's own lines are unchanged.
     progress : Progress, optional
         Receives the fraction of blocks matched (and can cancel).
 
@@ -447,6 +457,7 @@ def disparity_map(
             sc,
             size,
             min_fill,
+            open_ends,
         )
         for _ in range(refine):
             base_a = _smooth(al, size)
@@ -455,7 +466,20 @@ def disparity_map(
             base_a[hole] = center[0]
             base_c[hole] = center[1]
             al2, ac2, pk, sh = _match(
-                a, va, b_full, coef, ok_b, rows, cols, base_a, base_c, 1, 1, size, min_fill
+                a,
+                va,
+                b_full,
+                coef,
+                ok_b,
+                rows,
+                cols,
+                base_a,
+                base_c,
+                1,
+                1,
+                size,
+                min_fill,
+                open_ends,
             )
             keep = np.isfinite(al2) & np.isfinite(al)
             al = np.where(keep, al2, np.nan)

@@ -262,6 +262,7 @@ def match_strip(
         min_peak=min_peak,
         min_sharpness=min_sharpness,
         block_rows=vnir.shape[0] if rows is not None else 256,
+        open_ends=(first_line > 0, first_line + vnir.shape[0] < height),
         progress=progress,
     )
     # The disparity component along the parallax direction carries the height.

@@ -182,6 +182,7 @@ def disparity_file(
                 **dataclasses.asdict(matching),
                 center=(off.along, off.across),
                 block_rows=v.shape[0],  # one block: the strip's halo is the block's
+                open_ends=(block.row0 > 0, block.row0 + v.shape[0] < block.height),
             )
             return _own_lines(d, ok, block.inner)
 
