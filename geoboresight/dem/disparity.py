@@ -443,44 +443,17 @@ def disparity_map(
         r0, r1 = max(0, s - halo), min(height, e + halo)
         rows = np.arange(r0, r1, dtype=np.float64)
         a, va = a_full[r0:r1], ok_a[r0:r1]
-        al, ac, pk, sh = _match(
-            a,
-            va,
-            b_full,
-            coef,
-            ok_b,
-            rows,
-            cols,
-            float(center[0]),
-            float(center[1]),
-            sa,
-            sc,
-            size,
-            min_fill,
-            open_ends,
-        )
+        # The images and the block's lines: the same for the first match and each pass.
+        inputs = (a, va, b_full, coef, ok_b, rows, cols)
+        first = (float(center[0]), float(center[1]), sa, sc)
+        al, ac, pk, sh = _match(*inputs, *first, size, min_fill, open_ends)
         for _ in range(refine):
             base_a = _smooth(al, size)
             base_c = _smooth(ac, size)
             hole = ~(np.isfinite(base_a) & np.isfinite(base_c))
             base_a[hole] = center[0]
             base_c[hole] = center[1]
-            al2, ac2, pk, sh = _match(
-                a,
-                va,
-                b_full,
-                coef,
-                ok_b,
-                rows,
-                cols,
-                base_a,
-                base_c,
-                1,
-                1,
-                size,
-                min_fill,
-                open_ends,
-            )
+            al2, ac2, pk, sh = _match(*inputs, base_a, base_c, 1, 1, size, min_fill, open_ends)
             keep = np.isfinite(al2) & np.isfinite(al)
             al = np.where(keep, al2, np.nan)
             ac = np.where(keep, ac2, np.nan)
