@@ -257,7 +257,7 @@ def _inside_every_shift(rows, base_a, sa, height, open_ends):
     if not any(open_ends):
         return None
     r = np.asarray(rows)[:, None] + base_a
-    inside = np.ones(np.broadcast_shapes(r.shape, (1, 1)), bool)
+    inside = np.ones(r.shape, bool)
     if open_ends[0]:
         inside &= r - sa > -1e-3
     if open_ends[1]:
@@ -266,12 +266,19 @@ def _inside_every_shift(rows, base_a, sa, height, open_ends):
 
 
 def _match(
-    a, va, b, coef, vb, rows, cols, base_a, base_c, sa, sc, size, min_fill, open_ends=(0, 0)
+    a, va, b, coef, vb, rows, cols, base_a, base_c, sa, sc, size, min_fill, open_ends=(False, False)
 ):
     """Best shift around (base_a, base_c) within ±sa, ±sc; sub-pixel by parabolas."""
     shifts = [(dy, dx) for dy in range(-sa, sa + 1) for dx in range(-sc, sc + 1)]
     stack = np.empty((len(shifts),) + a.shape, dtype=np.float32)
-    stats = _Stats(a, va, size, min_fill)
+    # Near an open end (the strip goes on beyond it), only pixels whose every shift samples
+    # the moving image inside the strip take part: there every shift has the same validity,
+    # whose moments are computed once, instead of a pattern of its own per shift. Those lines
+    # are the strip's halo. At the image's own ends each shift keeps the pixels it reaches
+    # (a short image would lose the lines its search leaves). Folded into the fixed image's
+    # validity once, not into each shift's.
+    inside = _inside_every_shift(rows, base_a, sa, b.shape[0], open_ends)
+    stats = _Stats(a, va if inside is None else va & inside, size, min_fill)
     all_valid = bool(vb.all())
     if np.ndim(base_a) == 0 and np.ndim(base_c) == 0:
         # One shift for the whole image: warp once by it on the lines and columns the search
@@ -290,16 +297,8 @@ def _match(
         def moved(dy, dx):
             return warped.pop((dy, dx))
 
-    # Near an open end (the strip goes on beyond it), only pixels whose every shift samples
-    # the moving image inside the strip take part: there every shift has the same validity,
-    # whose moments are computed once, instead of a pattern of its own per shift. Those lines
-    # are the strip's halo. At the image's own ends each shift keeps the pixels it reaches
-    # (a short image would lose the lines its search leaves).
-    inside = _inside_every_shift(rows, base_a, sa, b.shape[0], open_ends)
     for k, (dy, dx) in enumerate(shifts):
         bs, vbs = moved(dy, dx)
-        if inside is not None:
-            vbs = np.logical_and(vbs, inside, out=stats.buf("vb", bool))
         stack[k] = _ncc(stats, bs, vbs)
     grid = stack.reshape(2 * sa + 1, 2 * sc + 1, *a.shape)
     any_peak = np.isfinite(stack).any(axis=0)
