@@ -194,6 +194,17 @@ def overview_factors(width: int, height: int) -> list[int]:
     return factors
 
 
+def _overview_threads() -> dict:
+    """GDAL options that build overviews on every core, once the strips' worker threads are
+    done (a 20,000 × 286 float32 score: 0.35 s → 0.24 s on 2 cores). A user's
+    GDAL_NUM_THREADS wins."""
+    if os.environ.get("GDAL_NUM_THREADS"):
+        return {}
+    from .._threads import default_workers
+
+    return {"GDAL_NUM_THREADS": str(default_workers())}
+
+
 def overview_resampling(dtype: str, colormap) -> Resampling:
     """Average for continuous (float) data; nearest for integer data, whose values may be
     classes that an average would turn into classes that do not exist."""
@@ -539,9 +550,12 @@ def create_raster(
                 imagery = _imagery_tags(bt)
                 if imagery:
                     dst.update_tags(i, ns="IMAGERY", **imagery)
-            # Overviews, so that a map viewer (QGIS) draws a whole flight line quickly.
-            factors = overview_factors(dst.width, dst.height)
-            if factors:
+        # Overviews, so that a map viewer (QGIS) draws a whole flight line quickly. Built on
+        # the closed file reopened: then GDAL reads, resamples and compresses the levels'
+        # blocks in threads of its own (on the handle that wrote the file it does not).
+        factors = overview_factors(profile["width"], profile["height"])
+        if factors:
+            with rasterio.Env(**_overview_threads()), rasterio.open(tmp, "r+") as dst:
                 dst.build_overviews(factors, resampling)
                 dst.update_tags(ns="rio_overview", resampling=resampling.name)
         verify_written(tmp, path, profile)
