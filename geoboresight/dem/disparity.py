@@ -135,13 +135,18 @@ def _warps(coef, vb, rows, cols, base_a, base_c, shifts, all_valid=False):
     col_at = {k: np.clip(c0 + k, 0, width - 1) for k in range(lo_c, hi_c + 1)}
     flat = coef.ravel()
     lines: dict = {}  # (line tap, dx) -> the across-track sum, shared by the shifts' dy
+    dxs = sorted({dx for _, dx in shifts})
 
     def line(k, dx):
         if (k, dx) not in lines:
-            acc = np.zeros(r.shape)
-            for j in range(4):
-                acc += wc[j] * flat.take(line_at[k] + col_at[dx - 1 + j])
-            lines[(k, dx)] = acc
+            # A line tap's sums for every dx, from its columns gathered once: the dx's
+            # four-column windows overlap (the ±1 px refinement: 6 gathers instead of 12).
+            gathered = {j: flat.take(line_at[k] + col_at[j]) for j in range(lo_c, hi_c + 1)}
+            for d in dxs:
+                acc = np.zeros(r.shape)
+                for j in range(4):
+                    acc += wc[j] * gathered[d - 1 + j]
+                lines[(k, d)] = acc
         return lines[(k, dx)]
 
     out = {}

@@ -75,20 +75,49 @@ class Variogram:
             names = ("partial_sill", "range_px", "nugget")
         return ", ".join(f"{n}={v:.4g}" for n, v in zip(names, self.parameters, strict=False))
 
-    def __call__(self, d: np.ndarray) -> np.ndarray:
-        """Semivariance at distances ``d`` (PyKrige's model functions, vectorised)."""
+    def __call__(self, d: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """Semivariance at distances ``d`` (PyKrige's model functions, vectorised).
+
+        With ``out`` (float64, ``d``'s shape; may be ``d`` itself) the model is evaluated in
+        it, operation for operation as PyKrige's formula, without temporaries: kriging builds
+        thousands of small systems, and fresh arrays for each step cost more than the
+        arithmetic."""
         p = self.parameters
-        if self.model == "linear":
-            return p[0] * d + p[1]
-        if self.model == "power":
-            return p[0] * d ** p[1] + p[2]
+        v = np.array(d, dtype=np.float64) if out is None else out
+        if v is not d:
+            np.copyto(v, d)
+        if self.model == "linear":  # slope · d + nugget
+            v *= p[0]
+            v += p[1]
+            return v
+        if self.model == "power":  # scale · d^exponent + nugget
+            np.power(v, p[1], out=v)
+            v *= p[0]
+            v += p[2]
+            return v
         psill, rng, nugget = p
-        if self.model == "spherical":
-            r = np.minimum(d / rng, 1.0)
-            return psill * (1.5 * r - 0.5 * r * r * r) + nugget
-        if self.model == "exponential":
-            return psill * (1.0 - np.exp(-d / (rng / 3.0))) + nugget
-        return psill * (1.0 - np.exp(-(d**2) / (rng * 4.0 / 7.0) ** 2)) + nugget  # gaussian
+        if self.model == "spherical":  # psill · (1.5 r − 0.5 r³) + nugget, r = min(d / range, 1)
+            np.divide(v, rng, out=v)
+            np.minimum(v, 1.0, out=v)
+            cube = np.multiply(0.5, v)
+            cube *= v
+            cube *= v
+            v *= 1.5
+            v -= cube
+        elif self.model == "exponential":  # psill · (1 − exp(−d / (range / 3))) + nugget
+            np.negative(v, out=v)
+            v /= rng / 3.0
+            np.exp(v, out=v)
+            np.subtract(1.0, v, out=v)
+        else:  # gaussian: psill · (1 − exp(−d² / (4 range / 7)²)) + nugget
+            np.square(v, out=v)
+            np.negative(v, out=v)
+            v /= (rng * 4.0 / 7.0) ** 2
+            np.exp(v, out=v)
+            np.subtract(1.0, v, out=v)
+        v *= psill
+        v += nugget
+        return v
 
     @property
     def range_px(self) -> float | None:
@@ -371,13 +400,16 @@ class LocalKriging:
         out the points ``exclude``)."""
         est = np.empty(tx.shape)
         var = np.empty(tx.shape)
+        buf = np.empty((min(BATCH, len(cx)), k, k))  # the batch's distances, then semivariances
         for s in range(0, len(cx), BATCH):
             sl = slice(s, s + BATCH)
             idx = self._neighbours(np.column_stack([cx[sl], cy[sl]]), k, exclude)
             px, py = self.x[idx].astype(np.float64), self.y[idx].astype(np.float64)
             nb = len(idx)
             a = np.empty((nb, k + 1, k + 1))
-            a[:, :k, :k] = -self.model(_distance(px, py, px, py))
+            np.negative(
+                self.model(_distance(px, py, px, py, out=buf[:nb]), out=buf[:nb]), out=a[:, :k, :k]
+            )
             a[:, np.arange(k), np.arange(k)] = 0.0  # PyKrige's matrix: zero diagonal
             a[:, k, :] = 1.0
             a[:, :, k] = 1.0
@@ -489,11 +521,15 @@ class LocalKriging:
         return e, v
 
 
-def _distance(ax, ay, bx, by) -> np.ndarray:
-    """Distances between the points of ``a`` and of ``b``, block by block (blocks × a × b)."""
-    dx = ax[:, :, None] - bx[:, None, :]
+def _distance(ax, ay, bx, by, out=None) -> np.ndarray:
+    """Distances between the points of ``a`` and of ``b``, block by block (blocks × a × b),
+    in ``out`` if given."""
+    dx = np.subtract(ax[:, :, None], bx[:, None, :], out=out)
     dy = ay[:, :, None] - by[:, None, :]
-    return np.sqrt(dx * dx + dy * dy)
+    dx *= dx
+    dy *= dy
+    dx += dy
+    return np.sqrt(dx, out=dx)
 
 
 def _bilinear(nodes: np.ndarray, r: np.ndarray, c: np.ndarray, g: int) -> np.ndarray:
