@@ -18,6 +18,12 @@ from ..errors import InputError
 FLOAT_NODATA = -9999.0
 #: Tile size of every GeoTIFF output.
 TILE = 256
+#: DEFLATE level of every GeoTIFF output (zlib's default is 6). With the predictor, level 3
+#: compresses a 20,000 × 286 float32 product in 55–75 % of level 6's time, 1–5 % larger
+#: (relative DEM 9.4 → 9.9 MB, RX score 18.1 → 18.3 MB; a byte class map in a third of the
+#: time, 4 % larger): compression is most of what writing a product costs. ``--co ZLEVEL=6``
+#: trades time for size.
+DEFLATE_LEVEL = 3
 
 
 def is_local_crs(crs) -> bool:
@@ -117,6 +123,7 @@ class Grid:
             "count": int(count),
             "dtype": str(np.dtype(dtype)),
             "compress": "deflate",
+            "zlevel": DEFLATE_LEVEL,
             "predictor": 3 if np.dtype(dtype).kind == "f" else 2,
             "tiled": True,
             "blockxsize": TILE,

@@ -25,7 +25,7 @@ from rasterio.windows import Window
 from .._version import __version__
 from ..errors import InputError, OutputError, ParameterError, shown
 from .envi import ENVI_DTYPES, data_for_header, envi_header, is_compressed
-from .grid import FLOAT_NODATA, TILE, Grid
+from .grid import DEFLATE_LEVEL, FLOAT_NODATA, TILE, Grid
 from .wavelengths import format_wavelengths, unit_scale
 from .write import atomic_output, output_error, scrub, temp_name
 
@@ -591,6 +591,7 @@ def _to_cog(tmp: str, path: str, profile: dict, options: dict, resampling: Resam
     write of ``path``; the overviews already built are reused (OVERVIEWS=AUTO)."""
     cog_options = {
         "COMPRESS": "DEFLATE",
+        "LEVEL": str(DEFLATE_LEVEL),
         "PREDICTOR": "YES",
         "BLOCKSIZE": str(TILE),
         "BIGTIFF": "IF_SAFER",
