@@ -7,7 +7,7 @@ from ..dem.coregister import DEFAULT_ORDER
 from ..dem.offset import PROFILE_ROWS
 from ..operations.offset import boresight_offset_file, coregister_file
 from ._common import BLOCK_ROWS, DUAL_PARAMS
-from .dem import CLOUD, GEOMETRY, GROUP, OFFSET_MATCH
+from ._dem_params import CLOUD, GEOMETRY, GROUP, OFFSET_MATCH
 from .spec import Algorithm, Enum, FileOut, Flag, Number, RasterOut, Result
 
 OFFSET = Algorithm(
