@@ -222,21 +222,27 @@ class _Stats:
         return moments
 
 
-def _ncc(stats, bs, vbs):
+def _ncc(stats, bs, vbs, sums=None):
     """Windowed NCC of ``a`` and ``bs`` over their common valid pixels (box filters), in
-    :class:`_Stats`' buffers: valid until the next shift."""
+    :class:`_Stats`' buffers: valid until the next shift. ``sums``: the box means of ``bs``
+    and of its square, already known (then ``bs`` is 0 wherever it is not valid)."""
     w = np.logical_and(stats.va, vbs, out=stats.buf("w", bool))
     n, aa, ma, var_a, none = stats.moments(w)
-    bb, t, u = stats.buf("bb"), stats.buf("t"), stats.buf("u")
-    bb.fill(0.0)
-    np.copyto(bb, bs, where=w)
+    t, u = stats.buf("t"), stats.buf("u")
+    if sums is None:
+        bb = stats.buf("bb")
+        bb.fill(0.0)
+        np.copyto(bb, bs, where=w)
+    else:
+        bb = bs
     f = stats.box  # the three sums are used before the next shift reuses the buffers
     with np.errstate(invalid="ignore", divide="ignore"):
-        mb = np.divide(f(bb, 0), n, out=stats.buf(0))
+        mb = np.divide(f(bb, 0) if sums is None else sums[0], n, out=stats.buf(0))
         mb2 = np.multiply(mb, mb, out=t)
         cov = np.divide(f(np.multiply(aa, bb, out=u), 1), n, out=stats.buf(1))
         np.subtract(cov, np.multiply(ma, mb, out=u), out=cov)
-        var_b = np.divide(f(np.multiply(bb, bb, out=bb), 2), n, out=stats.buf(2))
+        bb2 = f(np.multiply(bb, bb, out=bb), 2) if sums is None else sums[1]
+        var_b = np.divide(bb2, n, out=stats.buf(2))
         np.subtract(var_b, mb2, out=var_b)
         ncc = np.divide(cov, np.sqrt(np.multiply(var_a, var_b, out=u), out=u), out=u)
         flat = np.less_equal(var_b, np.multiply(1e-12, np.add(mb2, 1.0, out=t), out=t))
@@ -245,6 +251,16 @@ def _ncc(stats, bs, vbs):
     bad |= ~np.isfinite(ncc)
     ncc[bad] = np.nan
     return ncc
+
+
+def _slice_means(wb, c0, nc, size):
+    """Box means of ``wb`` and of its square on every line, over the columns ``c0 … c0 + nc −
+    1`` only (zero beyond them, as a slice of them is padded): each line's window of an
+    integer shift along-track is then a slice of them."""
+    part = np.zeros_like(wb)
+    part[:, c0 : c0 + nc] = wb[:, c0 : c0 + nc]
+    f = ndimage.uniform_filter
+    return f(part, size, mode="constant"), f(part * part, size, mode="constant")
 
 
 def _parabola(cm, c0, cp):
@@ -283,28 +299,42 @@ def _match(
     # (a short image would lose the lines its search leaves). Folded into the fixed image's
     # validity once, not into each shift's.
     inside = _inside_every_shift(rows, base_a, sa, b.shape[0], open_ends)
-    stats = _Stats(a, va if inside is None else va & inside, size, min_fill)
     all_valid = bool(vb.all())
-    if np.ndim(base_a) == 0 and np.ndim(base_c) == 0:
+    constant = np.ndim(base_a) == 0 and np.ndim(base_c) == 0
+    # A strip inside the line (both ends open) of images without invalid pixels, searched
+    # around one shift: every shift's moving window is a slice of one warped image, so its
+    # box sums are slices of that image's, computed once (two box filters less per shift).
+    # Rows where a slice differs from the shift's own zero-padded sums lie in the halo.
+    shared = constant and all_valid and all(open_ends) and bool(va.all())
+    stats = _Stats(a, va if inside is None or shared else va & inside, size, min_fill)
+    if constant:
         # One shift for the whole image: warp once by it on the lines and columns the search
         # reaches; every integer shift around it is then a slice (the same samples).
         ext_r = np.arange(rows[0] - sa, rows[-1] + sa + 1)
         ext_c = np.arange(cols[0] - sc, cols[-1] + sc + 1)
         wb, wv = _warp(b, coef, vb, ext_r, ext_c, base_a, base_c, all_valid)
         nr, nc = len(rows), len(cols)
+        if shared:
+            wb = np.where(wv, wb, 0.0)
+            means = {dx: _slice_means(wb, sc + dx, nc, stats.size) for dx in range(-sc, sc + 1)}
+            # The validity of an all-valid image is where the window stays inside it: its
+            # columns (a middle line's) for each across-track shift, the same on every line.
+            side = wv[sa + nr // 2]
 
         def moved(dy, dx):
             win = (slice(sa + dy, sa + dy + nr), slice(sc + dx, sc + dx + nc))
-            return wb[win], wv[win]
+            if shared:
+                cols_ok = np.broadcast_to(side[win[1]], (nr, nc))
+                return wb[win], cols_ok, tuple(m[win] for m in means[dx])
+            return wb[win], wv[win], None
     else:
         warped = _warps(coef, vb, rows, cols, base_a, base_c, shifts, all_valid)
 
         def moved(dy, dx):
-            return warped.pop((dy, dx))
+            return *warped.pop((dy, dx)), None
 
     for k, (dy, dx) in enumerate(shifts):
-        bs, vbs = moved(dy, dx)
-        stack[k] = _ncc(stats, bs, vbs)
+        stack[k] = _ncc(stats, *moved(dy, dx))
     grid = stack.reshape(2 * sa + 1, 2 * sc + 1, *a.shape)
     any_peak = np.isfinite(stack).any(axis=0)
     best = np.argmax(np.where(np.isfinite(stack), stack, -np.inf), axis=0)
