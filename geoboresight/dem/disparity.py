@@ -335,26 +335,42 @@ def _match(
 
     for k, (dy, dx) in enumerate(shifts):
         stack[k] = _ncc(stats, *moved(dy, dx))
-    grid = stack.reshape(2 * sa + 1, 2 * sc + 1, *a.shape)
-    any_peak = np.isfinite(stack).any(axis=0)
-    best = np.argmax(np.where(np.isfinite(stack), stack, -np.inf), axis=0)
+    best, any_peak = _best_shift(stack)
     iy, ix = np.divmod(best, 2 * sc + 1)
     # A peak on the edge of the search range may lie beyond it: no sub-pixel fit there.
     inner = any_peak & (iy > 0) & (iy < 2 * sa)
-    pr, pc = np.indices(a.shape)
-    c0 = grid[iy, ix, pr, pc]
+    flat, pixel = stack.ravel(), np.arange(a.size).reshape(a.shape)
+
+    def at(jy, jx):  # each pixel's correlation at shift (jy, jx) of the search grid
+        return flat.take((jy * (2 * sc + 1) + jx) * a.size + pixel)
+
+    c0 = at(iy, ix)
     jy = np.clip(iy, 1, 2 * sa - 1)
-    da, curv_a = _parabola(grid[jy - 1, ix, pr, pc], c0, grid[jy + 1, ix, pr, pc])
+    da, curv_a = _parabola(at(jy - 1, ix), c0, at(jy + 1, ix))
     if sc > 0:
         inner &= (ix > 0) & (ix < 2 * sc)
         jx = np.clip(ix, 1, 2 * sc - 1)
-        dc, curv_c = _parabola(grid[iy, jx - 1, pr, pc], c0, grid[iy, jx + 1, pr, pc])
+        dc, curv_c = _parabola(at(iy, jx - 1), c0, at(iy, jx + 1))
     else:  # across-track fixed at the centre
         dc, curv_c = np.zeros(a.shape), np.full(a.shape, np.inf)
     ok = inner & np.isfinite(da) & np.isfinite(dc)
     along = np.where(ok, base_a + (iy - sa) + da, np.nan)
     across = np.where(ok, base_c + (ix - sc) + dc, np.nan)
     return along, across, np.where(ok, c0, np.nan), np.where(ok, np.minimum(curv_a, curv_c), np.nan)
+
+
+def _best_shift(stack):
+    """``(index of the best shift, any shift finite)`` per pixel of a (shifts, …) stack of
+    correlations, NaN where none: ``argmax`` with NaN as −∞ (the first of equal maxima),
+    shift after shift along the stack (an ``argmax`` over its first axis copies it
+    transposed)."""
+    best = np.zeros(stack.shape[1:], np.intp)
+    top = np.where(np.isnan(stack[0]), -np.inf, stack[0])
+    for k in range(1, len(stack)):
+        better = stack[k] > top  # False where NaN
+        best[better] = k
+        np.copyto(top, stack[k], where=better)
+    return best, np.isfinite(top)
 
 
 def _smooth(values, size):
