@@ -886,3 +886,26 @@ def test_refinement_warps_are_scipys_cubic_spline(tex):
         r, c = np.broadcast_arrays(rows[:, None] + base_a + dy, cols[None, :] + base_c + dx)
         ref = ndimage.map_coordinates(coef, [r, c], order=3, mode="nearest", prefilter=False)
         np.testing.assert_allclose(got[(dy, dx)][0], ref, rtol=1e-12, atol=1e-9)
+
+
+def test_memory_is_given_back_once_the_arenas_hold_more_than_the_bound(monkeypatch):
+    """release_memory trims glibc's arenas only when their free memory passes ``retain``
+    (a trim after every strip made the next strip page-fault its temporaries in again)."""
+    from geoboresight.operations import dem as dem_op
+
+    calls, free = [], [0]
+    monkeypatch.setattr(dem_op, "_LIBC", (calls.append, lambda: free[0]))
+    free[0] = dem_op.RETAIN_FREE - 1
+    dem_op.release_memory()
+    assert calls == []
+    free[0] = dem_op.RETAIN_FREE + 1
+    dem_op.release_memory()
+    assert calls == [0]
+    # Without mallinfo2 (glibc < 2.33) every call trims, as before.
+    monkeypatch.setattr(dem_op, "_LIBC", (calls.append, None))
+    dem_op.release_memory()
+    assert calls == [0, 0]
+    # On this machine's C library the real functions are found (or none at all).
+    monkeypatch.setattr(dem_op, "_LIBC", None)
+    dem_op.release_memory()
+    assert dem_op._LIBC is False or callable(dem_op._LIBC[0])
