@@ -122,7 +122,7 @@ def _warps(coef, vb, rows, cols, base_a, base_c, shifts, all_valid=False):
     the position, the same for every integer shift: they are computed once. Each line tap's
     across-track sum (4 gathered coefficients, the edge clamped as ``map_coordinates``'
     "nearest") serves every shift that reaches that line (the ±1 px refinement: 6 line taps
-    × 3 columns instead of 9 shifts × 4), with the same arithmetic as one shift alone."""
+    × 3 columns instead of 9 shifts × 4), with the same sums as one shift alone."""
     height, width = coef.shape
     r, c = np.broadcast_arrays(rows[:, None] + base_a, cols[None, :] + base_c)
     r0, c0 = np.floor(r), np.floor(c)
@@ -134,26 +134,20 @@ def _warps(coef, vb, rows, cols, base_a, base_c, shifts, all_valid=False):
     line_at = {k: np.clip(r0 + k, 0, height - 1) * width for k in range(lo_r, hi_r + 1)}
     col_at = {k: np.clip(c0 + k, 0, width - 1) for k in range(lo_c, hi_c + 1)}
     flat = coef.ravel()
-    lines: dict = {}  # (line tap, dx) -> the across-track sum, shared by the shifts' dy
+    # Each line tap's across-track sums for every dx, from its columns gathered once (the dx's
+    # four-column windows overlap): (line taps, lines, columns) per dx, shared by the shifts'
+    # dy. Each weighted sum of four is one einsum (the same sum, term after term, without a
+    # temporary per term).
     dxs = sorted({dx for _, dx in shifts})
-
-    def line(k, dx):
-        if (k, dx) not in lines:
-            # A line tap's sums for every dx, from its columns gathered once: the dx's
-            # four-column windows overlap (the ±1 px refinement: 6 gathers instead of 12).
-            gathered = {j: flat.take(line_at[k] + col_at[j]) for j in range(lo_c, hi_c + 1)}
-            for d in dxs:
-                acc = np.zeros(r.shape)
-                for j in range(4):
-                    acc += wc[j] * gathered[d - 1 + j]
-                lines[(k, d)] = acc
-        return lines[(k, dx)]
-
+    sums = {dx: np.empty((hi_r - lo_r + 1,) + r.shape) for dx in dxs}
+    for i, k in enumerate(range(lo_r, hi_r + 1)):
+        gathered = np.stack([flat.take(line_at[k] + col_at[j]) for j in range(lo_c, hi_c + 1)])
+        for dx in dxs:
+            window = gathered[dx - 1 - lo_c : dx + 3 - lo_c]
+            np.einsum("j...,j...->...", wc, window, out=sums[dx][i])
     out = {}
     for dy, dx in shifts:
-        value = np.zeros(r.shape)
-        for i in range(4):
-            value += wr[i] * line(dy - 1 + i, dx)
+        value = np.einsum("i...,i...->...", wr, sums[dx][dy - 1 - lo_r : dy + 3 - lo_r])
         out[(dy, dx)] = value, _warped_valid(vb, r + dy, c + dx, all_valid)
     return out
 
