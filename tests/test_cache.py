@@ -76,3 +76,24 @@ def test_a_cache_folder_that_cannot_be_written_costs_only_the_measurement(line, 
     open(blocker, "w").close()
     monkeypatch.setenv(cache.CACHE_ENV, blocker)
     assert _offset(paths).along == pytest.approx(0.7, abs=0.05)
+
+
+def test_an_offset_measured_with_its_drift_profile_serves_the_offset_alone(line, monkeypatch):
+    """boresight-offset measures the drift profile in the same pass as the global offset: the
+    operations that need the offset alone (rx, svdd) then read it from the cache."""
+    paths, _ = line
+    with open_matching_pair(as_dual(*paths), MatchBands()) as p:
+        with_profile, profile = offset_ops.line_offset(p, offset_ops.PROFILE_ROWS)
+        alone, no_profile = offset_ops.measure_line_offset(p, 0)
+    assert profile is not None and no_profile is None
+    assert alone == with_profile  # the same measurement, so the same value from the cache
+
+    def fail(*a, **k):
+        raise AssertionError("measured again")
+
+    monkeypatch.setattr(offset_ops, "measure_line_offset", fail)
+    assert _offset(paths) == with_profile
+    # A profile of another block size is not in the cache: it is measured.
+    with open_matching_pair(as_dual(*paths), MatchBands()) as p:
+        with pytest.raises(AssertionError, match="measured again"):
+            offset_ops.line_offset(p, 32)

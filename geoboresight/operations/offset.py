@@ -70,6 +70,12 @@ def line_offset(pair, profile_rows: int = 0, progress=None, *, given: str = ""):
     value, cached = remembered("boresight-offset", key, measure)
     if cached:
         progress.info("boresight offset as measured earlier on these files (cached)")
+    elif key is not None and profile_rows:
+        # The global offset is the same pass whatever the drift profile: remembered for the
+        # operations that need it alone too (rx and svdd after boresight-offset).
+        remembered(
+            "boresight-offset", {**key, "profile_rows": 0}, lambda: {"offset": value["offset"]}
+        )
     prof = value.get("profile")
     return Offset(*value["offset"]), None if prof is None else OffsetProfile(
         *(np.asarray(v, dtype=float) for v in prof)
