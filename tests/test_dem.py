@@ -850,7 +850,9 @@ def test_coregister_stack_is_each_band_alone_and_one_mask(tex, order):
     for i in range(37):
         one, one_ok = coregister(stack[i], 1.45, -0.3, valid, order=order)
         np.testing.assert_array_equal(one_ok, ok)
-        np.testing.assert_array_equal(out[i][ok], one[ok])
+        # The same taps; BLAS may add a product's four terms in another order for a matrix of
+        # another shape (seen with NumPy 1.26's OpenBLAS on one CPU): float32 rounding apart.
+        np.testing.assert_array_max_ulp(out[i][ok], one[ok], maxulp=2)
     rows = tex.shape[0]
     # A profile whose values vary by 1e-12 takes the per-line path.
     wobble = np.full(rows, 1.45) + np.r_[1e-12, np.zeros(rows - 1)]
