@@ -52,6 +52,31 @@ def test_streaming_statistics_equal_one_pass_and_spectral():
     assert np.max(np.abs(fast - ref_rx) / ref_rx) <= 1e-3
 
 
+def test_rx_background_statistics_do_not_depend_on_the_threads():
+    """RX's first pass adds the strips' products in strip order: the same covariance, bit for
+    bit, with one worker thread or four (per-thread sums grouped the strips by which thread
+    took them, and the float64 sums differed in the last digits from run to run)."""
+    from geoboresight.operations.anomaly import _rx_statistics
+
+    rng = np.random.default_rng(3)
+    cube = (rng.normal(1000, 80, (24, 300, 40)) * rng.uniform(0.5, 2, (24, 1, 1))).astype(
+        np.float32
+    )
+    valid = np.ones(cube.shape[1:], bool)
+
+    def read(row0, row1):
+        return cube[:, row0:row1], valid[row0:row1]
+
+    def stats(workers):
+        strips = {"height": 300, "width": 40, "block_rows": 7, "workers": workers}
+        return _rx_statistics(read, 24, strips, None)
+
+    one = stats(1)
+    for _ in range(3):
+        many = stats(4)
+        assert np.array_equal(many.cov, one.cov) and np.array_equal(many.mean, one.mean)
+
+
 def test_covariance_from_threads_on_integer_strips_equals_spectral():
     from concurrent.futures import ThreadPoolExecutor
 

@@ -100,16 +100,22 @@ class CovarianceAccumulator:
 
     def add_cube(self, cube: np.ndarray, valid: np.ndarray | None = None) -> None:
         """Add the valid pixels of a (k, rows, cols) strip of any numeric type (not modified)."""
+        self.add_product(self.strip_product(cube, valid))
+
+    def strip_product(self, cube: np.ndarray, valid: np.ndarray | None = None):
+        """``[d; 1][d; 1]ᵀ`` of a strip's valid pixels (a new (k + 1, k + 1) matrix; None when
+        none is valid), for :meth:`add_product`. Computed in worker threads and added in strip
+        order, the sums do not depend on which thread took which strip."""
         cube = np.asarray(cube)
         k = cube.shape[0]
         n = cube.size // k if k else 0
         if n == 0 or (valid is not None and not valid.any()):
-            return
+            return None
         if self.shift is None:
             with self._lock:
                 if self.shift is None:
                     self.shift = self.strip_shift(cube, valid)
-        acc, X = self._workspace(n)
+        _, X = self._workspace(n)
         # Converted, then shifted in place: a subtraction across types is twice as slow.
         # Copied as the strip lies (a reshape of a strip that is a view of a larger array
         # would be a copy of its own).
@@ -118,7 +124,13 @@ class CovarianceAccumulator:
         X[k] = 1.0
         if valid is not None and not valid.all():
             X[:, ~valid.ravel()] = 0.0
-        acc += X @ X.T  # syrk: the other triangle is filled by NumPy
+        return X @ X.T  # syrk: the other triangle is filled by NumPy
+
+    def add_product(self, product: np.ndarray | None) -> None:
+        """Add a strip's :meth:`strip_product` (None: nothing) to this thread's sums."""
+        if product is not None:
+            acc, _ = self._workspace(0)
+            acc += product
 
     def add(self, X: np.ndarray) -> None:
         """Add pixels ``X`` of shape (k, n)."""

@@ -341,8 +341,9 @@ def _prepare_image(vnir, swir, layout, spectral, dark, offset, coregistered, pro
 
 def _rx_statistics(read, n_bands: int, strips: dict, progress):
     """RX's first pass: the scene mean and covariance of ``n_bands`` bands over the strips,
-    read in the files' own type (no float copy); the shift comes from the first strip so
-    that the sums do not depend on thread timing."""
+    read in the files' own type (no float copy). The shift comes from the first strip and the
+    strips' products are added in strip order, so the sums do not depend on thread timing:
+    the same scores in every run."""
     from ..anomaly import rx
 
     first, first_valid = read(0, min(strips["block_rows"], strips["height"]))
@@ -350,10 +351,10 @@ def _rx_statistics(read, n_bands: int, strips: dict, progress):
         n_bands, shift=rx.CovarianceAccumulator.strip_shift(first, first_valid)
     )
     del first, first_valid
-    for _ in io.map_windows(
-        read, acc.add_cube, **strips, progress=progress, message="RX: background statistics"
+    for _, product in io.map_windows(
+        read, acc.strip_product, **strips, progress=progress, message="RX: background statistics"
     ):
-        pass
+        acc.add_product(product)  # in strip order: the same sums in every run
     return acc.stats()
 
 
