@@ -83,9 +83,12 @@ class Variogram:
         thousands of small systems, and fresh arrays for each step cost more than the
         arithmetic."""
         p = self.parameters
-        v = np.array(d, dtype=np.float64) if out is None else out
-        if v is not d:
-            np.copyto(v, d)
+        if out is None:
+            v = np.array(d, dtype=np.float64)
+        else:
+            v = out
+            if out is not d:
+                np.copyto(out, d)
         if self.model == "linear":  # slope · d + nugget
             v *= p[0]
             v += p[1]
@@ -407,9 +410,8 @@ class LocalKriging:
             px, py = self.x[idx].astype(np.float64), self.y[idx].astype(np.float64)
             nb = len(idx)
             a = np.empty((nb, k + 1, k + 1))
-            np.negative(
-                self.model(_distance(px, py, px, py, out=buf[:nb]), out=buf[:nb]), out=a[:, :k, :k]
-            )
+            d = _distance(px, py, px, py, out=buf[:nb])  # then its semivariances, in place
+            np.negative(self.model(d, out=d), out=a[:, :k, :k])
             a[:, np.arange(k), np.arange(k)] = 0.0  # PyKrige's matrix: zero diagonal
             a[:, k, :] = 1.0
             a[:, :, k] = 1.0
