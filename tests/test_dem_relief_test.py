@@ -14,6 +14,7 @@ from scipy import stats
 from geoboresight.dem.height import (
     HeightFactor,
     height_precision,
+    not_gross,
     relief_test,
     window_centres,
 )
@@ -74,6 +75,17 @@ def test_statistic_and_p_value_are_the_chi2_test_of_the_block_means():
     assert p.meaningful
     assert f"{p.relief_m:.2f} m" in p.message() and f"p = {p.p_value:.3g}" in p.message()
     assert "42 × 42 px" in p.message()
+
+
+def test_gross_mismatches_are_scipys_robust_rule_value_for_value():
+    """10 normal-consistent MADs of scipy.stats around the median, on heavy tails; an empty
+    sample keeps nothing and says nothing."""
+    h = np.random.default_rng(3).standard_t(1.5, size=20_001)
+    want = np.abs(h - np.median(h)) <= 10 * stats.median_abs_deviation(h, scale="normal")
+    assert 0 < (~want).sum() < h.size // 10
+    np.testing.assert_array_equal(not_gross(h), want)
+    assert not_gross(np.full(7, 2.5)).all()  # no spread: nothing is gross
+    assert not_gross(np.empty(0)).shape == (0,)
 
 
 def test_a_true_null_hypothesis_is_rejected_at_the_nominal_rate():

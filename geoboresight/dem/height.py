@@ -295,13 +295,18 @@ def not_gross(values: np.ndarray) -> np.ndarray:
     """True where a value is within ``GROSS`` robust standard deviations (scipy's
     normal-consistent MAD) of the median: everything but gross blunders (all of it when the
     MAD is 0)."""
-    from scipy.stats import median_abs_deviation
+    from scipy.special import ndtri
 
     values = np.asarray(values, np.float64)
-    spread = median_abs_deviation(values, scale="normal")
+    if values.size == 0:
+        return np.ones(0, bool)
+    # scipy.stats.median_abs_deviation(values, scale="normal"), operation by operation:
+    # importing scipy.stats costs a third of a second, more than a flight line's test.
+    median = np.median(values)
+    spread = np.median(np.abs(values - median)) / ndtri(0.75)
     if not spread > 0:
         return np.ones(values.shape, bool)
-    return np.abs(values - np.median(values)) <= GROSS * spread
+    return np.abs(values - median) <= GROSS * spread
 
 
 def _window(window) -> tuple[int, int]:
@@ -372,7 +377,8 @@ def relief_test(
     Snedecor, G.W.; Cochran, W.G. Statistical Methods, 8th ed.; Iowa State University Press:
     Ames, IA, USA, 1989 (χ² test of a variance against a hypothesised value; weighted means).
     """
-    from scipy.stats import chi2
+    # chi2.sf is scipy.special's chdtrc (scipy.stats, 0.3 s to import, calls it).
+    from scipy.special import chdtrc
 
     if not (0 < alpha < 1):
         raise ParameterError(f"parameter 'alpha': {alpha} is not between 0 and 1")
@@ -407,7 +413,7 @@ def relief_test(
     mbar = float(np.sum(m / var) / np.sum(1.0 / var))
     stat = float(np.sum((m - mbar) ** 2 / var))
     dof = m.size - 1
-    p = float(chi2.sf(stat, dof))
+    p = float(chdtrc(dof, stat))
     relief = math.sqrt(max(float(np.var(m, ddof=1)) - float(np.mean(sigma_h**2 / n)), 0.0))
     snr = relief / math.sqrt(tau2)
     return HeightPrecision(float(sigma_d_px), sigma_h, relief, snr, p < alpha, stat, dof, p, **base)
