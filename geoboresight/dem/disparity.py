@@ -216,45 +216,61 @@ class _Stats:
         return moments
 
 
-def _ncc(stats, bs, vbs, sums=None):
+def _ncc(stats, bs, vbs, known=None):
     """Windowed NCC of ``a`` and ``bs`` over their common valid pixels (box filters), in
-    :class:`_Stats`' buffers: valid until the next shift. ``sums``: the box means of ``bs``
-    and of its square, already known (then ``bs`` is 0 wherever it is not valid)."""
-    w = np.logical_and(stats.va, vbs, out=stats.buf("w", bool))
-    n, aa, ma, var_a, none = stats.moments(w)
-    t, u = stats.buf("t"), stats.buf("u")
-    if sums is None:
+    :class:`_Stats`' buffers: valid until the next shift. ``known``: what does not depend on
+    the product of the two windows, already computed for this shift (:func:`_moving_moments`):
+    the fixed image's moments over the common pixels, and the moving window's mean, variance
+    and "no texture" (then ``bs`` is 0 wherever it is not valid)."""
+    if known is None:
+        w = np.logical_and(stats.va, vbs, out=stats.buf("w", bool))
+        n, aa, ma, var_a, none = stats.moments(w)
         bb = stats.buf("bb")
         bb.fill(0.0)
         np.copyto(bb, bs, where=w)
     else:
+        (n, aa, ma, var_a, none), mb, var_b, flat = known
         bb = bs
+    t, u = stats.buf("t"), stats.buf("u")
     f = stats.box  # the three sums are used before the next shift reuses the buffers
     with np.errstate(invalid="ignore", divide="ignore"):
-        mb = np.divide(f(bb, 0) if sums is None else sums[0], n, out=stats.buf(0))
-        mb2 = np.multiply(mb, mb, out=t)
+        if known is None:
+            mb = np.divide(f(bb, 0), n, out=stats.buf(0))
+            mb2 = np.multiply(mb, mb, out=t)
         cov = np.divide(f(np.multiply(aa, bb, out=u), 1), n, out=stats.buf(1))
         np.subtract(cov, np.multiply(ma, mb, out=u), out=cov)
-        bb2 = f(np.multiply(bb, bb, out=bb), 2) if sums is None else sums[1]
-        var_b = np.divide(bb2, n, out=stats.buf(2))
-        np.subtract(var_b, mb2, out=var_b)
+        if known is None:
+            var_b = np.divide(f(np.multiply(bb, bb, out=bb), 2), n, out=stats.buf(2))
+            np.subtract(var_b, mb2, out=var_b)
         ncc = np.divide(cov, np.sqrt(np.multiply(var_a, var_b, out=u), out=u), out=u)
-        flat = np.less_equal(var_b, np.multiply(1e-12, np.add(mb2, 1.0, out=t), out=t))
+        if known is None:
+            flat = np.less_equal(var_b, np.multiply(1e-12, np.add(mb2, 1.0, out=t), out=t))
     # Too few valid pixels, or no texture (variance at round-off level): no match.
     bad = np.logical_or(none, flat, out=stats.buf("bad", bool))
-    bad |= ~np.isfinite(ncc)
-    ncc[bad] = np.nan
+    finite = np.isfinite(ncc, out=stats.buf("finite", bool))
+    np.logical_or(bad, np.logical_not(finite, out=finite), out=bad)
+    np.copyto(ncc, np.nan, where=bad)
     return ncc
 
 
-def _slice_means(wb, c0, nc, size):
-    """Box means of ``wb`` and of its square on every line, over the columns ``c0 … c0 + nc −
-    1`` only (zero beyond them, as a slice of them is padded): each line's window of an
-    integer shift along-track is then a slice of them."""
+def _moving_moments(wb, c0, nc, n, size):
+    """The moving window's mean, variance and "no texture" on every line of the warped image
+    ``wb``, at its columns ``c0 … c0 + nc − 1`` and over them only (zero beyond them, as a
+    slice of them is padded), with ``n`` the share of each window's pixels that are valid
+    (one line: the same on every line away from the strip's ends). An integer shift
+    along-track then reads them as a slice: the same values, operation by operation, as its
+    own on those lines."""
     part = np.zeros_like(wb)
     part[:, c0 : c0 + nc] = wb[:, c0 : c0 + nc]
     f = ndimage.uniform_filter
-    return f(part, size, mode="constant"), f(part * part, size, mode="constant")
+    cols = slice(c0, c0 + nc)
+    s0, s1 = (f(x, size, mode="constant")[:, cols] for x in (part, part * part))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mb = np.divide(s0, n, out=s0)
+        mb2 = mb * mb
+        var_b = np.subtract(np.divide(s1, n, out=s1), mb2, out=s1)
+        flat = np.less_equal(var_b, np.multiply(1e-12, np.add(mb2, 1.0, out=mb2), out=mb2))
+    return mb, var_b, flat
 
 
 def _parabola(cm, c0, cp):
@@ -297,9 +313,10 @@ def _match(
     constant = np.ndim(base_a) == 0 and np.ndim(base_c) == 0
     # A strip inside the line (both ends open) of images without invalid pixels, searched
     # around one shift: every shift's moving window is a slice of one warped image, so its
-    # box sums are slices of that image's, computed once (two box filters less per shift).
-    # Rows where a slice differs from the shift's own zero-padded sums lie in the halo.
-    shared = constant and all_valid and all(open_ends) and bool(va.all())
+    # moments are slices of that image's, computed once per across-track shift (two box
+    # filters and five array operations less per shift). Rows where a slice differs from
+    # the shift's own zero-padded sums lie in the halo.
+    shared = constant and all_valid and all(open_ends) and bool(va.all()) and len(rows) > size[0]
     stats = _Stats(a, va if inside is None or shared else va & inside, size, min_fill)
     if constant:
         # One shift for the whole image: warp once by it on the lines and columns the search
@@ -310,17 +327,25 @@ def _match(
         nr, nc = len(rows), len(cols)
         if shared:
             wb = np.where(wv, wb, 0.0)
-            means = {dx: _slice_means(wb, sc + dx, nc, stats.size) for dx in range(-sc, sc + 1)}
             # The validity of an all-valid image is where the window stays inside it: its
             # columns (a middle line's) for each across-track shift, the same on every line.
             side = wv[sa + nr // 2]
+            known = {}
 
         def moved(dy, dx):
             win = (slice(sa + dy, sa + dy + nr), slice(sc + dx, sc + dx + nc))
-            if shared:
-                cols_ok = np.broadcast_to(side[win[1]], (nr, nc))
-                return wb[win], cols_ok, tuple(m[win] for m in means[dx])
-            return wb[win], wv[win], None
+            if not shared:
+                return wb[win], wv[win], None
+            cols_ok = np.broadcast_to(side[win[1]], (nr, nc))
+            if dx not in known:
+                # One validity pattern per across-track shift: its moments, and the moving
+                # window's, once; on a middle line n is the same as on every line that the
+                # strip's own lines depend on (the halo holds the rest).
+                fixed = stats.moments(np.logical_and(stats.va, cols_ok))
+                n = fixed[0][nr // 2].copy()
+                known[dx] = fixed, _moving_moments(wb, sc + dx, nc, n, stats.size)
+            fixed, moving = known[dx]
+            return wb[win], cols_ok, (fixed, *(m[win[0]] for m in moving))
     else:
         warped = _warps(coef, vb, rows, cols, base_a, base_c, shifts, all_valid)
 
