@@ -379,6 +379,14 @@ def main(argv=None) -> int:
     ap.add_argument("--only-batch", action="store_true", help="only the Dask scaling table")
     ap.add_argument("--json", help="also write every figure to this JSON file")
     args = ap.parse_args(argv)
+    try:
+        memory_lines = [int(x) for x in args.memory_lines.split(",") if x.strip()]
+    except ValueError:
+        ap.error(f"--memory-lines: line counts separated by commas, got {args.memory_lines!r}")
+    if any(n < 1 for n in [args.lines, *memory_lines]):
+        ap.error("--lines and --memory-lines: at least 1 line (an empty --memory-lines skips)")
+    if not os.path.isdir(args.workdir or tempfile.gettempdir()):
+        ap.error(f"--workdir {args.workdir} is not a folder")
 
     work = tempfile.mkdtemp(prefix="gb-flightline-", dir=args.workdir)
     log = os.path.join(work, "stderr.log")
@@ -402,7 +410,7 @@ def main(argv=None) -> int:
             figures["batch"] = rows
             if args.only_batch:
                 return 0
-        sizes = sorted({args.lines, *(int(x) for x in args.memory_lines.split(",") if x)})
+        sizes = sorted({args.lines, *memory_lines})
         need = max(sizes) * COLS * BYTES_PER_PIXEL_LINE / 1e9
         if free_gb(work) < need + 2:
             print(f"not enough space in {work} for a {need:.1f} GB line", file=sys.stderr)
@@ -470,31 +478,32 @@ def main(argv=None) -> int:
         if not args.keep:
             shutil.rmtree(line, ignore_errors=True)
 
-        # 3: memory against the line's length.
-        ops = [o for o in args.memory_ops.split(",") if o]
-        mem: dict = {}
-        for n in sizes:
-            if n == args.lines and set(ops) <= set(res):
-                mem[n] = {o: res[o] for o in ops}
-                continue
-            print(f"\nmemory run: {n} lines", flush=True)
-            ln = make_line(scene, os.path.join(work, f"line{n}"), n)
-            mem[n] = run_ops(ln, ops, os.path.join(work, f"out{n}"), log)
-            shutil.rmtree(ln, ignore_errors=True)
-            shutil.rmtree(os.path.join(work, f"out{n}"), ignore_errors=True)
-        lo, hi = min(sizes), max(sizes)
-        header = ("operation", *(f"{n:,} lines (GB)" for n in sizes), f"{hi:,} / {lo:,}")
-        rows = [
-            (
-                o,
-                *(f"{mem[n][o]['peak_gb']:.3f}" for n in sizes),
-                f"{mem[hi][o]['peak_gb'] / mem[lo][o]['peak_gb']:.2f}×",
-            )
-            for o in ops
-        ]
-        figures["memory"] = {str(n): mem[n] for n in sizes}
-        print(f"\npeak RSS against line length, load average now {load()}\n")
-        print(table(rows, header))
+        # 3: memory against the line's length (an empty --memory-lines skips it).
+        if memory_lines:
+            ops = [o for o in args.memory_ops.split(",") if o]
+            mem: dict = {}
+            for n in sizes:
+                if n == args.lines and set(ops) <= set(res):
+                    mem[n] = {o: res[o] for o in ops}
+                    continue
+                print(f"\nmemory run: {n} lines", flush=True)
+                ln = make_line(scene, os.path.join(work, f"line{n}"), n)
+                mem[n] = run_ops(ln, ops, os.path.join(work, f"out{n}"), log)
+                shutil.rmtree(ln, ignore_errors=True)
+                shutil.rmtree(os.path.join(work, f"out{n}"), ignore_errors=True)
+            lo, hi = min(sizes), max(sizes)
+            header = ("operation", *(f"{n:,} lines (GB)" for n in sizes), f"{hi:,} / {lo:,}")
+            rows = [
+                (
+                    o,
+                    *(f"{mem[n][o]['peak_gb']:.3f}" for n in sizes),
+                    f"{mem[hi][o]['peak_gb'] / mem[lo][o]['peak_gb']:.2f}×",
+                )
+                for o in ops
+            ]
+            figures["memory"] = {str(n): mem[n] for n in sizes}
+            print(f"\npeak RSS against line length, load average now {load()}\n")
+            print(table(rows, header))
         figures["load_end"] = load()
         if args.json:
             with open(args.json, "w", encoding="utf-8") as f:
