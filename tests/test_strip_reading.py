@@ -55,6 +55,47 @@ def test_band_sequential_files_are_sampled_through_strips(tmp_path):
         assert not hasattr(c.reader(None, None), "pixels")
 
 
+def test_a_sample_read_through_gdal_reads_bounded_strips(tmp_path, monkeypatch):
+    """A cube read through GDAL (here a GeoTIFF) is sampled in strips of at most
+    SAMPLE_STRIP_BYTES, each worker thread keeps one open dataset per file, and close()
+    closes them: the same values as a whole read."""
+    import rasterio
+
+    from geoboresight.io import windows
+
+    rng = np.random.default_rng(2)
+    cube = rng.integers(100, 4000, (6, 57, 19)).astype(np.int16)
+    path = str(tmp_path / "c.tif")
+    with (
+        io.quiet_georef(),
+        rasterio.open(
+            path, "w", driver="GTiff", width=19, height=57, count=6, dtype="int16"
+        ) as dst,
+    ):
+        dst.write(cube)
+    pos = np.sort(rng.choice(57 * 19, 400, replace=False))  # nearly every line
+    line_bytes = 6 * 19 * 8
+    monkeypatch.setattr(windows, "SAMPLE_STRIP_BYTES", 5 * line_bytes)
+    with open_cube(path) as c:
+        read = c.reader(None, "float64")
+        assert not hasattr(read, "pixels") and read.line_bytes == line_bytes
+        strips = []
+
+        def counted(row0, row1):
+            strips.append(row1 - row0)
+            return read(row0, row1)
+
+        counted.line_bytes = read.line_bytes
+        values, ok = io.read_pixels(counted, pos, height=c.height, width=c.width)
+        assert max(strips) == 5 and sum(strips) <= 57
+        datasets = list(c._datasets)
+        assert 1 <= len(datasets) <= io.windows.default_workers()
+    assert all(d.closed for d in datasets) and not c._datasets
+    r, col = np.divmod(pos, 19)
+    np.testing.assert_array_equal(values, cube[:, r, col].astype(np.float64))
+    assert ok.all()
+
+
 @pytest.mark.parametrize("along", [2.37, -1.6, 0.5, 3.0])
 def test_coregistered_strips_equal_the_whole_image(tmp_path, along):
     """Every strip of the detectors' reader, the first and last ones included, holds what

@@ -21,7 +21,7 @@ import numpy as np
 from ..errors import InputError
 from .envi import RawLayout, raw_layout
 from .grid import Grid
-from .raster import open_raster
+from .raster import gdal_cache, open_dataset, open_raster
 from .wavelengths import good_bands, read_wavelengths
 
 
@@ -70,12 +70,18 @@ class Cube:
         self.paths = [p.path for p in parts]
         self._local = threading.local()
         self._selections: dict[bytes, list] = {}
+        self._datasets: list = []  # every thread's open datasets, closed by close()
+        self._datasets_lock = threading.Lock()
 
     def close(self):
         for p in self._parts:
             if p._fh is not None:
                 p._fh.close()
                 p._fh = None
+        with self._datasets_lock:
+            datasets, self._datasets = self._datasets, []
+        for src in datasets:
+            src.close()
 
     def __enter__(self):
         return self
@@ -154,12 +160,25 @@ class Cube:
             buf = bufs[id(part)] = np.empty(n, dtype=part.raw.dtype)
         return buf[:n].reshape(shape)
 
+    def _dataset(self, part):
+        """This thread's open dataset of a part read through GDAL, opened once: opening a
+        product's VRT (and the files it names) for every strip cost a fifth of reading it.
+        A dataset is used by one thread only; :meth:`close` closes them all."""
+        datasets = self._local.__dict__.setdefault("datasets", {})
+        src = datasets.get(id(part))
+        if src is None:
+            src = datasets[id(part)] = open_dataset(part.path, "image")
+            with self._datasets_lock:
+                self._datasets.append(src)
+        return src
+
     def _read_part(self, part, row0, row1, local, data, sel, runs):
         if part.raw is None:
+            import rasterio
             from rasterio.windows import Window
 
-            with open_raster(part.path) as src:
-                block = src.read(
+            with rasterio.Env(**gdal_cache()):
+                block = self._dataset(part).read(
                     [int(b) + 1 for b in local], window=Window(0, row0, self.width, row1 - row0)
                 )
             for i, j in enumerate(sel):
@@ -253,6 +272,10 @@ class Cube:
         if self.samples_by_line:
             # read_pixels draws a sample through this instead of reading lines as strips.
             read.pixels = lambda positions: self.pixels(positions, bands, dtype)
+        else:
+            # ... or reads strips of lines, as few as keep a strip's bytes bounded.
+            n = self.count if bands is None else len(bands)
+            read.line_bytes = n * self.width * np.dtype(dtype or self.dtype).itemsize
         return read
 
 

@@ -33,6 +33,12 @@ from .write import atomic_output, output_error, scrub, temp_name
 GDAL_CACHE_MB = 64
 
 
+def gdal_cache() -> dict:
+    """The options of a ``rasterio.Env`` capping GDAL's block cache at :data:`GDAL_CACHE_MB`
+    (none when the user sets ``GDAL_CACHEMAX``: theirs wins)."""
+    return {} if os.environ.get("GDAL_CACHEMAX") else {"GDAL_CACHEMAX": GDAL_CACHE_MB}
+
+
 #: How GeoTIFF outputs are written in this context: (Cloud-Optimised?, creation options,
 #: ground sample distance in metres for raw-geometry outputs or None).
 _WRITER: contextvars.ContextVar[tuple[bool, dict, float | None]] = contextvars.ContextVar(
@@ -221,9 +227,9 @@ def quiet_georef():
         yield
 
 
-@contextlib.contextmanager
-def open_raster(path: str | os.PathLike, label: str = "raster"):
-    """Open ``path`` for reading with a clear error when it is missing or unreadable."""
+def open_dataset(path: str | os.PathLike, label: str = "raster"):
+    """``path`` opened for reading (the caller closes it), with a clear error when it is
+    missing or unreadable."""
     path = os.fspath(path)
     # A GDAL virtual file (/vsimem/ of rasterio's MemoryFile, /vsizip/, ...) is GDAL's to find.
     if not path.startswith("/vsi") and not os.path.exists(path):
@@ -239,8 +245,7 @@ def open_raster(path: str | os.PathLike, label: str = "raster"):
         path = data
     # GDAL's block cache defaults to 5 % of RAM and fills up while a flight line streams by:
     # cap it so memory stays bounded by a block (a user's own GDAL_CACHEMAX wins).
-    cache = {} if os.environ.get("GDAL_CACHEMAX") else {"GDAL_CACHEMAX": GDAL_CACHE_MB}
-    with rasterio.Env(**cache):
+    with rasterio.Env(**gdal_cache()):
         try:
             with quiet_georef():
                 src = rasterio.open(path)
@@ -251,11 +256,18 @@ def open_raster(path: str | os.PathLike, label: str = "raster"):
         except BaseException:
             src.close()
             raise
-        try:
-            with quiet_georef():
-                yield src
-        finally:
-            src.close()
+    return src
+
+
+@contextlib.contextmanager
+def open_raster(path: str | os.PathLike, label: str = "raster"):
+    """Open ``path`` for reading with a clear error when it is missing or unreadable."""
+    src = open_dataset(path, label)
+    try:
+        with rasterio.Env(**gdal_cache()), quiet_georef():
+            yield src
+    finally:
+        src.close()
 
 
 def check_raw_size(src, label: str = "raster") -> None:
@@ -534,7 +546,7 @@ def create_raster(
     # GDAL's block cache (5 % of RAM by default) would hold every written block, then the
     # whole base level while the overviews are built: cap it as for reading, so memory stays
     # bounded by a strip whatever the line's length (a user's own GDAL_CACHEMAX wins).
-    cache = {} if os.environ.get("GDAL_CACHEMAX") else {"GDAL_CACHEMAX": GDAL_CACHE_MB}
+    cache = gdal_cache()
     with atomic_output(path, overwrite=overwrite) as tmp, quiet_georef(), rasterio.Env(**cache):
         with rasterio.open(tmp, "w", **profile) as dst:
             if colormap:

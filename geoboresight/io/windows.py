@@ -262,6 +262,10 @@ def value_passes(
 #: one read per line costs about a millisecond through GDAL (measured: a 50,000-pixel sample of
 #: an 80,000-line line, half its lines read one by one, took 3× longer than whole strips).
 LINE_READS_BELOW = 8
+#: ... and strips of at most this many bytes (a reader's ``line_bytes`` says a line's): a
+#: sample of a wide cube read through GDAL in 256-line float64 strips held 0.46 GB per strip
+#: (a 1,000-column EnMAP scene, 224 bands).
+SAMPLE_STRIP_BYTES = 32 << 20
 
 
 def read_pixels(
@@ -281,7 +285,8 @@ def read_pixels(
     (:func:`bands_reader`, :func:`band_reader`, :meth:`Cube.reader`). A strip of which at most
     one line in :data:`LINE_READS_BELOW` holds a position has those lines read one by one;
     other strips are read whole: a sample of a thousand pixels of a 20,000-line flight line
-    reads a thousand lines, not the line. Returns ``(values (n_bands, n) or (n,), valid (n,))`` in the order of ``positions``.
+    reads a thousand lines, not the line. A reader that says its ``line_bytes`` is read in
+    strips of at most :data:`SAMPLE_STRIP_BYTES`. Returns ``(values (n_bands, n) or (n,), valid (n,))`` in the order of ``positions``.
     """
     pos = np.asarray(positions, dtype=np.int64)
     direct = getattr(read, "pixels", None)
@@ -293,6 +298,9 @@ def read_pixels(
         progress.update(1.0, message)
         return values, ok
     rows = np.unique(pos // width)
+    line_bytes = getattr(read, "line_bytes", None)
+    if line_bytes:
+        block_rows = min(block_rows, max(1, SAMPLE_STRIP_BYTES // int(line_bytes)))
 
     def take(data, row0, flat):
         # Fancy indexing copies: a reader may reuse its buffer for the next read.
