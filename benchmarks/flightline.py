@@ -201,7 +201,7 @@ import sys, threading, numpy as np
 from geoboresight import io
 from geoboresight.anomaly.rx import _triangular_blocks
 from geoboresight.operations.anomaly import CUBE_BLOCK_ROWS, open_image
-cube, bands, _, _ = open_image(sys.argv[1], sys.argv[2])
+cube, bands, _, _ = open_image(sys.argv[1], sys.argv[2] or None)  # "": a product holding both
 k = len(bands)
 strips = dict(height=cube.height, width=cube.width, block_rows=CUBE_BLOCK_ROWS,
               workers=io.windows.default_workers())

@@ -132,6 +132,8 @@ def write_enmap_l1b(
     seed: int = 0,
     masked: bool = True,
     damage: str | None = None,
+    vnir_wl: np.ndarray = ENMAP_VNIR_WL,
+    swir_wl: np.ndarray = ENMAP_SWIR_WL,
 ) -> Written:
     """An EnMAP L1B product in ``folder`` (or a zip of it with one top folder, as delivered).
 
@@ -146,6 +148,9 @@ def write_enmap_l1b(
     column 7 of VNIR band 41 (the band nearest 920 nm) and a few random pixels of every band.
     The SWIR image sees the scene ``shift`` lines later than the VNIR image.
 
+    ``vnir_wl``, ``swir_wl``: the band centres (nm); by default 47 + 62 bands (a real product
+    has 91 + 133 over the same ranges).
+
     ``damage``: "no-wavelengths" (bandID without wavelengthCenterOfBand), "no-swir-image",
     "band-mismatch" (the SWIR TIF has one band less than the XML says).
     """
@@ -153,8 +158,9 @@ def write_enmap_l1b(
     name = ENMAP_NAME
     top = os.path.join(folder, name) if zip else folder
     os.makedirs(top, exist_ok=True)
-    n_v = len(ENMAP_VNIR_WL)
-    wl = np.concatenate([ENMAP_VNIR_WL, ENMAP_SWIR_WL])
+    vnir_wl, swir_wl = np.asarray(vnir_wl, float), np.asarray(swir_wl, float)
+    n_v = len(vnir_wl)
+    wl = np.concatenate([vnir_wl, swir_wl])
     fwhm = np.where(wl < 1000, 6.5, 10.0) + 0.001 * np.arange(wl.size)
     gains = 1.2e-4 * (1.0 + 0.3 * np.sin(wl / 150.0))
     offsets = -1.0e-3 * (1.0 + 0.5 * np.cos(wl / 300.0))
@@ -168,15 +174,13 @@ def write_enmap_l1b(
     mask_v = np.zeros(dn_v.shape, "uint8")
     mask_s = np.zeros(dn_s.shape, "uint8")
     if masked:
-        mask_v[np.argmin(np.abs(ENMAP_VNIR_WL - 920)), :, 7] = 1
+        mask_v[np.argmin(np.abs(vnir_wl - 920)), :, 7] = 1
         for m in (mask_v, mask_s):
             idx = rng.integers(0, m.size, m.size // 500)
             m.flat[idx] = rng.integers(1, 4, idx.size)  # any nonzero value is defective
     with open(os.path.join(top, f"{name}-METADATA.XML"), "w", encoding="utf-8") as f:
         drop = ("wavelengthCenterOfBand",) if damage == "no-wavelengths" else ()
-        f.write(
-            _enmap_xml(name, ENMAP_VNIR_WL, ENMAP_SWIR_WL, fwhm, gains, offsets, rows, cols, drop)
-        )
+        f.write(_enmap_xml(name, vnir_wl, swir_wl, fwhm, gains, offsets, rows, cols, drop))
     _write_tif(os.path.join(top, f"{name}-SPECTRAL_IMAGE_VNIR.TIF"), dn_v)
     if damage != "no-swir-image":
         _write_tif(
@@ -194,8 +198,8 @@ def write_enmap_l1b(
         shutil.rmtree(folder)
     return Written(
         path,
-        ENMAP_VNIR_WL.copy(),
-        ENMAP_SWIR_WL.copy(),
+        vnir_wl.copy(),
+        swir_wl.copy(),
         gains[:n_v, None, None] * dn_v + offsets[:n_v, None, None],
         gains[n_v:, None, None] * dn_s + offsets[n_v:, None, None],
         fwhm[:n_v],
