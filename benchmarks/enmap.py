@@ -24,12 +24,11 @@ from __future__ import annotations
 
 import argparse
 import os
-import shutil
 import subprocess
 import sys
 import tempfile
 
-from flightline import EXE, RX_LIMIT, load, run, table
+from flightline import EXE, RX_LIMIT, leave, load, run, table
 
 from geoboresight.io.cache import CACHE_ENV
 
@@ -117,10 +116,7 @@ def main(argv=None) -> int:
             b = res[f"{op} --no-coregister"]["seconds"]
             print(f"\n{op}: co-registered / not = {a / b:.2f}")
     finally:
-        if not args.keep:
-            shutil.rmtree(work, ignore_errors=True)
-        else:
-            print(f"kept {work}")
+        leave(work, args.keep)
     return 0
 
 

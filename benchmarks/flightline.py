@@ -337,6 +337,14 @@ print(json.dumps({{"r": float(r), "rmse_m": float(rmse), "pixels": int(n)}}))
     return json.loads(out.stdout)
 
 
+def leave(work: str, keep: bool) -> None:
+    """Delete the work folder, or say where it is kept."""
+    if keep:
+        print(f"kept {work}")
+    else:
+        shutil.rmtree(work, ignore_errors=True)
+
+
 def table(rows: list[tuple], header: tuple) -> str:
     out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     out += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
@@ -509,10 +517,7 @@ def main(argv=None) -> int:
             with open(args.json, "w", encoding="utf-8") as f:
                 json.dump(figures, f, indent=1)
     finally:
-        if not args.keep:
-            shutil.rmtree(work, ignore_errors=True)
-        else:
-            print(f"kept {work}")
+        leave(work, args.keep)
     return 0
 
 
