@@ -200,10 +200,12 @@ def overview_factors(width: int, height: int) -> list[int]:
     return factors
 
 
-def _overview_threads() -> dict:
-    """GDAL options that build overviews on every core, once the strips' worker threads are
-    done (a 20,000 × 286 float32 score: 0.35 s → 0.24 s on 2 cores). A user's
-    GDAL_NUM_THREADS wins."""
+def _gdal_threads() -> dict:
+    """GDAL options that compress a GeoTIFF's blocks, and build its overviews, in as many
+    threads as the strips' workers: the thread that writes the strips then does not compress
+    them one after another (`ratio` of a 20,000-line line: 1.30 s → 1.24 s, alternating), and
+    a 20,000 × 286 float32 score's overviews take 0.24 s instead of 0.35 s on 2 cores. A
+    user's GDAL_NUM_THREADS wins."""
     if os.environ.get("GDAL_NUM_THREADS"):
         return {}
     from .._threads import default_workers
@@ -548,7 +550,7 @@ def create_raster(
     # bounded by a strip whatever the line's length (a user's own GDAL_CACHEMAX wins).
     cache = gdal_cache()
     with atomic_output(path, overwrite=overwrite) as tmp, quiet_georef(), rasterio.Env(**cache):
-        with rasterio.open(tmp, "w", **profile) as dst:
+        with rasterio.Env(**_gdal_threads()), rasterio.open(tmp, "w", **profile) as dst:
             if colormap:
                 dst.write_colormap(1, colormap)
             writer = TileRowWriter(dst)
@@ -567,7 +569,7 @@ def create_raster(
         # blocks in threads of its own (on the handle that wrote the file it does not).
         factors = overview_factors(profile["width"], profile["height"])
         if factors:
-            with rasterio.Env(**_overview_threads()), rasterio.open(tmp, "r+") as dst:
+            with rasterio.Env(**_gdal_threads()), rasterio.open(tmp, "r+") as dst:
                 dst.build_overviews(factors, resampling)
                 dst.update_tags(ns="rio_overview", resampling=resampling.name)
         verify_written(tmp, path, profile)
