@@ -286,7 +286,8 @@ def read_pixels(
     one line in :data:`LINE_READS_BELOW` holds a position has those lines read one by one;
     other strips are read whole: a sample of a thousand pixels of a 20,000-line flight line
     reads a thousand lines, not the line. A reader that says its ``line_bytes`` is read in
-    strips of at most :data:`SAMPLE_STRIP_BYTES`. Returns ``(values (n_bands, n) or (n,), valid (n,))`` in the order of ``positions``.
+    strips of at most :data:`SAMPLE_STRIP_BYTES`. Returns ``(values (n_bands, n) or (n,),
+    valid (n,))`` in the order of ``positions``.
     """
     pos = np.asarray(positions, dtype=np.int64)
     direct = getattr(read, "pixels", None)
