@@ -257,9 +257,10 @@ def _moving_moments(wb, c0, nc, n, size):
     """The moving window's mean, variance and "no texture" on every line of the warped image
     ``wb``, at its columns ``c0 … c0 + nc − 1`` and over them only (zero beyond them, as a
     slice of them is padded), with ``n`` the share of each window's pixels that are valid
-    (one line: the same on every line away from the strip's ends). An integer shift
-    along-track then reads them as a slice: the same values, operation by operation, as its
-    own on those lines."""
+    (one line's: away from the strip's ends every line has it, to its last bits, which
+    SciPy's running box mean leaves). An integer shift along-track then reads them as a
+    slice: its own values, operation by operation, within those last bits (the disparity
+    within a float32 ulp)."""
     part = np.zeros_like(wb)
     part[:, c0 : c0 + nc] = wb[:, c0 : c0 + nc]
     f = ndimage.uniform_filter
@@ -339,8 +340,8 @@ def _match(
             cols_ok = np.broadcast_to(side[win[1]], (nr, nc))
             if dx not in known:
                 # One validity pattern per across-track shift: its moments, and the moving
-                # window's, once; on a middle line n is the same as on every line that the
-                # strip's own lines depend on (the halo holds the rest).
+                # window's, once, with a middle line's n (every line that the strip's own
+                # lines depend on has it, to its last bits; the halo holds the rest).
                 fixed = stats.moments(np.logical_and(stats.va, cols_ok))
                 n = fixed[0][nr // 2].copy()
                 known[dx] = fixed, _moving_moments(wb, sc + dx, nc, n, stats.size)
