@@ -53,6 +53,25 @@ def test_float_overviews_are_nodata_aware_2x2_means(tmp_path):
     assert ov[0, 0] == -9999.0  # a block of nodata only stays nodata
 
 
+def test_blocks_compressed_in_gdals_threads_keep_every_pixel(tmp_path, monkeypatch):
+    """A raster of many tiles written with GDAL's threads (the default) holds the same pixels,
+    overviews and tags as one written in a single thread (a user's GDAL_NUM_THREADS wins)."""
+    rng = np.random.default_rng(4)
+    a = rng.random((1024, 768)).astype("float32")
+    grid = Grid(768, 1024, "EPSG:32636", from_origin(700000, 3600000, 2.0, 2.0))
+    monkeypatch.delenv("GDAL_NUM_THREADS", raising=False)
+    write_raster(str(tmp_path / "threads.tif"), a, grid)
+    monkeypatch.setenv("GDAL_NUM_THREADS", "1")
+    write_raster(str(tmp_path / "one.tif"), a, grid)
+    with rasterio.open(tmp_path / "threads.tif") as t, rasterio.open(tmp_path / "one.tif") as o:
+        np.testing.assert_array_equal(t.read(1), a)
+        np.testing.assert_array_equal(t.read(1), o.read(1))
+        assert t.overviews(1) == o.overviews(1) != []
+        shape = (1024 // 4, 768 // 4)
+        np.testing.assert_array_equal(t.read(1, out_shape=shape), o.read(1, out_shape=shape))
+        assert t.tags() == o.tags() and t.profile == o.profile
+
+
 def test_class_overviews_never_invent_a_class(tmp_path):
     rng = np.random.default_rng(1)
     classes = rng.choice([0, 3, 7], size=(700, 700)).astype("uint8")
