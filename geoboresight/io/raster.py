@@ -569,6 +569,9 @@ def create_raster(
         # blocks in threads of its own (on the handle that wrote the file it does not).
         factors = overview_factors(profile["width"], profile["height"])
         if factors:
+            # GDAL's threads compress the blocks, and a write error met there (a full disk)
+            # reaches only stderr: the file is checked before it is reopened to add to it.
+            verify_written(tmp, path, profile)
             with rasterio.Env(**_gdal_threads()), rasterio.open(tmp, "r+") as dst:
                 dst.build_overviews(factors, resampling)
                 dst.update_tags(ns="rio_overview", resampling=resampling.name)
