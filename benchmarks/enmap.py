@@ -28,7 +28,7 @@ import subprocess
 import sys
 import tempfile
 
-from flightline import EXE, RX_LIMIT, leave, load, run, table
+from flightline import EXE, RX_LIMIT, leave, load, run, settle, table
 
 from geoboresight.io.cache import CACHE_ENV
 
@@ -49,12 +49,7 @@ def make_scene(folder: str, rows: int, cols: int) -> str:
     child started with ``fork``/``vfork`` carries its parent's peak RSS into its own."""
     root = os.path.dirname(HERE)
     subprocess.run([sys.executable, "-c", WRITE, root, folder, str(rows), str(cols)], check=True)
-    os.sync()
-    buf = bytearray(1 << 20)
-    for name in os.listdir(folder):
-        with open(os.path.join(folder, name), "rb", buffering=0) as f:
-            while f.readinto(buf):
-                pass
+    settle([os.path.join(folder, name) for name in os.listdir(folder)])
     return folder
 
 

@@ -134,14 +134,20 @@ def make_line(scene: str, out: str, lines: int) -> str:
                 left -= k
         with open(os.path.join(out, f"{name}.hdr"), "w", encoding="utf-8") as f:
             f.write(re.sub(r"lines\s*=\s*\d+", f"lines   = {lines}", hdr))
-    # Let the data reach the disk, then read it once (the page cache then holds it, as for
-    # any file the user has just copied): no operation pays for the kernel's flushing.
+    settle([os.path.join(out, f"{name}.img") for name in ("vnir", "swir")])
+    return out
+
+
+def settle(paths) -> None:
+    """Let freshly written files reach the disk, then read them once (the page cache then
+    holds them, as for any file the user has just copied): no operation pays for the
+    kernel's flushing."""
     os.sync()
-    for name in ("vnir", "swir"):
-        with open(os.path.join(out, f"{name}.img"), "rb", buffering=0) as f:
+    buf = bytearray(1 << 20)
+    for path in paths:
+        with open(path, "rb", buffering=0) as f:
             while f.readinto(buf):
                 pass
-    return out
 
 
 def commands(line: str, out: str) -> dict[str, list[str]]:
