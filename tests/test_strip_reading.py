@@ -96,6 +96,46 @@ def test_a_sample_read_through_gdal_reads_bounded_strips(tmp_path, monkeypatch):
     assert ok.all()
 
 
+def test_gdals_block_cache_holds_an_open_tiled_cubes_rows_of_tiles(tmp_path, monkeypatch):
+    """A tiled, compressed cube read 16 lines at a time decodes each 256-line row of tiles
+    once only if GDAL's block cache holds it for every worker thread: the cube keeps that
+    much while it is open, in bytes (what rasterio hands GDALSetCacheMax64), and gives it
+    back when closed. An uncompressed ENVI cube, read without GDAL, keeps nothing."""
+    import rasterio
+    from rasterio.env import get_gdal_config
+
+    from geoboresight.io import raster
+
+    monkeypatch.delenv("GDAL_CACHEMAX", raising=False)
+    default = raster.gdal_cache()["GDAL_CACHEMAX"]
+    assert default == raster.GDAL_CACHE_MB * 2**20
+    k, height, width = 20, 300, 520
+    data = np.arange(k * height * width, dtype=np.int16).reshape(k, height, width) % 977
+    path = str(tmp_path / "tiled.tif")
+    profile = dict(driver="GTiff", width=width, height=height, count=k, dtype="int16")
+    with (
+        io.quiet_georef(),
+        rasterio.open(
+            path, "w", **profile, tiled=True, blockxsize=256, blockysize=256, compress="deflate"
+        ) as dst,
+    ):
+        dst.write(data)
+    row_of_tiles = 3 * 256 * 256 * k * 2  # three tiles across, 20 int16 bands each
+    need = (io.windows.default_workers() + 1) * row_of_tiles
+    assert need > default
+    with open_cube(path) as c:
+        with rasterio.Env(**raster.gdal_cache()):
+            assert int(get_gdal_config("GDAL_CACHEMAX")) == need
+        strip, _ = c.read(250, 266, dtype=None)
+        np.testing.assert_array_equal(strip, data[:, 250:266])
+    assert raster.gdal_cache()["GDAL_CACHEMAX"] == default
+    write_envi(str(tmp_path / "plain.img"), data, np.linspace(400, 900, k))
+    with open_cube(str(tmp_path / "plain.hdr")):
+        assert raster.gdal_cache()["GDAL_CACHEMAX"] == default
+    monkeypatch.setenv("GDAL_CACHEMAX", "512")  # the user's own setting wins
+    assert raster.gdal_cache() == {}
+
+
 @pytest.mark.parametrize("along", [2.37, -1.6, 0.5, 3.0])
 def test_coregistered_strips_equal_the_whole_image(tmp_path, along):
     """Every strip of the detectors' reader, the first and last ones included, holds what

@@ -18,10 +18,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._threads import default_workers
 from ..errors import InputError
 from .envi import RawLayout, raw_layout
 from .grid import Grid
-from .raster import gdal_cache, open_dataset, open_raster
+from .raster import (
+    gdal_cache,
+    hold_gdal_cache,
+    open_dataset,
+    open_raster,
+    release_gdal_cache,
+    tile_row_bytes,
+)
 from .wavelengths import good_bands, read_wavelengths
 
 
@@ -32,6 +40,7 @@ class _Part:
     dtype: np.dtype
     nodata: float | None
     raw: RawLayout | None  # for the fast ENVI path
+    tile_row: int = 0  # bytes of a row of GDAL's blocks across the image, all bands
     _fh: object = field(default=None, repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
@@ -72,6 +81,12 @@ class Cube:
         self._selections: dict[bytes, list] = {}
         self._datasets: list = []  # every thread's open datasets, closed by close()
         self._datasets_lock = threading.Lock()
+        # A row of tiles of each file read through GDAL for every worker thread (each
+        # decodes into its own dataset's blocks) and one more for the next row, which one
+        # of them reaches first.
+        through_gdal = sum(p.tile_row for p in parts if p.raw is None)
+        if through_gdal:
+            hold_gdal_cache(self, (default_workers() + 1) * through_gdal)
 
     def close(self):
         for p in self._parts:
@@ -82,6 +97,7 @@ class Cube:
             datasets, self._datasets = self._datasets, []
         for src in datasets:
             src.close()
+        release_gdal_cache(self)
 
     def __enter__(self):
         return self
@@ -335,6 +351,7 @@ def open_cube(paths, label: str = "image") -> Cube:
                     raw_layout(data_path, src.count, src.height, src.width)
                     if src.driver == "ENVI"
                     else None,
+                    tile_row_bytes(src),
                 )
             )
     wavelengths = None if any(w is None for w in wls) else np.concatenate(wls)

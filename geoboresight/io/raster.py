@@ -11,7 +11,9 @@ import contextvars
 import logging
 import os
 import re
+import threading
 import warnings
+import weakref
 from xml.sax.saxutils import escape
 
 import numpy as np
@@ -29,14 +31,60 @@ from .grid import DEFLATE_LEVEL, FLOAT_NODATA, TILE, Grid
 from .wavelengths import format_wavelengths, unit_scale
 from .write import atomic_output, output_error, scrub, temp_name
 
-#: GDAL block cache (MB) while reading: enough for a few strips of a full-width cube.
-GDAL_CACHE_MB = 64
+#: GDAL's block cache (MB): the tiles a single-band product's strip shares with the next
+#: strips and its halo. GDAL's default (5 % of RAM) would fill up as a flight line streams by.
+GDAL_CACHE_MB = 8
+#: The most the block cache holds for the open cubes' rows of tiles (MB).
+GDAL_CACHE_MAX_MB = 1024
+#: Bytes of GDAL's block cache that each open cube needs (GDAL has one cache per process).
+_cache_needs: dict[int, int] = {}
+_cache_lock = threading.Lock()
 
 
 def gdal_cache() -> dict:
-    """The options of a ``rasterio.Env`` capping GDAL's block cache at :data:`GDAL_CACHE_MB`
-    (none when the user sets ``GDAL_CACHEMAX``: theirs wins)."""
-    return {} if os.environ.get("GDAL_CACHEMAX") else {"GDAL_CACHEMAX": GDAL_CACHE_MB}
+    """The options of a ``rasterio.Env`` sizing GDAL's block cache: :data:`GDAL_CACHE_MB`, or
+    what an open cube needs (:func:`hold_gdal_cache`) up to :data:`GDAL_CACHE_MAX_MB`, so
+    memory stays bounded whatever the line's length. None when the user sets
+    ``GDAL_CACHEMAX``: theirs wins."""
+    if os.environ.get("GDAL_CACHEMAX"):
+        return {}
+    with _cache_lock:
+        need = max(_cache_needs.values(), default=0)
+    size = min(max(need, GDAL_CACHE_MB << 20), GDAL_CACHE_MAX_MB << 20)
+    # rasterio hands an integer GDAL_CACHEMAX to GDALSetCacheMax64, which counts bytes.
+    return {"GDAL_CACHEMAX": size}
+
+
+def hold_gdal_cache(owner, nbytes: int) -> None:
+    """Let :func:`gdal_cache` keep ``nbytes`` while ``owner`` lives or until
+    :func:`release_gdal_cache`: a cube read in strips through GDAL needs the row of tiles a
+    strip lies in (the next strips read the same tiles), or every strip decodes its tiles
+    again (a 256-line tile, read 16 lines at a time, 16 times)."""
+    key = id(owner)
+    with _cache_lock:
+        _cache_needs[key] = int(nbytes)
+    weakref.finalize(owner, _forget, key)
+
+
+def release_gdal_cache(owner) -> None:
+    """What :func:`hold_gdal_cache` kept for ``owner`` is no longer needed."""
+    _forget(id(owner))
+
+
+def _forget(key: int) -> None:
+    with _cache_lock:
+        _cache_needs.pop(key, None)
+
+
+def tile_row_bytes(src) -> int:
+    """Bytes of one row of ``src``'s blocks across the image, all bands (what GDAL decodes
+    for a strip of lines that lies in one row of tiles); 0 for a VRT, whose blocks GDAL
+    reads from its sources' (caching the VRT's own would only copy them)."""
+    if src.driver == "VRT":
+        return 0
+    rows, cols = src.block_shapes[0]
+    across = -(-src.width // max(1, cols))
+    return across * rows * cols * sum(np.dtype(d).itemsize for d in src.dtypes)
 
 
 #: How GeoTIFF outputs are written in this context: (Cloud-Optimised?, creation options,
