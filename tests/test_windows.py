@@ -139,6 +139,68 @@ def test_reduce_windows_merges_exactly(image, block_rows):
     assert total[1] == pytest.approx(data[0][valid].astype("float64").sum(), rel=1e-12)
 
 
+def _counting_passes(image, keep_bytes):
+    data, valid = image
+    reads = []
+
+    def read(r0, r1):
+        reads.append((r0, r1))
+        return data[0, r0:r1], valid[r0:r1]
+
+    blocks = io.windows.value_passes(
+        read,
+        lambda x, ok: x[ok],
+        height=97,
+        width=41,
+        block_rows=10,
+        keep_bytes=keep_bytes,
+    )
+    return blocks, reads
+
+
+def test_value_passes_read_the_raster_once_when_its_values_fit(image):
+    data, valid = image
+    blocks, reads = _counting_passes(image, keep_bytes=data[0].nbytes)
+    passes = [list(blocks()) for _ in range(4)]
+    assert len(reads) == 10  # the first pass only
+    for p in passes:
+        np.testing.assert_array_equal(np.concatenate(p), data[0][valid])
+    # The kept values are shared by the passes: a consumer may not change them.
+    with pytest.raises(ValueError):
+        passes[2][0][0] = 0.0
+
+
+def test_value_passes_stream_every_pass_beyond_the_bound(image):
+    data, valid = image
+    blocks, reads = _counting_passes(image, keep_bytes=data[0][valid].nbytes // 2)
+    passes = [np.concatenate(list(blocks())) for _ in range(3)]
+    assert len(reads) == 30
+    for p in passes:
+        np.testing.assert_array_equal(p, data[0][valid])
+
+
+def test_value_passes_keep_only_a_complete_pass(image):
+    data, valid = image
+    blocks, reads = _counting_passes(image, keep_bytes=data[0].nbytes)
+    first = blocks()
+    next(first)  # a consumer that stops early (an error, a cancellation)
+    partial = len(reads)
+    np.testing.assert_array_equal(np.concatenate(list(blocks())), data[0][valid])
+    assert len(reads) == partial + 10  # the second pass read the raster again ...
+    np.testing.assert_array_equal(np.concatenate(list(blocks())), data[0][valid])
+    assert len(reads) == partial + 10  # ... and kept it for the third
+
+
+def test_kept_passes_give_the_statistics_of_streamed_ones(image):
+    from geoboresight.stats import describe_blocks
+
+    results = []
+    for keep in (0, io.windows.KEEP_BYTES):
+        blocks, _ = _counting_passes(image, keep_bytes=keep)
+        results.append(describe_blocks(blocks, percentiles=[1, 25, 50, 75, 99]).to_dict())
+    assert results[0] == results[1]
+
+
 def test_cancel_stops_within_one_strip(image):
     data, valid = image
     calls = []
