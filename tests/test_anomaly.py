@@ -1,6 +1,8 @@
 """Anomaly kernels (paper §3.3) against independent references: Spectral Python's RX,
 scikit-learn's OneClassSVM and ROC functions, SciPy's NNLS."""
 
+import warnings
+
 import numpy as np
 import pytest
 import spectral
@@ -178,6 +180,24 @@ def test_svdd_blockwise_scores_equal_oneclasssvm():
     score = model.score(X.T)
     np.testing.assert_allclose(score, -2 * expected / ref.dual_coef_.sum(), rtol=1e-8, atol=1e-12)
     assert np.median(score[:20]) > np.percentile(score[20:], 99)
+
+
+def test_svdd_scores_valid_pixels_whatever_the_others_hold():
+    rng = np.random.default_rng(5)
+    cube = 800 + 40 * rng.normal(size=(12, 9, 14))
+    model = svdd.fit_svdd(cube.reshape(12, -1).T, nu=0.05)
+    valid = rng.random((9, 14)) > 0.2
+    valid[:, 0] = False  # a column left out, as co-registration leaves the image's edges
+    junk = cube.copy()
+    bad = np.flatnonzero(~valid.ravel())
+    for i, value in enumerate((np.nan, np.inf, -np.inf, 1e300, -9999.0)):
+        junk.reshape(12, -1)[:, bad[i::5]] = value
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no overflow or invalid-value warning from the junk
+        got = model.score_cube(junk, valid)
+    assert np.isnan(got[~valid]).all()
+    expected = model.score(cube.reshape(12, -1)[:, valid.ravel()])
+    np.testing.assert_allclose(got[valid], expected, rtol=1e-12)
 
 
 def _mixtures(N=4, k=40, n=400, seed=0):

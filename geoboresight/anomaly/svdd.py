@@ -69,13 +69,17 @@ class SVDDModel:
     def _local(self) -> threading.local:
         return threading.local()
 
-    def decision(self, X: np.ndarray, chunk: int | None = None) -> np.ndarray:
+    def decision(
+        self, X: np.ndarray, chunk: int | None = None, valid: np.ndarray | None = None
+    ) -> np.ndarray:
         """``OneClassSVM.decision_function`` of pixels ``X`` (k, n): Σ αᵢ K(y, xᵢ) − ρ.
 
         Positive inside the description (background), negative outside. ``X`` may be of any
         numeric type (integer DN are converted chunk by chunk into a reused buffer). Computed
         in chunks of ``chunk`` pixels (default: about 10⁶ kernel values per chunk) with one
-        GEMM each; thread-safe (each thread has its own buffers).
+        GEMM each; thread-safe (each thread has its own buffers). With ``valid`` (bool, n),
+        the other pixels are NaN and their values are never used (nodata, NaN): the valid
+        pixels need no copy of their own.
         """
         X = np.asarray(X)
         k, n = X.shape
@@ -90,6 +94,7 @@ class SVDDModel:
             ws.Y = np.empty((k + 2) * c_max)
             ws.G = np.empty(m * c_max)
         out = np.empty(n)
+        skip = None if valid is None or valid.all() else ~np.asarray(valid, bool)
         for a in range(0, n, chunk):
             c = min(chunk, n - a)
             Y = ws.Y[: (k + 2) * c].reshape(k + 2, c)
@@ -97,6 +102,8 @@ class SVDDModel:
             # as slow (the same values).
             np.copyto(Y[:k], X[:, a : a + c], casting="unsafe")
             Y[:k] -= self.center[:, None]
+            if skip is not None:
+                Y[:k, skip[a : a + c]] = 0.0  # the centre: finite, whatever was there
             Y[k] = 1.0
             np.einsum("ij,ij->j", Y[:k], Y[:k], out=Y[k + 1])
             G = ws.G[: m * c].reshape(m, c)
@@ -105,23 +112,24 @@ class SVDDModel:
             np.exp(G, out=G)
             np.matmul(self.alpha, G, out=out[a : a + c])
         out += self.intercept
+        if skip is not None:
+            out[skip] = np.nan
         return out
 
-    def score(self, X: np.ndarray, chunk: int | None = None) -> np.ndarray:
-        """SVDD anomaly score ``‖Φ(y) − a‖² − R²`` (positive outside the sphere)."""
-        return -2.0 * self.decision(X, chunk) / float(self.alpha.sum())
+    def score(
+        self, X: np.ndarray, chunk: int | None = None, valid: np.ndarray | None = None
+    ) -> np.ndarray:
+        """SVDD anomaly score ``‖Φ(y) − a‖² − R²`` (positive outside the sphere) of pixels
+        ``X`` (k, n); NaN where not ``valid``."""
+        return -2.0 * self.decision(X, chunk, valid) / float(self.alpha.sum())
 
     def score_cube(self, cube: np.ndarray, valid: np.ndarray | None = None) -> np.ndarray:
         """Scores of a (k, rows, cols) cube of any numeric type; NaN where not valid."""
         k, rows, cols = cube.shape
-        flat = cube.reshape(k, -1)
-        out = np.full(rows * cols, np.nan)
-        if valid is None or valid.all():
-            out[:] = self.score(flat)
-        elif valid.any():
-            v = valid.ravel()
-            out[v] = self.score(flat[:, v])
-        return out.reshape(rows, cols)
+        if valid is not None and not valid.any():
+            return np.full((rows, cols), np.nan)
+        v = None if valid is None else valid.ravel()
+        return self.score(cube.reshape(k, -1), valid=v).reshape(rows, cols)
 
 
 def median_sigma(sample: np.ndarray, max_pairs: int = 2000, seed: int = 0) -> float:
