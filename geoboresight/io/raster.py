@@ -34,8 +34,9 @@ from .write import atomic_output, output_error, scrub, temp_name
 #: GDAL's block cache (MB): the tiles a single-band product's strip shares with the next
 #: strips and its halo. GDAL's default (5 % of RAM) would fill up as a flight line streams by.
 GDAL_CACHE_MB = 8
-#: The most the block cache holds for the open cubes' rows of tiles (MB).
-GDAL_CACHE_MAX_MB = 1024
+#: The most the block cache holds for the open cubes' rows of tiles (MB): a bound on the
+#: memory it adds to a run, whatever the tiles (a cube tiled wider is decoded again in part).
+GDAL_CACHE_MAX_MB = 512
 #: Bytes of GDAL's block cache that each open cube needs (GDAL has one cache per process).
 _cache_needs: dict[int, int] = {}
 _cache_lock = threading.Lock()
