@@ -26,9 +26,8 @@ import argparse
 import os
 import subprocess
 import sys
-import tempfile
 
-from flightline import EXE, RX_LIMIT, leave, load, run, settle, table
+from flightline import EXE, RX_LIMIT, leave, load, run, settle, table, work_folder
 
 from geoboresight.io.cache import CACHE_ENV
 
@@ -62,12 +61,8 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if min(args.rows, args.cols) < 64:
         ap.error("--rows and --cols: at least 64 pixels (the offset is measured on blocks)")
-    if args.workdir and not os.path.isdir(args.workdir):
-        ap.error(f"--workdir {args.workdir} is not a folder")
-    work = tempfile.mkdtemp(prefix="gb-enmap-", dir=args.workdir)
-    log = os.path.join(work, "stderr.log")
+    work, log = work_folder(ap, args.workdir, "gb-enmap-")
     try:
-        print(f"work folder {work}; load average {load()}", flush=True)
         scene = make_scene(os.path.join(work, "L1B"), args.rows, args.cols)
         out = os.path.join(work, "out")
         os.makedirs(out)

@@ -359,6 +359,16 @@ print(json.dumps({{"r": float(r), "rmse_m": float(rmse), "pixels": int(n)}}))
     return json.loads(out.stdout)
 
 
+def work_folder(ap, workdir: str | None, prefix: str) -> tuple[str, str]:
+    """A fresh work folder under ``workdir`` (refused in one line when that is not a folder),
+    announced with the load average, and its log of the operations' errors."""
+    if workdir and not os.path.isdir(workdir):
+        ap.error(f"--workdir {workdir} is not a folder")
+    work = tempfile.mkdtemp(prefix=prefix, dir=workdir)
+    print(f"work folder {work}; load average {load()}", flush=True)
+    return work, os.path.join(work, "stderr.log")
+
+
 def leave(work: str, keep: bool) -> None:
     """Delete the work folder, or say where it is kept."""
     if keep:

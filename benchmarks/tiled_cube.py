@@ -23,9 +23,8 @@ import os
 import statistics
 import subprocess
 import sys
-import tempfile
 
-from flightline import EXE, leave, load, run, settle, table
+from flightline import EXE, leave, load, run, settle, table, work_folder
 
 WRITE = """
 import sys
@@ -58,12 +57,8 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if min(args.rows, args.cols) < 64 or args.bands < 3 or args.repeat < 1:
         ap.error("--rows and --cols: at least 64; --bands: at least 3; --repeat: at least 1")
-    if args.workdir and not os.path.isdir(args.workdir):
-        ap.error(f"--workdir {args.workdir} is not a folder")
-    work = tempfile.mkdtemp(prefix="gb-tiled-", dir=args.workdir)
-    log = os.path.join(work, "stderr.log")
+    work, log = work_folder(ap, args.workdir, "gb-tiled-")
     try:
-        print(f"work folder {work}; load average {load()}", flush=True)
         root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
         size = [str(args.rows), str(args.cols), str(args.bands)]
         subprocess.run([sys.executable, "-c", WRITE, root, work, *size], check=True)
