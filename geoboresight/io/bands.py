@@ -265,9 +265,12 @@ def _bil_bands(part: RawPart, idx, row0: int, row1: int, width: int):
         )
     try:
         lines = np.frombuffer(mm, dt, (row1 - row0) * part.count * width, skip)
-        data = lines.reshape(row1 - row0, part.count, width)[:, idx, :].transpose(1, 0, 2)
+        idx = np.asarray(idx)
+        if idx.size and np.array_equal(idx, np.arange(idx[0], idx[0] + idx.size)):
+            idx = slice(int(idx[0]), int(idx[0]) + idx.size)  # a band range: a view, one copy
+        values = lines.reshape(row1 - row0, part.count, width)[:, idx, :].transpose(1, 0, 2)
         del lines
-        values = data.astype(np.float32)
+        values = values.astype(np.float32)  # the map is closed below: no view of it is left
     finally:
         mm.close()
     valid = np.ones(values.shape[1:], bool)
