@@ -24,7 +24,7 @@ from ..dem.bands import (
 )
 from ..errors import InputError, ParameterError
 from ..progress import Progress
-from .cube import RawPart, open_cube
+from .cube import RawPart, as_slice, open_cube
 from .dual import SWIR_NM, TOLERANCE_NM, VNIR_NM, DualSensor, SensorFile
 from .grid import Grid
 from .image import open_raster
@@ -265,10 +265,9 @@ def _bil_bands(part: RawPart, idx, row0: int, row1: int, width: int):
         )
     try:
         lines = np.frombuffer(mm, dt, (row1 - row0) * part.count * width, skip)
-        idx = np.asarray(idx)
-        if idx.size and np.array_equal(idx, np.arange(idx[0], idx[0] + idx.size)):
-            idx = slice(int(idx[0]), int(idx[0]) + idx.size)  # a band range: a view, one copy
-        values = lines.reshape(row1 - row0, part.count, width)[:, idx, :].transpose(1, 0, 2)
+        # A band range is a view of the map: converted in one copy.
+        values = lines.reshape(row1 - row0, part.count, width)[:, as_slice(idx), :]
+        values = values.transpose(1, 0, 2)
         del lines
         values = values.astype(np.float32)  # the map is closed below: no view of it is left
     finally:

@@ -295,6 +295,15 @@ class Cube:
         return read
 
 
+def as_slice(index):
+    """``index`` (band indexes) as a slice when it is a contiguous range: a strip's bands are
+    then a view of it instead of a copy."""
+    index = np.asarray(index)
+    if index.size and np.array_equal(index, np.arange(index[0], index[0] + index.size)):
+        return slice(int(index[0]), int(index[0]) + index.size)
+    return index
+
+
 def _runs(local: np.ndarray, sel: np.ndarray):
     """``(file band, output band, length)`` of each run where both go up by one."""
     breaks = np.flatnonzero((np.diff(local) != 1) | (np.diff(sel) != 1)) + 1

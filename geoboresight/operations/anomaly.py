@@ -25,6 +25,7 @@ from ..anomaly.rx import RXBackground
 from ..anomaly.svdd import NU, SAMPLE_SIZE
 from ..errors import InputError, ParameterError
 from ..io.bands import BoresightOffset, Coregistration
+from ..io.cube import as_slice
 from ..io.dark import DarkLevels
 from ..io.dual import DualLayout
 from ._operation import operation
@@ -162,8 +163,8 @@ class _Coregistered:
         self.cube, self.bands = cube, np.asarray(bands)
         # A dual dataset stacks VNIR then SWIR: slices, not copies, of each strip.
         self.vnir, self.swir = (
-            _as_slice(np.flatnonzero(~is_swir)),
-            _as_slice(np.flatnonzero(is_swir)),
+            as_slice(np.flatnonzero(~is_swir)),
+            as_slice(np.flatnonzero(is_swir)),
         )
         self.along, self.across = along, across
         self.taps = tap_lines(along)
@@ -228,13 +229,6 @@ class _Coregistered:
         where = where.reshape(taps.shape)
         out[self.swir], s_ok = shift_sampled(values[:, where], valid[where], weights)
         return out, ok & s_ok & inside
-
-
-def _as_slice(index: np.ndarray):
-    """``index`` as a slice when it is a contiguous range (a view instead of a copy)."""
-    if len(index) and np.array_equal(index, np.arange(index[0], index[0] + len(index))):
-        return slice(int(index[0]), int(index[0]) + len(index))
-    return index
 
 
 def _detector_input(vnir, swir, layout, spectral, dark, coregistration, target, progress):
