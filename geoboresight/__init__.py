@@ -67,21 +67,14 @@ KERNELS = {
 
 def _operations() -> dict[str, str]:
     """File-level operations, one per operation of the command line and the QGIS toolbox:
-    ``{name: module}`` of every function decorated ``@operation`` in
-    :mod:`geoboresight.operations` (read from the modules' text, so that ``import
-    geoboresight`` stays light and an operation is declared in one place)."""
-    import pathlib
-    import re
-
-    found = {}
-    folder = pathlib.Path(__file__).parent / "operations"
-    declared = re.compile(r"^@operation\(.*?\)\ndef (\w+_file)\(", re.M | re.S)
-    for path in sorted(folder.glob("*.py")):
-        if path.stem.startswith("_"):
-            continue
-        for name in declared.findall(path.read_text(encoding="utf-8")):
-            found[name] = f"geoboresight.operations.{path.stem}"
-    return found
+    ``{name_file: spec module}`` for every operation of :data:`geoboresight.algorithms.SPECS`
+    (its spec wraps the function: checked arguments, guarded outputs, ``overwrite``)."""
+    specs = importlib.import_module("geoboresight.algorithms").SPECS  # the standard library only
+    return {
+        f"{name.replace('-', '_')}_file": f"geoboresight.algorithms.{module}"
+        for module, names in specs.items()
+        for name in names
+    }
 
 
 #: File-level operations: one per operation of the command line and the QGIS toolbox.
@@ -144,7 +137,11 @@ def __getattr__(name: str):
     module = _API.get(name)
     if module is None:
         raise AttributeError(f"module 'geoboresight' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
+    if name in OPERATIONS:  # the function its spec wraps
+        specs = importlib.import_module(module).ALGORITHMS
+        value = next(a.operation for a in specs if a.run.__name__ == name)
+    else:
+        value = getattr(importlib.import_module(module), name)
     globals()[name] = value  # later look-ups skip this function
     return value
 

@@ -14,7 +14,7 @@ import rasterio
 from scipy.stats import linregress
 from sklearn.metrics import r2_score
 
-from geoboresight import io
+from geoboresight import io, shadow_classes_file
 from geoboresight.algorithms import ratio as ratio_specs
 from geoboresight.algorithms import shadow as shadow_specs
 from geoboresight.algorithms import shadow_truth as truth_specs
@@ -26,7 +26,6 @@ from geoboresight.io.shadow import (
     read_class_table,
     write_class_table,
 )
-from geoboresight.operations.shadow import shadow_classes_file
 from geoboresight.shadow.classes import (
     NODATA_CLASS,
     TABLE2,

@@ -51,7 +51,7 @@ def test_bad_levels_are_refused():
 
 
 def test_a_non_finite_member_of_a_group_is_refused_before_any_work(tmp_path):
-    from geoboresight.operations.shadow_map import MapCalibration, shadow_map_file
+    from geoboresight import MapCalibration, shadow_map_file
 
     scene = "sample_data/scene"
     out = tmp_path / "m.tif"

@@ -16,9 +16,8 @@ import pytest
 import rasterio
 from click.testing import CliRunner
 
+from geoboresight import SurfaceModel, deshadow_file, shadow_map_file
 from geoboresight.errors import InputError, ParameterError
-from geoboresight.operations.deshadow import deshadow_file
-from geoboresight.operations.shadow_map import SurfaceModel, shadow_map_file
 from geoboresight.shadow import deshadow as ds
 from geoboresight.shadow import illumination as ill
 from geoboresight.shadow import map as smap

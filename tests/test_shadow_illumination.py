@@ -18,10 +18,9 @@ import pytest
 import rasterio
 from rasterio.transform import from_origin
 
-from geoboresight import io
+from geoboresight import io, sun_shadow_file
 from geoboresight.algorithms.shadow_truth import SUN_SHADOW
 from geoboresight.errors import ParameterError
-from geoboresight.operations.shadow_truth import sun_shadow_file
 from geoboresight.shadow.illumination import (
     along_ray,
     cast_shadow,

@@ -15,13 +15,18 @@ import numpy as np
 import pytest
 import rasterio
 
+from geoboresight import (
+    Detection,
+    dark_pixel_shadow_file,
+    shadow_classes_file,
+    shadow_fraction_apply_file,
+    shadow_map_file,
+    sun_shadow_file,
+)
 from geoboresight.errors import InputError, ParameterError
 from geoboresight.io import quiet_georef
 from geoboresight.io.dark import DarkLevels
 from geoboresight.io.windows import map_windows
-from geoboresight.operations.shadow import shadow_classes_file, shadow_fraction_apply_file
-from geoboresight.operations.shadow_map import Detection, shadow_map_file
-from geoboresight.operations.shadow_truth import dark_pixel_shadow_file, sun_shadow_file
 from geoboresight.shadow import map as smap
 from geoboresight.shadow.classes import (
     NODATA_CLASS,

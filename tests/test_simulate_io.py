@@ -17,11 +17,11 @@ import pytest
 import rasterio
 
 import geoboresight as gb
+from geoboresight import simulate_file
 from geoboresight.algorithms.simulate import SIMULATE
 from geoboresight.errors import OutputError, ParameterError
 from geoboresight.io import open_dual, quiet_georef
 from geoboresight.io.scene import NAVIGATION_FILES, SCENE_FILES, write_scene
-from geoboresight.operations.simulate import simulate_file
 from geoboresight.simulate import simulate_scene
 
 

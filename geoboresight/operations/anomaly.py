@@ -28,7 +28,6 @@ from ..io.bands import BoresightOffset, Coregistration
 from ..io.cube import as_slice
 from ..io.dark import DarkLevels
 from ..io.dual import DualLayout
-from ._operation import operation
 from ._shared import GIVE_OFFSET, measured_offset, sensor_dark_levels
 
 #: Pixels drawn at random for the dark-object estimate of a detector's detectability.
@@ -393,7 +392,6 @@ def _rx_scores(det, read, read64, background, precision, strips: dict, progress)
     )
 
 
-@operation(inputs=("vnir", "swir"), outputs=("output",))
 def rx_file(
     vnir,
     swir=None,
@@ -528,7 +526,6 @@ def _coreg_tags(coreg: dict) -> dict:
     }
 
 
-@operation(inputs=("vnir", "swir"), outputs=("output",))
 def svdd_file(
     vnir,
     swir=None,
@@ -673,7 +670,6 @@ def svdd_file(
 INDICATOR_METHODS = ("auto", "eq3", "physical")
 
 
-@operation(inputs=("ratio", "vnir", "swir"), outputs=("output", "anomalies"))
 def boresight_indicator_file(
     ratio=None,
     vnir=None,
@@ -1070,7 +1066,6 @@ def _optional_mask(path, grid, tags):
     )
 
 
-@operation(inputs=("score",), outputs=("output",))
 def anomaly_polygons_file(
     score,
     *,
@@ -1141,7 +1136,6 @@ def anomaly_polygons_file(
     return {"output": output, "features": len(geoms)}
 
 
-@operation(inputs=("vnir", "swir", "endmembers"), outputs=("output",))
 def unmix_file(
     vnir,
     endmembers,
@@ -1246,7 +1240,6 @@ def unmix_file(
     return {"output": output, "endmembers": chosen}
 
 
-@operation(inputs=("scores", "truth"), outputs=("output", "csv"))
 def roc_file(
     scores,
     truth,

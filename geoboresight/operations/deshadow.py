@@ -25,7 +25,6 @@ from ..io.dual import DualLayout
 from ..shadow import deshadow as ds
 from ..shadow import deshadow_steps as dst
 from ..shadow import illumination as ill
-from ._operation import operation
 from ._shared import (
     DARK_BANDS,
     SurfaceModel,
@@ -58,10 +57,6 @@ def _cell(prior) -> float:
     return float(np.sqrt(abs(np.linalg.det(prior.matrix))))
 
 
-@operation(
-    inputs=("vnir", "swir", "shadow", "surface.dsm", "surface.igm", "surface.glt"),
-    outputs=("output", "report"),
-)
 def deshadow_file(
     vnir,
     swir=None,

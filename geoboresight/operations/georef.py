@@ -22,7 +22,6 @@ from ..io.grid import OutputGrid
 from ..io.image import open_raster
 from ..io.write import write_json
 from ..simulate.ortho import HEADING_DEG, JITTER_DEG, JITTER_LINES, ORTHO_CELL
-from ._operation import operation
 
 REFERENCES = """
     References
@@ -89,7 +88,6 @@ def _grid_result(grid, done: dict) -> dict:
 
 
 @_docstring
-@operation(inputs=("input", "igm", "glt"), outputs=("output",))
 def geolocate_file(
     input,
     igm=None,
@@ -207,7 +205,6 @@ def _gcps_for(gcps: str, gcp_crs, width: int, height: int):
 
 
 @_docstring
-@operation(inputs=("input", "gcps"), outputs=("output", "report", "igm_output"))
 def georeference_file(
     input,
     gcps,
@@ -359,7 +356,6 @@ def _reference_window(reference, reference_band, placement, width, height, margi
 
 
 @_docstring
-@operation(inputs=("input", "reference", "gcps"), outputs=("output", "report", "igm_output"))
 def auto_georeference_file(
     input,
     reference,
@@ -505,7 +501,6 @@ def auto_georeference_file(
 
 
 @_docstring
-@operation(inputs=("input", "reference"), outputs=("output",))
 def reproject_to_file(input, reference, *, output, resampling="auto", progress=None) -> dict:
     """Put a map product onto the exact grid (CRS, transform, size) of a reference raster
     (an orthophoto or a scanned topographic map); a vector layer (GeoPackage or GeoJSON) is
@@ -556,7 +551,6 @@ def _reproject_vector(input, reference, output) -> dict:
 
 
 @_docstring
-@operation(outputs=("output",))
 def simulate_ortho_file(
     *,
     output,

@@ -32,7 +32,6 @@ from ..io.bands import MatchBands, open_matching_pair
 from ..io.cache import cache_dir, files_key, remembered
 from ..io.dual import DualLayout
 from ..progress import as_progress
-from ._operation import operation
 
 #: The convention of every offset reported.
 CONVENTION = "a feature at VNIR (line r, column c) appears at SWIR (r + along, c + across)"
@@ -175,7 +174,6 @@ def drift_profile(pair, rows: int, progress=None):
     )
 
 
-@operation(inputs=("vnir", "swir", "cloud_mask"), outputs=("output", "plot"))
 def boresight_offset_file(
     vnir,
     swir=None,
@@ -285,7 +283,6 @@ def boresight_offset_file(
     return {"output": output, **{k: v for k, v in result.items() if k != "profile"}}
 
 
-@operation(inputs=("vnir", "swir", "cloud_mask"), outputs=("output",))
 def coregister_file(
     vnir,
     swir=None,

@@ -23,7 +23,6 @@ from ..shadow import classes as cls
 from ..shadow.cluster import NIR_NM, PROBABILITY, fit_shadow_cluster, shadow_mask
 from ..shadow.fraction import PAPER_INTERCEPT, PAPER_SLOPE, FractionAccumulator, FractionModel
 from ..shadow.polygons import MIN_PIXELS
-from ._operation import operation
 from ._shared import check_fraction, no_valid_error
 
 #: Points drawn at most for a scatter plot.
@@ -38,7 +37,6 @@ def class_table(path=None) -> cls.ClassTable:
 # ------------------------------------------------------------------------------ shadow-classes
 
 
-@operation(inputs=("ratio", "classes"), outputs=("output", "mask"))
 def shadow_classes_file(
     ratio,
     classes=None,
@@ -212,7 +210,6 @@ def _label_cluster(
     return n_shadow
 
 
-@operation(inputs=("ratio", "vnir"), outputs=("output", "probability_output", "plot"))
 def shadow_cluster_file(
     ratio,
     vnir,
@@ -364,7 +361,6 @@ def _cluster_plot(plot, pixels, cluster, probability, nir_found) -> None:
 # ------------------------------------------------------------------------- shadow-fraction-fit
 
 
-@operation(inputs=("ratio", "truth", "mask"), outputs=("report", "plot"))
 def shadow_fraction_fit_file(
     ratio,
     truth,
@@ -481,7 +477,6 @@ def shadow_fraction_fit_file(
 # ----------------------------------------------------------------------- shadow-fraction-apply
 
 
-@operation(inputs=("ratio", "model"), outputs=("output",))
 def shadow_fraction_apply_file(
     ratio,
     model=None,
@@ -577,7 +572,6 @@ def shadow_fraction_apply_file(
 # ----------------------------------------------------------------------------- shadow-polygons
 
 
-@operation(inputs=("classes_raster", "classes"), outputs=("output",))
 def shadow_polygons_file(
     classes_raster,
     classes=None,

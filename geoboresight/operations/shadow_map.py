@@ -31,7 +31,6 @@ from ..io.windows import Sample
 from ..shadow import classes as cls
 from ..shadow import map as smap
 from ..shadow import prior as sp
-from ._operation import operation
 from ._shared import (
     DARK_BANDS,
     SurfaceModel,
@@ -77,10 +76,6 @@ class Detection:
     edge_pixels: int = smap.EDGE_PIXELS
 
 
-@operation(
-    inputs=("vnir", "swir", "classes", "surface.dsm", "surface.igm", "surface.glt"),
-    outputs=("output", "mask", "fraction"),
-)
 def shadow_map_file(
     vnir,
     swir=None,

@@ -25,7 +25,6 @@ from ..shadow.darkpixel import (
     fit_dark_pixel,
 )
 from ..shadow.surface import AUTO, choose_surface
-from ._operation import operation
 from ._shared import (
     check_cell_size,
     check_heights,
@@ -42,7 +41,6 @@ BANDS_NM = ",".join(f"{b:g}" for b in DEFAULT_BANDS_NM)
 # ---------------------------------------------------------------------------------- sun-shadow
 
 
-@operation(inputs=("dsm",), outputs=("output", "mask", "hillshade"))
 def sun_shadow_file(
     dsm,
     *,
@@ -255,7 +253,6 @@ def _wavelength_list(text) -> list[float]:
     return vals
 
 
-@operation(inputs=("vnir",), outputs=("output", "shadow_function"))
 def dark_pixel_shadow_file(
     vnir,
     *,
