@@ -15,11 +15,11 @@ from .algorithms.dem import disparity_file as disparity_file
 from .algorithms.dem import relative_dem_file as relative_dem_file
 from .algorithms.dem import view_3d_file as view_3d_file
 from .algorithms.deshadow import deshadow_file as deshadow_file
-from .algorithms.georef import auto_georeference_file as auto_georeference_file
 from .algorithms.georef import geolocate_file as geolocate_file
 from .algorithms.georef import georeference_file as georeference_file
 from .algorithms.georef import reproject_to_file as reproject_to_file
 from .algorithms.georef import simulate_ortho_file as simulate_ortho_file
+from .algorithms.georef_auto import auto_georeference_file as auto_georeference_file
 from .algorithms.info import info_file as info_file
 from .algorithms.offset import boresight_offset_file as boresight_offset_file
 from .algorithms.offset import coregister_file as coregister_file
@@ -50,13 +50,9 @@ from .anomaly.rx import rx as rx
 from .anomaly.svdd import fit_svdd as fit_svdd
 from .anomaly.unmix import unmix as unmix
 from .anomaly.unmix import unmix_cube as unmix_cube
-from .dem.bands import band_mean as band_mean
-from .dem.coregister import coregister as coregister
 from .dem.disparity import Matching as Matching
 from .dem.disparity import disparity_map as disparity_map
 from .dem.height import FlightGeometry as FlightGeometry
-from .dem.offset import estimate_offset as estimate_offset
-from .dem.offset import offset_profile as offset_profile
 from .dem.relative import Kriging as Kriging
 from .dem.relative import relative_dem as relative_dem
 from .errors import Cancelled as Cancelled
@@ -76,7 +72,6 @@ from .io.bands import BoresightOffset as BoresightOffset
 from .io.bands import Coregistration as Coregistration
 from .io.bands import MatchBands as MatchBands
 from .io.cube import open_cube as open_cube
-from .io.dark import DarkLevels as DarkLevels
 from .io.dual import BandChoice as BandChoice
 from .io.dual import DualLayout as DualLayout
 from .io.dual import open_dual as open_dual
@@ -93,6 +88,11 @@ from .operations.shadow_map import MapCalibration as MapCalibration
 from .operations.shadow_map import SurfaceModel as SurfaceModel
 from .progress import Progress as Progress
 from .ratio import boresight_ratio as boresight_ratio
+from .sensor.bands import band_mean as band_mean
+from .sensor.coregister import coregister as coregister
+from .sensor.dark import DarkLevels as DarkLevels
+from .sensor.offset import estimate_offset as estimate_offset
+from .sensor.offset import offset_profile as offset_profile
 from .shadow.cluster import fit_shadow_cluster as fit_shadow_cluster
 from .shadow.darkpixel import fit_dark_pixel as fit_dark_pixel
 from .shadow.fraction import fit_fraction_model as fit_fraction_model

@@ -285,7 +285,6 @@ FLOORS = (
         "geoboresight.simulate",
         "geoboresight.stats",
         "geoboresight.ratio",
-        "geoboresight.figures",
         "geoboresight.html",
     ),
     ("geoboresight.sensor",),
@@ -294,6 +293,7 @@ FLOORS = (
         "geoboresight.progress",
         "geoboresight._version",
         "geoboresight._threads",
+        "geoboresight.figures",
     ),
 )
 #: The kernel packages (arrays in, arrays out), which io never imports.

@@ -15,12 +15,12 @@ import numpy as np
 import pytest
 import rasterio
 
+from geoboresight import report_file
 from geoboresight.algorithms import registry
 from geoboresight.algorithms.report import REPORT
 from geoboresight.errors import Cancelled
 from geoboresight.io import quiet_georef
 from geoboresight.progress import Progress
-from geoboresight.report.scene import report_file
 
 CHROMIUM = ("/usr/bin/chromium", "/usr/bin/chromium-browser", "/usr/bin/google-chrome")
 SECTIONS = ("Boresight ratio and statistics", "Shadow", "Relative DEM", "Anomaly detection")
@@ -230,7 +230,7 @@ def test_report_renders_in_chromium(full_report, tmp_path):
 
 
 def test_report_spec_runs_report_file():
-    assert REPORT.run is report_file and registry()["report"] is REPORT
+    assert REPORT.operation is report_file and registry()["report"] is REPORT
 
 
 # ------------------------------------------------------------------ HTML templates

@@ -19,7 +19,7 @@ from geoboresight.algorithms import ratio as ratio_specs
 from geoboresight.algorithms import shadow as shadow_specs
 from geoboresight.algorithms import shadow_truth as truth_specs
 from geoboresight.errors import InputError, OutputError, ParameterError
-from geoboresight.io.shadow import (
+from geoboresight.operations._shadow_tables import (
     class_polygons,
     class_shapes,
     class_table_csv,

@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 from geoboresight.errors import InputError, ParameterError
-from geoboresight.io.dark import DarkLevels, dark_level_of, header_dark, product_dark
+from geoboresight.io.dark import dark_level_of, header_dark, product_dark
 from geoboresight.io.dual import SensorFile
+from geoboresight.sensor.dark import DarkLevels
 
 
 def sensor(dark=None, source=""):

@@ -25,8 +25,8 @@ from geoboresight import (
 )
 from geoboresight.errors import InputError, ParameterError
 from geoboresight.io import quiet_georef
-from geoboresight.io.dark import DarkLevels
 from geoboresight.io.windows import map_windows
+from geoboresight.sensor.dark import DarkLevels
 from geoboresight.shadow import map as smap
 from geoboresight.shadow.classes import (
     NODATA_CLASS,

@@ -53,13 +53,8 @@ SPECS: dict[str, tuple[str, ...]] = {
     "anomaly": ("rx", "svdd", "boresight-indicator", "unmix"),
     "roc": ("roc", "anomaly-polygons"),
     "simulate": ("simulate",),
-    "georef": (
-        "geolocate",
-        "georeference",
-        "auto-georeference",
-        "reproject-to",
-        "simulate-ortho",
-    ),
+    "georef": ("geolocate", "georeference", "reproject-to", "simulate-ortho"),
+    "georef_auto": ("auto-georeference",),
     "report": ("report",),
 }
 

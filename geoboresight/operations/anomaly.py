@@ -26,9 +26,10 @@ from ..anomaly.svdd import NU, SAMPLE_SIZE
 from ..errors import InputError, ParameterError
 from ..io.bands import BoresightOffset, Coregistration
 from ..io.cube import as_slice
-from ..io.dark import DarkLevels
 from ..io.dual import DualLayout
-from ._shared import GIVE_OFFSET, measured_offset, sensor_dark_levels
+from ..sensor.dark import DarkLevels
+from ._dark import sensor_dark_levels
+from ._offset import GIVE_OFFSET, boresight_offset
 
 #: Pixels drawn at random for the dark-object estimate of a detector's detectability.
 DARK_SAMPLE = 4000
@@ -146,18 +147,18 @@ def _detectability_result(name, dprime, target, progress, grey=None) -> dict:
 
 class _Coregistered:
     """The cube's strips with its SWIR bands resampled onto the VNIR grid (the boresight
-    offset removed: :func:`geoboresight.dem.coregister.coregister_stack`, cubic convolution),
+    offset removed: :func:`geoboresight.sensor.coregister.coregister_stack`, cubic convolution),
     for RX and SVDD.
 
     Each strip is read in the files' own type with the lines the kernel's taps reach
-    (:func:`~geoboresight.dem.coregister.coregister_halo`), its SWIR bands shifted together in
+    (:func:`~geoboresight.sensor.coregister.coregister_halo`), its SWIR bands shifted together in
     float32 (one valid mask for all) and cropped: the strip's values are the whole image's.
     Pixels whose interpolation reaches outside the image or an invalid pixel become invalid.
     Each pass resamples what it reads: a resampled copy of a long line would be as large as
     the line, beyond the memory bound."""
 
     def __init__(self, cube, bands, is_swir, along, across):
-        from ..dem.coregister import tap_lines
+        from ..sensor.coregister import tap_lines
 
         self.cube, self.bands = cube, np.asarray(bands)
         # A dual dataset stacks VNIR then SWIR: slices, not copies, of each strip.
@@ -169,7 +170,7 @@ class _Coregistered:
         self.taps = tap_lines(along)
 
     def reader(self):
-        from ..dem.coregister import coregister_stack
+        from ..sensor.coregister import coregister_stack
 
         cube, (first, stop) = self.cube, self.taps
         k = len(self.bands)
@@ -215,7 +216,7 @@ class _Coregistered:
         strips hold them, reading only the lines of the pixels and of their SWIR taps
         (:meth:`Cube.pixels`): SVDD's training sample of a long line without shifting whole
         strips for one pixel each."""
-        from ..dem.coregister import pixel_taps, shift_sampled
+        from ..sensor.coregister import pixel_taps, shift_sampled
 
         cube = self.cube
         out = np.empty((len(self.bands), len(positions)), np.float32)
@@ -274,11 +275,11 @@ def _prepare_image(vnir, swir, layout, spectral, dark, offset, coregistered, pro
                 )
             )
         if coregistered and dual is not None and is_swir.any():
-            along, across, how = measured_offset(
+            along, across, how = boresight_offset(
                 dual,
                 offset,
                 progress.sub(0.0, 0.1),
-                GIVE_OFFSET + ", or leave the SWIR unshifted ('coregister' off)",
+                hint=GIVE_OFFSET + ", or leave the SWIR unshifted ('coregister' off)",
             )
             progress.info(
                 f"co-registering: SWIR shifted by {along:+.3f} px along-track, "
@@ -864,7 +865,7 @@ def _physical_indicator_file(
     physical.check_window(window)
     physical.check_target(target)
     dual = io.as_dual(vnir, swir, layout)
-    along, across, how = measured_offset(dual, offset, progress.sub(0.0, 0.3))
+    along, across, how = boresight_offset(dual, offset, progress.sub(0.0, 0.3))
     progress.info(
         f"boresight offset δ: {along:+.3f} px along-track, {across:+.3f} px across ({how})"
     )

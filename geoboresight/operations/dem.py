@@ -35,7 +35,7 @@ from ..dem.view3d import (
 from ..errors import InputError
 from ..io.bands import DENSE_MATCH, open_matching_pair, require_on_grid
 from ..io.dual import TOLERANCE_NM, DualLayout
-from .offset import line_offset
+from ._offset import line_offset
 
 #: Worker threads matching strips of a flight line (the filters and warps release the GIL).
 MATCH_WORKERS = 2

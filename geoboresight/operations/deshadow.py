@@ -20,22 +20,15 @@ import numpy as np
 from .. import io
 from ..errors import InputError, ParameterError
 from ..io.bands import BoresightOffset
-from ..io.dark import DarkLevels
+from ..io.checks import check_fraction, check_fraction_nodata, no_valid_error
 from ..io.dual import DualLayout
+from ..sensor.dark import DarkLevels
 from ..shadow import deshadow as ds
 from ..shadow import deshadow_steps as dst
 from ..shadow import illumination as ill
-from ._shared import (
-    DARK_BANDS,
-    SurfaceModel,
-    band_dark_levels,
-    boresight_offset,
-    check_fraction,
-    check_fraction_nodata,
-    no_valid_error,
-    open_surface,
-    spread_bands,
-)
+from ._dark import DARK_BANDS, band_dark_levels, spread_bands
+from ._offset import boresight_offset
+from ._surface import SurfaceModel, open_surface
 
 #: Pixels sampled for the dark level estimate.
 DARK_SAMPLE = 100_000
@@ -164,7 +157,12 @@ def deshadow_file(
         adj_half = max(1, int(ds.ADJACENCY_M / (2.0 * _cell(prior)))) if adjacency else 0
         levels = _dark_levels(vnir, dual, (v_src, s_src), dark, strips, progress)
         along, across, _ = boresight_offset(
-            dual, v_src, s_src, dual.ratio_bands(), offset, progress
+            dual,
+            offset,
+            progress,
+            over="central",
+            ratio_bands=dual.ratio_bands(),
+            sources=(v_src, s_src),
         )
         read = _cube_reader(dual, (v_src, s_src), f_src, shadow, opened)
         # Pass 1: pairs across shadow edges, and each instrument's darkest pixels.

@@ -22,6 +22,7 @@ from ..io.grid import OutputGrid
 from ..io.image import open_raster
 from ..io.write import write_json
 from ..simulate.ortho import HEADING_DEG, JITTER_DEG, JITTER_LINES, ORTHO_CELL
+from ._glt import glt_for
 
 REFERENCES = """
     References
@@ -132,7 +133,7 @@ def geolocate_file(
         raise ParameterError("give either --igm or --glt, not both")
     width, height = _product_size(input)
     if glt:
-        table = gio.glt_for(glt, f"input {input}", width=width, height=height, crs=igm_crs)
+        table = glt_for(glt, f"input {input}", width=width, height=height, crs=igm_crs)
         rows, cols, ok, _ = glt_indices(
             table.sample, table.line, table.valid, width=width, height=height
         )

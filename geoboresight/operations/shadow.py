@@ -14,24 +14,19 @@ import numpy as np
 
 from .. import io
 from ..errors import ParameterError
+from ..io.checks import check_fraction, no_valid_error
 from ..io.dual import TOLERANCE_NM
-from ..io.masks import mask_raster, masked_reader
-from ..io.shadow import class_polygons, class_table_csv, read_class_table, read_fraction_model
 from ..io.wavelengths import nearest_band, wavelengths_of
 from ..io.windows import Sample
 from ..shadow import classes as cls
 from ..shadow.cluster import NIR_NM, PROBABILITY, fit_shadow_cluster, shadow_mask
 from ..shadow.fraction import PAPER_INTERCEPT, PAPER_SLOPE, FractionAccumulator, FractionModel
 from ..shadow.polygons import MIN_PIXELS
-from ._shared import check_fraction, no_valid_error
+from ._shadow_masks import mask_raster, masked_reader
+from ._shadow_tables import class_polygons, class_table, class_table_csv, read_fraction_model
 
 #: Points drawn at most for a scatter plot.
 PLOT_POINTS = 20000
-
-
-def class_table(path=None) -> cls.ClassTable:
-    """The class table in ``path`` (CSV or JSON), or Table 2 when None."""
-    return read_class_table(path) if path else cls.default_table()
 
 
 # ------------------------------------------------------------------------------ shadow-classes

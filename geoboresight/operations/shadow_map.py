@@ -23,26 +23,18 @@ import numpy as np
 from .. import io
 from ..errors import ParameterError
 from ..io.bands import BoresightOffset, band_range
-from ..io.dark import DarkLevels
+from ..io.checks import no_valid_error
 from ..io.dual import BandChoice, DualLayout
-from ..io.masks import mask_raster
-from ..io.shadow import class_table_csv
 from ..io.windows import Sample
+from ..sensor.dark import DarkLevels
 from ..shadow import classes as cls
 from ..shadow import map as smap
 from ..shadow import prior as sp
-from ._shared import (
-    DARK_BANDS,
-    SurfaceModel,
-    boresight_offset,
-    central_rows,
-    dark_level,
-    no_valid_error,
-    open_surface,
-    saturation_value,
-    spread_bands,
-)
-from .shadow import class_table
+from ._dark import DARK_BANDS, instrument_dark_level, saturation_value, spread_bands
+from ._offset import boresight_offset, central_rows
+from ._shadow_masks import mask_raster
+from ._shadow_tables import class_table, class_table_csv
+from ._surface import SurfaceModel, open_surface
 
 __all__ = ["Detection", "MapCalibration", "MapSample", "SurfaceModel", "shadow_map_file"]
 
@@ -297,8 +289,8 @@ def _calibrate(vnir, dual, sources, mb, how, strips, warnings, progress):
     dark, calibration, table, core = how
     v_src, s_src = sources
     vs, ss, ok = _checked_sample(vnir, dual, sources, mb, calibration, strips, warnings, progress)
-    v_dark = dark_level(dual.vnir, v_src, mb.vnir_dark, dark.vnir_dark, vs, ok, progress)
-    s_dark = dark_level(dual.swir, s_src, mb.swir_dark, dark.swir_dark, ss, ok, progress)
+    v_dark = instrument_dark_level(dual.vnir, v_src, mb.vnir_dark, dark.vnir_dark, vs, ok, progress)
+    s_dark = instrument_dark_level(dual.swir, s_src, mb.swir_dark, dark.swir_dark, ss, ok, progress)
     for sensor, values, level in ((dual.vnir, vs, v_dark), (dual.swir, ss, s_dark)):
         smap.check_sample(values, ok, level, name=f"{sensor.name} {sensor.path}")
     levels = (
@@ -312,7 +304,9 @@ def _calibrate(vnir, dual, sources, mb, how, strips, warnings, progress):
     swir_s = smap.signal(ss[[s_at(b) for b in mb.swir]], levels[2])
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio_s = ss[s_at(mb.ratio.swir_band)] / vs[v_at(mb.ratio.vnir_band)]
-    along, across, _ = boresight_offset(dual, v_src, s_src, mb.ratio, calibration, progress)
+    along, across, _ = boresight_offset(
+        dual, calibration, progress, over="central", ratio_bands=mb.ratio, sources=(v_src, s_src)
+    )
     cal = smap.calibrate_shadow_map(
         blue_s,
         nir_s,

@@ -11,9 +11,9 @@ import numpy as np
 
 from .. import io
 from ..errors import ParameterError
+from ..io.checks import check_cell_size, check_heights, no_valid_error
 from ..io.dual import TOLERANCE_NM
-from ..io.georef import metric_matrix
-from ..io.masks import mask_raster
+from ..io.georef import grid_place, metric_matrix
 from ..io.wavelengths import nearest_band, wavelengths_of
 from ..io.windows import Sample
 from ..shadow import illumination as ill
@@ -25,14 +25,8 @@ from ..shadow.darkpixel import (
     fit_dark_pixel,
 )
 from ..shadow.surface import AUTO, choose_surface
-from ._shared import (
-    check_cell_size,
-    check_heights,
-    grid_place,
-    no_valid_error,
-    relief_and_walls,
-    sun_angles,
-)
+from ._shadow_masks import mask_raster
+from ._surface import relief_and_walls, sun_angles
 
 #: The dark-pixel bands as the text parameter gives them (nm, comma-separated).
 BANDS_NM = ",".join(f"{b:g}" for b in DEFAULT_BANDS_NM)

@@ -28,7 +28,7 @@ A class table is a CSV (or JSON list of objects) with the columns::
 
 ``class`` 1–254, ``min < max`` (ratios), fractions in 0–1, ``colour`` as ``#rrggbb``. Rows must
 be listed in ratio order (all ascending or all descending) and intervals must not overlap
-(touching ends are fine). Reading and writing such files is :mod:`geoboresight.io.shadow`'s job;
+(touching ends are fine). Reading and writing such files is :mod:`geoboresight.operations._shadow_tables`'s job;
 this module validates the rows (:func:`class_from_row`, :func:`validate_classes`) and applies the
 table to arrays.
 """

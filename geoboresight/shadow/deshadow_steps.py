@@ -196,7 +196,7 @@ def edge_pairs(
     -------
     EdgePairs
     """
-    from ..dem.coregister import coregister_stack
+    from ..sensor.coregister import coregister_stack
 
     sig = np.array(signal, np.float64)
     ok = np.ones(fraction.shape, bool) if valid is None else np.asarray(valid, bool)
@@ -380,7 +380,7 @@ def fraction_on_swir_grid(fraction: np.ndarray, offset: tuple[float, float], val
     fraction : array (lines, columns)
     offset : (float, float)
         Boresight offset of the SWIR (px, along and across): the raster is moved back by it
-        (:func:`geoboresight.dem.coregister.coregister`, bilinear).
+        (:func:`geoboresight.sensor.coregister.coregister`, bilinear).
     valid : bool array (lines, columns), optional
         Cells with a value (default: the finite ones).
 
@@ -389,7 +389,7 @@ def fraction_on_swir_grid(fraction: np.ndarray, offset: tuple[float, float], val
     array (lines, columns)
         NaN where the moved raster has no value.
     """
-    from ..dem.coregister import coregister
+    from ..sensor.coregister import coregister
 
     ok = np.isfinite(fraction) if valid is None else valid
     g, g_ok = coregister(np.where(ok, fraction, 0.0), -offset[0], -offset[1], ok, order=1)
