@@ -94,14 +94,14 @@ from .sensor.dark import DarkLevels as DarkLevels
 from .sensor.offset import estimate_offset as estimate_offset
 from .sensor.offset import offset_profile as offset_profile
 from .shadow.cluster import fit_shadow_cluster as fit_shadow_cluster
+from .shadow.darkness import calibrate_shadow_map as calibrate_shadow_map
+from .shadow.darkness import dark_level as dark_level
+from .shadow.darkness import shadow_fraction_estimate as shadow_fraction_estimate
 from .shadow.darkpixel import fit_dark_pixel as fit_dark_pixel
 from .shadow.fraction import fit_fraction_model as fit_fraction_model
 from .shadow.illumination import cast_shadow as cast_shadow
 from .shadow.illumination import hillshade as hillshade
 from .shadow.illumination import shadow_fraction as shadow_fraction
-from .shadow.map import calibrate_shadow_map as calibrate_shadow_map
-from .shadow.map import dark_level as dark_level
-from .shadow.map import shadow_fraction_estimate as shadow_fraction_estimate
 from .shadow.surface import choose_surface as choose_surface
 from .simulate.ortho import attitude_jitter as attitude_jitter
 from .simulate.ortho import simulate_ortho as simulate_ortho

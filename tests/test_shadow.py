@@ -214,7 +214,7 @@ def test_classes_operation_is_a_plain_function(tmp_path):
     rng = np.random.default_rng(6)
     ratio = rng.uniform(1.5, 4.2, (40, 30))
     src = write_ratio(tmp_path / "r.tif", ratio)
-    assert ALG["shadow-classes"].run is shadow_classes_file
+    assert ALG["shadow-classes"].operation is shadow_classes_file
     res = shadow_classes_file(src, output=str(tmp_path / "a.tif"), block_rows=9)
     assert res == ALG["shadow-classes"](ratio=src, output=str(tmp_path / "b.tif")) | {
         "output": str(tmp_path / "a.tif")

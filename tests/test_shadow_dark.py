@@ -73,7 +73,7 @@ def test_calibration_sample_checks_refuse_what_the_physics_cannot_use():
     import pytest
 
     from geoboresight.errors import InputError
-    from geoboresight.shadow.map import DarkLevel, check_sample
+    from geoboresight.shadow.darkness import DarkLevel, check_sample
 
     rng = np.random.default_rng(0)
     values = rng.uniform(200, 3000, (4, 500))

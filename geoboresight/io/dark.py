@@ -1,7 +1,7 @@
 """The dark level of each instrument of a dual-sensor dataset (DN of zero signal), found in one
 place: given by the user, else the sensor product's dark reference, else the ENVI header's
 'dark level'; when none of them says it, the shadow map estimates it from the data
-(:func:`geoboresight.shadow.map.dark_level`, dark-object subtraction). The values are
+(:func:`geoboresight.shadow.darkness.dark_level`, dark-object subtraction). The values are
 those of :mod:`geoboresight.sensor.dark`.
 """
 

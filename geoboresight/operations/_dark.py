@@ -1,7 +1,7 @@
 """Each instrument's dark level (DN of zero signal) for an operation: given by the user, the
 sensor product's dark reference or the ENVI header's (:func:`geoboresight.io.dark.dark_level_of`),
 else estimated from a sample of the data by dark-object subtraction
-(:func:`geoboresight.shadow.map.dark_level`)."""
+(:func:`geoboresight.shadow.darkness.dark_level`)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 from .. import io
 from ..io.dark import dark_level_of
 from ..sensor.dark import DarkLevel
-from ..shadow.map import check_sample, dark_level
+from ..shadow.darkness import check_sample, dark_level
 
 #: Bands per instrument read for the dark level besides the signal bands (evenly spaced).
 DARK_BANDS = 16
@@ -25,7 +25,7 @@ def spread_bands(bands: tuple[int, ...], n: int) -> list[int]:
 def instrument_dark_level(sensor, src, bands, given, sample, valid, progress) -> DarkLevel:
     """One instrument's dark level: ``given``, the product's dark reference or the header's
     (:func:`geoboresight.io.dark.dark_level_of`), else the dark object of ``sample``
-    (n_bands, n_pixels; :func:`geoboresight.shadow.map.dark_level`) in ``bands``."""
+    (n_bands, n_pixels; :func:`geoboresight.shadow.darkness.dark_level`) in ``bands``."""
     level = dark_level_of(sensor, bands, src.tags(ns="ENVI"), src.count, given)
     if level is None:
         level = dark_level(sample, valid)

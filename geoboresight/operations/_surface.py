@@ -36,9 +36,9 @@ class SurfaceModel:
     geotransform (else the image's); ``clearance`` (m): a caster must rise this far above the
     sun line to cast shadow (the DSM's height noise: about 3 × its standard deviation; 0 =
     exact, as ``sun-shadow``); ``register``: first move the cast shadow by the sub-pixel
-    shift, within :data:`geoboresight.shadow.map.DSM_TOLERANCE` pixels, that best matches the
+    shift, within :data:`geoboresight.shadow.darkness.DSM_TOLERANCE` pixels, that best matches the
     image's NIR darkness, where the image's parts agree on it
-    (:func:`geoboresight.shadow.map.prior_registration`; False = the prediction where the DSM
+    (:func:`geoboresight.shadow.darkness.prior_registration`; False = the prediction where the DSM
     puts it)."""
 
     dsm: str | None = None

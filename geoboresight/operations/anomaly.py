@@ -15,9 +15,16 @@ import threading
 import numpy as np
 
 from .. import io
-from ..anomaly import indicator as ind
 from ..anomaly.bands import BandSelection, select_bands
-from ..anomaly.indicator import THRESHOLD, Eq3Reference
+from ..anomaly.indicator import (
+    THRESHOLD,
+    Eq3Reference,
+    check_options,
+    indicator_score,
+    local_residual,
+    robust_location_blocks,
+    valid_values,
+)
 from ..anomaly.physical import Detectability, Dipole
 from ..anomaly.polygons import FIELDS
 from ..anomaly.roc import PFA, TITLE
@@ -321,10 +328,10 @@ def _prepare_image(vnir, swir, layout, spectral, dark, offset, coregistered, pro
                     sensor, file_bands, given, sub, progress
                 )
         else:
-            from ..shadow import map as smap
+            from ..shadow import darkness
 
             v, ok = sample()
-            level = smap.dark_level(v, ok)
+            level = darkness.dark_level(v, ok)
             progress.info(level.describe("image"))
             dark_per_band[:] = level.level
     except BaseException:
@@ -973,7 +980,7 @@ def _physical_indicator_file(
 
 
 def _eq3_indicator_file(ratio, output, anomalies, threshold, tail, window, block_rows, progress):
-    ind.check_options(threshold, tail, window)
+    check_options(threshold, tail, window)
     local = bool(window and window > 1)
     passes = 3 if local else 2
     with io.open_raster(ratio, "ratio raster") as src:
@@ -985,13 +992,13 @@ def _eq3_indicator_file(ratio, output, anomalies, threshold, tail, window, block
         stats_share = progress.sub(0.0, 1 - 1 / passes)
         raw = io.windows.value_passes(
             read,
-            ind.valid_values,
+            valid_values,
             **strips,
             progress=stats_share.sub(0.0, 0.5 if local else 1.0),
             message="indicator: scene statistics",
             passes=5,  # count and extremes, then the median and the MAD, two passes each
         )
-        median, sigma = ind.robust_location_blocks(raw)
+        median, sigma = robust_location_blocks(raw)
         fill = None
         halo = (0, 0)
         if local:
@@ -1003,19 +1010,19 @@ def _eq3_indicator_file(ratio, output, anomalies, threshold, tail, window, block
             with io.Spill(near=output) as spill:
                 for _, res in io.map_windows(
                     read,
-                    lambda r, ok: ind.local_residual(r, ok, window=window, fill=fill),
+                    lambda r, ok: local_residual(r, ok, window=window, fill=fill),
                     **strips,
                     halo=halo,
                     progress=stats_share.sub(0.5, 0.75),
                     message="indicator: local residuals",
                 ):
-                    spill.append(ind.valid_values(res))
-                median, sigma = ind.robust_location_blocks(spill.blocks)
+                    spill.append(valid_values(res))
+                median, sigma = robust_location_blocks(spill.blocks)
         progress.info(f"boresight ratio median {median:.5g}, robust σ {sigma:.4g}")
 
         def score(r, ok):
-            x = ind.local_residual(r, ok, window=window, fill=fill) if local else r
-            s = ind.indicator_score(x, ok, median=median, sigma=sigma, tail=tail)
+            x = local_residual(r, ok, window=window, fill=fill) if local else r
+            s = indicator_score(x, ok, median=median, sigma=sigma, tail=tail)
             with np.errstate(invalid="ignore"):
                 return s, s > threshold, ok
 

@@ -18,7 +18,16 @@ from ..io.checks import check_fraction, no_valid_error
 from ..io.dual import TOLERANCE_NM
 from ..io.wavelengths import nearest_band, wavelengths_of
 from ..io.windows import Sample
-from ..shadow import classes as cls
+from ..shadow.classes import (
+    MASK_FRACTION,
+    MASK_SHADOW,
+    MODE_BINS,
+    NO_SHADOW,
+    NODATA_CLASS,
+    histogram_mode,
+    ratio_histogram,
+    table_warnings,
+)
 from ..shadow.cluster import NIR_NM, PROBABILITY, fit_shadow_cluster, shadow_mask
 from ..shadow.fraction import PAPER_INTERCEPT, PAPER_SLOPE, FractionAccumulator, FractionModel
 from ..shadow.polygons import MIN_PIXELS
@@ -40,7 +49,7 @@ def shadow_classes_file(
     mask=None,
     band=1,
     band_nm=None,
-    mask_fraction=cls.MASK_FRACTION,
+    mask_fraction=MASK_FRACTION,
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
 ) -> dict:
@@ -97,10 +106,10 @@ def shadow_classes_file(
     def kernel(values, valid):
         c = table.classify(values, valid)
         m = table.mask(c, mask_fraction) if mask else None
-        return c, m, np.bincount(c.ravel(), minlength=256), cls.ratio_histogram(values, valid)
+        return c, m, np.bincount(c.ravel(), minlength=256), ratio_histogram(values, valid)
 
     counts = np.zeros(256, dtype=np.int64)
-    hist = np.zeros(len(cls.MODE_BINS) - 1, dtype=np.int64)
+    hist = np.zeros(len(MODE_BINS) - 1, dtype=np.int64)
     with contextlib.ExitStack() as stack:
         src = stack.enter_context(io.open_raster(ratio, "ratio raster"))
         grid = io.Grid.of(src)
@@ -139,7 +148,7 @@ def shadow_classes_file(
                 mdst.write(m, 1, window=win)
             counts += n
             hist += h
-        if counts[: cls.NODATA_CLASS].sum() == 0:
+        if counts[:NODATA_CLASS].sum() == 0:
             raise no_valid_error(ratio)
         rtags = src.tags()
     # Say when the fixed thresholds cannot mean what Table 2 says on this scene.
@@ -149,16 +158,16 @@ def shadow_classes_file(
             "vnir_nm": float(rtags["denominator_wavelength_nm"]),
             "swir_nm": float(rtags["numerator_wavelength_nm"]),
         }
-    mode = cls.histogram_mode(hist)
-    warnings = cls.table_warnings(table, mode, **bands_nm) if classes is None else []
+    mode = histogram_mode(hist)
+    warnings = table_warnings(table, mode, **bands_nm) if classes is None else []
     for w in warnings:
         progress.info(f"warning: {w}")
-    result = {"output": output, "valid_pixels": int(counts[: cls.NODATA_CLASS].sum())}
+    result = {"output": output, "valid_pixels": int(counts[:NODATA_CLASS].sum())}
     if mask:
         result["mask"] = mask
     for c in table.classes:
         result[f"class_{c.id}_pixels"] = int(counts[c.id])
-    result["no_shadow_pixels"] = int(counts[cls.NO_SHADOW])
+    result["no_shadow_pixels"] = int(counts[NO_SHADOW])
     result["ratio_mode"] = round(mode, 4)
     result["warnings"] = warnings
     return result
@@ -199,7 +208,7 @@ def _label_cluster(
             message="labelling",
         ):
             dst.write(m, 1, window=win)
-            n_shadow += int((m == cls.MASK_SHADOW).sum())
+            n_shadow += int((m == MASK_SHADOW).sum())
             if pdst is not None:
                 pdst.write(np.where(np.isfinite(p), p, io.FLOAT_NODATA), 1, window=win)
     return n_shadow
@@ -611,7 +620,7 @@ def shadow_polygons_file(
         if not ok.any():
             raise no_valid_error(classes_raster, "class raster")
         grid = io.Grid.of(src)
-        c = np.where(ok, data, cls.NODATA_CLASS).astype(np.uint8)
+        c = np.where(ok, data, NODATA_CLASS).astype(np.uint8)
         polys = class_polygons(c, table, grid.transform, min_pixels=min_pixels)
     progress.update(0.7, "polygons")
     georef = grid.georeferenced

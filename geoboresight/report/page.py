@@ -400,7 +400,7 @@ def _shadow_section(run: Runner, values: dict, ratio_path: str | None) -> Sectio
         "component in the ratio against 941 nm scatter (Figure 4) and, with ground truth, the "
         "linear shadow-fraction model (Figure 5).",
     )
-    smap = run.run(
+    mapped = run.run(
         s,
         shadow_map_file,
         values["dual"],
@@ -409,17 +409,17 @@ def _shadow_section(run: Runner, values: dict, ratio_path: str | None) -> Sectio
         layout=values["layout"],
         bands=values["bands"],
     )
-    if smap.result:
+    if mapped.result:
         s.figure(
             raster_figure(
-                smap.result["output"],
+                mapped.result["output"],
                 "Shadow map (Table 2 classes on the scene's sunlit ratio)",
                 "class",
                 run.path("shadow_map.png"),
             ),
             CLASS_CAPTION.format(what="Shadow map"),
         )
-        for w in smap.result.get("warnings", []):
+        for w in mapped.result.get("warnings", []):
             s.remark(f"shadow-map: {w}")
     if ratio_path:
         _ratio_shadow(run, s, values, ratio_path)

@@ -1,7 +1,7 @@
 """The dark levels of the two instruments (DN of zero signal): what the user gives for both
 (:class:`DarkLevels`, an operation's parameter group) and what was found for one
 (:class:`DarkLevel`: given, a sensor product's dark reference, the ENVI header, or estimated
-from the data by dark-object subtraction, :func:`geoboresight.shadow.map.dark_level`).
+from the data by dark-object subtraction, :func:`geoboresight.shadow.darkness.dark_level`).
 """
 
 from __future__ import annotations

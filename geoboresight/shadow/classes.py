@@ -20,7 +20,7 @@ pixels with no valid ratio. An interval is ``min ≤ ratio < max``; the interval
 Table 2's thresholds are absolute DN ratios of the AISA-Dual: :func:`table_warnings` says when
 they are meaningless for a scene (the ratio's bands are not 1,010/920 nm, or the scene's sunlit
 ratio falls inside a shadow class), and :func:`scale_table` scales them to a scene's sunlit
-ratio (the shadow map of :mod:`geoboresight.shadow.map`).
+ratio (the shadow map of :mod:`geoboresight.shadow.darkness`).
 
 A class table is a CSV (or JSON list of objects) with the columns::
 
