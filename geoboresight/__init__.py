@@ -107,6 +107,7 @@ VALUES = {
     "MapCalibration": "geoboresight.operations.shadow_map",
     "Detection": "geoboresight.operations.shadow_map",
     "SurfaceModel": "geoboresight.operations.shadow_map",
+    "NirBand": "geoboresight.operations.shadow",
 }
 
 #: What a script needs beside the operations: readers, writers, the block loop, progress and

@@ -261,7 +261,7 @@ def test_operations_are_the_specs_and_the_former_image_name_still_works(tmp_path
 
     path, cube = _scene(tmp_path)
     a, b, c = (str(tmp_path / f"{n}.tif") for n in "abc")
-    assert get("rx").run is rx_file
+    assert get("rx").operation is rx_file
     rx_file(path, output=a, spectral=BandSelection(exclude_nm=""), block_rows=5)
     get("rx")(image=path, exclude_nm="", output=b)  # the former parameter name
     get("rx")(vnir=path, exclude_nm="", output=c, block_rows=48)

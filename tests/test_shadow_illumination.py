@@ -326,7 +326,7 @@ def test_sun_shadow_operation_with_nodata_equals_the_kernel(tmp_path):
         nodata=-9999.0,
     ) as dst:
         dst.write(z, 1)
-    assert SUN_SHADOW.run is sun_shadow_file
+    assert SUN_SHADOW.operation is sun_shadow_file
     res = sun_shadow_file(
         str(path),
         output=str(tmp_path / "f.tif"),

@@ -180,7 +180,7 @@ def test_bad_parameters_name_the_parameter():
 
 def test_operation_is_the_spec_run(tmp_path):
     """A script calling the file-level function gets the spec's files, and the same refusals."""
-    assert SIMULATE.run is simulate_file
+    assert SIMULATE.operation is simulate_file
     a, b = tmp_path / "a", tmp_path / "b"
     res = simulate_file(
         output=str(a), preset="dunes", lines=12, seed=2, sensor=gb.SensorOptions(supersample=1)

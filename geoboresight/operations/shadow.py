@@ -9,6 +9,7 @@ dark-pixel baseline) are in :mod:`geoboresight.operations.shadow_truth`.
 from __future__ import annotations
 
 import contextlib
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -36,6 +37,17 @@ from ._shadow_tables import class_polygons, class_table, class_table_csv, read_f
 
 #: Points drawn at most for a scatter plot.
 PLOT_POINTS = 20000
+
+
+@dataclass(frozen=True)
+class NirBand:
+    """The VNIR band ``shadow-cluster`` reads as its near-infrared axis: the band nearest
+    ``nir_nm`` (nm; the paper's 941), at most ``tolerance_nm`` from it, among the VNIR file's
+    band centres (``vnir_wavelengths``, nm comma-separated, when the file has none)."""
+
+    nir_nm: float = NIR_NM
+    tolerance_nm: float = TOLERANCE_NM
+    vnir_wavelengths: str | None = None
 
 
 # ------------------------------------------------------------------------------ shadow-classes
@@ -223,9 +235,7 @@ def shadow_cluster_file(
     plot=None,
     band=1,
     band_nm=None,
-    nir_nm=NIR_NM,
-    tolerance_nm=TOLERANCE_NM,
-    vnir_wavelengths=None,
+    nir=NirBand(),
     n_components=None,
     probability=PROBABILITY,
     sample=Sample(),
@@ -253,12 +263,9 @@ def shadow_cluster_file(
         Band of the ratio raster.
     band_nm : float, optional
         The band by its centre wavelength (nm) instead: the band nearest it becomes ``band``.
-    nir_nm : float
-        Wavelength of the near-infrared axis (nm; paper: 941).
-    tolerance_nm : float
-        Largest distance from ``nir_nm`` to a band centre.
-    vnir_wavelengths : str, optional
-        Band centres of the VNIR file in nm, comma-separated (only if it has none).
+    nir : NirBand
+        The VNIR band of the near-infrared axis: the band nearest ``nir_nm``, within
+        ``tolerance_nm``, of the file's band centres (``vnir_wavelengths`` when it has none).
     n_components : int, optional
         Mixture components; None = chosen by BIC among 2–5.
     probability : float
@@ -287,10 +294,10 @@ def shadow_cluster_file(
     ):
         io.require_same_grid(rsrc, vsrc, "ratio raster", "VNIR image")
         grid = io.Grid.of(rsrc)
-        wl = wavelengths_of(vsrc, vnir, vnir_wavelengths, "--vnir-wavelengths / vnir_wavelengths=")[
-            0
-        ]
-        nir_band = nearest_band(wl, nir_nm, tolerance_nm, vnir) + 1
+        wl = wavelengths_of(
+            vsrc, vnir, nir.vnir_wavelengths, "--vnir-wavelengths / vnir_wavelengths="
+        )[0]
+        nir_band = nearest_band(wl, nir.nir_nm, nir.tolerance_nm, vnir) + 1
         nir_found = float(wl[nir_band - 1])
         progress.info(f"941 nm axis: band {nir_band} of {vnir} ({nir_found:.1f} nm)")
         read = io.bands_reader([(rsrc, band), (vsrc, nir_band)])

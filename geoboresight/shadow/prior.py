@@ -51,7 +51,7 @@ LIT_PREDICTION = 0.2
 SHIFT_IOU_GAIN = 0.05
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SurfacePrior:
     """What casting a surface model's shadow on a grid needs, besides the heights.
 
@@ -128,16 +128,16 @@ def surface_prior(
     drow, dcol, rise = sun_step(sun_zenith, sun_azimuth, transform, 1.0)
     steps = march_steps(relief, rise, shape, drow, dcol)
     return SurfacePrior(
-        sun_zenith,
-        sun_azimuth,
-        transform,
-        relief,
-        surface,
-        float(clearance),
-        float(top),
-        shape[0],
-        (drow, dcol, steps),
-        float(clearance) / rise if rise > 0 else 0.0,
+        zenith=sun_zenith,
+        azimuth=sun_azimuth,
+        matrix=transform,
+        relief=relief,
+        surface=surface,
+        clearance=float(clearance),
+        top=float(top),
+        height=shape[0],
+        ray=(drow, dcol, steps),
+        reach=float(clearance) / rise if rise > 0 else 0.0,
     )
 
 
