@@ -430,7 +430,7 @@ def _shadow_section(run: Runner, values: dict, ratio_path: str | None) -> Sectio
 
 def _ratio_shadow(run: Runner, s: Section, values: dict, ratio_path: str) -> None:
     """Table 2's fixed thresholds, the Figure 4 cluster and the Figure 5 fit, on the ratio."""
-    from ..operations.shadow import shadow_classes_file, shadow_cluster_file
+    from ..operations.shadow import NirBand, shadow_classes_file, shadow_cluster_file
 
     classes = run.run(s, shadow_classes_file, ratio_path, output=run.path("shadow_classes.tif"))
     if classes.result and classes.result.get("warnings"):
@@ -456,7 +456,7 @@ def _ratio_shadow(run: Runner, s: Section, values: dict, ratio_path: str) -> Non
         values["dual"].vnir.path,
         output=run.path("shadow_cluster.tif"),
         plot=run.path("scatter.png"),
-        vnir_wavelengths=values["layout"].vnir_wavelengths,
+        nir=NirBand(vnir_wavelengths=values["layout"].vnir_wavelengths),
     )
     if cluster.result:
         warnings = cluster.result.get("warnings") or []

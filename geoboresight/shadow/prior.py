@@ -1,6 +1,6 @@
 """A surface model's cast shadow as the shadow map's prior, in steps on arrays.
 
-The shadow map with a surface model (:func:`geoboresight.shadow.map.dsm_shadow_fraction`)
+The shadow map with a surface model (:func:`geoboresight.shadow.darkness.dsm_shadow_fraction`)
 starts from the shadow the DSM casts for the sun. The steps here take the heights of a block of
 lines and one small value, :class:`SurfacePrior` (the sun, the grid's geometry, the relief,
 the clearance, the reach, the registration's move), and give what the map needs of the
@@ -288,7 +288,7 @@ def prior_halo(
     ----------
     surface_prior : SurfacePrior
     halo : int
-        The spectral halo (:func:`geoboresight.shadow.map.shadow_map_halo`).
+        The spectral halo (:func:`geoboresight.shadow.darkness.shadow_map_halo`).
     cast_halo : (int, int)
         The cast's (above, below) (:func:`geoboresight.shadow.illumination.halo_rows`).
 
@@ -297,7 +297,7 @@ def prior_halo(
     (int, int)
         Lines above and below: both halos, and towards the sun the sweep of the predicted
         shadow's far end, ``ceil(reach · |Δrow|) + 1`` lines
-        (:func:`geoboresight.shadow.map.dsm_shadow_fraction`).
+        (:func:`geoboresight.shadow.darkness.dsm_shadow_fraction`).
     """
     drow = surface_prior.ray[0]
     sweep = int(np.ceil(surface_prior.reach * abs(drow))) + 1
@@ -306,7 +306,7 @@ def prior_halo(
 
 
 def _model_fraction(blue, nir, swir, valid, heights, heights_valid, prior, unseen, p, **block):
-    """:func:`geoboresight.shadow.map.shadow_fraction_block` with the surface model: the
+    """:func:`geoboresight.shadow.darkness.shadow_fraction_block` with the surface model: the
     ``prior`` and the ``unseen`` pixels of the block, ``p`` its :class:`SurfacePrior`."""
     return darkness.shadow_fraction_block(
         blue,
@@ -350,7 +350,7 @@ def prior_map_block(
     """The shadow fraction of a block of lines with a surface model, and how the model and
     the image agree on it.
 
-    The fraction is :func:`geoboresight.shadow.map.shadow_fraction_block` with the prior
+    The fraction is :func:`geoboresight.shadow.darkness.shadow_fraction_block` with the prior
     (:func:`prior_fraction`), the moved heights, the unseen pixels and the model's ray and
     reach. Pixels the model has no height for (``holes``: beyond its extent, its nodata)
     take the spectral estimate alone, as without a model: no prior says anything there (its
@@ -359,7 +359,7 @@ def prior_map_block(
     Parameters
     ----------
     blue, nir, swir : arrays (n_bands, lines, columns)
-        As :func:`geoboresight.shadow.map.shadow_map_block`.
+        As :func:`geoboresight.shadow.darkness.shadow_map_block`.
     heights : array (lines, columns)
         The surface model's heights (m) on the image's grid.
     valid : bool array (lines, columns), optional
@@ -367,7 +367,7 @@ def prior_map_block(
     heights_valid : bool array (lines, columns)
         Cells with a height.
     calibration, dark_levels, edge_pixels
-        As :func:`geoboresight.shadow.map.shadow_map_block`.
+        As :func:`geoboresight.shadow.darkness.shadow_map_block`.
     surface_prior : SurfacePrior
     row0 : int
         The block's first line in the grid.
@@ -377,7 +377,7 @@ def prior_map_block(
     PriorBlock
         The fraction; ``deep``, the predicted shadow (≥ 0.5) eroded by a pixel; ``lit``, the
         pixels of ``deep`` brighter than
-        :data:`~geoboresight.shadow.map.LIT_DARKNESS`; ``unseen`` and ``holes`` (all
+        :data:`~geoboresight.shadow.darkness.LIT_DARKNESS`; ``unseen`` and ``holes`` (all
         where the fraction is defined).
     """
     from scipy import ndimage
@@ -428,17 +428,17 @@ def register_prior(
     block of the flight line), and measure how the two agree there.
 
     With ``register``, the cast shadow is moved by the sub-pixel shift that best matches the
-    NIR's darkness (:func:`geoboresight.shadow.map.prior_registration`), kept only where the
+    NIR's darkness (:func:`geoboresight.shadow.darkness.prior_registration`), kept only where the
     image's parts agree on it. Then the best whole-pixel shift of what remains onto the dark
-    pixels is measured (:func:`geoboresight.shadow.map.prior_agreement`: a DSM more than a
+    pixels is measured (:func:`geoboresight.shadow.darkness.prior_agreement`: a DSM more than a
     pixel off, another date). The block's arguments are those of :func:`prior_map_block`.
 
     Returns
     -------
     (SurfacePrior, dict)
         ``surface_prior`` with the move as its ``shift``, and the registration's and the
-        agreement's figures (:func:`geoboresight.shadow.map.registration_result`,
-        :func:`geoboresight.shadow.map.prior_agreement`).
+        agreement's figures (:func:`geoboresight.shadow.darkness.registration_result`,
+        :func:`geoboresight.shadow.darkness.prior_agreement`).
     """
     ok = np.ones(np.shape(heights), bool) if valid is None else np.asarray(valid, bool)
     sub_cells = sub_cell_cast(heights, heights_valid, surface_prior=surface_prior)
