@@ -124,7 +124,7 @@ def _defined_in(table: str, name: str, module: str) -> str:
 
     if table != "OPERATIONS":
         return module
-    return inspect.unwrap(getattr(gb, name)).__module__
+    return getattr(gb, name).__wrapped__.__module__
 
 
 def home_page() -> str:
