@@ -91,7 +91,7 @@ def ours_rx(hdr, lines, out, precision, via="registry"):
     imp = (
         "from geoboresight.algorithms import get\nalg = get('rx')"
         if via == "registry"
-        else "from geoboresight.operations.anomaly import rx_file as alg"
+        else "from geoboresight import rx_file as alg"
     )
     # The kernel modules the run imports lazily are imported before the clock starts, as
     # `import spectral` is for SPy (their memory still counts in the peak).

@@ -35,16 +35,16 @@ KERNELS = {
     "fit_shadow_cluster": "geoboresight.shadow.cluster",
     "fit_dark_pixel": "geoboresight.shadow.darkpixel",
     "fit_fraction_model": "geoboresight.shadow.fraction",
-    "dark_level": "geoboresight.shadow.map",
-    "calibrate_shadow_map": "geoboresight.shadow.map",
-    "shadow_fraction_estimate": "geoboresight.shadow.map",
+    "dark_level": "geoboresight.shadow.darkness",
+    "calibrate_shadow_map": "geoboresight.shadow.darkness",
+    "shadow_fraction_estimate": "geoboresight.shadow.darkness",
     "choose_surface": "geoboresight.shadow.surface",
-    "estimate_offset": "geoboresight.dem.offset",
-    "offset_profile": "geoboresight.dem.offset",
-    "coregister": "geoboresight.dem.coregister",
+    "estimate_offset": "geoboresight.sensor.offset",
+    "offset_profile": "geoboresight.sensor.offset",
+    "coregister": "geoboresight.sensor.coregister",
     "disparity_map": "geoboresight.dem.disparity",
     "relative_dem": "geoboresight.dem.relative",
-    "band_mean": "geoboresight.dem.bands",
+    "band_mean": "geoboresight.sensor.bands",
     "rx": "geoboresight.anomaly.rx",
     "local_rx": "geoboresight.anomaly.rx",
     "fit_svdd": "geoboresight.anomaly.svdd",
@@ -67,21 +67,14 @@ KERNELS = {
 
 def _operations() -> dict[str, str]:
     """File-level operations, one per operation of the command line and the QGIS toolbox:
-    ``{name: module}`` of every function decorated ``@operation`` in
-    :mod:`geoboresight.operations` (read from the modules' text, so that ``import
-    geoboresight`` stays light and an operation is declared in one place)."""
-    import pathlib
-    import re
-
-    found = {}
-    folder = pathlib.Path(__file__).parent / "operations"
-    declared = re.compile(r"^@operation\(.*?\)\ndef (\w+_file)\(", re.M | re.S)
-    for path in sorted(folder.glob("*.py")):
-        if path.stem.startswith("_"):
-            continue
-        for name in declared.findall(path.read_text(encoding="utf-8")):
-            found[name] = f"geoboresight.operations.{path.stem}"
-    return found
+    ``{name_file: spec module}`` for every operation of :data:`geoboresight.algorithms.SPECS`
+    (its spec wraps the function: checked arguments, guarded outputs, ``overwrite``)."""
+    specs = importlib.import_module("geoboresight.algorithms").SPECS  # the standard library only
+    return {
+        f"{name.replace('-', '_')}_file": f"geoboresight.algorithms.{module}"
+        for module, names in specs.items()
+        for name in names
+    }
 
 
 #: File-level operations: one per operation of the command line and the QGIS toolbox.
@@ -96,7 +89,7 @@ VALUES = {
     "MatchBands": "geoboresight.io.bands",
     "Coregistration": "geoboresight.io.bands",
     "BoresightOffset": "geoboresight.io.bands",
-    "DarkLevels": "geoboresight.io.dark",
+    "DarkLevels": "geoboresight.sensor.dark",
     "Sample": "geoboresight.io.windows",
     "OutputGrid": "geoboresight.io.grid",
     "FlightGeometry": "geoboresight.dem.height",
@@ -114,6 +107,7 @@ VALUES = {
     "MapCalibration": "geoboresight.operations.shadow_map",
     "Detection": "geoboresight.operations.shadow_map",
     "SurfaceModel": "geoboresight.operations.shadow_map",
+    "NirBand": "geoboresight.operations.shadow",
 }
 
 #: What a script needs beside the operations: readers, writers, the block loop, progress and
@@ -144,7 +138,11 @@ def __getattr__(name: str):
     module = _API.get(name)
     if module is None:
         raise AttributeError(f"module 'geoboresight' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
+    if name in OPERATIONS:  # the function its spec wraps
+        specs = importlib.import_module(module).ALGORITHMS
+        value = next(a.operation for a in specs if a.run.__name__ == name)
+    else:
+        value = getattr(importlib.import_module(module), name)
     globals()[name] = value  # later look-ups skip this function
     return value
 

@@ -22,7 +22,6 @@ import numpy as np
 
 from geoboresight import io
 from geoboresight.algorithms.spec import Algorithm, Number, RasterIn, RasterOut, Result
-from geoboresight.operations import operation
 
 
 def scaled(data, valid=None, *, factor):
@@ -30,7 +29,6 @@ def scaled(data, valid=None, *, factor):
     return np.where(valid, data * factor, io.FLOAT_NODATA) if valid is not None else data * factor
 
 
-@operation(inputs=("input",), outputs=("output",))
 def toy_scale_file(input, *, output, factor=2.0, progress=None):
     """Write band 1 of ``input`` times ``factor``."""
     with io.open_raster(input, "input") as src:
@@ -39,23 +37,24 @@ def toy_scale_file(input, *, output, factor=2.0, progress=None):
     return {"output": output, "valid_pixels": int(valid.sum())}
 
 
-ALGORITHMS = (
-    Algorithm(
-        name="toy-scale",
-        display_name="Toy scale",
-        group="Boresight ratio and statistics",
-        short_help="Multiply a raster by a factor (a toy).",
-        help="Multiplies band 1 of a raster by a factor.",
-        params=(
-            RasterIn(name="input", description="Raster to scale"),
-            Number(name="factor", description="Factor", default=2.0, minimum=0.0, maximum=10.0),
-            RasterOut(name="output", description="Scaled raster"),
-        ),
-        results=(Result("valid_pixels", "number", "Pixels scaled"),),
-        example={"input": "ratio.tif", "output": "scaled.tif"},
-        run=toy_scale_file,
+# The spec wraps the function: TOY_SCALE.operation is toy_scale_file checked against it.
+TOY_SCALE = Algorithm(
+    name="toy-scale",
+    display_name="Toy scale",
+    group="Boresight ratio and statistics",
+    short_help="Multiply a raster by a factor (a toy).",
+    help="Multiplies band 1 of a raster by a factor.",
+    params=(
+        RasterIn(name="input", description="Raster to scale"),
+        Number(name="factor", description="Factor", default=2.0, minimum=0.0, maximum=10.0),
+        RasterOut(name="output", description="Scaled raster"),
     ),
+    results=(Result("valid_pixels", "number", "Pixels scaled"),),
+    example={"input": "ratio.tif", "output": "scaled.tif"},
+    run=toy_scale_file,
 )
+
+ALGORITHMS = (TOY_SCALE,)
 '''
 
 
@@ -163,9 +162,9 @@ def test_batch_runs_the_added_operation_on_its_workers(added):
 
 def test_a_python_call_of_the_added_operation_is_checked_by_its_spec(added):
     code = (
-        "from toy_boresight import toy_scale_file\n"
+        "from toy_boresight import TOY_SCALE\n"
         "try:\n"
-        "    toy_scale_file('in.tif', output='py.tif', factor='much')\n"
+        "    TOY_SCALE.operation('in.tif', output='py.tif', factor='much')\n"
         "except Exception as exc:\n"
         "    print(type(exc).__name__, exc)\n"
     )

@@ -256,12 +256,12 @@ def test_svdd_sample_is_what_sklearn_scores(tmp_path):
 
 
 def test_operations_are_the_specs_and_the_former_image_name_still_works(tmp_path):
+    from geoboresight import rx_file
     from geoboresight.anomaly.bands import BandSelection
-    from geoboresight.operations.anomaly import rx_file
 
     path, cube = _scene(tmp_path)
     a, b, c = (str(tmp_path / f"{n}.tif") for n in "abc")
-    assert get("rx").run is rx_file
+    assert get("rx").operation is rx_file
     rx_file(path, output=a, spectral=BandSelection(exclude_nm=""), block_rows=5)
     get("rx")(image=path, exclude_nm="", output=b)  # the former parameter name
     get("rx")(vnir=path, exclude_nm="", output=c, block_rows=48)
@@ -291,9 +291,9 @@ def test_local_rx_spec_on_a_height_that_leaves_a_one_line_strip(tmp_path):
 
 @pytest.mark.parametrize(("window", "tail"), [(0, "both"), (5, "high")])
 def test_indicator_operation_by_strips_equals_the_kernel(tmp_path, window, tail):
+    from geoboresight import boresight_indicator_file
     from geoboresight.anomaly.indicator import boresight_indicator
     from geoboresight.io import write_raster
-    from geoboresight.operations.anomaly import boresight_indicator_file
 
     rng = np.random.default_rng(6)
     ratio = (

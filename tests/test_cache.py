@@ -12,7 +12,7 @@ from synth import SWIR_WL, VNIR_WL, write_envi
 from geoboresight.io import cache
 from geoboresight.io.bands import MatchBands, open_matching_pair
 from geoboresight.io.dual import as_dual
-from geoboresight.operations import offset as offset_ops
+from geoboresight.operations import _offset as offset_ops
 
 
 @pytest.fixture

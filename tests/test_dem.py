@@ -12,8 +12,6 @@ from pykrige.ok import OrdinaryKriging
 from scipy import ndimage
 
 from geoboresight import io
-from geoboresight.dem.bands import band_mean
-from geoboresight.dem.coregister import coregister, coregister_halo, profile_to_lines
 from geoboresight.dem.disparity import _warp, disparity_map, disparity_noise
 from geoboresight.dem.height import (
     HeightFactor,
@@ -31,7 +29,6 @@ from geoboresight.dem.kriging import (
     grid_step,
     krige_grid,
 )
-from geoboresight.dem.offset import estimate_offset, merged_offset, offset_angles, offset_profile
 from geoboresight.dem.relative import (
     control_points,
     line_statistics,
@@ -41,7 +38,10 @@ from geoboresight.dem.relative import (
     strip_rows,
 )
 from geoboresight.errors import InputError, ParameterError
-from geoboresight.operations.offset import drift_profile, line_offset
+from geoboresight.operations._offset import drift_profile, line_offset
+from geoboresight.sensor.bands import band_mean
+from geoboresight.sensor.coregister import coregister, coregister_halo, profile_to_lines
+from geoboresight.sensor.offset import estimate_offset, merged_offset, offset_angles, offset_profile
 
 
 def fourier_shift(img, shift):
@@ -839,7 +839,7 @@ def test_coregister_stack_is_each_band_alone_and_one_mask(tex, order):
     """A stack shifted at once gives each band what the one-band kernel gives it, from the
     file's own integer type, with one valid mask; a per-line offset equal to the constant
     gives the same (the drift path)."""
-    from geoboresight.dem.coregister import coregister_stack
+    from geoboresight.sensor.coregister import coregister_stack
 
     # More bands and lines than one group and chunk of the kernel, neither a multiple of them.
     stack = np.stack([tex * (1 + 0.1 * i) + 3000 for i in range(37)]).astype(np.uint16)

@@ -12,15 +12,13 @@ from dem_synth import bump, pair
 from rasterio.transform import from_origin
 from synth import SWIR_WL, UTM, VNIR_WL, write_envi, write_gtiff
 
-from geoboresight import io
+from geoboresight import boresight_offset_file, coregister_file, io, view_3d_file
 from geoboresight.algorithms import dem as dem_specs
 from geoboresight.algorithms import offset as offset_specs
-from geoboresight.dem.coregister import coregister, profile_to_lines
-from geoboresight.dem.offset import offset_profile
 from geoboresight.errors import InputError, ParameterError
 from geoboresight.io.bands import MatchBands, read_matching_pair
-from geoboresight.operations.dem import view_3d_file
-from geoboresight.operations.offset import boresight_offset_file, coregister_file
+from geoboresight.sensor.coregister import coregister, profile_to_lines
+from geoboresight.sensor.offset import offset_profile
 
 #: The Relative DEM specs by name (as ``geoboresight.algorithms.get`` gives them).
 SPECS = {a.name: a for a in (*dem_specs.ALGORITHMS, *offset_specs.ALGORITHMS)}

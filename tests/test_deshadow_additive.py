@@ -17,7 +17,7 @@ import pytest
 import rasterio
 from synth import write_gtiff  # noqa: E402
 
-from geoboresight.operations.deshadow import deshadow_file
+from geoboresight import deshadow_file
 from geoboresight.shadow import deshadow as ds
 from validation.scene_model2 import simulate2, write_scene2
 
@@ -331,7 +331,7 @@ def test_additive_signal_on_relief_against_model_2s_truth(tmp_path):
     f = np.nan_to_num(sc.shadow_fraction.astype("float32"), nan=0.0)
     for name, arr in (("f.tif", f), ("z.tif", sc.dsm.astype("float32"))):
         write_gtiff(str(tmp_path / name), arr[None])
-    from geoboresight.operations.shadow_map import SurfaceModel
+    from geoboresight import SurfaceModel
 
     rep = str(tmp_path / "r.json")
     deshadow_file(

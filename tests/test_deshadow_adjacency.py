@@ -16,8 +16,8 @@ import pytest
 import rasterio
 from synth import write_gtiff  # noqa: E402
 
+from geoboresight import deshadow_file
 from geoboresight.errors import ParameterError
-from geoboresight.operations.deshadow import deshadow_file
 from geoboresight.shadow import deshadow as ds
 from validation.scene_model2 import simulate2, write_scene2
 
@@ -123,7 +123,7 @@ def _model2(tmp_path, name, adjacency):
 
 
 def _run(folder, out, **kw):
-    from geoboresight.operations.shadow_map import SurfaceModel
+    from geoboresight import SurfaceModel
 
     rep = out + ".json"
     deshadow_file(

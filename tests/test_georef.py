@@ -635,5 +635,5 @@ def test_faces_share_the_specs(tmp_path):
         "simulate-ortho",
     ):
         assert name in algs
-        assert getattr(gb, algs[name].run.__name__) is algs[name].run
+        assert getattr(gb, algs[name].run.__name__) is algs[name].operation
     assert os.path.isdir(os.path.dirname(gb.__file__))

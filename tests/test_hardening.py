@@ -39,7 +39,7 @@ from geoboresight.cli import main
 from geoboresight.errors import InputError, OutputError, ParameterError
 from geoboresight.io import wavelengths as wlmod
 from geoboresight.io import write as wmod
-from geoboresight.operations._operation import translate_error
+from geoboresight.operations._guard import translate_error
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -361,8 +361,8 @@ def test_os_errors_escaping_an_operation_name_the_file():
 
 def test_a_memory_refusal_names_only_the_operations_own_parameters(tmp_path, monkeypatch):
     """geolocate has neither block_rows nor sample_size: its refusal names its resolution."""
+    from geoboresight import geolocate_file
     from geoboresight.io import georef as gio
-    from geoboresight.operations.georef import geolocate_file
 
     def no_memory(*args, **kwargs):
         raise MemoryError()
@@ -444,7 +444,7 @@ def test_a_real_process_prints_no_traceback(tmp_path):
 
 
 def test_report_never_touches_a_folder_named_like_its_work_folder(tmp_path, monkeypatch):
-    import geoboresight.operations._report_page as report
+    import geoboresight.report.page as report
 
     d = make_inputs(tmp_path / "in")
     out = tmp_path / "r.html"

@@ -90,8 +90,9 @@ def test_every_spec_runs_its_file_level_operation_exported_at_the_top():
     for alg in _ops():
         fn = alg.run
         assert fn.__name__ == alg.name.replace("-", "_") + "_file", alg.name
-        assert getattr(gb, fn.__name__) is fn, fn.__name__
-        assert fn.__module__.startswith("geoboresight.operations."), fn.__module__
+        assert getattr(gb, fn.__name__) is alg.operation, fn.__name__
+        assert alg.operation.__wrapped__ is fn and alg.operation.spec is alg
+        assert fn.__module__.startswith(("geoboresight.operations.", "geoboresight.report.")), fn
         assert fn.__doc__ and "References" in fn.__doc__ and "Parameters" in fn.__doc__, fn
 
 
@@ -175,7 +176,7 @@ def test_specs_are_declarations_no_loops_and_short():
         tree = ast.parse(path.read_text())
         loops = [n.lineno for n in ast.walk(tree) if isinstance(n, ast.For | ast.While)]
         assert not loops, f"{path.name}: loops at lines {loops}"
-        assert len(path.read_text().splitlines()) <= 500, path.name
+        assert len(path.read_text().splitlines()) <= 450, path.name
 
 
 def _imports(tree):
@@ -262,17 +263,95 @@ def test_the_bottom_layer_imports_nothing_above_it():
         assert not up, f"{path.name} imports {sorted(up)}"
 
 
-def test_no_operation_borrows_another_operations_private_names():
-    """What operations share lives in one module (operations/_shared.py) that each calls; an
-    operation module imports no private name (``_x``) of another operation module."""
-    ops = PKG / "operations"
-    modules = {p.stem for p in ops.glob("*.py")}
-    for path in ops.glob("*.py"):
-        for n in ast.walk(ast.parse(path.read_text())):
-            if not (isinstance(n, ast.ImportFrom) and n.level == 1 and n.module in modules):
-                continue
-            private = [a.name for a in n.names if a.name.startswith("_")]
-            assert not private, f"{path.name} imports {private} from {n.module}"
+#: The floors of the house, from the top: a module imports only from its own floor or below.
+FLOORS = (
+    (
+        "geoboresight.cli",
+        "geoboresight.rio",
+        "geoboresight.batch",
+        "geoboresight.engine",
+        "geoboresight.demo",
+        "geoboresight._stub",
+    ),
+    ("geoboresight.algorithms",),
+    ("geoboresight.report",),
+    ("geoboresight.operations",),
+    ("geoboresight.io",),
+    (
+        "geoboresight.shadow",
+        "geoboresight.anomaly",
+        "geoboresight.dem",
+        "geoboresight.georef",
+        "geoboresight.simulate",
+        "geoboresight.stats",
+        "geoboresight.ratio",
+        "geoboresight.html",
+    ),
+    ("geoboresight.sensor",),
+    (
+        "geoboresight.errors",
+        "geoboresight.progress",
+        "geoboresight._version",
+        "geoboresight._threads",
+        "geoboresight.figures",
+    ),
+)
+#: The kernel packages (arrays in, arrays out), which io never imports.
+KERNEL_PACKAGES = FLOORS[5]
+
+
+def _floor(module: str) -> int | None:
+    for i, floor in enumerate(FLOORS):
+        if any(module == m or module.startswith(m + ".") for m in floor):
+            return i
+    return None
+
+
+def test_every_module_stands_on_a_floor_and_no_arrow_runs_back_up():
+    """Every import, even one deferred into a function, points to the module's own floor or
+    one below it (docs/DEVELOPING.md, "Layers, one direction")."""
+    graph = _import_graph()
+    up = []
+    for module, deps in graph.items():
+        if module == "geoboresight":  # the lazy API: imports nothing at its top
+            continue
+        assert _floor(module) is not None, f"{module} stands on no floor of FLOORS"
+        up += [
+            f"{module} -> {d}" for d in deps if d != "geoboresight" and _floor(d) < _floor(module)
+        ]
+    assert not up, "\n".join(up)
+
+
+def test_io_imports_no_kernel_package():
+    graph = _import_graph()
+    for module, deps in graph.items():
+        if module.startswith("geoboresight.io"):
+            kernels = sorted(d for d in deps if d.startswith(KERNEL_PACKAGES))
+            assert not kernels, f"{module} imports {kernels}"
+
+
+def test_operations_import_no_other_operation():
+    """An operation module imports io, the instrument and kernels; what operations share lives
+    there or in a private helper module of operations (``_x.py``), never in another
+    operation's module."""
+    graph = _import_graph()
+    for module, deps in graph.items():
+        if not module.startswith("geoboresight.operations."):
+            continue
+        others = sorted(
+            d
+            for d in deps
+            if d.startswith("geoboresight.operations.") and not d.rsplit(".", 1)[1].startswith("_")
+        )
+        assert not others, f"{module} imports {others}"
+
+
+def test_no_file_level_operation_takes_more_than_15_parameters():
+    """Values group the rest (``bands=BandChoice(...)``), ``progress`` and ``overwrite``
+    counted."""
+    for alg in _ops():
+        params = inspect.signature(alg.operation).parameters
+        assert len(params) <= 15, f"{alg.run.__name__} takes {len(params)} parameters"
 
 
 def test_io_modules_use_no_private_part_of_a_cube():
@@ -385,7 +464,7 @@ def test_every_value_an_operation_takes_is_at_the_top_and_in_the_stub():
     stub = (PKG / "__init__.pyi").read_text()
     seen = set()
     for alg in _ops():
-        for cls in _value_classes(alg.run):
+        for cls in _value_classes(alg.operation):
             name = cls.__name__
             assert getattr(gb, name, None) is cls, f"{alg.name}: {name} is not gb.{name}"
             assert name in gb.VALUES, f"{alg.name}: {name} is not in geoboresight.VALUES"
@@ -419,9 +498,9 @@ def test_kernels_share_one_calling_convention():
         assert all(p.kind is inspect.Parameter.KEYWORD_ONLY for p in params[i + 1 :]), name
 
 
-def test_spec_module_index_matches_the_modules():
-    # algorithms.spec_modules() lets one command import its own spec module only; read from
-    # the modules' text, it must name every operation's real module, and nothing else.
+def test_the_registry_names_every_spec_module_and_its_operations():
+    # algorithms.SPECS lets one command import its own spec module only: it must name every
+    # spec module of the package and exactly the operations each declares.
     import importlib
     import pkgutil
 
@@ -432,12 +511,15 @@ def test_spec_module_index_matches_the_modules():
         if info.name == "spec" or info.name.startswith("_"):
             continue
         module = importlib.import_module(f"geoboresight.algorithms.{info.name}")
-        real.update({a.name: info.name for a in getattr(module, "ALGORITHMS", ())})
-    assert algorithms.spec_modules() == real
-    assert all(algorithms.get(n).name == n for n in real)
-    # The top-level names are derived the same way from the operations' modules: every spec's
-    # operation, and nothing else.
-    runs = {a.run.__name__: a.run.__module__ for a in registry().values()}
+        real[info.name] = tuple(a.name for a in module.ALGORITHMS)
+    assert algorithms.SPECS == real
+    assert all(algorithms.get(n).name == n for names in real.values() for n in names)
+    # The top-level names: every spec's operation, and nothing else.
+    runs = {
+        a.run.__name__: f"geoboresight.algorithms.{m}"
+        for m, ns in real.items()
+        for a in importlib.import_module(f"geoboresight.algorithms.{m}").ALGORITHMS
+    }
     assert gb.OPERATIONS == runs
 
 

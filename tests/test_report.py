@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 import rasterio
 
+from geoboresight import report_file
 from geoboresight.algorithms import registry
 from geoboresight.algorithms.report import REPORT
 from geoboresight.errors import Cancelled
 from geoboresight.io import quiet_georef
-from geoboresight.operations.report import report_file
 from geoboresight.progress import Progress
 
 CHROMIUM = ("/usr/bin/chromium", "/usr/bin/chromium-browser", "/usr/bin/google-chrome")
@@ -117,8 +117,8 @@ def test_missing_inputs_become_notes(scene, tmp_path):
 def test_a_key_an_operation_does_not_know_is_a_bug_that_raises(tmp_path):
     """The report passes each operation its values explicitly: a misspelt or retired key
     raises instead of being dropped (the run's own failures still become notes)."""
-    from geoboresight.operations._report_page import Runner, Section
-    from geoboresight.operations.stats import stats_file
+    from geoboresight import stats_file
+    from geoboresight.report.page import Runner, Section
 
     section = Section("x", "y")
     run = Runner(str(tmp_path), Progress(), 2)
@@ -230,13 +230,13 @@ def test_report_renders_in_chromium(full_report, tmp_path):
 
 
 def test_report_spec_runs_report_file():
-    assert REPORT.run is report_file and registry()["report"] is REPORT
+    assert REPORT.operation is report_file and registry()["report"] is REPORT
 
 
 # ------------------------------------------------------------------ HTML templates
 def test_pages_escape_text_and_values():
     from geoboresight.html import page, table
-    from geoboresight.operations._report_page import Section, Step
+    from geoboresight.report.page import Section, Step
 
     evil = "<script>alert('x')</script>"
     html = page(evil, table([(evil, evil), ("n", 12345), ("x", float("nan"))], caption=evil))
@@ -370,7 +370,7 @@ def test_the_parameters_are_in_a_readers_words(full_report, scene):
 
 def test_a_value_is_shown_without_its_repr():
     import geoboresight as gb
-    from geoboresight.operations._report_page import _show
+    from geoboresight.report.page import _show
 
     assert _show(np.arange(400.0, 1000.0, 6.0)) == "100 values, 400 to 994"
     assert _show((920.0, 1010.0)) == "920, 1010"

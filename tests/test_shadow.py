@@ -14,19 +14,18 @@ import rasterio
 from scipy.stats import linregress
 from sklearn.metrics import r2_score
 
-from geoboresight import io
+from geoboresight import io, shadow_classes_file
 from geoboresight.algorithms import ratio as ratio_specs
 from geoboresight.algorithms import shadow as shadow_specs
 from geoboresight.algorithms import shadow_truth as truth_specs
 from geoboresight.errors import InputError, OutputError, ParameterError
-from geoboresight.io.shadow import (
+from geoboresight.operations._shadow_tables import (
     class_polygons,
     class_shapes,
     class_table_csv,
     read_class_table,
     write_class_table,
 )
-from geoboresight.operations.shadow import shadow_classes_file
 from geoboresight.shadow.classes import (
     NODATA_CLASS,
     TABLE2,
@@ -215,7 +214,7 @@ def test_classes_operation_is_a_plain_function(tmp_path):
     rng = np.random.default_rng(6)
     ratio = rng.uniform(1.5, 4.2, (40, 30))
     src = write_ratio(tmp_path / "r.tif", ratio)
-    assert ALG["shadow-classes"].run is shadow_classes_file
+    assert ALG["shadow-classes"].operation is shadow_classes_file
     res = shadow_classes_file(src, output=str(tmp_path / "a.tif"), block_rows=9)
     assert res == ALG["shadow-classes"](ratio=src, output=str(tmp_path / "b.tif")) | {
         "output": str(tmp_path / "a.tif")

@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 from geoboresight.errors import InputError, ParameterError
-from geoboresight.io.dark import DarkLevels, dark_level_of, header_dark, product_dark
+from geoboresight.io.dark import dark_level_of, header_dark, product_dark
 from geoboresight.io.dual import SensorFile
+from geoboresight.sensor.dark import DarkLevels
 
 
 def sensor(dark=None, source=""):
@@ -51,7 +52,7 @@ def test_bad_levels_are_refused():
 
 
 def test_a_non_finite_member_of_a_group_is_refused_before_any_work(tmp_path):
-    from geoboresight.operations.shadow_map import MapCalibration, shadow_map_file
+    from geoboresight import MapCalibration, shadow_map_file
 
     scene = "sample_data/scene"
     out = tmp_path / "m.tif"
@@ -72,7 +73,7 @@ def test_calibration_sample_checks_refuse_what_the_physics_cannot_use():
     import pytest
 
     from geoboresight.errors import InputError
-    from geoboresight.shadow.map import DarkLevel, check_sample
+    from geoboresight.shadow.darkness import DarkLevel, check_sample
 
     rng = np.random.default_rng(0)
     values = rng.uniform(200, 3000, (4, 500))

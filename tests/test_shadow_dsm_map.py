@@ -20,10 +20,10 @@ from rasterio.crs import CRS
 from rasterio.transform import from_origin
 from synth import write_gtiff  # noqa: E402
 
+from geoboresight import SurfaceModel, shadow_map_file
 from geoboresight.errors import InputError, ParameterError
 from geoboresight.io.georef import true_north_bearing, write_igm
 from geoboresight.io.sample import raw_grid_matrix, sample_bilinear
-from geoboresight.operations.shadow_map import SurfaceModel, shadow_map_file
 from geoboresight.shadow.solar import parse_time, sun_position
 from validation.scene_model2 import simulate2, write_scene2
 
@@ -254,7 +254,7 @@ def test_bad_map_grid_inputs_give_one_clear_line(mapped, tmp_path):
 
 
 def test_sun_shadow_takes_the_acquisition_time(tmp_path):
-    from geoboresight.operations.shadow_truth import sun_shadow_file
+    from geoboresight import sun_shadow_file
 
     z = np.zeros((40, 40), np.float32)
     z[15:25, 15:25] = 10.0
@@ -294,7 +294,7 @@ def test_deshadow_through_the_igm_equals_the_raw_grid_dsm(mapped, tmp_path):
     # through the IGM: the same pairs, sky-view factors and so the same de-shadowed pixels,
     # but at walls, where the map grid's blocks are read back bilinearly. The IGM moved by
     # four pixels (the sky-view factors misplaced) and no DSM at all show the check can fail.
-    from geoboresight.operations.deshadow import deshadow_file
+    from geoboresight import deshadow_file
 
     sc, folder, igm, dsm_path, z, (x, y) = mapped
     sun = sc.truth["sun"]
@@ -393,7 +393,7 @@ def test_sun_shadow_on_a_geographic_dsm_is_cast_in_metres(tmp_path, lat):
     # metres. A 10 m block under a sun 45° from the zenith in the south shades 10 m north of
     # it: 10 m over the metres per 1e-5° of latitude (the textbook series for the WGS 84
     # meridian arc, independent of the code's ellipsoid computation).
-    from geoboresight.operations.shadow_truth import sun_shadow_file
+    from geoboresight import sun_shadow_file
 
     z = np.zeros((100, 100), np.float32)
     z[60:80, 40:60] = 10.0
@@ -411,7 +411,7 @@ def test_sun_shadow_on_a_geographic_dsm_is_cast_in_metres(tmp_path, lat):
 
 
 def test_a_dsm_in_feet_is_refused(tmp_path):
-    from geoboresight.operations.shadow_truth import sun_shadow_file
+    from geoboresight import sun_shadow_file
 
     dsm = str(tmp_path / "ft.tif")
     t = from_origin(980_000.0, 200_000.0, 3.0, 3.0)
@@ -458,7 +458,7 @@ def test_pixels_without_a_surface_model_height_are_judged_by_the_spectra(tmp_pat
 def test_a_time_without_offset_is_said_to_be_read_as_utc(tmp_path):
     # A local time typed without its offset gives another sun without any error: the result
     # says how it was read, and says nothing when the offset is stated.
-    from geoboresight.operations.shadow_truth import sun_shadow_file
+    from geoboresight import sun_shadow_file
 
     z = np.zeros((20, 20), np.float32)
     dsm = str(tmp_path / "dsm.tif")

@@ -18,10 +18,9 @@ import pytest
 import rasterio
 from rasterio.transform import from_origin
 
-from geoboresight import io
+from geoboresight import io, sun_shadow_file
 from geoboresight.algorithms.shadow_truth import SUN_SHADOW
 from geoboresight.errors import ParameterError
-from geoboresight.operations.shadow_truth import sun_shadow_file
 from geoboresight.shadow.illumination import (
     along_ray,
     cast_shadow,
@@ -327,7 +326,7 @@ def test_sun_shadow_operation_with_nodata_equals_the_kernel(tmp_path):
         nodata=-9999.0,
     ) as dst:
         dst.write(z, 1)
-    assert SUN_SHADOW.run is sun_shadow_file
+    assert SUN_SHADOW.operation is sun_shadow_file
     res = sun_shadow_file(
         str(path),
         output=str(tmp_path / "f.tif"),

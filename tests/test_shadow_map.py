@@ -15,14 +15,19 @@ import numpy as np
 import pytest
 import rasterio
 
+from geoboresight import (
+    Detection,
+    dark_pixel_shadow_file,
+    shadow_classes_file,
+    shadow_fraction_apply_file,
+    shadow_map_file,
+    sun_shadow_file,
+)
 from geoboresight.errors import InputError, ParameterError
 from geoboresight.io import quiet_georef
-from geoboresight.io.dark import DarkLevels
 from geoboresight.io.windows import map_windows
-from geoboresight.operations.shadow import shadow_classes_file, shadow_fraction_apply_file
-from geoboresight.operations.shadow_map import Detection, shadow_map_file
-from geoboresight.operations.shadow_truth import dark_pixel_shadow_file, sun_shadow_file
-from geoboresight.shadow import map as smap
+from geoboresight.sensor.dark import DarkLevels
+from geoboresight.shadow import darkness
 from geoboresight.shadow.classes import (
     NODATA_CLASS,
     default_table,
@@ -52,17 +57,17 @@ def test_dark_level_recovers_the_offset_put_in():
     signal[:40] = 0.0  # a dark object (deep shadow, water) with no signal
     gains = np.array([1.0, 0.6, 0.3])
     dn = 190.0 + gains[:, None] * signal[None] + rng.normal(0, 3, (3, n))
-    d = smap.dark_level(dn)
+    d = darkness.dark_level(dn)
     assert d.level == pytest.approx(190.0, abs=2.0)
     assert d.source.startswith("estimated") and d.n_pixels >= 20
     # An upper bound: a dark object with some signal lifts it, never lowers it below the offset.
     dn2 = dn + gains[:, None] * 5.0
-    assert smap.dark_level(dn2).level >= d.level
+    assert darkness.dark_level(dn2).level >= d.level
 
 
 def test_dark_level_refuses_too_few_pixels():
     with pytest.raises(InputError, match="dark level"):
-        smap.dark_level(np.ones((3, 5)))
+        darkness.dark_level(np.ones((3, 5)))
 
 
 # ------------------------------------------------------------------ fraction and classes
@@ -83,13 +88,13 @@ def _edge_scene(k=0.1, lit=1000.0):
 
 def test_edge_unmixing_recovers_known_fractions():
     dark, f_true = _edge_scene()
-    f = smap.shadow_fraction_estimate(dark, core=math.log(1 / 6), edge_pixels=2)
+    f = darkness.shadow_fraction_estimate(dark, core=math.log(1 / 6), edge_pixels=2)
     assert np.allclose(f[5:-5, 18], 0.3, atol=0.05)
     assert np.allclose(f[5:-5, 19], 0.7, atol=0.05)
     assert (f[:, 20:] >= 0.5).all() and (f[:, :16] == 0).all()
-    m = smap.shadow_mask(f)
+    m = darkness.shadow_mask(f)
     assert (m[5:-5] == (f_true[5:-5] >= 0.5)).all()
-    c = smap.shadow_classes(f, default_table())
+    c = darkness.shadow_classes(f, default_table())
     assert (c[5:-5, 18] == 3).all() and (c[5:-5, 19] == 2).all() and (c[:, 25] == 1).all()
 
 
@@ -97,7 +102,7 @@ def test_water_is_not_core_shadow():
     dark, _ = _edge_scene()
     water = np.zeros(dark.shape, bool)
     water[:, 20:] = True
-    f = smap.shadow_fraction_estimate(dark, water=water)
+    f = darkness.shadow_fraction_estimate(dark, water=water)
     assert (f == 0).all()
 
 
@@ -107,12 +112,12 @@ def test_fraction_estimate_by_strips_equals_whole():
     dark[30:60, 10:30] -= 2.5
     valid = np.ones(dark.shape, bool)
     valid[70:73, 5:9] = False
-    whole = smap.shadow_fraction_estimate(dark, valid)
-    halo = smap.EDGE_PIXELS + smap.EDGE_WINDOW // 2 + 2
+    whole = darkness.shadow_fraction_estimate(dark, valid)
+    halo = darkness.EDGE_PIXELS + darkness.EDGE_WINDOW // 2 + 2
     parts = np.empty_like(whole)
     for win, f in map_windows(
         lambda r0, r1: (dark[r0:r1], valid[r0:r1]),
-        lambda d, v: smap.shadow_fraction_estimate(d, v),
+        lambda d, v: darkness.shadow_fraction_estimate(d, v),
         height=90,
         width=50,
         block_rows=17,
@@ -125,7 +130,7 @@ def test_fraction_estimate_by_strips_equals_whole():
 
 def test_classes_follow_table2_fraction_intervals():
     f = np.array([0.95, 0.8, 0.6, 0.5, 0.3, 0.2, 0.15, 0.1, 0.05, 0.0, np.nan])
-    c = smap.shadow_classes(f, default_table())
+    c = darkness.shadow_classes(f, default_table())
     assert c.tolist() == [1, 1, 2, 2, 3, 3, 4, 4, 0, 0, NODATA_CLASS]
 
 

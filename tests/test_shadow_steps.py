@@ -10,9 +10,9 @@ import math
 import numpy as np
 import pytest
 
+from geoboresight.shadow import darkness
 from geoboresight.shadow import deshadow_steps as dst
 from geoboresight.shadow import illumination as ill
-from geoboresight.shadow import map as smap
 from geoboresight.shadow import prior as sp
 from geoboresight.shadow.classes import default_table
 
@@ -137,13 +137,13 @@ def _calibrated_block(rows=40, cols=30):
     blue = dark + 300 * (0.3 + 0.7 * lit)[None].repeat(2, 0)
     nir = dark + 1000 * lit[None].repeat(2, 0)
     swir = dark + 800 * lit[None].repeat(2, 0)
-    sig = [smap.signal(x, dark).ravel() for x in (blue, nir, swir)]
-    cal = smap.calibrate_shadow_map(
+    sig = [darkness.signal(x, dark).ravel() for x in (blue, nir, swir)]
+    cal = darkness.calibrate_shadow_map(
         *sig,
         np.ones_like(sig[0]),
         np.ones(rows * cols, bool),
-        vnir_dark=smap.DarkLevel(dark, "given"),
-        swir_dark=smap.DarkLevel(dark, "given"),
+        vnir_dark=darkness.DarkLevel(dark, "given"),
+        swir_dark=darkness.DarkLevel(dark, "given"),
         table=default_table(),
     )
     block = dict(calibration=cal, dark_levels=(dark, dark, dark), edge_pixels=2)
@@ -158,7 +158,7 @@ def test_the_block_with_the_model_finds_its_shadow_and_falls_back_where_it_has_n
     assert (b.fraction[16:24, 11:19] >= 0.5).all()  # predicted and dark
     assert (b.fraction[:10, 5:] == 0).all()  # lit and not predicted
     assert b.holes[:, :5].all() and not b.holes[:, 5:].any()
-    spectral, _ = smap.shadow_fraction_block(blue, nir, swir, None, **block)
+    spectral, _ = darkness.shadow_fraction_block(blue, nir, swir, None, **block)
     np.testing.assert_array_equal(b.fraction[:, :5], spectral[:, :5])
     assert b.deep.any() and not b.lit.any()  # the predicted shadow is dark
 
@@ -176,14 +176,14 @@ def test_registration_off_keeps_the_cast_and_measures_the_agreement():
 
 
 def test_the_method_is_written_from_the_kernel_constants(monkeypatch):
-    assert smap.log_fraction_text(math.log(1 / 2)) == "ln 1/2"
-    assert smap.log_fraction_text(smap.RIM_DARKNESS) == "ln 1/3"
-    assert smap.log_fraction_text(-0.8) == "-0.800"
+    assert darkness.log_fraction_text(math.log(1 / 2)) == "ln 1/2"
+    assert darkness.log_fraction_text(darkness.RIM_DARKNESS) == "ln 1/3"
+    assert darkness.log_fraction_text(-0.8) == "-0.800"
     p = _prior(clearance=1.5)
     text = sp.prior_method(p, registered=False, edge_pixels=2)
     assert "lit above ln 1/2" in text and "at or below ln 1/3" in text and "1.5 m" in text
-    assert f"within {smap.DSM_TOLERANCE} px" in text and "moved by" not in text
-    monkeypatch.setattr(smap, "LIT_DARKNESS", math.log(1 / 4))
+    assert f"within {darkness.DSM_TOLERANCE} px" in text and "moved by" not in text
+    monkeypatch.setattr(darkness, "LIT_DARKNESS", math.log(1 / 4))
     assert "lit above ln 1/4" in sp.prior_method(p, registered=True, edge_pixels=2)
 
 

@@ -17,11 +17,11 @@ import pytest
 import rasterio
 
 import geoboresight as gb
+from geoboresight import simulate_file
 from geoboresight.algorithms.simulate import SIMULATE
 from geoboresight.errors import OutputError, ParameterError
 from geoboresight.io import open_dual, quiet_georef
 from geoboresight.io.scene import NAVIGATION_FILES, SCENE_FILES, write_scene
-from geoboresight.operations.simulate import simulate_file
 from geoboresight.simulate import simulate_scene
 
 
@@ -180,7 +180,7 @@ def test_bad_parameters_name_the_parameter():
 
 def test_operation_is_the_spec_run(tmp_path):
     """A script calling the file-level function gets the spec's files, and the same refusals."""
-    assert SIMULATE.run is simulate_file
+    assert SIMULATE.operation is simulate_file
     a, b = tmp_path / "a", tmp_path / "b"
     res = simulate_file(
         output=str(a), preset="dunes", lines=12, seed=2, sensor=gb.SensorOptions(supersample=1)

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from geoboresight import io
-from geoboresight.dem.coregister import coregister_stack, tap_lines
 from geoboresight.errors import InputError
 from geoboresight.io import write_envi
 from geoboresight.io.cube import open_cube
 from geoboresight.operations.anomaly import _Coregistered
+from geoboresight.sensor.coregister import coregister_stack, tap_lines
 
 
 def _cube_file(tmp_path, name, k, interleave, nodata=None, dtype=np.uint16, seed=0):

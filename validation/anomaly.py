@@ -22,12 +22,12 @@ Detectors (each AUC beside its d′):
   are darker than their ground at 900–1,100 nm): the dipole filter on the dark-corrected log
   ratio of band means (:mod:`geoboresight.anomaly.physical`);
 * ``RX`` / ``RX-coreg``: global RX on the raw stack and with the SWIR shifted by the offset
-  measured on the scene (:func:`~geoboresight.dem.offset.estimate_offset` + cubic
-  :func:`~geoboresight.dem.coregister.coregister`), the operation's default;
+  measured on the scene (:func:`~geoboresight.sensor.offset.estimate_offset` + cubic
+  :func:`~geoboresight.sensor.coregister.coregister`), the operation's default;
 * ``SVDD`` / ``SVDD-coreg`` likewise.
 
 Dark levels as the operations find them without a header: the dark object of a random sample
-(:func:`geoboresight.shadow.map.dark_level`). d′: the expected value each detector reports
+(:func:`geoboresight.shadow.darkness.dark_level`). d′: the expected value each detector reports
 (target f = 0.09, c = 0.3, the operations' defaults) and the measured separation of its score,
 (median at targets − median of background) / robust σ of background. Truth: target abundance
 > 0 on the VNIR grid; guard 2 px. Every AUC is computed on the pixels valid for every detector.
@@ -56,11 +56,11 @@ from geoboresight.anomaly import indicator, roc, svdd
 from geoboresight.anomaly import physical as phys
 from geoboresight.anomaly import rx as rxmod
 from geoboresight.anomaly.bands import select_bands
-from geoboresight.dem.coregister import coregister
-from geoboresight.dem.offset import estimate_offset
 from geoboresight.io.wavelengths import nearest_band
 from geoboresight.ratio import boresight_ratio
-from geoboresight.shadow.map import dark_level
+from geoboresight.sensor.coregister import coregister
+from geoboresight.sensor.offset import estimate_offset
+from geoboresight.shadow.darkness import dark_level
 from geoboresight.simulate import simulate_scene
 
 SIM_SCENES = {"soil": "dunes", "glade": "glade"}

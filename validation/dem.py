@@ -36,8 +36,8 @@ from scipy import ndimage
 from scipy.interpolate import RBFInterpolator, griddata
 
 from geoboresight.dem.height import HeightFactor
-from geoboresight.dem.offset import estimate_offset
 from geoboresight.dem.relative import relative_dem
+from geoboresight.sensor.offset import estimate_offset
 from geoboresight.simulate import simulate_scene
 
 from .scene_model2 import simulate2

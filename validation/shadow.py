@@ -69,17 +69,19 @@ import numpy as np
 import rasterio
 from scipy import ndimage
 
+from geoboresight import (
+    SurfaceModel,
+    dark_pixel_shadow_file,
+    deshadow_file,
+    ratio_file,
+    shadow_classes_file,
+    shadow_cluster_file,
+    shadow_map_file,
+    sun_shadow_file,
+)
 from geoboresight.io import quiet_georef
 from geoboresight.io.raster import writer_options
 from geoboresight.io.scene import write_scene
-from geoboresight.operations.deshadow import deshadow_file
-from geoboresight.operations.ratio import ratio_file
-from geoboresight.operations.shadow import shadow_classes_file, shadow_cluster_file
-from geoboresight.operations.shadow_map import SurfaceModel, shadow_map_file
-from geoboresight.operations.shadow_truth import (
-    dark_pixel_shadow_file,
-    sun_shadow_file,
-)
 from geoboresight.simulate import simulate_scene
 from geoboresight.simulate.shadow import raw_grid_azimuth
 

@@ -104,8 +104,9 @@ def reference_pages() -> dict[str, str]:
         names = getattr(gb, table)
         body = [f"# {title}", "", about, ""]
         index += [f"## [{title}]({page}.md)", "", about, "", "| name | what it does |", "|---|---|"]
-        for name in sorted(names, key=lambda n: (names[n], n)):
-            path = f"{names[name]}.{name}"
+        where = {n: _defined_in(table, n, names[n]) for n in names}
+        for name in sorted(names, key=lambda n: (where[n], n)):
+            path = f"{where[name]}.{name}"
             body += [f"::: {path}", ""]
             summary = (inspect.getdoc(getattr(gb, name)) or "").split("\n\n")[0]
             summary = " ".join(summary.split()).replace("|", "\\|")
@@ -114,6 +115,16 @@ def reference_pages() -> dict[str, str]:
         pages[f"reference/{page}.md"] = "\n".join(body)
     pages["reference/index.md"] = "\n".join(index)
     return pages
+
+
+def _defined_in(table: str, name: str, module: str) -> str:
+    """The module that defines ``gb.NAME``: an operation's function (its spec, the module
+    named in ``OPERATIONS``, wraps it), anything else the module the table names."""
+    import geoboresight as gb
+
+    if table != "OPERATIONS":
+        return module
+    return getattr(gb, name).__wrapped__.__module__
 
 
 def home_page() -> str:

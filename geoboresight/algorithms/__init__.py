@@ -1,7 +1,8 @@
-"""The list of operations. Each module in this package defines ``ALGORITHMS``, a tuple of
+"""The list of operations. Each spec module of this package, named in :data:`SPECS` with the
+operations it declares, defines ``ALGORITHMS``, a tuple of
 :class:`~geoboresight.algorithms.spec.Algorithm`: an operation is registered by its spec, and
 nowhere else (the command line, rio, the engine's schema, QGIS and the top-level Python names
-are derived from the specs and the operations' modules).
+are derived from the specs).
 
 Another installed package adds its own operations the same way: a module of its own with
 ``ALGORITHMS``, named in the ``geoboresight.algorithms`` entry-point group of its metadata
@@ -13,70 +14,57 @@ boresight``, the engine (and so QGIS) and batch.
 from __future__ import annotations
 
 import importlib
-import pkgutil
-import re
 from functools import cache
-from pathlib import Path
 
 from .spec import GROUPS, Algorithm, execute
 
 __all__ = [
     "ENTRY_POINTS",
     "GROUPS",
+    "SPECS",
     "Algorithm",
     "execute",
     "get",
     "registry",
-    "spec_modules",
-    "spec_of_operation",
 ]
 
-#: An operation is declared once, by its spec (``Algorithm(name="ratio", ...)`` in a module of
-#: this package); this index of the spec module of each operation is read from the modules'
-#: text, so that running one operation imports its own spec module only (and the kernels it
-#: needs) rather than all of them: the command line starts in ~0.3 s instead of ~0.8 s, paid
-#: again by every operation a user, a script or QGIS runs. tests/test_house.py checks it
-#: against the modules' ``ALGORITHMS``.
-_DECLARED = re.compile(r'Algorithm\(\s*name="([a-z0-9-]+)"')
-#: ... and the file-level operation each spec runs (``run=ratio_file``).
-_RUNS = re.compile(r"\brun=(\w+_file)\b")
+#: The spec modules of this package and the operations each declares, so that running one
+#: operation imports its own spec module only (and the kernels it needs) rather than all of
+#: them: the command line starts in ~0.3 s instead of ~0.8 s, paid again by every operation a
+#: user, a script or QGIS runs. Each operation ``name`` runs ``<name>_file`` (``-`` as ``_``),
+#: which is also its top-level Python name. tests/test_house.py checks this list against the
+#: modules' ``ALGORITHMS``.
+SPECS: dict[str, tuple[str, ...]] = {
+    "ratio": ("ratio",),
+    "stats": ("stats",),
+    "info": ("info",),
+    "shadow": (
+        "shadow-classes",
+        "shadow-cluster",
+        "shadow-fraction-fit",
+        "shadow-fraction-apply",
+        "shadow-polygons",
+    ),
+    "shadow_map": ("shadow-map",),
+    "shadow_truth": ("sun-shadow", "dark-pixel-shadow"),
+    "deshadow": ("deshadow",),
+    "offset": ("boresight-offset", "coregister"),
+    "dem": ("disparity", "relative-dem", "view-3d"),
+    "anomaly": ("rx", "svdd", "boresight-indicator", "unmix"),
+    "roc": ("roc", "anomaly-polygons"),
+    "simulate": ("simulate",),
+    "georef": ("geolocate", "georeference", "reproject-to", "simulate-ortho"),
+    "georef_auto": ("auto-georeference",),
+    "report": ("report",),
+}
 
 
-@cache
-def _declarations() -> tuple[dict[str, str], dict[str, str]]:
-    """``({operation name: spec module}, {operation function: spec module})``, read once
-    from the spec modules' source text."""
-    names, runs = {}, {}
-    for path in sorted(Path(__file__).parent.glob("*.py")):
-        if path.stem == "spec" or path.stem.startswith("_"):
-            continue
-        text = path.read_text(encoding="utf-8")
-        names.update(dict.fromkeys(_DECLARED.findall(text), path.stem))
-        runs.update(dict.fromkeys(_RUNS.findall(text), path.stem))
-    return names, runs
-
-
-def spec_modules() -> dict[str, str]:
-    """``{operation name: spec module}``, from the spec modules' source text."""
-    return dict(_declarations()[0])
-
-
-def spec_of_operation(function: str) -> Algorithm | None:
-    """The spec whose ``run`` is the file-level operation called ``function`` (e.g.
-    ``"ratio_file"``), importing its spec module only; None if no spec runs it."""
-    stem = _declarations()[1].get(function)
-    if stem is not None:
-        module = importlib.import_module(f"{__name__}.{stem}")
-        for alg in getattr(module, "ALGORITHMS", ()):
-            if getattr(alg.run, "__name__", None) == function:
-                return alg
+def spec_module(name: str) -> str | None:
+    """The module (under this package) declaring operation ``name``, or None."""
+    for module, names in SPECS.items():
+        if name in names:
+            return f"{__name__}.{module}"
     return None
-
-
-def __getattr__(name: str):
-    if name == "MODULES":  # the index, under its former name
-        return spec_modules()
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 #: The entry-point group whose entries name modules of other packages holding ``ALGORITHMS``.
@@ -105,11 +93,8 @@ def registry() -> dict[str, Algorithm]:
     """All algorithms by name, ordered by group (the paper's applications) then name: this
     package's, then those other packages add (:data:`ENTRY_POINTS`)."""
     found: list[Algorithm] = []
-    for info in pkgutil.iter_modules(__path__):
-        if info.name == "spec" or info.name.startswith("_"):
-            continue
-        module = importlib.import_module(f"{__name__}.{info.name}")
-        found.extend(getattr(module, "ALGORITHMS", ()))
+    for module in SPECS:
+        found.extend(importlib.import_module(f"{__name__}.{module}").ALGORITHMS)
     for module in _added_modules():
         found.extend(getattr(module, "ALGORITHMS", ()))
     found.sort(key=lambda a: (GROUPS.index(a.group), a.name))
@@ -122,10 +107,9 @@ def registry() -> dict[str, Algorithm]:
 
 def find(name: str) -> Algorithm | None:
     """The algorithm called ``name``, importing only its own spec module; None if unknown."""
-    modules = spec_modules()
-    if name in modules:
-        module = importlib.import_module(f"{__name__}.{modules[name]}")
-        for alg in getattr(module, "ALGORITHMS", ()):
+    module = spec_module(name)
+    if module is not None:
+        for alg in importlib.import_module(module).ALGORITHMS:
             if alg.name == name:
                 return alg
     return registry().get(name)

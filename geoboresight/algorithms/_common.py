@@ -8,9 +8,9 @@ from .. import io
 from ..anomaly.bands import WATER_BANDS_NM, BandSelection
 from ..anomaly.physical import TARGET_CONTRAST, TARGET_FRACTION, Detectability
 from ..io.bands import BoresightOffset, Coregistration
-from ..io.dark import DarkLevels
 from ..io.dual import SEAM_NM, SWIR_NM, TOLERANCE_NM, VNIR_NM, BandChoice, DualLayout
 from ..io.products import FILE_FORMATS
+from ..sensor.dark import DarkLevels
 from .spec import Enum, Flag, Group, Number, RasterIn, Result, Text, Wavelength
 
 VNIR = RasterIn(
@@ -178,7 +178,7 @@ def sample_size(
     )
 
 
-#: The dark levels the user gives (io.DarkLevels); empty = product, header or estimated.
+#: The dark levels the user gives (sensor.dark.DarkLevels); empty = product, header or estimated.
 DARK = Group(
     name="dark",
     value=DarkLevels,

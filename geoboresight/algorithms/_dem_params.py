@@ -55,7 +55,7 @@ def match_bands(default: MatchBands = MatchBands()) -> Group:
 
 #: Offset and co-registration: the ratio's own two bands (Eq. 3).
 OFFSET_MATCH = match_bands()
-#: Dense matching: band means (900–970 nm against 980–1,100 nm; see geoboresight.dem.bands).
+#: Dense matching: band means (900–970 nm against 980–1,100 nm; see geoboresight.sensor.bands).
 DENSE_MATCH_BANDS = match_bands(DENSE_MATCH)
 
 CLOUD = RasterIn(

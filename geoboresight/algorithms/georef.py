@@ -1,23 +1,10 @@
-"""Specs: put raw-geometry products on a map (IGM/GLT, GCPs, automatic tie points), onto a
-reference raster's grid, and simulate a jittered line with its orthophoto."""
+"""Specs: put raw-geometry products on a map (IGM/GLT, GCPs), onto a reference raster's grid,
+and simulate a jittered line with its orthophoto (automatic tie points: georef_auto.py)."""
 
 from __future__ import annotations
 
-from ..georef.tiepoints import (
-    DETECTORS,
-    MAX_RMSE_PX,
-    MAX_SHIFT_PX,
-    MIN_INLIERS,
-    MODEL_BLOCK_LINES,
-    MODELS,
-    TieMatching,
-)
 from ..georef.transforms import METHODS
-from ..io.georef import RESAMPLINGS
-from ..io.grid import OutputGrid
-from ..io.products import FILE_FORMATS
 from ..operations.georef import (
-    auto_georeference_file,
     geolocate_file,
     georeference_file,
     reproject_to_file,
@@ -25,72 +12,26 @@ from ..operations.georef import (
 )
 from ..simulate.ortho import HEADING_DEG, JITTER_DEG, JITTER_LINES, ORTHO_CELL
 from ..simulate.presets import SCENES
-from ._common import BAND_NM, seed
+from ._common import seed
+from ._georef_params import (
+    GCP_CRS,
+    GRID,
+    GROUP,
+    IGM_OUTPUT,
+    INPUT,
+    REPORT,
+    RESAMPLING,
+)
 from .spec import (
     Algorithm,
-    Band,
     Enum,
     FileIn,
-    FileOut,
     FolderOut,
-    Group,
     Number,
     RasterIn,
     RasterOut,
     Result,
     Text,
-)
-
-GROUP = "Georeferencing"
-
-INPUT = RasterIn(
-    name="input",
-    label="Input raster",
-    description="Raw-geometry product (ratio, classes, DEM, scores, a cube: any raster)",
-    formats=FILE_FORMATS,
-)
-CRS = Text(
-    name="crs",
-    label="Output CRS",
-    description="Output CRS (EPSG code, PROJ string or WKT; default: that of the coordinates, their UTM zone when in degrees)",
-    optional=True,
-)
-RESOLUTION = Number(
-    name="resolution",
-    label="Output cell size",
-    description="Output cell size in the output CRS's units (0: the product's median pixel spacing)",
-    default=0.0,
-    minimum=0.0,
-    unit="",
-)
-RESAMPLING = Enum(
-    name="resampling",
-    label="Resampling",
-    description="Resampling: auto (nearest for class rasters, bilinear for continuous data), nearest, bilinear or cubic",
-    choices=RESAMPLINGS,
-    default="auto",
-)
-#: The map grid a raw product is warped onto (io.grid.OutputGrid), the operations' ``grid``.
-GRID = Group(name="grid", value=OutputGrid, params=(CRS, RESOLUTION, RESAMPLING))
-GCP_CRS = Text(
-    name="gcp_crs",
-    label="GCP CRS",
-    description="CRS of the GCPs' map coordinates, when the GCP file names none (or to override it)",
-    optional=True,
-)
-REPORT = FileOut(
-    name="report",
-    label="Report",
-    description="JSON report: the model, RMSE and each point's residual",
-    extension="json",
-    optional=True,
-)
-
-IGM_OUTPUT = RasterOut(
-    name="igm_output",
-    label="Fitted IGM",
-    description="The fitted IGM (x, y of every raw pixel), to geolocate the line's other products",
-    optional=True,
 )
 
 GEOLOCATE = Algorithm(
@@ -218,142 +159,6 @@ GEOREFERENCE = Algorithm(
     run=georeference_file,
 )
 
-AUTO = Algorithm(
-    name="auto-georeference",
-    example={"input": "ratio.tif", "reference": "ortho.tif", "output": "ratio_map.tif"},
-    results=(
-        Result("matches", "number", "Feature matches"),
-        Result("inliers", "number", "RANSAC inliers"),
-        Result("rmse_px", "number", "Cross-validated RMSE of the inliers (pixels)"),
-        Result("width", "number", "Columns of the map grid"),
-        Result("height", "number", "Lines of the map grid"),
-        Result("valid_pixels", "number", "Pixels inside the footprint"),
-        Result("bands", "number", "Bands warped"),
-    ),
-    display_name="Georeference on an orthophoto (automatic tie points)",
-    group=GROUP,
-    short_help="Georeference a raw line on a reference orthophoto by automatic tie points (SIFT/ORB + RANSAC) and a model of the line's wobble.",
-    help=(
-        "Georeferences a raw-geometry product on a reference orthophoto without navigation "
-        "data and without picking GCPs by hand. A rough placement (a few GCPs, or the map "
-        "coordinates of the four image corners) puts the orthophoto into the product's raw "
-        "geometry; features (scikit-image SIFT or ORB) are matched between one product band "
-        "and one orthophoto band (similar wavelengths, e.g. NIR), RANSAC per block of lines "
-        "keeps the consistent matches, and a piecewise model follows the pushbroom line's "
-        "attitude wobble (an affine model per block of lines, blended from block to block, or "
-        "a thin-plate spline on the inliers).\n\n"
-        "The report gives the matches, the inliers and each tie point's cross-validated "
-        "residual (pixels). The run is refused, writing nothing, when fewer than the minimum "
-        "inliers are found or their RMSE exceeds the maximum."
-    ),
-    params=(
-        INPUT,
-        RasterIn(
-            name="reference",
-            label="Reference orthophoto",
-            description="Reference orthophoto (with its CRS)",
-        ),
-        FileIn(
-            name="gcps",
-            label="GCP file",
-            description="Rough placement from a few GCPs (CSV or QGIS .points), or give the corners",
-            extensions=("csv", "points", "txt"),
-            optional=True,
-        ),
-        Text(
-            name="corners",
-            label="Corners",
-            description="Rough placement from the corners: x,y of the top-left, top-right, bottom-right, bottom-left image corners (8 numbers)",
-            optional=True,
-        ),
-        GCP_CRS,
-        Band(
-            name="band",
-            label="Band",
-            description="Product band to match (e.g. a NIR band)",
-            default=1,
-            raster="input",
-            wavelength="band_nm",
-        ),
-        BAND_NM,
-        Band(
-            name="reference_band",
-            label="Reference band",
-            description="Orthophoto band to match (a similar wavelength)",
-            default=1,
-            raster="reference",
-        ),
-        Group(
-            name="matching",
-            value=TieMatching,
-            params=(
-                Enum(
-                    name="detector",
-                    label="Feature detector",
-                    description="Feature detector (scikit-image)",
-                    choices=DETECTORS,
-                    default="sift",
-                ),
-                Enum(
-                    name="model",
-                    label="Wobble model",
-                    description="Wobble model: affine per block of lines (blended) or thin-plate spline on the inliers",
-                    choices=MODELS,
-                    default="blocks",
-                ),
-                Number(
-                    name="model_block_lines",
-                    label="Lines per block",
-                    description="Lines per block of the wobble model and of RANSAC (its resolution along the track)",
-                    default=MODEL_BLOCK_LINES,
-                    minimum=8,
-                    maximum=10000,
-                    integer=True,
-                    advanced=True,
-                    aliases=("block_lines",),
-                ),
-                Number(
-                    name="max_shift_px",
-                    label="Largest shift",
-                    description="Largest error of the rough placement (product pixels)",
-                    default=MAX_SHIFT_PX,
-                    minimum=1.0,
-                    maximum=500.0,
-                    unit="px",
-                    advanced=True,
-                ),
-                Number(
-                    name="min_inliers",
-                    label="Minimum inliers",
-                    description="Fewest tie points accepted",
-                    default=MIN_INLIERS,
-                    minimum=6,
-                    maximum=100000,
-                    integer=True,
-                    advanced=True,
-                ),
-                Number(
-                    name="max_rmse_px",
-                    label="Largest RMSE",
-                    description="Largest cross-validated RMSE of the tie points accepted (product pixels)",
-                    default=MAX_RMSE_PX,
-                    minimum=0.01,
-                    maximum=100.0,
-                    unit="px",
-                ),
-                seed("Random seed (of RANSAC: same seed, same result)"),
-            ),
-        ),
-        GRID,
-        RasterOut(
-            name="output", label="Georeferenced", description="The product on a map grid (GeoTIFF)"
-        ),
-        REPORT,
-        IGM_OUTPUT,
-    ),
-    run=auto_georeference_file,
-)
-
 REPROJECT_TO = Algorithm(
     name="reproject-to",
     example={"input": "ratio_map.tif", "reference": "ortho.tif", "output": "ratio_on_ortho.tif"},
@@ -470,4 +275,4 @@ SIMULATE_ORTHO = Algorithm(
     run=simulate_ortho_file,
 )
 
-ALGORITHMS = (GEOLOCATE, GEOREFERENCE, AUTO, REPROJECT_TO, SIMULATE_ORTHO)
+ALGORITHMS = (GEOLOCATE, GEOREFERENCE, REPROJECT_TO, SIMULATE_ORTHO)

@@ -3,9 +3,9 @@ removes it (paper §3.2)."""
 
 from __future__ import annotations
 
-from ..dem.coregister import DEFAULT_ORDER
-from ..dem.offset import PROFILE_ROWS
 from ..operations.offset import boresight_offset_file, coregister_file
+from ..sensor.coregister import DEFAULT_ORDER
+from ..sensor.offset import PROFILE_ROWS
 from ._common import BLOCK_ROWS, DUAL_PARAMS
 from ._dem_params import CLOUD, GEOMETRY, GROUP, OFFSET_MATCH
 from .spec import Algorithm, Enum, FileOut, Flag, Number, RasterOut, Result

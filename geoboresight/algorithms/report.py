@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..dem.height import FlightGeometry
-from ..operations.report import report_file
+from ..report.scene import report_file
 from ._common import BAND_PARAMS, DUAL_PARAMS
 from ._dem_params import CLOUD, FLYING_HEIGHT, HEIGHT_FACTOR, IFOV, SQUINT
 from .spec import Algorithm, FileOut, Flag, FolderOut, Group, RasterIn

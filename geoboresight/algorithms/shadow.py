@@ -8,6 +8,7 @@ from __future__ import annotations
 from ..io.products import FILE_FORMATS
 from ..io.windows import Sample
 from ..operations.shadow import (
+    NirBand,
     shadow_classes_file,
     shadow_cluster_file,
     shadow_fraction_apply_file,
@@ -148,20 +149,26 @@ CLUSTER = Algorithm(
             label="VNIR image",
             description="VNIR image (or a merged cube) on the ratio's grid, with wavelengths",
         ),
-        Wavelength(
-            name="nir_nm",
-            label="NIR wavelength",
-            description="Wavelength of the near-infrared axis (nm; paper: 941)",
-            default=NIR_NM,
-        ),
-        TOLERANCE,
-        Text(
-            name="vnir_wavelengths",
-            label="VNIR band centres",
-            description="Band centres of the VNIR file in nm, comma-separated (only if the file has none)",
-            optional=True,
-            advanced=True,
-            aliases=("wavelengths",),
+        Group(
+            name="nir",
+            value=NirBand,
+            params=(
+                Wavelength(
+                    name="nir_nm",
+                    label="NIR wavelength",
+                    description="Wavelength of the near-infrared axis (nm; paper: 941)",
+                    default=NIR_NM,
+                ),
+                TOLERANCE,
+                Text(
+                    name="vnir_wavelengths",
+                    label="VNIR band centres",
+                    description="Band centres of the VNIR file in nm, comma-separated (only if the file has none)",
+                    optional=True,
+                    advanced=True,
+                    aliases=("wavelengths",),
+                ),
+            ),
         ),
         Number(
             name="n_components",

@@ -12,7 +12,7 @@ from ..operations.shadow_map import (
     SurfaceModel,
     shadow_map_file,
 )
-from ..shadow.map import CORE_DARKNESS, EDGE_PIXELS
+from ..shadow.darkness import CORE_DARKNESS, EDGE_PIXELS
 from ._common import (
     BLOCK_ROWS,
     DARK,

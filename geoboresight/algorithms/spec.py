@@ -4,17 +4,19 @@ An :class:`Algorithm` is data (name, group, help, typed parameters with defaults
 plus ``run=``, one file-level operation of :mod:`geoboresight.operations`. Outputs are
 parameters too (like QGIS "destination" parameters), so each face can ask the user where to
 write them. At import, each spec checks that its parameters and its operation's signature agree
-(names, defaults, which are inputs and outputs), so no face can drift from the library.
+(names and defaults), so no face can drift from the library.
 
-Faces never validate by themselves: they collect raw values and call :func:`execute`, which
-fills defaults, checks types and ranges, and checks bands against their rasters; the operation
-itself refuses outputs that would overwrite an input or an existing file, and removes every
-output of a run that failed.
+The spec wraps its operation: :attr:`Algorithm.operation` is ``run`` checked against the spec
+(``geoboresight.<name>_file`` for a Python caller). Faces never validate by themselves: they
+collect raw values and call :func:`execute`, which fills defaults, checks types and ranges, and
+checks bands against their rasters. Either way the run refuses outputs that would overwrite an
+input or an existing file, and removes every output of a run that failed.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import inspect
 import math
 import os
@@ -22,7 +24,6 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
-from .._state import VALIDATED
 from ..errors import GeoboresightError, ParameterError
 from ..progress import Progress, as_progress
 
@@ -347,9 +348,11 @@ class Result:
 class Algorithm:
     """One GIS operation: what every face shows, and the one function that does the work.
 
-    ``run`` is a file-level operation (:func:`geoboresight.operations.operation`) whose keyword
-    arguments are the parameters; it returns a dict of results: the output paths plus any
-    small values worth showing (e.g. an offset in pixels).
+    ``run`` is a file-level function of :mod:`geoboresight.operations` whose keyword
+    arguments are the parameters (and ``progress``); it returns a dict of results: the output
+    paths plus any small values worth showing (e.g. an offset in pixels). The spec wraps it:
+    :attr:`operation` is ``run`` with the spec's checks, the files its parameters declare
+    (inputs, outputs) guarded, and ``overwrite``, as a Python caller gets it.
     """
 
     name: str
@@ -373,6 +376,8 @@ class Algorithm:
     positional: tuple[str, ...] = ()
     #: The parameter groups among ``params`` (``params`` itself is flattened: what faces see).
     groups: tuple[Group, ...] = field(default=(), init=False, repr=False)
+    #: ``run`` checked against this spec (``geoboresight.<name>_file``).
+    operation: Callable = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self):
         groups = tuple(p for p in self.params if isinstance(p, Group))
@@ -396,9 +401,7 @@ class Algorithm:
             raise ValueError(
                 f"{self.name}: example lacks required {missing} / names unknown {unknown}"
             )
-        # The operation checks a Python caller's arguments against this spec, as every face.
-        if getattr(self.run, "spec", None) is None and hasattr(self.run, "outputs"):
-            self.run.spec = self
+        object.__setattr__(self, "operation", _wrap(self))
 
     @property
     def inputs(self) -> tuple[Param, ...]:
@@ -407,6 +410,22 @@ class Algorithm:
     @property
     def outputs(self) -> tuple[Param, ...]:
         return tuple(p for p in self.params if p.is_output)
+
+    @property
+    def files_read(self) -> tuple[str, ...]:
+        """The arguments naming files the operation reads: a parameter, or a group's member
+        as ``"group.member"`` (``"surface.dsm"``)."""
+        member_of = {p.name: g.name for g in self.groups for p in g.params}
+        return tuple(
+            f"{member_of[p.name]}.{p.name}" if p.name in member_of else p.name
+            for p in self.inputs
+            if p.kind in ("raster", "multiraster", "file")
+        )
+
+    @property
+    def files_written(self) -> tuple[str, ...]:
+        """The arguments naming the files or folders the operation writes."""
+        return tuple(p.name for p in self.outputs)
 
     def param(self, name: str) -> Param:
         for p in self.params:
@@ -529,8 +548,8 @@ _RUN_ONLY = ("progress", "overwrite")
 
 
 def _check_signature(alg: Algorithm) -> None:
-    """The spec and its operation must agree: same names, same defaults, same inputs and
-    outputs. Raised at import, so a renamed parameter cannot reach a face."""
+    """The spec and its operation must agree: same names, same defaults, and the function takes
+    ``progress``. Raised at import, so a renamed parameter cannot reach a face."""
     sig = inspect.signature(alg.run)
     fn = {n: p for n, p in sig.parameters.items() if n not in _RUN_ONLY}
     grouped = {p.name for g in alg.groups for p in g.params}
@@ -566,19 +585,8 @@ def _check_signature(alg: Algorithm) -> None:
                 f"{'nothing' if default is inspect.Parameter.empty else repr(default)} "
                 "in the function"
             )
-    member_of = {p.name: g.name for g in alg.groups for p in g.params}
-    ins = {
-        f"{member_of[p.name]}.{p.name}" if p.name in member_of else p.name
-        for p in alg.inputs
-        if p.kind in ("raster", "multiraster", "file")
-    }
-    outs = {p.name for p in alg.outputs}
-    if set(getattr(alg.run, "inputs", ())) != ins or set(getattr(alg.run, "outputs", ())) != outs:
-        raise TypeError(
-            f"{where}: inputs/outputs {sorted(ins)}/{sorted(outs)} in the spec but "
-            f"{sorted(getattr(alg.run, 'inputs', ()))}/{sorted(getattr(alg.run, 'outputs', ()))} "
-            "in the function's @operation"
-        )
+    if "progress" not in sig.parameters:
+        raise TypeError(f"{where}: the function takes no 'progress'")
 
 
 def execute(
@@ -590,9 +598,9 @@ def execute(
     co=None,
     raw_gsd=None,
 ) -> dict:
-    """Validate ``values`` and run ``alg``'s operation (which refuses unsafe outputs and
-    removes the outputs it created when it fails); ``cog``/``co`` say how its GeoTIFF outputs
-    are written (Cloud-Optimised, GDAL creation options ``NAME=VALUE``)."""
+    """Validate ``values`` and run ``alg``'s operation (refusing unsafe outputs and removing
+    the outputs it created when it fails); ``cog``/``co`` say how its GeoTIFF outputs are
+    written (Cloud-Optimised, GDAL creation options ``NAME=VALUE``)."""
     from ..io.raster import writer_options
     from ..progress import library_messages_logged
 
@@ -600,11 +608,43 @@ def execute(
     with library_messages_logged(progress):
         values = alg.bind(alg.validate(values))
     with writer_options(cog=cog, co=co, raw_gsd=raw_gsd), library_messages_logged(progress):
-        token = VALIDATED.set(True)  # the operation need not check its arguments again
-        try:
-            return alg.run(**values, progress=progress, overwrite=overwrite)
-        finally:
-            VALIDATED.reset(token)
+        return _run(alg, values, progress, overwrite)
+
+
+def _run(alg: Algorithm, values: dict, progress, overwrite: bool) -> dict:
+    """Run ``alg.run`` on validated keyword arguments, its files guarded."""
+    from ..operations._guard import run_guarded
+
+    return run_guarded(
+        alg.run,
+        {**values, "progress": progress},
+        inputs=alg.files_read,
+        outputs=alg.files_written,
+        overwrite=overwrite,
+        params=[p.name for p in alg.params],
+    )
+
+
+def _wrap(alg: Algorithm) -> Callable:
+    """``alg.run`` for a Python caller: its arguments go through the spec's coercion and
+    checks, as the command line, QGIS, the engine and batch get them (types, ranges, choices,
+    finite numbers, bands), then run as :func:`execute` runs them; it gains ``overwrite``."""
+    sig = inspect.signature(alg.run)
+
+    @functools.wraps(alg.run)
+    def operation(*args, overwrite: bool = False, **kwargs):
+        bound = sig.bind(*args, **kwargs)
+        bound.apply_defaults()
+        values = dict(bound.arguments)
+        progress = as_progress(values.pop("progress", None))
+        flat, given = alg.flatten(values)
+        return _run(alg, alg.bind(alg.validate(flat), given), progress, overwrite)
+
+    params = list(sig.parameters.values())
+    params.append(inspect.Parameter("overwrite", inspect.Parameter.KEYWORD_ONLY, default=False))
+    operation.__signature__ = sig.replace(parameters=params)
+    operation.spec = alg
+    return operation
 
 
 def _scalar(value: Any) -> bool:

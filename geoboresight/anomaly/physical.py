@@ -151,9 +151,9 @@ def dipole(
     y: np.ndarray, ok: np.ndarray, *, along: float, across: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """``(D, ok)``: the log ratio ``y`` minus itself at p + δ (bilinear,
-    :func:`geoboresight.dem.coregister.coregister` with order 1): the filter matched to a
+    :func:`geoboresight.sensor.coregister.coregister` with order 1): the filter matched to a
     grey target's dipole, which adds its two lobes."""
-    from ..dem.coregister import coregister
+    from ..sensor.coregister import coregister
 
     shifted, sok = coregister(y, along, across, ok, order=1)
     good = ok & sok

@@ -432,7 +432,7 @@ def disparity_map(
         Integer search range (±px) around ``center``.
     center : (along, across)
         Where to search, e.g. the global boresight offset from
-        :func:`~geoboresight.dem.offset.estimate_offset`; may be sub-pixel.
+        :func:`~geoboresight.sensor.offset.estimate_offset`; may be sub-pixel.
     refine : int
         Passes that warp the SWIR by the smoothed disparity and re-match within ±1 px, removing
         the parabola's peak-locking bias.

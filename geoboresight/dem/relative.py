@@ -25,6 +25,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..progress import Progress, as_progress
+from ..sensor.offset import Offset, merged_offset
 from .disparity import (
     MIN_PEAK,
     MIN_SHARPNESS,
@@ -54,7 +55,6 @@ from .kriging import (
     cross_validate,
     fit_variogram,
 )
-from .offset import Offset, merged_offset
 
 #: Fewest reliable pixels worth a DEM.
 MIN_RELIABLE = 100
@@ -411,7 +411,7 @@ def relative_dem(
     ----------
     vnir, swir : 2-D arrays (lines, columns) on the same grid
         The matched images, e.g. band means of 900–970 nm and 980–1100 nm
-        (:func:`~geoboresight.dem.bands.band_mean`).
+        (:func:`~geoboresight.sensor.bands.band_mean`).
     valid : bool array, optional
         Pixels usable in both images (no nodata, no cloud); non-finite pixels are always left
         out. The DEM covers exactly these pixels.

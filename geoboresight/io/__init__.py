@@ -12,6 +12,7 @@ from .raster import (
     create_class_raster,
     create_raster,
     quiet_georef,
+    scratch_raster,
     write_envi,
     write_raster,
 )
@@ -60,6 +61,7 @@ __all__ = [
     "check_output_path",
     "create_class_raster",
     "create_raster",
+    "scratch_raster",
     "dataset_path",
     "is_georeferenced",
     "map_windows",

@@ -2,7 +2,7 @@
 means, and the VNIR/SWIR pair matched for the boresight offset and the relative DEM (§3.2).
 
 Every read goes through :func:`~geoboresight.io.windows.map_windows`; the per-pixel work (the
-mean of a band range) is the kernel :func:`geoboresight.dem.bands.band_mean`.
+mean of a band range) is the kernel :func:`geoboresight.sensor.bands.band_mean`.
 """
 
 from __future__ import annotations
@@ -15,15 +15,15 @@ from dataclasses import dataclass
 import numpy as np
 from rasterio.windows import Window
 
-from ..dem.bands import (
+from ..errors import InputError, ParameterError
+from ..progress import Progress
+from ..sensor.bands import (
     MATCH_SWIR_NM,
     MATCH_SWIR_TO_NM,
     MATCH_VNIR_NM,
     MATCH_VNIR_TO_NM,
     band_mean,
 )
-from ..errors import InputError, ParameterError
-from ..progress import Progress
 from .cube import RawPart, as_slice, open_cube
 from .dual import SWIR_NM, TOLERANCE_NM, VNIR_NM, DualSensor, SensorFile
 from .grid import Grid
@@ -49,7 +49,7 @@ class MatchBands:
 class BoresightOffset:
     """The boresight offset of the SWIR relative to the VNIR (px, SWIR minus VNIR position),
     along- and across-track, when the user gives it; both None = measured on the data
-    (:func:`geoboresight.dem.offset.estimate_offset`), one None = 0."""
+    (:func:`geoboresight.sensor.offset.estimate_offset`), one None = 0."""
 
     offset_along: float | None = None
     offset_across: float | None = None
@@ -167,7 +167,7 @@ class MatchingReader:
 
     ``read(row0, row1) -> (vnir, swir, valid)`` (float64, float64, bool) for
     :func:`~geoboresight.io.windows.map_windows`: each image is one band or the mean of a band
-    range (:func:`~geoboresight.dem.bands.band_mean`), valid where every band read is valid and
+    range (:func:`~geoboresight.sensor.bands.band_mean`), valid where every band read is valid and
     cloud-free. Use :func:`open_matching_pair` (a context manager: the files stay open).
     """
 

@@ -1,34 +1,21 @@
 """The dark level of each instrument of a dual-sensor dataset (DN of zero signal), found in one
 place: given by the user, else the sensor product's dark reference, else the ENVI header's
 'dark level'; when none of them says it, the shadow map estimates it from the data
-(:func:`geoboresight.shadow.map.dark_level`, dark-object subtraction).
+(:func:`geoboresight.shadow.darkness.dark_level`, dark-object subtraction). The values are
+those of :mod:`geoboresight.sensor.dark`.
 """
 
 from __future__ import annotations
 
 import numbers
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import InputError, ParameterError
+from ..sensor.dark import DarkLevel
 from .dual import SensorFile
-
-if TYPE_CHECKING:
-    from ..shadow.map import DarkLevel
 from .wavelengths import parse_list
-
-
-@dataclass(frozen=True)
-class DarkLevels:
-    """The dark levels the user gives (DN of zero signal) of the VNIR and the SWIR instrument;
-    None = from the sensor product's dark reference or the header, else estimated from the
-    data. Give 0 for radiance."""
-
-    vnir_dark: float | None = None
-    swir_dark: float | None = None
 
 
 def header_dark(
@@ -109,8 +96,6 @@ def dark_level_of(
         product's dark source, "header of PATH") and, for per-band levels, ``band_levels`` in
         the order of ``bands`` with ``n_pixels`` 0.
     """
-    from ..shadow.map import DarkLevel
-
     if given is not None:
         if not (
             isinstance(given, numbers.Real)

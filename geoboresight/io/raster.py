@@ -278,6 +278,27 @@ def quiet_georef():
         yield
 
 
+@contextlib.contextmanager
+def scratch_raster(path: str, width: int, height: int, *, dtype="float32", nodata=float("nan")):
+    """Open a one-band raster of intermediate data (raw geometry, tiled, uncompressed) for
+    block-by-block writing, to be read back within the same run: no CRS and none of the
+    writer options of :func:`create_raster` (those are for the user's outputs); ``path``
+    lies in a temporary folder of the caller's, so the file is not written atomically."""
+    profile = dict(
+        driver="GTiff",
+        width=width,
+        height=height,
+        count=1,
+        dtype=dtype,
+        nodata=nodata,
+        tiled=True,
+        blockxsize=TILE,
+        blockysize=TILE,
+    )
+    with quiet_georef(), rasterio.open(path, "w", **profile) as dst:
+        yield dst
+
+
 def open_dataset(path: str | os.PathLike, label: str = "raster"):
     """``path`` opened for reading (the caller closes it), with a clear error when it is
     missing or unreadable."""

@@ -15,9 +15,16 @@ import threading
 import numpy as np
 
 from .. import io
-from ..anomaly import indicator as ind
 from ..anomaly.bands import BandSelection, select_bands
-from ..anomaly.indicator import THRESHOLD, Eq3Reference
+from ..anomaly.indicator import (
+    THRESHOLD,
+    Eq3Reference,
+    check_options,
+    indicator_score,
+    local_residual,
+    robust_location_blocks,
+    valid_values,
+)
 from ..anomaly.physical import Detectability, Dipole
 from ..anomaly.polygons import FIELDS
 from ..anomaly.roc import PFA, TITLE
@@ -26,10 +33,10 @@ from ..anomaly.svdd import NU, SAMPLE_SIZE
 from ..errors import InputError, ParameterError
 from ..io.bands import BoresightOffset, Coregistration
 from ..io.cube import as_slice
-from ..io.dark import DarkLevels
 from ..io.dual import DualLayout
-from ._operation import operation
-from ._shared import GIVE_OFFSET, measured_offset, sensor_dark_levels
+from ..sensor.dark import DarkLevels
+from ._dark import sensor_dark_levels
+from ._offset import GIVE_OFFSET, boresight_offset
 
 #: Pixels drawn at random for the dark-object estimate of a detector's detectability.
 DARK_SAMPLE = 4000
@@ -147,18 +154,18 @@ def _detectability_result(name, dprime, target, progress, grey=None) -> dict:
 
 class _Coregistered:
     """The cube's strips with its SWIR bands resampled onto the VNIR grid (the boresight
-    offset removed: :func:`geoboresight.dem.coregister.coregister_stack`, cubic convolution),
+    offset removed: :func:`geoboresight.sensor.coregister.coregister_stack`, cubic convolution),
     for RX and SVDD.
 
     Each strip is read in the files' own type with the lines the kernel's taps reach
-    (:func:`~geoboresight.dem.coregister.coregister_halo`), its SWIR bands shifted together in
+    (:func:`~geoboresight.sensor.coregister.coregister_halo`), its SWIR bands shifted together in
     float32 (one valid mask for all) and cropped: the strip's values are the whole image's.
     Pixels whose interpolation reaches outside the image or an invalid pixel become invalid.
     Each pass resamples what it reads: a resampled copy of a long line would be as large as
     the line, beyond the memory bound."""
 
     def __init__(self, cube, bands, is_swir, along, across):
-        from ..dem.coregister import tap_lines
+        from ..sensor.coregister import tap_lines
 
         self.cube, self.bands = cube, np.asarray(bands)
         # A dual dataset stacks VNIR then SWIR: slices, not copies, of each strip.
@@ -170,7 +177,7 @@ class _Coregistered:
         self.taps = tap_lines(along)
 
     def reader(self):
-        from ..dem.coregister import coregister_stack
+        from ..sensor.coregister import coregister_stack
 
         cube, (first, stop) = self.cube, self.taps
         k = len(self.bands)
@@ -216,7 +223,7 @@ class _Coregistered:
         strips hold them, reading only the lines of the pixels and of their SWIR taps
         (:meth:`Cube.pixels`): SVDD's training sample of a long line without shifting whole
         strips for one pixel each."""
-        from ..dem.coregister import pixel_taps, shift_sampled
+        from ..sensor.coregister import pixel_taps, shift_sampled
 
         cube = self.cube
         out = np.empty((len(self.bands), len(positions)), np.float32)
@@ -275,11 +282,11 @@ def _prepare_image(vnir, swir, layout, spectral, dark, offset, coregistered, pro
                 )
             )
         if coregistered and dual is not None and is_swir.any():
-            along, across, how = measured_offset(
+            along, across, how = boresight_offset(
                 dual,
                 offset,
                 progress.sub(0.0, 0.1),
-                GIVE_OFFSET + ", or leave the SWIR unshifted ('coregister' off)",
+                hint=GIVE_OFFSET + ", or leave the SWIR unshifted ('coregister' off)",
             )
             progress.info(
                 f"co-registering: SWIR shifted by {along:+.3f} px along-track, "
@@ -321,10 +328,10 @@ def _prepare_image(vnir, swir, layout, spectral, dark, offset, coregistered, pro
                     sensor, file_bands, given, sub, progress
                 )
         else:
-            from ..shadow import map as smap
+            from ..shadow import darkness
 
             v, ok = sample()
-            level = smap.dark_level(v, ok)
+            level = darkness.dark_level(v, ok)
             progress.info(level.describe("image"))
             dark_per_band[:] = level.level
     except BaseException:
@@ -393,7 +400,6 @@ def _rx_scores(det, read, read64, background, precision, strips: dict, progress)
     )
 
 
-@operation(inputs=("vnir", "swir"), outputs=("output",))
 def rx_file(
     vnir,
     swir=None,
@@ -528,7 +534,6 @@ def _coreg_tags(coreg: dict) -> dict:
     }
 
 
-@operation(inputs=("vnir", "swir"), outputs=("output",))
 def svdd_file(
     vnir,
     swir=None,
@@ -673,7 +678,6 @@ def svdd_file(
 INDICATOR_METHODS = ("auto", "eq3", "physical")
 
 
-@operation(inputs=("ratio", "vnir", "swir"), outputs=("output", "anomalies"))
 def boresight_indicator_file(
     ratio=None,
     vnir=None,
@@ -868,7 +872,7 @@ def _physical_indicator_file(
     physical.check_window(window)
     physical.check_target(target)
     dual = io.as_dual(vnir, swir, layout)
-    along, across, how = measured_offset(dual, offset, progress.sub(0.0, 0.3))
+    along, across, how = boresight_offset(dual, offset, progress.sub(0.0, 0.3))
     progress.info(
         f"boresight offset δ: {along:+.3f} px along-track, {across:+.3f} px across ({how})"
     )
@@ -976,7 +980,7 @@ def _physical_indicator_file(
 
 
 def _eq3_indicator_file(ratio, output, anomalies, threshold, tail, window, block_rows, progress):
-    ind.check_options(threshold, tail, window)
+    check_options(threshold, tail, window)
     local = bool(window and window > 1)
     passes = 3 if local else 2
     with io.open_raster(ratio, "ratio raster") as src:
@@ -988,13 +992,13 @@ def _eq3_indicator_file(ratio, output, anomalies, threshold, tail, window, block
         stats_share = progress.sub(0.0, 1 - 1 / passes)
         raw = io.windows.value_passes(
             read,
-            ind.valid_values,
+            valid_values,
             **strips,
             progress=stats_share.sub(0.0, 0.5 if local else 1.0),
             message="indicator: scene statistics",
             passes=5,  # count and extremes, then the median and the MAD, two passes each
         )
-        median, sigma = ind.robust_location_blocks(raw)
+        median, sigma = robust_location_blocks(raw)
         fill = None
         halo = (0, 0)
         if local:
@@ -1006,19 +1010,19 @@ def _eq3_indicator_file(ratio, output, anomalies, threshold, tail, window, block
             with io.Spill(near=output) as spill:
                 for _, res in io.map_windows(
                     read,
-                    lambda r, ok: ind.local_residual(r, ok, window=window, fill=fill),
+                    lambda r, ok: local_residual(r, ok, window=window, fill=fill),
                     **strips,
                     halo=halo,
                     progress=stats_share.sub(0.5, 0.75),
                     message="indicator: local residuals",
                 ):
-                    spill.append(ind.valid_values(res))
-                median, sigma = ind.robust_location_blocks(spill.blocks)
+                    spill.append(valid_values(res))
+                median, sigma = robust_location_blocks(spill.blocks)
         progress.info(f"boresight ratio median {median:.5g}, robust σ {sigma:.4g}")
 
         def score(r, ok):
-            x = ind.local_residual(r, ok, window=window, fill=fill) if local else r
-            s = ind.indicator_score(x, ok, median=median, sigma=sigma, tail=tail)
+            x = local_residual(r, ok, window=window, fill=fill) if local else r
+            s = indicator_score(x, ok, median=median, sigma=sigma, tail=tail)
             with np.errstate(invalid="ignore"):
                 return s, s > threshold, ok
 
@@ -1070,7 +1074,6 @@ def _optional_mask(path, grid, tags):
     )
 
 
-@operation(inputs=("score",), outputs=("output",))
 def anomaly_polygons_file(
     score,
     *,
@@ -1141,7 +1144,6 @@ def anomaly_polygons_file(
     return {"output": output, "features": len(geoms)}
 
 
-@operation(inputs=("vnir", "swir", "endmembers"), outputs=("output",))
 def unmix_file(
     vnir,
     endmembers,
@@ -1246,7 +1248,6 @@ def unmix_file(
     return {"output": output, "endmembers": chosen}
 
 
-@operation(inputs=("scores", "truth"), outputs=("output", "csv"))
 def roc_file(
     scores,
     truth,

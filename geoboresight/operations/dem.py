@@ -35,8 +35,7 @@ from ..dem.view3d import (
 from ..errors import InputError
 from ..io.bands import DENSE_MATCH, open_matching_pair, require_on_grid
 from ..io.dual import TOLERANCE_NM, DualLayout
-from ._operation import operation
-from .offset import line_offset
+from ._offset import line_offset
 
 #: Worker threads matching strips of a flight line (the filters and warps release the GIL).
 MATCH_WORKERS = 2
@@ -132,7 +131,6 @@ def _own_lines(d, valid, inner: slice):
     )
 
 
-@operation(inputs=("vnir", "swir", "cloud_mask"), outputs=("output",))
 def disparity_file(
     vnir,
     swir=None,
@@ -250,10 +248,6 @@ def disparity_file(
     }
 
 
-@operation(
-    inputs=("vnir", "swir", "cloud_mask"),
-    outputs=("output", "variance", "disparity", "report"),
-)
 def relative_dem_file(
     vnir,
     swir=None,
@@ -544,7 +538,6 @@ def _write_kriged(kriging, valid_strips, rows, grid, output, variance, tags, pro
     return [float(lo), float(hi)] if lo <= hi else [float("nan"), float("nan")]
 
 
-@operation(inputs=("dem", "vnir", "swir"), outputs=("output",))
 def view_3d_file(
     dem,
     vnir,

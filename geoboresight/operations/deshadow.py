@@ -20,23 +20,23 @@ import numpy as np
 from .. import io
 from ..errors import InputError, ParameterError
 from ..io.bands import BoresightOffset
-from ..io.dark import DarkLevels
+from ..io.checks import check_fraction, check_fraction_nodata, no_valid_error
 from ..io.dual import DualLayout
-from ..shadow import deshadow as ds
-from ..shadow import deshadow_steps as dst
-from ..shadow import illumination as ill
-from ._operation import operation
-from ._shared import (
-    DARK_BANDS,
-    SurfaceModel,
-    band_dark_levels,
-    boresight_offset,
-    check_fraction,
-    check_fraction_nodata,
-    no_valid_error,
-    open_surface,
-    spread_bands,
+from ..sensor.dark import DarkLevels
+from ..shadow.deshadow import ADJACENCY_M, DISTANCES, POOR_SPREAD
+from ..shadow.deshadow_steps import (
+    EdgePairs,
+    deshadow_block,
+    edge_pairs,
+    fit_illumination,
+    merge_edge_pairs,
+    pair_share,
+    picked_pixels,
 )
+from ..shadow.illumination import SKY_RADIUS_M, sky_view_factor
+from ._dark import DARK_BANDS, band_dark_levels, spread_bands
+from ._offset import boresight_offset
+from ._surface import SurfaceModel, open_surface
 
 #: Pixels sampled for the dark level estimate.
 DARK_SAMPLE = 100_000
@@ -45,10 +45,10 @@ DARK_SAMPLE = 100_000
 def _sky_view(read_z, prior, r0, r1, height):
     """(heights, sky-view factor) of lines r0–r1: the factor from the DSM read
     :data:`~geoboresight.shadow.illumination.SKY_RADIUS_M` beyond them (its horizon search)."""
-    halo = math.ceil(ill.SKY_RADIUS_M / _cell(prior)) + 1
+    halo = math.ceil(SKY_RADIUS_M / _cell(prior)) + 1
     q0, q1 = max(0, r0 - halo), min(height, r1 + halo)
     z, z_ok = read_z(q0, q1)
-    v = ill.sky_view_factor(z, z_ok, transform=prior.matrix, clearance=prior.clearance)
+    v = sky_view_factor(z, z_ok, transform=prior.matrix, clearance=prior.clearance)
     cut = slice(r0 - q0, r1 - q0)
     return np.where(z_ok, z, np.nan)[cut], v[cut]
 
@@ -58,10 +58,6 @@ def _cell(prior) -> float:
     return float(np.sqrt(abs(np.linalg.det(prior.matrix))))
 
 
-@operation(
-    inputs=("vnir", "swir", "shadow", "surface.dsm", "surface.igm", "surface.glt"),
-    outputs=("output", "report"),
-)
 def deshadow_file(
     vnir,
     swir=None,
@@ -166,17 +162,22 @@ def deshadow_file(
                 "(--dsm and the sun): a shadow gets it from the part of its sky that the "
                 "surroundings hide, 1 − its sky-view factor"
             )
-        adj_half = max(1, int(ds.ADJACENCY_M / (2.0 * _cell(prior)))) if adjacency else 0
+        adj_half = max(1, int(ADJACENCY_M / (2.0 * _cell(prior)))) if adjacency else 0
         levels = _dark_levels(vnir, dual, (v_src, s_src), dark, strips, progress)
         along, across, _ = boresight_offset(
-            dual, v_src, s_src, dual.ratio_bands(), offset, progress
+            dual,
+            offset,
+            progress,
+            over="central",
+            ratio_bands=dual.ratio_bands(),
+            sources=(v_src, s_src),
         )
         read = _cube_reader(dual, (v_src, s_src), f_src, shadow, opened)
         # Pass 1: pairs across shadow edges, and each instrument's darkest pixels.
         edges = _gather_pairs(
             read, dual, levels, prior, (along, across), adj_half, strips, progress
         )
-        fit = dst.fit_illumination(
+        fit = fit_illumination(
             edges, wl, surface=prior is not None, additive=additive, adjacency=adjacency
         )
         _log_fit(fit, edges, additive, adjacency, warnings, progress)
@@ -213,20 +214,20 @@ def _gather_pairs(read, dual, levels, prior, offset, adj_half, strips, progress)
     (:func:`geoboresight.shadow.deshadow_steps.edge_pairs`)."""
     nv = len(dual.vnir.bands)
     lv = levels[:, None, None]
-    share = dst.pair_share((dual.height, dual.width))
+    share = pair_share((dual.height, dual.width))
     adj_size = 2 * adj_half + 1 if adj_half else 0
 
     def pairs(x, x_ok, f, z, v, block):
         own = np.zeros(f.shape, bool)
         own[block.inner] = True
-        return dst.edge_pairs(
+        return edge_pairs(
             x.astype(np.float64) - lv,
             f,
             z,
             v,
             x_ok,
             own=own,
-            picked=dst.picked_pixels(block.row0, f.shape, share),
+            picked=picked_pixels(block.row0, f.shape, share),
             n_vnir=nv,
             offset=offset,
             surface_prior=prior,
@@ -237,9 +238,9 @@ def _gather_pairs(read, dual, levels, prior, offset, adj_half, strips, progress)
     return io.reduce_windows(
         read,
         pairs,
-        dst.merge_edge_pairs,
-        dst.EdgePairs.empty(len(levels), nv, bool(adj_half)),
-        halo=(max(ds.DISTANCES) + 1 + shift_halo + adj_half,) * 2,
+        merge_edge_pairs,
+        EdgePairs.empty(len(levels), nv, bool(adj_half)),
+        halo=(max(DISTANCES) + 1 + shift_halo + adj_half,) * 2,
         pass_block=True,
         progress=progress.sub(0.1, 0.4),
         message="shadow edges",
@@ -257,7 +258,7 @@ def _write_cube(read, output, dual, tags, fit, levels, offset, adj_half, strips,
     adj_size = 2 * adj_half + 1 if adj_half else 0
 
     def kernel(x, x_ok, f, z, v):
-        return dst.deshadow_block(
+        return deshadow_block(
             x, f, v, x_ok, base=base, fit=fit, n_vnir=nv, offset=offset, adjacency_size=adj_size
         )
 
@@ -373,7 +374,7 @@ def _log_fit(fit, edges, additive, adjacency, warnings, progress) -> None:
         f"{edges.shaded.shape[0]} pairs across shadow edges: {np.nanmin(k):.2f}–"
         f"{np.nanmax(k):.2f} over the bands (spread {fit.spread:.3f} in log)"
     )
-    if fit.spread > ds.POOR_SPREAD:
+    if fit.spread > POOR_SPREAD:
         warnings.append(
             f"the pairs across shadow edges agree poorly (median RMS log difference "
             f"{fit.spread:.2f}): the ratio may mix materials; check the shadow fraction"
@@ -399,7 +400,7 @@ def _cube_tags(dual, shadow, surface, prior, wl, fit, levels, adjacency, along, 
         "dark_level_dn": ",".join(f"{v:.2f}" for v in levels),
         "additive_signal_dn": ",".join(f"{v:.2f}" for v in fit.additive),
         "adjacency": "(1 − V)·η·k·S̄/S_ref added to V, S̄ the mean sunlit signal within "
-        f"{ds.ADJACENCY_M:g} m; η per band in the report"
+        f"{ADJACENCY_M:g} m; η per band in the report"
         if adjacency
         else "none",
         "pairs_used": str(fit.pairs_used),

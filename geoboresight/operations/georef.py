@@ -17,12 +17,12 @@ from ..errors import InputError, ParameterError
 from ..georef.geoloc import clean_igm, corner_geoloc, glt_indices
 from ..georef.tiepoints import TieMatching, corrected, match_tie_points
 from ..georef.transforms import fit_transform, outside_image
-from ..io import georef as gio
+from ..io import georef
 from ..io.grid import OutputGrid
 from ..io.image import open_raster
 from ..io.write import write_json
 from ..simulate.ortho import HEADING_DEG, JITTER_DEG, JITTER_LINES, ORTHO_CELL
-from ._operation import operation
+from ._glt import glt_for
 
 REFERENCES = """
     References
@@ -49,21 +49,23 @@ def _model_geoloc(model, width: int, height: int, src_crs, dst_crs):
     array (:func:`~geoboresight.georef.geoloc.corner_geoloc`) of a model
     ``(pixel, line) -> (x, y)``, in ``dst_crs``."""
     jj, ii = np.meshgrid(np.arange(width, dtype="float64"), np.arange(height, dtype="float64"))
-    cx, cy = gio.transform_xy(*model(jj + 0.5, ii + 0.5), src_crs, dst_crs)
+    cx, cy = georef.transform_xy(*model(jj + 0.5, ii + 0.5), src_crs, dst_crs)
     kk, ll = np.meshgrid(
         np.arange(width + 1, dtype="float64"), np.arange(height + 1, dtype="float64")
     )
-    gx, gy = gio.transform_xy(*model(kk, ll), src_crs, dst_crs)
+    gx, gy = georef.transform_xy(*model(kk, ll), src_crs, dst_crs)
     return cx, cy, np.stack([gx, gy])
 
 
 def _warp_model(input, output, model, src_crs, to: OutputGrid, tags, progress, igm_output):
     width, height = _product_size(input)
-    dst_crs = gio.output_crs(to.crs, src_crs, *model(np.array([width / 2]), np.array([height / 2])))
+    dst_crs = georef.output_crs(
+        to.crs, src_crs, *model(np.array([width / 2]), np.array([height / 2]))
+    )
     cx, cy, geoloc = _model_geoloc(model, width, height, src_crs, dst_crs)
     ok = np.isfinite(cx) & np.isfinite(cy)
-    grid = gio.map_grid(cx, cy, ok, dst_crs, to.resolution)
-    done = gio.warp_geoloc(
+    grid = georef.map_grid(cx, cy, ok, dst_crs, to.resolution)
+    done = georef.warp_geoloc(
         input,
         output,
         geoloc,
@@ -74,7 +76,7 @@ def _warp_model(input, output, model, src_crs, to: OutputGrid, tags, progress, i
         progress=progress,
     )
     if igm_output:
-        gio.write_igm(igm_output, cx, cy, dst_crs, tags)
+        georef.write_igm(igm_output, cx, cy, dst_crs, tags)
     return grid, done
 
 
@@ -89,7 +91,6 @@ def _grid_result(grid, done: dict) -> dict:
 
 
 @_docstring
-@operation(inputs=("input", "igm", "glt"), outputs=("output",))
 def geolocate_file(
     input,
     igm=None,
@@ -134,7 +135,7 @@ def geolocate_file(
         raise ParameterError("give either --igm or --glt, not both")
     width, height = _product_size(input)
     if glt:
-        table = gio.glt_for(glt, f"input {input}", width=width, height=height, crs=igm_crs)
+        table = glt_for(glt, f"input {input}", width=width, height=height, crs=igm_crs)
         rows, cols, ok, _ = glt_indices(
             table.sample, table.line, table.valid, width=width, height=height
         )
@@ -143,7 +144,7 @@ def geolocate_file(
                 "--crs and --resolution do not apply to a GLT (its map grid is fixed): use "
                 "reproject-to afterwards"
             )
-        done = gio.lookup_glt(
+        done = georef.lookup_glt(
             input,
             output,
             table,
@@ -155,14 +156,14 @@ def geolocate_file(
         )
         progress.info(f"GLT lookup: {done['valid_pixels']} map cells filled")
         return {"output": output, **_grid_result(table.grid, {**done, "resampling": "nearest"})}
-    coords = gio.coordinates_for(input, igm, igm_crs)
+    coords = georef.coordinates_for(input, igm, igm_crs)
     if coords.x.shape != (height, width):
         raise InputError(
             f"IGM {coords.path} is {coords.x.shape[1]} × {coords.x.shape[0]} (columns × lines) but "
             f"input {input} is {width} × {height}: the IGM must belong to this product"
         )
-    dst_crs = gio.output_crs(grid.crs, coords.crs, coords.x, coords.y)
-    x, y = gio.transform_xy(coords.x, coords.y, coords.crs, dst_crs)
+    dst_crs = georef.output_crs(grid.crs, coords.crs, coords.x, coords.y)
+    x, y = georef.transform_xy(coords.x, coords.y, coords.crs, dst_crs)
     try:
         clean = clean_igm(x, y)
     except InputError as exc:
@@ -172,8 +173,8 @@ def geolocate_file(
             f"IGM {coords.path}: {clean.nan} pixel(s) without coordinates (NaN or nodata) and "
             f"{clean.non_monotonic} non-monotonic pixel(s) masked (left as nodata)"
         )
-    on = gio.map_grid(clean.x, clean.y, clean.valid, dst_crs, grid.resolution)
-    done = gio.warp_geoloc(
+    on = georef.map_grid(clean.x, clean.y, clean.valid, dst_crs, grid.resolution)
+    done = georef.warp_geoloc(
         input,
         output,
         corner_geoloc(clean.x, clean.y),
@@ -192,7 +193,7 @@ def geolocate_file(
 
 
 def _gcps_for(gcps: str, gcp_crs, width: int, height: int):
-    table = gio.read_gcps(gcps, crs=gcp_crs)
+    table = georef.read_gcps(gcps, crs=gcp_crs)
     if table.crs is None:
         raise InputError(
             f"GCP file {gcps} names no CRS: add a '# CRS: EPSG:...' line or give --gcp-crs"
@@ -207,7 +208,6 @@ def _gcps_for(gcps: str, gcp_crs, width: int, height: int):
 
 
 @_docstring
-@operation(inputs=("input", "gcps"), outputs=("output", "report", "igm_output"))
 def georeference_file(
     input,
     gcps,
@@ -313,10 +313,10 @@ def _placement(input, gcps, corners, gcp_crs, ref_crs, width, height):
             f"GCP file {gcps}",
         )
     else:
-        pl, xy = gio.corner_gcps(corners, width, height)
+        pl, xy = georef.corner_gcps(corners, width, height)
         ok, label = None, "parameter 'corners'"
-        src_crs = gio.parse_crs(gcp_crs, "parameter 'gcp_crs'") if gcp_crs else ref_crs
-    x, y = gio.transform_xy(xy[:, 0], xy[:, 1], src_crs, ref_crs)
+        src_crs = georef.parse_crs(gcp_crs, "parameter 'gcp_crs'") if gcp_crs else ref_crs
+    x, y = georef.transform_xy(xy[:, 0], xy[:, 1], src_crs, ref_crs)
     n = len(pl) if ok is None else int(np.sum(ok))
     return fit_transform(pl, np.column_stack([x, y]), ok, order=2 if n >= 6 else 1, label=label)
 
@@ -348,7 +348,7 @@ def _reference_window(reference, reference_band, placement, width, height, margi
         # Room for the placement's error, plus a few reference cells for the interpolation.
         pad = 2 * margin_px * pixel + 4 * max(abs(ref.transform.a), abs(ref.transform.e))
         bounds = (ex.min() - pad, ey.min() - pad, ex.max() + pad, ey.max() + pad)
-        win = gio.reference_window(ref, bounds, reference)
+        win = georef.reference_window(ref, bounds, reference)
         data = ref.read(reference_band, window=win, masked=True)
         return (
             np.ma.getdata(data).astype("float64"),
@@ -359,7 +359,6 @@ def _reference_window(reference, reference_band, placement, width, height, margi
 
 
 @_docstring
-@operation(inputs=("input", "reference", "gcps"), outputs=("output", "report", "igm_output"))
 def auto_georeference_file(
     input,
     reference,
@@ -505,7 +504,6 @@ def auto_georeference_file(
 
 
 @_docstring
-@operation(inputs=("input", "reference"), outputs=("output",))
 def reproject_to_file(input, reference, *, output, resampling="auto", progress=None) -> dict:
     """Put a map product onto the exact grid (CRS, transform, size) of a reference raster
     (an orthophoto or a scanned topographic map); a vector layer (GeoPackage or GeoJSON) is
@@ -531,14 +529,14 @@ def reproject_to_file(input, reference, *, output, resampling="auto", progress=N
     """
     if os.path.splitext(os.fspath(input))[1].lower() in (".gpkg", ".geojson", ".json"):
         return _reproject_vector(input, reference, output)
-    done = gio.reproject_onto(input, reference, output, resampling=resampling, progress=progress)
+    done = georef.reproject_onto(input, reference, output, resampling=resampling, progress=progress)
     return {"output": output, **done}
 
 
 def _reproject_vector(input, reference, output) -> dict:
     from ..io.vector import write_vector
 
-    geoms, fields, src_crs, layer = gio.read_vector(input)
+    geoms, fields, src_crs, layer = georef.read_vector(input)
     if src_crs is None:
         raise InputError(
             f"vector {input} is in raw sensor geometry (no CRS): georeference the raster it came "
@@ -548,7 +546,7 @@ def _reproject_vector(input, reference, output) -> dict:
         dst_crs = ref.crs
     if dst_crs is None:
         raise InputError(f"reference {reference} has no CRS: give a raster with its CRS")
-    moved = gio.reproject_geoms(geoms, src_crs, dst_crs)
+    moved = georef.reproject_geoms(geoms, src_crs, dst_crs)
     write_vector(
         output, moved, {k: np.asarray(v) for k, v in fields.items()}, crs=dst_crs, layer=layer
     )
@@ -556,7 +554,6 @@ def _reproject_vector(input, reference, output) -> dict:
 
 
 @_docstring
-@operation(outputs=("output",))
 def simulate_ortho_file(
     *,
     output,

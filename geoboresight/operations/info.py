@@ -6,10 +6,8 @@ from __future__ import annotations
 from .. import io
 from ..io.describe import describe_product, format_description
 from ..io.dual import BandChoice, DualLayout, DualSensor
-from ._operation import operation
 
 
-@operation(inputs=("vnir", "swir"), outputs=("output",))
 def info_file(
     vnir,
     swir=None,

@@ -3,179 +3,31 @@ a flight line from the images alone, then remove it by resampling SWIR onto the 
 
 from __future__ import annotations
 
-from dataclasses import astuple
-
 import numpy as np
 
 from .. import io
-from ..dem.coregister import (
+from ..dem.height import FlightGeometry
+from ..errors import ParameterError
+from ..io.bands import MatchBands, open_matching_pair
+from ..io.dual import DualLayout
+from ..sensor.coregister import (
     DEFAULT_ORDER,
     ORDERS,
     coregister_halo,
     coregister_stack,
     profile_to_lines,
 )
-from ..dem.height import FlightGeometry
-from ..dem.offset import (
+from ..sensor.offset import (
     PROFILE_ROWS,
-    Offset,
-    OffsetProfile,
-    block_power,
     offset_angles,
-    offset_of,
-    profile_block_rows,
     profile_figure,
-    profile_of,
 )
-from ..errors import InputError, ParameterError
-from ..io.bands import MatchBands, open_matching_pair
-from ..io.cache import cache_dir, files_key, remembered
-from ..io.dual import DualLayout
-from ..progress import as_progress
-from ._operation import operation
+from ._offset import line_offset
 
 #: The convention of every offset reported.
 CONVENTION = "a feature at VNIR (line r, column c) appears at SWIR (r + along, c + across)"
 
 
-#: The smallest block the offset is measured on (lines and columns; dem.offset.block_power).
-MIN_BLOCK = 8
-
-
-def line_offset(pair, profile_rows: int = 0, progress=None, *, given: str = ""):
-    """:func:`measure_line_offset`, remembered between runs for the same files and bands
-    (:func:`geoboresight.io.cache.remembered`): the operations of a flight line that need
-    the offset then read the line for it once."""
-    progress = as_progress(progress)
-    dual = getattr(pair, "dual", None)
-    files = None
-    if dual is not None and cache_dir() is not None:  # no files opened for a cache turned off
-        files = files_key([dual.vnir.reads, dual.swir.reads, pair.cloud_mask])
-    key = None
-    if files is not None:
-        key = {
-            "files": files,
-            "bands": [list(map(int, pair.vnir_bands)), list(map(int, pair.swir_bands))],
-            "profile_rows": int(profile_rows),
-            "block_rows": PROFILE_ROWS,
-        }
-
-    def measure():
-        off, prof = measure_line_offset(pair, profile_rows, progress, given=given)
-        encoded = {"offset": [off.along, off.across, off.error]}
-        if prof is not None:
-            encoded["profile"] = [v.tolist() for v in astuple(prof)]
-        return encoded
-
-    value, cached = remembered("boresight-offset", key, measure)
-    if cached:
-        progress.info("boresight offset as measured earlier on these files (cached)")
-    elif key is not None and profile_rows:
-        # The global offset is the same pass whatever the drift profile: remembered for the
-        # operations that need it alone too (rx and svdd after boresight-offset).
-        remembered(
-            "boresight-offset", {**key, "profile_rows": 0}, lambda: {"offset": value["offset"]}
-        )
-    prof = value.get("profile")
-    return Offset(*value["offset"]), None if prof is None else OffsetProfile(
-        *(np.asarray(v, dtype=float) for v in prof)
-    )
-
-
-def measure_line_offset(pair, profile_rows: int = 0, progress=None, *, given: str = ""):
-    """The global offset of a flight line and its drift, block by block through
-    :func:`~geoboresight.io.map_windows` (memory bounded by a block, whatever the line's length).
-
-    Every block of ``PROFILE_ROWS`` lines (the last one flush with the end of the line) gives its
-    cross-power spectrum (:func:`~geoboresight.dem.offset.block_power`); their sum gives the
-    global offset (:func:`~geoboresight.dem.offset.merged_offset` on whole arrays). With
-    ``profile_rows`` > 0 the offset of each block of that many lines is the drift profile
-    (:func:`~geoboresight.dem.offset.offset_profile`; the same pass when it is
-    ``PROFILE_ROWS``). ``pair`` is a :class:`~geoboresight.io.bands.MatchingReader`.
-    ``given`` says how the caller's user can give the offset instead (added to the error of
-    images too small to measure it). Returns ``(Offset, OffsetProfile or None)``.
-    """
-    progress = as_progress(progress)
-    if min(pair.height, pair.width) < MIN_BLOCK:
-        raise InputError(
-            f"the images are {pair.width} × {pair.height} pixels (columns × lines): the "
-            f"boresight offset is measured on blocks of at least {MIN_BLOCK} × {MIN_BLOCK} "
-            f"pixels{given}"
-        )
-    same = profile_rows == PROFILE_ROWS
-    total, blocks = None, []
-    for line, off, fraction, power in _blocks(
-        pair, PROFILE_ROWS, progress.sub(0.0, 1.0 if same or not profile_rows else 0.5), same
-    ):
-        if power is not None:
-            total = power if total is None else total + power
-        blocks.append((line, off.along, off.across, off.error, fraction))
-    if total is None:
-        read, cloudy = getattr(pair, "pixels_read", 0), getattr(pair, "cloud_pixels", 0)
-        if read and cloudy > 0.5 * read:
-            raise InputError(
-                f"cloud mask {pair.cloud_mask} marks {100 * cloudy / read:.0f} % of the pixels "
-                "as cloud (non-zero), too many to measure the boresight offset on: a clear-sky "
-                "mask (1 = clear) must be inverted; a cloud mask holds 1 for cloud, 0 for clear"
-            )
-        raise InputError(
-            "no block of lines of the matching images has 64 valid pixels: the boresight offset "
-            "cannot be measured (check the nodata values and the cloud mask)"
-        )
-    profile = None
-    if profile_rows and not same:
-        blocks = [
-            (line, off.along, off.across, off.error, fraction)
-            for line, off, fraction, _ in _blocks(pair, profile_rows, progress.sub(0.5, 1.0), True)
-        ]
-    if profile_rows:
-        profile = profile_of(blocks)
-    return offset_of(total), profile
-
-
-def _blocks(pair, rows: int, progress, measure: bool):
-    """``(centre line, Offset, valid fraction, CrossPower or None)`` per block of ``rows`` lines
-    of :func:`~geoboresight.dem.offset.offset_profile`, the last block flush with the end (the
-    offset NaN unless ``measure``)."""
-    height, width = pair.height, pair.width
-    rows = profile_block_rows(rows, height)
-
-    def read(row0: int, row1: int):
-        # Each block is the ``rows`` lines ending with its strip (the last one reaches into
-        # the block above): read only those.
-        return pair.read(max(0, row1 - rows), row1)
-
-    def one(v, s, ok, *, block):
-        first = min(block.window.row_off, height - rows)
-        start = block.rows[1] - v.shape[0]
-        own = slice(first - start, first - start + rows)
-        off, fraction, power = block_power(v[own], s[own], ok[own], measure=measure)
-        return first + (rows - 1) / 2, off, fraction, power
-
-    for _, part in io.map_windows(
-        read,
-        one,
-        height=height,
-        width=width,
-        block_rows=rows,
-        halo=(rows, 0),
-        pass_block=True,
-        progress=progress,
-        message="offset per block of lines",
-    ):
-        yield part
-
-
-def drift_profile(pair, rows: int, progress=None):
-    """The offset per block of ``rows`` lines of a flight line (:func:`line_offset`'s blocks:
-    those of :func:`~geoboresight.dem.offset.offset_profile`)."""
-    return profile_of(
-        (line, off.along, off.across, off.error, fraction)
-        for line, off, fraction, _ in _blocks(pair, rows, as_progress(progress), True)
-    )
-
-
-@operation(inputs=("vnir", "swir", "cloud_mask"), outputs=("output", "plot"))
 def boresight_offset_file(
     vnir,
     swir=None,
@@ -285,7 +137,6 @@ def boresight_offset_file(
     return {"output": output, **{k: v for k, v in result.items() if k != "profile"}}
 
 
-@operation(inputs=("vnir", "swir", "cloud_mask"), outputs=("output",))
 def coregister_file(
     vnir,
     swir=None,

@@ -7,10 +7,8 @@ import numpy as np
 from .. import io
 from ..io.dual import BandChoice, DualLayout
 from ..ratio import boresight_ratio
-from ._operation import operation
 
 
-@operation(inputs=("vnir", "swir"), outputs=("output",))
 def ratio_file(
     vnir,
     swir=None,

@@ -9,36 +9,50 @@ dark-pixel baseline) are in :mod:`geoboresight.operations.shadow_truth`.
 from __future__ import annotations
 
 import contextlib
+from dataclasses import dataclass
 
 import numpy as np
 
 from .. import io
 from ..errors import ParameterError
+from ..io.checks import check_fraction, no_valid_error
 from ..io.dual import TOLERANCE_NM
-from ..io.masks import mask_raster, masked_reader
-from ..io.shadow import class_polygons, class_table_csv, read_class_table, read_fraction_model
 from ..io.wavelengths import nearest_band, wavelengths_of
 from ..io.windows import Sample
-from ..shadow import classes as cls
+from ..shadow.classes import (
+    MASK_FRACTION,
+    MASK_SHADOW,
+    MODE_BINS,
+    NO_SHADOW,
+    NODATA_CLASS,
+    histogram_mode,
+    ratio_histogram,
+    table_warnings,
+)
 from ..shadow.cluster import NIR_NM, PROBABILITY, fit_shadow_cluster, shadow_mask
 from ..shadow.fraction import PAPER_INTERCEPT, PAPER_SLOPE, FractionAccumulator, FractionModel
 from ..shadow.polygons import MIN_PIXELS
-from ._operation import operation
-from ._shared import check_fraction, no_valid_error
+from ._shadow_masks import mask_raster, masked_reader
+from ._shadow_tables import class_polygons, class_table, class_table_csv, read_fraction_model
 
 #: Points drawn at most for a scatter plot.
 PLOT_POINTS = 20000
 
 
-def class_table(path=None) -> cls.ClassTable:
-    """The class table in ``path`` (CSV or JSON), or Table 2 when None."""
-    return read_class_table(path) if path else cls.default_table()
+@dataclass(frozen=True)
+class NirBand:
+    """The VNIR band ``shadow-cluster`` reads as its near-infrared axis: the band nearest
+    ``nir_nm`` (nm; the paper's 941), at most ``tolerance_nm`` from it, among the VNIR file's
+    band centres (``vnir_wavelengths``, nm comma-separated, when the file has none)."""
+
+    nir_nm: float = NIR_NM
+    tolerance_nm: float = TOLERANCE_NM
+    vnir_wavelengths: str | None = None
 
 
 # ------------------------------------------------------------------------------ shadow-classes
 
 
-@operation(inputs=("ratio", "classes"), outputs=("output", "mask"))
 def shadow_classes_file(
     ratio,
     classes=None,
@@ -47,7 +61,7 @@ def shadow_classes_file(
     mask=None,
     band=1,
     band_nm=None,
-    mask_fraction=cls.MASK_FRACTION,
+    mask_fraction=MASK_FRACTION,
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
 ) -> dict:
@@ -104,10 +118,10 @@ def shadow_classes_file(
     def kernel(values, valid):
         c = table.classify(values, valid)
         m = table.mask(c, mask_fraction) if mask else None
-        return c, m, np.bincount(c.ravel(), minlength=256), cls.ratio_histogram(values, valid)
+        return c, m, np.bincount(c.ravel(), minlength=256), ratio_histogram(values, valid)
 
     counts = np.zeros(256, dtype=np.int64)
-    hist = np.zeros(len(cls.MODE_BINS) - 1, dtype=np.int64)
+    hist = np.zeros(len(MODE_BINS) - 1, dtype=np.int64)
     with contextlib.ExitStack() as stack:
         src = stack.enter_context(io.open_raster(ratio, "ratio raster"))
         grid = io.Grid.of(src)
@@ -146,7 +160,7 @@ def shadow_classes_file(
                 mdst.write(m, 1, window=win)
             counts += n
             hist += h
-        if counts[: cls.NODATA_CLASS].sum() == 0:
+        if counts[:NODATA_CLASS].sum() == 0:
             raise no_valid_error(ratio)
         rtags = src.tags()
     # Say when the fixed thresholds cannot mean what Table 2 says on this scene.
@@ -156,16 +170,16 @@ def shadow_classes_file(
             "vnir_nm": float(rtags["denominator_wavelength_nm"]),
             "swir_nm": float(rtags["numerator_wavelength_nm"]),
         }
-    mode = cls.histogram_mode(hist)
-    warnings = cls.table_warnings(table, mode, **bands_nm) if classes is None else []
+    mode = histogram_mode(hist)
+    warnings = table_warnings(table, mode, **bands_nm) if classes is None else []
     for w in warnings:
         progress.info(f"warning: {w}")
-    result = {"output": output, "valid_pixels": int(counts[: cls.NODATA_CLASS].sum())}
+    result = {"output": output, "valid_pixels": int(counts[:NODATA_CLASS].sum())}
     if mask:
         result["mask"] = mask
     for c in table.classes:
         result[f"class_{c.id}_pixels"] = int(counts[c.id])
-    result["no_shadow_pixels"] = int(counts[cls.NO_SHADOW])
+    result["no_shadow_pixels"] = int(counts[NO_SHADOW])
     result["ratio_mode"] = round(mode, 4)
     result["warnings"] = warnings
     return result
@@ -206,13 +220,12 @@ def _label_cluster(
             message="labelling",
         ):
             dst.write(m, 1, window=win)
-            n_shadow += int((m == cls.MASK_SHADOW).sum())
+            n_shadow += int((m == MASK_SHADOW).sum())
             if pdst is not None:
                 pdst.write(np.where(np.isfinite(p), p, io.FLOAT_NODATA), 1, window=win)
     return n_shadow
 
 
-@operation(inputs=("ratio", "vnir"), outputs=("output", "probability_output", "plot"))
 def shadow_cluster_file(
     ratio,
     vnir,
@@ -222,9 +235,7 @@ def shadow_cluster_file(
     plot=None,
     band=1,
     band_nm=None,
-    nir_nm=NIR_NM,
-    tolerance_nm=TOLERANCE_NM,
-    vnir_wavelengths=None,
+    nir=NirBand(),
     n_components=None,
     probability=PROBABILITY,
     sample=Sample(),
@@ -252,12 +263,9 @@ def shadow_cluster_file(
         Band of the ratio raster.
     band_nm : float, optional
         The band by its centre wavelength (nm) instead: the band nearest it becomes ``band``.
-    nir_nm : float
-        Wavelength of the near-infrared axis (nm; paper: 941).
-    tolerance_nm : float
-        Largest distance from ``nir_nm`` to a band centre.
-    vnir_wavelengths : str, optional
-        Band centres of the VNIR file in nm, comma-separated (only if it has none).
+    nir : NirBand
+        The VNIR band of the near-infrared axis: the band nearest ``nir_nm``, within
+        ``tolerance_nm``, of the file's band centres (``vnir_wavelengths`` when it has none).
     n_components : int, optional
         Mixture components; None = chosen by BIC among 2–5.
     probability : float
@@ -286,10 +294,10 @@ def shadow_cluster_file(
     ):
         io.require_same_grid(rsrc, vsrc, "ratio raster", "VNIR image")
         grid = io.Grid.of(rsrc)
-        wl = wavelengths_of(vsrc, vnir, vnir_wavelengths, "--vnir-wavelengths / vnir_wavelengths=")[
-            0
-        ]
-        nir_band = nearest_band(wl, nir_nm, tolerance_nm, vnir) + 1
+        wl = wavelengths_of(
+            vsrc, vnir, nir.vnir_wavelengths, "--vnir-wavelengths / vnir_wavelengths="
+        )[0]
+        nir_band = nearest_band(wl, nir.nir_nm, nir.tolerance_nm, vnir) + 1
         nir_found = float(wl[nir_band - 1])
         progress.info(f"941 nm axis: band {nir_band} of {vnir} ({nir_found:.1f} nm)")
         read = io.bands_reader([(rsrc, band), (vsrc, nir_band)])
@@ -364,7 +372,6 @@ def _cluster_plot(plot, pixels, cluster, probability, nir_found) -> None:
 # ------------------------------------------------------------------------- shadow-fraction-fit
 
 
-@operation(inputs=("ratio", "truth", "mask"), outputs=("report", "plot"))
 def shadow_fraction_fit_file(
     ratio,
     truth,
@@ -481,7 +488,6 @@ def shadow_fraction_fit_file(
 # ----------------------------------------------------------------------- shadow-fraction-apply
 
 
-@operation(inputs=("ratio", "model"), outputs=("output",))
 def shadow_fraction_apply_file(
     ratio,
     model=None,
@@ -577,7 +583,6 @@ def shadow_fraction_apply_file(
 # ----------------------------------------------------------------------------- shadow-polygons
 
 
-@operation(inputs=("classes_raster", "classes"), outputs=("output",))
 def shadow_polygons_file(
     classes_raster,
     classes=None,
@@ -622,7 +627,7 @@ def shadow_polygons_file(
         if not ok.any():
             raise no_valid_error(classes_raster, "class raster")
         grid = io.Grid.of(src)
-        c = np.where(ok, data, cls.NODATA_CLASS).astype(np.uint8)
+        c = np.where(ok, data, NODATA_CLASS).astype(np.uint8)
         polys = class_polygons(c, table, grid.transform, min_pixels=min_pixels)
     progress.update(0.7, "polygons")
     georef = grid.georeferenced

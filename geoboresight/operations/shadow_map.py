@@ -1,12 +1,12 @@
 """File-level shadow map (paper §3.1, made physical): VNIR + SWIR in, a shadow mask and the
-four shadow-fraction classes out, calibrated to the scene (:mod:`geoboresight.shadow.map`).
+four shadow-fraction classes out, calibrated to the scene (:mod:`geoboresight.shadow.darkness`).
 
 Read → kernel steps → write. A random sample calibrates the map (dark levels, sunlit modes,
-sunlit ratio, the scaled class table: :func:`geoboresight.shadow.map.calibrate_shadow_map`)
+sunlit ratio, the scaled class table: :func:`geoboresight.shadow.darkness.calibrate_shadow_map`)
 and a central block of lines gives the boresight offset; with a surface model, the same
 block registers its cast shadow onto the image (:func:`geoboresight.shadow.prior.register_prior`).
 Then the map is written strip by strip, each strip's fraction by
-:func:`geoboresight.shadow.map.shadow_fraction_block`, or with the surface model by
+:func:`geoboresight.shadow.darkness.shadow_fraction_block`, or with the surface model by
 :func:`geoboresight.shadow.prior.prior_map_block`. What this shares with other operations
 (dark levels, the offset, opening the surface model, the sun) is in
 :mod:`geoboresight.operations._shared`.
@@ -23,27 +23,41 @@ import numpy as np
 from .. import io
 from ..errors import ParameterError
 from ..io.bands import BoresightOffset, band_range
-from ..io.dark import DarkLevels
+from ..io.checks import no_valid_error
 from ..io.dual import BandChoice, DualLayout
-from ..io.masks import mask_raster
-from ..io.shadow import class_table_csv
 from ..io.windows import Sample
-from ..shadow import classes as cls
-from ..shadow import map as smap
-from ..shadow import prior as sp
-from ._operation import operation
-from ._shared import (
-    DARK_BANDS,
-    SurfaceModel,
-    boresight_offset,
-    central_rows,
-    dark_level,
-    no_valid_error,
-    open_surface,
-    saturation_value,
-    spread_bands,
+from ..sensor.dark import DarkLevels
+from ..shadow.classes import MASK_SHADOW, NO_SHADOW, NODATA_CLASS, fraction_text
+from ..shadow.darkness import (
+    BLUE_NM,
+    CORE_DARKNESS,
+    EDGE_PIXELS,
+    NIR_NM,
+    PAPER_SUNLIT_RATIO,
+    SWIR_NM,
+    calibrate_shadow_map,
+    check_sample,
+    shadow_classes,
+    shadow_fraction_block,
+    shadow_map_halo,
+    shadow_mask,
+    signal,
 )
-from .shadow import class_table
+from ..shadow.prior import (
+    LIT_PREDICTION,
+    MOSTLY_SHADOW,
+    SHIFT_IOU_GAIN,
+    prior_halo,
+    prior_map_block,
+    prior_method,
+    register_prior,
+    spectral_method,
+)
+from ._dark import DARK_BANDS, instrument_dark_level, saturation_value, spread_bands
+from ._offset import boresight_offset, central_rows
+from ._shadow_masks import mask_raster
+from ._shadow_tables import class_table, class_table_csv
+from ._surface import SurfaceModel, open_surface
 
 __all__ = ["Detection", "MapCalibration", "MapSample", "SurfaceModel", "shadow_map_file"]
 
@@ -73,14 +87,10 @@ class Detection:
     the edges a pixel this dark is at least half shaded, and near the model's sunward edge)
     and partial shadow looked for ``edge_pixels`` around it."""
 
-    core_darkness: float = smap.CORE_DARKNESS
-    edge_pixels: int = smap.EDGE_PIXELS
+    core_darkness: float = CORE_DARKNESS
+    edge_pixels: int = EDGE_PIXELS
 
 
-@operation(
-    inputs=("vnir", "swir", "classes", "surface.dsm", "surface.igm", "surface.glt"),
-    outputs=("output", "mask", "fraction"),
-)
 def shadow_map_file(
     vnir,
     swir=None,
@@ -132,7 +142,7 @@ def shadow_map_file(
         ``sun_azimuth``; ``cell_size`` for a DSM without a geotransform): the cast shadow it
         predicts is the prior, the spectra refine its edges and fraction, and no pixel away
         from it is shadow, except where a caster beyond the model's edge could shade it
-        (:func:`geoboresight.shadow.map.dsm_shadow_fraction`). How far the
+        (:func:`geoboresight.shadow.darkness.dsm_shadow_fraction`). How far the
         model and the image disagree is reported (best shift, share of predicted shadow that
         is spectrally lit). Default: none (spectral evidence only).
     detection : Detection
@@ -186,18 +196,18 @@ def shadow_map_file(
         if opened is not None:
             prior, agreement = _register(read, dual, mb, opened.prior, surface.register, block)
         tags = _map_tags(dual, cal, core_darkness, edge_pixels, surface, opened, prior)
-        halo = smap.shadow_map_halo(cal, edge_pixels)
-        halo = (halo, halo) if prior is None else sp.prior_halo(prior, halo, opened.halo)
+        halo = shadow_map_halo(cal, edge_pixels)
+        halo = (halo, halo) if prior is None else prior_halo(prior, halo, opened.halo)
         kernel = _map_kernel(mb, cal.table, block, prior)
         paths = (output, mask, fraction)
         counts, n = _write_map(
             stack, read, kernel, dual, tags, cal.table, paths, halo, strips, progress
         )
-        n_valid = int(counts[: cls.NODATA_CLASS].sum())
+        n_valid = int(counts[:NODATA_CLASS].sum())
         if n_valid == 0:
             raise no_valid_error(vnir, "VNIR/SWIR image")
     share = n["shadow"] / n_valid
-    if share > sp.MOSTLY_SHADOW:
+    if share > MOSTLY_SHADOW:
         warnings.append(
             f"{100 * share:.0f} % of the valid pixels are shadow: the sunlit mode may not be "
             "sunlit ground (a mostly shaded or dark scene); check the calibration"
@@ -212,7 +222,7 @@ def shadow_map_file(
 
 def _map_result(paths, cal, counts, n_shadow, agreement, warnings) -> dict:
     """The operation's result: the outputs, the calibration, the classes' pixels."""
-    n_valid = int(counts[: cls.NODATA_CLASS].sum())
+    n_valid = int(counts[:NODATA_CLASS].sum())
     result = {
         "output": paths["output"],
         "valid_pixels": n_valid,
@@ -227,7 +237,7 @@ def _map_result(paths, cal, counts, n_shadow, agreement, warnings) -> dict:
     result.update({k: paths[k] for k in ("mask", "fraction") if paths[k]})
     for c in cal.table.classes:
         result[f"class_{c.id}_pixels"] = int(counts[c.id])
-    result["no_shadow_pixels"] = int(counts[cls.NO_SHADOW])
+    result["no_shadow_pixels"] = int(counts[NO_SHADOW])
     return result
 
 
@@ -251,9 +261,9 @@ class _MapBands(NamedTuple):
 def _map_bands(dual, bands: BandChoice, progress) -> _MapBands:
     rb = dual.ratio_bands(bands)
     tolerance_nm = bands.tolerance_nm
-    blue_b = band_range(dual.vnir, *smap.BLUE_NM, tolerance_nm=tolerance_nm)
-    nir_b = band_range(dual.vnir, *smap.NIR_NM, tolerance_nm=tolerance_nm)
-    swir_b = band_range(dual.swir, *smap.SWIR_NM, tolerance_nm=tolerance_nm)
+    blue_b = band_range(dual.vnir, *BLUE_NM, tolerance_nm=tolerance_nm)
+    nir_b = band_range(dual.vnir, *NIR_NM, tolerance_nm=tolerance_nm)
+    swir_b = band_range(dual.swir, *SWIR_NM, tolerance_nm=tolerance_nm)
     v_dark_b = sorted(
         set(spread_bands(dual.vnir.bands, DARK_BANDS) + blue_b + nir_b + [rb.vnir_band])
     )
@@ -283,7 +293,7 @@ def _checked_sample(vnir, dual, sources, mb: _MapBands, sample, strips, warnings
     checks = {}
     for sensor, values, src in ((dual.vnir, vs, v_src), (dual.swir, ss, s_src)):
         label = f"{sensor.name} {sensor.path}"
-        checks[sensor.name] = smap.check_sample(
+        checks[sensor.name] = check_sample(
             values, ok, None, name=label, saturation=saturation_value(src)
         )
         if checks[sensor.name].saturated:
@@ -296,29 +306,31 @@ def _checked_sample(vnir, dual, sources, mb: _MapBands, sample, strips, warnings
 
 
 def _calibrate(vnir, dual, sources, mb, how, strips, warnings, progress):
-    """Pass 1: the scene's calibration (:func:`geoboresight.shadow.map.calibrate_shadow_map`)
+    """Pass 1: the scene's calibration (:func:`geoboresight.shadow.darkness.calibrate_shadow_map`)
     on a random sample, and the dark levels of the blue, NIR and SWIR bands; ``how``: the
     dark levels given, the sample and offset, the class table, the core darkness."""
     dark, calibration, table, core = how
     v_src, s_src = sources
     vs, ss, ok = _checked_sample(vnir, dual, sources, mb, calibration, strips, warnings, progress)
-    v_dark = dark_level(dual.vnir, v_src, mb.vnir_dark, dark.vnir_dark, vs, ok, progress)
-    s_dark = dark_level(dual.swir, s_src, mb.swir_dark, dark.swir_dark, ss, ok, progress)
+    v_dark = instrument_dark_level(dual.vnir, v_src, mb.vnir_dark, dark.vnir_dark, vs, ok, progress)
+    s_dark = instrument_dark_level(dual.swir, s_src, mb.swir_dark, dark.swir_dark, ss, ok, progress)
     for sensor, values, level in ((dual.vnir, vs, v_dark), (dual.swir, ss, s_dark)):
-        smap.check_sample(values, ok, level, name=f"{sensor.name} {sensor.path}")
+        check_sample(values, ok, level, name=f"{sensor.name} {sensor.path}")
     levels = (
         v_dark.for_bands(mb.vnir_dark, mb.blue),
         v_dark.for_bands(mb.vnir_dark, mb.nir),
         s_dark.for_bands(mb.swir_dark, mb.swir),
     )
     v_at, s_at = mb.vnir_dark.index, mb.swir_dark.index
-    blue_s = smap.signal(vs[[v_at(b) for b in mb.blue]], levels[0])
-    nir_s = smap.signal(vs[[v_at(b) for b in mb.nir]], levels[1])
-    swir_s = smap.signal(ss[[s_at(b) for b in mb.swir]], levels[2])
+    blue_s = signal(vs[[v_at(b) for b in mb.blue]], levels[0])
+    nir_s = signal(vs[[v_at(b) for b in mb.nir]], levels[1])
+    swir_s = signal(ss[[s_at(b) for b in mb.swir]], levels[2])
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio_s = ss[s_at(mb.ratio.swir_band)] / vs[v_at(mb.ratio.vnir_band)]
-    along, across, _ = boresight_offset(dual, v_src, s_src, mb.ratio, calibration, progress)
-    cal = smap.calibrate_shadow_map(
+    along, across, _ = boresight_offset(
+        dual, calibration, progress, over="central", ratio_bands=mb.ratio, sources=(v_src, s_src)
+    )
+    cal = calibrate_shadow_map(
         blue_s,
         nir_s,
         swir_s,
@@ -332,7 +344,7 @@ def _calibrate(vnir, dual, sources, mb, how, strips, warnings, progress):
     )
     progress.info(
         f"sunlit ratio {cal.ratio_mode:.3f}: Table 2's ratio bounds on this scene would be × "
-        f"{cal.ratio_mode / smap.PAPER_SUNLIT_RATIO:.3f}: {cal.table.describe()}"
+        f"{cal.ratio_mode / PAPER_SUNLIT_RATIO:.3f}: {cal.table.describe()}"
     )
     return cal, levels
 
@@ -363,7 +375,7 @@ def _register(read, dual, mb: _MapBands, prior, register: bool, block: dict):
     boresight offset): :func:`geoboresight.shadow.prior.register_prior`."""
     r0, r1 = central_rows(dual.height)
     values, valid, z, z_ok, _ = read(r0, r1)
-    return sp.register_prior(
+    return register_prior(
         *mb.split(values),
         z,
         valid,
@@ -382,15 +394,15 @@ def _map_kernel(mb: _MapBands, table, block: dict, prior):
 
     def kernel(values, valid, z=None, z_ok=None, r0=0):
         if z is None:
-            f, _ = smap.shadow_fraction_block(*mb.split(values), valid, **block)
-            return smap.shadow_classes(f, table), smap.shadow_mask(f), f, None, None, None, None
-        b = sp.prior_map_block(
+            f, _ = shadow_fraction_block(*mb.split(values), valid, **block)
+            return shadow_classes(f, table), shadow_mask(f), f, None, None, None, None
+        b = prior_map_block(
             *mb.split(values), z, valid, heights_valid=z_ok, surface_prior=prior, row0=r0, **block
         )
         f = b.fraction
         return (
-            smap.shadow_classes(f, table),
-            smap.shadow_mask(f),
+            shadow_classes(f, table),
+            shadow_mask(f),
             f,
             b.deep,
             b.lit,
@@ -402,7 +414,7 @@ def _map_kernel(mb: _MapBands, table, block: dict, prior):
 
 
 def _fraction_classes(table) -> str:
-    return "; ".join(f"{c.id}: {cls.fraction_text(c)}" for c in table.classes)
+    return "; ".join(f"{c.id}: {fraction_text(c)}" for c in table.classes)
 
 
 def _map_tags(dual, cal, core, edge_pixels, surface: SurfaceModel, opened, prior) -> dict:
@@ -416,7 +428,7 @@ def _map_tags(dual, cal, core, edge_pixels, surface: SurfaceModel, opened, prior
         "classes": _fraction_classes(cal.table),
         "table2_ratio_bounds_on_scene": cal.table.describe(),
         "table2_ratio_bounds_csv": class_table_csv(cal.table).replace("\n", " | "),
-        "method": sp.spectral_method(core, edge_pixels),
+        "method": spectral_method(core, edge_pixels),
     }
     if prior is None:
         return tags
@@ -430,7 +442,7 @@ def _map_tags(dual, cal, core, edge_pixels, surface: SurfaceModel, opened, prior
         dsm_surface=prior.surface,
         dsm_registration_rows=str(prior.shift[0]),
         dsm_registration_columns=str(prior.shift[1]),
-        method=sp.prior_method(prior, registered=surface.register, edge_pixels=edge_pixels),
+        method=prior_method(prior, registered=surface.register, edge_pixels=edge_pixels),
     )
     return tags
 
@@ -474,7 +486,7 @@ def _write_map(stack, read, kernel, dual, tags, table, paths, halo, strips, prog
                 np.where(np.isfinite(f), f, io.FLOAT_NODATA).astype("float32"), 1, window=win
             )
         counts += np.bincount(c.ravel(), minlength=256)
-        n["shadow"] += int((m == cls.MASK_SHADOW).sum())
+        n["shadow"] += int((m == MASK_SHADOW).sum())
         if agree[0] is not None:
             for key, a in zip(("deep", "lit", "unseen", "holes"), agree, strict=True):
                 n[key] += int(a.sum())
@@ -514,7 +526,7 @@ def _surface_summary(agreement, prior, n, n_valid, register, warnings, progress)
         "pixels could be shaded by casters beyond the surface model's edge (spectral "
         "estimate there)"
     )
-    if lit_share > sp.LIT_PREDICTION:
+    if lit_share > LIT_PREDICTION:
         warnings.append(
             f"{100 * lit_share:.0f} % of the shadow the surface model predicts is "
             "spectrally lit: the model may be of another date, not registered with the "
@@ -522,7 +534,7 @@ def _surface_summary(agreement, prior, n, n_valid, register, warnings, progress)
         )
     gain = (agreement["dsm_iou_at_shift"] or 0) - (agreement["dsm_iou"] or 0)
     shifted = (agreement["dsm_shift_rows"], agreement["dsm_shift_columns"]) != (0, 0)
-    if shifted and gain > sp.SHIFT_IOU_GAIN:
+    if shifted and gain > SHIFT_IOU_GAIN:
         warnings.append(
             "the predicted shadow matches the image's dark pixels best shifted by "
             f"{agreement['dsm_shift_rows']:+d} rows, {agreement['dsm_shift_columns']:+d} "

@@ -11,12 +11,12 @@ import numpy as np
 
 from .. import io
 from ..errors import ParameterError
+from ..io.checks import check_cell_size, check_heights, no_valid_error
 from ..io.dual import TOLERANCE_NM
-from ..io.georef import metric_matrix
-from ..io.masks import mask_raster
+from ..io.georef import grid_place, metric_matrix
 from ..io.wavelengths import nearest_band, wavelengths_of
 from ..io.windows import Sample
-from ..shadow import illumination as ill
+from ..shadow import illumination
 from ..shadow.classes import MASK_NODATA, MASK_SHADOW
 from ..shadow.darkpixel import (
     DARK_PERCENTILE,
@@ -24,16 +24,18 @@ from ..shadow.darkpixel import (
     THRESHOLD,
     fit_dark_pixel,
 )
-from ..shadow.surface import AUTO, choose_surface
-from ._operation import operation
-from ._shared import (
-    check_cell_size,
-    check_heights,
-    grid_place,
-    no_valid_error,
-    relief_and_walls,
-    sun_angles,
+from ..shadow.illumination import (
+    MASK_FRACTION,
+    SUPERSAMPLE,
+    SURFACES,
+    Z_FACTOR,
+    grid_matrix,
+    halo_rows,
+    shadow_fraction,
 )
+from ..shadow.surface import AUTO, choose_surface
+from ._shadow_masks import mask_raster
+from ._surface import relief_and_walls, sun_angles
 
 #: The dark-pixel bands as the text parameter gives them (nm, comma-separated).
 BANDS_NM = ",".join(f"{b:g}" for b in DEFAULT_BANDS_NM)
@@ -42,7 +44,6 @@ BANDS_NM = ",".join(f"{b:g}" for b in DEFAULT_BANDS_NM)
 # ---------------------------------------------------------------------------------- sun-shadow
 
 
-@operation(inputs=("dsm",), outputs=("output", "mask", "hillshade"))
 def sun_shadow_file(
     dsm,
     *,
@@ -53,9 +54,9 @@ def sun_shadow_file(
     hillshade=None,
     band=1,
     cell_size=None,
-    supersample=ill.SUPERSAMPLE,
+    supersample=SUPERSAMPLE,
     surface=AUTO,
-    z_factor=ill.Z_FACTOR,
+    z_factor=Z_FACTOR,
     block_rows=io.DEFAULT_BLOCK_ROWS,
     acquisition_time=None,
     progress=None,
@@ -117,13 +118,13 @@ def sun_shadow_file(
     """
     if acquisition_time is None:  # fail before reading anything
         sun_angles(sun_zenith, sun_azimuth, None, None, needed_by="dsm")
-    if surface != AUTO and surface not in ill.SURFACES:
+    if surface != AUTO and surface not in SURFACES:
         raise ParameterError(
-            f"parameter 'surface': {surface!r} is not one of {AUTO}, {', '.join(ill.SURFACES)}"
+            f"parameter 'surface': {surface!r} is not one of {AUTO}, {', '.join(SURFACES)}"
         )
     with io.open_raster(dsm, "surface model") as src:
         grid = io.Grid.of(src)
-        matrix = ill.grid_matrix(metric_matrix(grid, f"surface model {dsm}"), cell_size)
+        matrix = grid_matrix(metric_matrix(grid, f"surface model {dsm}"), cell_size)
         if grid.georeferenced:
             check_cell_size(cell_size, matrix, f"surface model {dsm}")
         zen, az, how = sun_angles(
@@ -147,9 +148,9 @@ def sun_shadow_file(
                 f"surface: {surface} ({walls} of {pairs} neighbouring-cell pairs are walls, "
                 f"steps ≥ 2 m steeper than 70°)"
             )
-        interpolation = ill.SURFACES[surface]
+        interpolation = SURFACES[surface]
         relief = hi - lo
-        above, below = ill.halo_rows(relief, zen, az, matrix, grid.shape)
+        above, below = halo_rows(relief, zen, az, matrix, grid.shape)
         halo = (above + 1, below + 1)  # Horn's 3 × 3 window needs one more line
         tags = {
             "product": "ground-truth shadow fraction from a surface model (Brook & Ben-Dor 2011, §3.1)",
@@ -167,7 +168,7 @@ def sun_shadow_file(
         sun = {"sun_zenith": zen, "sun_azimuth": az, "transform": matrix}
 
         def kernel(z, valid):
-            frac = ill.shadow_fraction(
+            frac = shadow_fraction(
                 z,
                 valid,
                 **sun,
@@ -175,24 +176,17 @@ def sun_shadow_file(
                 relief=relief,
                 interpolation=interpolation,
             )
-            cos_i = ill.hillshade(z, valid, **sun, z_factor=z_factor) if hillshade else None
+            cos_i = (
+                illumination.hillshade(z, valid, **sun, z_factor=z_factor) if hillshade else None
+            )
             return frac, valid, cos_i
 
         n_shadow = _write_sun_shadow(
             read, kernel, grid, tags, (output, mask, hillshade), halo, strips, progress
         )
-    out = {
-        "output": output,
-        "shadow_pixels": n_shadow,
-        "valid_pixels": n_valid,
-        "relief_m": round(relief, 3),
-        "surface": surface,
-    }
-    if mask:
-        out["mask"] = mask
-    if hillshade:
-        out["hillshade"] = hillshade
-    return out
+    out = dict(output=output, shadow_pixels=n_shadow, valid_pixels=n_valid)
+    out.update(relief_m=round(relief, 3), surface=surface)
+    return out | {k: v for k, v in (("mask", mask), ("hillshade", hillshade)) if v}
 
 
 def _write_sun_shadow(read, kernel, grid, tags, paths, halo, strips, progress) -> int:
@@ -226,7 +220,7 @@ def _write_sun_shadow(read, kernel, grid, tags, paths, halo, strips, progress) -
             **strips,
         ):
             fdst.write(np.where(ok, frac, io.FLOAT_NODATA).astype("float32"), 1, window=win)
-            shadow = frac >= ill.MASK_FRACTION
+            shadow = frac >= MASK_FRACTION
             n_shadow += int(shadow[ok].sum())
             if mdst is not None:
                 m = np.where(ok, shadow.astype(np.uint8), MASK_NODATA)
@@ -255,7 +249,6 @@ def _wavelength_list(text) -> list[float]:
     return vals
 
 
-@operation(inputs=("vnir",), outputs=("output", "shadow_function"))
 def dark_pixel_shadow_file(
     vnir,
     *,

@@ -14,7 +14,6 @@ from ..simulate.scene import (
     Sky,
     simulate_scene,
 )
-from ._operation import operation
 
 #: Largest boresight angle (degrees) accepted for each of roll, pitch and yaw.
 MAX_BORESIGHT_DEG = 10.0
@@ -42,7 +41,6 @@ def parse_angles(text, name: str = "boresight angles") -> tuple[float, float, fl
     return angles
 
 
-@operation(outputs=("output",))
 def simulate_file(
     *,
     output,

@@ -5,7 +5,6 @@ from __future__ import annotations
 from .. import io
 from ..errors import ParameterError
 from ..stats import DEFAULT_PERCENTILES, describe_blocks
-from ._operation import operation
 
 #: The percentiles reported by default, as the spec's text parameter spells them.
 PERCENTILES = ",".join(f"{q:g}" for q in DEFAULT_PERCENTILES)
@@ -29,7 +28,6 @@ def parse_percentiles(text) -> list[float]:
     return qs
 
 
-@operation(inputs=("input",), outputs=("output", "html", "histogram"))
 def stats_file(
     input,
     *,

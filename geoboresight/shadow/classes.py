@@ -20,7 +20,7 @@ pixels with no valid ratio. An interval is ``min ≤ ratio < max``; the interval
 Table 2's thresholds are absolute DN ratios of the AISA-Dual: :func:`table_warnings` says when
 they are meaningless for a scene (the ratio's bands are not 1,010/920 nm, or the scene's sunlit
 ratio falls inside a shadow class), and :func:`scale_table` scales them to a scene's sunlit
-ratio (the shadow map of :mod:`geoboresight.shadow.map`).
+ratio (the shadow map of :mod:`geoboresight.shadow.darkness`).
 
 A class table is a CSV (or JSON list of objects) with the columns::
 
@@ -28,7 +28,7 @@ A class table is a CSV (or JSON list of objects) with the columns::
 
 ``class`` 1–254, ``min < max`` (ratios), fractions in 0–1, ``colour`` as ``#rrggbb``. Rows must
 be listed in ratio order (all ascending or all descending) and intervals must not overlap
-(touching ends are fine). Reading and writing such files is :mod:`geoboresight.io.shadow`'s job;
+(touching ends are fine). Reading and writing such files is :mod:`geoboresight.operations._shadow_tables`'s job;
 this module validates the rows (:func:`class_from_row`, :func:`validate_classes`) and applies the
 table to arrays.
 """

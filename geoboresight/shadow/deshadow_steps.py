@@ -20,8 +20,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import deshadow as ds
-from . import illumination as ill
+from . import deshadow
+from .illumination import plane_incidence, sun_step
 from .prior import SurfacePrior
 
 #: Pixels of a flight line whose pairs are looked for (a fixed share of a longer line, so
@@ -85,7 +85,7 @@ def picked_pixels(row0: int, shape: tuple[int, int], share: int) -> np.ndarray:
 
 
 def darkest_pixels(
-    signal: np.ndarray, valid: np.ndarray | None = None, *, n: int = ds.DARK_PIXELS
+    signal: np.ndarray, valid: np.ndarray | None = None, *, n: int = deshadow.DARK_PIXELS
 ) -> np.ndarray:
     """The dark object's candidates: the ``n`` darkest valid pixels by their mean over the
     bands (:func:`geoboresight.shadow.deshadow.dark_object`).
@@ -111,7 +111,7 @@ def darkest_pixels(
     return x.astype(np.float32)
 
 
-def keep_darkest(pixels: np.ndarray, n: int = ds.DARK_PIXELS) -> np.ndarray:
+def keep_darkest(pixels: np.ndarray, n: int = deshadow.DARK_PIXELS) -> np.ndarray:
     """The ``n`` darkest rows of ``pixels`` (pixels, bands) by their mean over the bands
     (a stable sort: ties keep their order); all of them when there are no more than ``n``."""
     if pixels.shape[0] <= n:
@@ -196,7 +196,7 @@ def edge_pairs(
     -------
     EdgePairs
     """
-    from ..dem.coregister import coregister_stack
+    from ..sensor.coregister import coregister_stack
 
     sig = np.array(signal, np.float64)
     ok = np.ones(fraction.shape, bool) if valid is None else np.asarray(valid, bool)
@@ -210,8 +210,8 @@ def edge_pairs(
     toward_sun = None
     if surface_prior is not None:
         p = surface_prior
-        toward_sun = ill.sun_step(p.zenith, p.azimuth, p.matrix)[:2]
-    ia, ib = ds.pair_indices(
+        toward_sun = sun_step(p.zenith, p.azimuth, p.matrix)[:2]
+    ia, ib = deshadow.pair_indices(
         fraction,
         ok & np.isfinite(sig).all(axis=0),
         own=own & picked,
@@ -223,8 +223,8 @@ def edge_pairs(
     cos_i = _incidence(heights, surface_prior, fraction.size)
     if adjacency_size:
         with np.errstate(invalid="ignore"):
-            lit_px = ok & (fraction <= ds.LIT)
-        sur = ds.surround_signal(sig, lit_px, adjacency_size).reshape(sig.shape[0], -1)
+            lit_px = ok & (fraction <= deshadow.LIT)
+        sur = deshadow.surround_signal(sig, lit_px, adjacency_size).reshape(sig.shape[0], -1)
         sur_a, sur_b = sur[:, ia].T, sur[:, ib].T
     else:
         sur_a = sur_b = np.zeros((ia.size, 0))
@@ -244,7 +244,7 @@ def _incidence(heights, surface_prior, n: int) -> np.ndarray:
     if heights is None:
         return np.ones(n)
     p = surface_prior
-    return ill.plane_incidence(
+    return plane_incidence(
         heights,
         np.isfinite(heights),
         sun_zenith=p.zenith,
@@ -253,7 +253,7 @@ def _incidence(heights, surface_prior, n: int) -> np.ndarray:
     ).reshape(-1)
 
 
-def merge_edge_pairs(a: EdgePairs, b: EdgePairs, n_dark: int = ds.DARK_PIXELS) -> EdgePairs:
+def merge_edge_pairs(a: EdgePairs, b: EdgePairs, n_dark: int = deshadow.DARK_PIXELS) -> EdgePairs:
     """The pairs of two blocks together (``a``'s first) and the ``n_dark`` darkest pixels of
     both instruments (:func:`keep_darkest`): the merge of
     :func:`geoboresight.io.windows.reduce_windows` over :func:`edge_pairs`."""
@@ -327,32 +327,36 @@ def fit_illumination(
     wl = np.asarray(wavelengths, float)
     sky = (pv[0], pv[1]) if surface else None
     direct = pv[2] if surface else None
-    keep = ds.KEEP_WITH_SURFACE if surface else ds.KEEP
-    k, n_pairs, spread = ds.illumination_ratio(a, b, sky_view=sky, keep=keep)
+    keep = deshadow.KEEP_WITH_SURFACE if surface else deshadow.KEEP
+    k, n_pairs, spread = deshadow.illumination_ratio(a, b, sky_view=sky, keep=keep)
     c, c_err = np.zeros(len(wl)), np.full(len(wl), np.inf)
     c_line, e_line, dark_obj, n_one = c, c_err, np.full(len(wl), np.nan), 0
     if additive:
-        one = ds.same_surface(a, b, wl)
+        one = deshadow.same_surface(a, b, wl)
         n_one = int(one.sum())
         sky1 = None if sky is None else (sky[0][one], sky[1][one])
-        c_line, e_line = ds.additive_signal(
+        c_line, e_line = deshadow.additive_signal(
             a[one], b[one], k, sky_view=sky1, direct=None if direct is None else direct[one]
         )
         dark_v, dark_s = pairs.dark_vnir, pairs.dark_swir
         dark_obj = np.concatenate(
             [
-                ds.dark_object(dark_v.T.astype(np.float64), min(ds.DARK_PIXELS, len(dark_v))),
-                ds.dark_object(dark_s.T.astype(np.float64), min(ds.DARK_PIXELS, len(dark_s))),
+                deshadow.dark_object(
+                    dark_v.T.astype(np.float64), min(deshadow.DARK_PIXELS, len(dark_v))
+                ),
+                deshadow.dark_object(
+                    dark_s.T.astype(np.float64), min(deshadow.DARK_PIXELS, len(dark_s))
+                ),
             ]
         )
-        c, c_err = ds.combine_additive(c_line, e_line, dark_obj, np.median(a, axis=0))
-        k, n_pairs, spread = ds.illumination_ratio(
+        c, c_err = deshadow.combine_additive(c_line, e_line, dark_obj, np.median(a, axis=0))
+        k, n_pairs, spread = deshadow.illumination_ratio(
             a - c, b - c, sky_view=sky, direct=direct, keep=keep
         )
     adj_scale, eta = np.zeros(len(wl)), np.zeros(len(wl))
     if adjacency:
         around = (pairs.around_shaded - c, pairs.around_sunlit - c)
-        k, adj_scale, eta = ds.adjacency_ratio(
+        k, adj_scale, eta = deshadow.adjacency_ratio(
             a - c, b - c, around, sky_view=sky, direct=direct if additive else None
         )
     brightens = np.isfinite(k) & (k >= 1.0)
@@ -380,7 +384,7 @@ def fraction_on_swir_grid(fraction: np.ndarray, offset: tuple[float, float], val
     fraction : array (lines, columns)
     offset : (float, float)
         Boresight offset of the SWIR (px, along and across): the raster is moved back by it
-        (:func:`geoboresight.dem.coregister.coregister`, bilinear).
+        (:func:`geoboresight.sensor.coregister.coregister`, bilinear).
     valid : bool array (lines, columns), optional
         Cells with a value (default: the finite ones).
 
@@ -389,7 +393,7 @@ def fraction_on_swir_grid(fraction: np.ndarray, offset: tuple[float, float], val
     array (lines, columns)
         NaN where the moved raster has no value.
     """
-    from ..dem.coregister import coregister
+    from ..sensor.coregister import coregister
 
     ok = np.isfinite(fraction) if valid is None else valid
     g, g_ok = coregister(np.where(ok, fraction, 0.0), -offset[0], -offset[1], ok, order=1)
@@ -401,8 +405,8 @@ def _surroundings(signal, fraction, valid, sky_view, scale, size):
     if not size:
         return None
     with np.errstate(invalid="ignore"):
-        lit_px = valid & (fraction <= ds.LIT)
-    s_bar = ds.surround_signal(signal, lit_px, size)
+        lit_px = valid & (fraction <= deshadow.LIT)
+    s_bar = deshadow.surround_signal(signal, lit_px, size)
     return scale[:, None, None] * (1.0 - sky_view)[None] * s_bar
 
 
@@ -438,8 +442,10 @@ def deshadow_block(
     sv, ss = cube[:n_vnir] - bv, cube[n_vnir:] - bs
     av = _surroundings(sv, fraction, ok, sky_view, scale[:n_vnir], adjacency_size)
     as_ = _surroundings(ss, fs, ok, vs, scale[n_vnir:], adjacency_size)
-    out_v = ds.deshadow(sv, fraction, ok, ratio=k[:n_vnir], sky_view=sky_view, adjacency=av) + bv
-    out_s = ds.deshadow(ss, fs, ok, ratio=k[n_vnir:], sky_view=vs, adjacency=as_) + bs
+    out_v = (
+        deshadow.deshadow(sv, fraction, ok, ratio=k[:n_vnir], sky_view=sky_view, adjacency=av) + bv
+    )
+    out_s = deshadow.deshadow(ss, fs, ok, ratio=k[n_vnir:], sky_view=vs, adjacency=as_) + bs
     with np.errstate(invalid="ignore"):
         shaded = ok & (fraction > 0)
     return np.concatenate([out_v, out_s]), shaded

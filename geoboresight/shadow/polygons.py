@@ -2,7 +2,7 @@
 
 Connected pixels of one class become one polygon (4-connected), with the class id, its name,
 the shadow-fraction interval, the area and the number of pixels. The outlines are traced in the
-raster's coordinates by :func:`geoboresight.io.shadow.class_shapes`: map units in its CRS when
+raster's coordinates by :func:`geoboresight.operations._shadow_tables.class_shapes`: map units in its CRS when
 it is georeferenced; in raw sensor geometry (no CRS, no geotransform) pixel coordinates
 (x = column, y = −line), and the area is in pixels — the layer's description says so. This
 module decides which pixels are traced and what each polygon says.

@@ -1,6 +1,6 @@
 """A surface model's cast shadow as the shadow map's prior, in steps on arrays.
 
-The shadow map with a surface model (:func:`geoboresight.shadow.map.dsm_shadow_fraction`)
+The shadow map with a surface model (:func:`geoboresight.shadow.darkness.dsm_shadow_fraction`)
 starts from the shadow the DSM casts for the sun. The steps here take the heights of a block of
 lines and one small value, :class:`SurfacePrior` (the sun, the grid's geometry, the relief,
 the clearance, the reach, the registration's move), and give what the map needs of the
@@ -26,8 +26,17 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import illumination as ill
-from . import map as smap
+from . import darkness
+from .illumination import (
+    SUPERSAMPLE,
+    SURFACES,
+    cell_fraction,
+    march_steps,
+    shadow_fraction,
+    sub_cell_shadow,
+    sun_step,
+    unseen_casters,
+)
 
 #: Share of the valid pixels in shadow above which the scene's sunlit mode is suspect: a
 #: shadow map calibrates itself on the sunlit ground, which must be the larger part.
@@ -42,7 +51,7 @@ LIT_PREDICTION = 0.2
 SHIFT_IOU_GAIN = 0.05
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SurfacePrior:
     """What casting a surface model's shadow on a grid needs, besides the heights.
 
@@ -116,19 +125,19 @@ def surface_prior(
     Brook, A.; Ben-Dor, E. Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484
     (§3.1: the shadow simulated from a surface model and the sun).
     """
-    drow, dcol, rise = ill.sun_step(sun_zenith, sun_azimuth, transform, 1.0)
-    steps = ill.march_steps(relief, rise, shape, drow, dcol)
+    drow, dcol, rise = sun_step(sun_zenith, sun_azimuth, transform, 1.0)
+    steps = march_steps(relief, rise, shape, drow, dcol)
     return SurfacePrior(
-        sun_zenith,
-        sun_azimuth,
-        transform,
-        relief,
-        surface,
-        float(clearance),
-        float(top),
-        shape[0],
-        (drow, dcol, steps),
-        float(clearance) / rise if rise > 0 else 0.0,
+        zenith=sun_zenith,
+        azimuth=sun_azimuth,
+        matrix=transform,
+        relief=relief,
+        surface=surface,
+        clearance=float(clearance),
+        top=float(top),
+        height=shape[0],
+        ray=(drow, dcol, steps),
+        reach=float(clearance) / rise if rise > 0 else 0.0,
     )
 
 
@@ -140,7 +149,7 @@ def _cast(surface_prior: SurfacePrior) -> dict:
         sun_azimuth=p.azimuth,
         transform=p.matrix,
         relief=p.relief,
-        interpolation=ill.SURFACES[p.surface],
+        interpolation=SURFACES[p.surface],
         clearance=p.clearance,
     )
 
@@ -164,7 +173,7 @@ def sub_cell_cast(
     bool array (lines × :data:`~geoboresight.shadow.illumination.SUPERSAMPLE`, columns × it)
         :func:`geoboresight.shadow.illumination.sub_cell_shadow`.
     """
-    return ill.sub_cell_shadow(heights, valid, **_cast(surface_prior))
+    return sub_cell_shadow(heights, valid, **_cast(surface_prior))
 
 
 def prior_fraction(
@@ -194,11 +203,9 @@ def prior_fraction(
         :func:`geoboresight.shadow.illumination.cell_fraction` of ``sub_cells``.
     """
     if sub_cells is None:
-        return ill.shadow_fraction(
-            heights, valid, shift=surface_prior.shift, **_cast(surface_prior)
-        )
+        return shadow_fraction(heights, valid, shift=surface_prior.shift, **_cast(surface_prior))
     ok = np.isfinite(heights) if valid is None else np.asarray(valid, bool) & np.isfinite(heights)
-    return ill.cell_fraction(sub_cells, ill.SUPERSAMPLE, surface_prior.shift, ok).astype(np.float32)
+    return cell_fraction(sub_cells, SUPERSAMPLE, surface_prior.shift, ok).astype(np.float32)
 
 
 def registered_heights(
@@ -259,7 +266,7 @@ def unseen_pixels(
         :func:`geoboresight.shadow.illumination.unseen_casters`.
     """
     p = surface_prior
-    return ill.unseen_casters(
+    return unseen_casters(
         heights,
         valid,
         sun_zenith=p.zenith,
@@ -281,7 +288,7 @@ def prior_halo(
     ----------
     surface_prior : SurfacePrior
     halo : int
-        The spectral halo (:func:`geoboresight.shadow.map.shadow_map_halo`).
+        The spectral halo (:func:`geoboresight.shadow.darkness.shadow_map_halo`).
     cast_halo : (int, int)
         The cast's (above, below) (:func:`geoboresight.shadow.illumination.halo_rows`).
 
@@ -290,7 +297,7 @@ def prior_halo(
     (int, int)
         Lines above and below: both halos, and towards the sun the sweep of the predicted
         shadow's far end, ``ceil(reach · |Δrow|) + 1`` lines
-        (:func:`geoboresight.shadow.map.dsm_shadow_fraction`).
+        (:func:`geoboresight.shadow.darkness.dsm_shadow_fraction`).
     """
     drow = surface_prior.ray[0]
     sweep = int(np.ceil(surface_prior.reach * abs(drow))) + 1
@@ -299,9 +306,9 @@ def prior_halo(
 
 
 def _model_fraction(blue, nir, swir, valid, heights, heights_valid, prior, unseen, p, **block):
-    """:func:`geoboresight.shadow.map.shadow_fraction_block` with the surface model: the
+    """:func:`geoboresight.shadow.darkness.shadow_fraction_block` with the surface model: the
     ``prior`` and the ``unseen`` pixels of the block, ``p`` its :class:`SurfacePrior`."""
-    return smap.shadow_fraction_block(
+    return darkness.shadow_fraction_block(
         blue,
         nir,
         swir,
@@ -334,7 +341,7 @@ def prior_map_block(
     valid: np.ndarray | None = None,
     *,
     heights_valid: np.ndarray,
-    calibration: smap.SceneCalibration,
+    calibration: darkness.SceneCalibration,
     dark_levels: tuple,
     edge_pixels: int,
     surface_prior: SurfacePrior,
@@ -343,7 +350,7 @@ def prior_map_block(
     """The shadow fraction of a block of lines with a surface model, and how the model and
     the image agree on it.
 
-    The fraction is :func:`geoboresight.shadow.map.shadow_fraction_block` with the prior
+    The fraction is :func:`geoboresight.shadow.darkness.shadow_fraction_block` with the prior
     (:func:`prior_fraction`), the moved heights, the unseen pixels and the model's ray and
     reach. Pixels the model has no height for (``holes``: beyond its extent, its nodata)
     take the spectral estimate alone, as without a model: no prior says anything there (its
@@ -352,7 +359,7 @@ def prior_map_block(
     Parameters
     ----------
     blue, nir, swir : arrays (n_bands, lines, columns)
-        As :func:`geoboresight.shadow.map.shadow_map_block`.
+        As :func:`geoboresight.shadow.darkness.shadow_map_block`.
     heights : array (lines, columns)
         The surface model's heights (m) on the image's grid.
     valid : bool array (lines, columns), optional
@@ -360,7 +367,7 @@ def prior_map_block(
     heights_valid : bool array (lines, columns)
         Cells with a height.
     calibration, dark_levels, edge_pixels
-        As :func:`geoboresight.shadow.map.shadow_map_block`.
+        As :func:`geoboresight.shadow.darkness.shadow_map_block`.
     surface_prior : SurfacePrior
     row0 : int
         The block's first line in the grid.
@@ -370,7 +377,7 @@ def prior_map_block(
     PriorBlock
         The fraction; ``deep``, the predicted shadow (≥ 0.5) eroded by a pixel; ``lit``, the
         pixels of ``deep`` brighter than
-        :data:`~geoboresight.shadow.map.LIT_DARKNESS`; ``unseen`` and ``holes`` (all
+        :data:`~geoboresight.shadow.darkness.LIT_DARKNESS`; ``unseen`` and ``holes`` (all
         where the fraction is defined).
     """
     from scipy import ndimage
@@ -393,12 +400,12 @@ def prior_map_block(
     )
     holes = ok & ~np.asarray(heights_valid, bool)
     if holes.any():
-        f_spectral, _ = smap.shadow_fraction_block(blue, nir, swir, ok, **kw)
+        f_spectral, _ = darkness.shadow_fraction_block(blue, nir, swir, ok, **kw)
         f = np.where(holes, f_spectral, f)
     defined = np.isfinite(f)
-    deep = ndimage.binary_erosion(prior >= smap.PREDICTED_SHADOW) & defined
+    deep = ndimage.binary_erosion(prior >= darkness.PREDICTED_SHADOW) & defined
     with np.errstate(invalid="ignore"):
-        lit = deep & (d > smap.LIT_DARKNESS)
+        lit = deep & (d > darkness.LIT_DARKNESS)
     return PriorBlock(f, deep, lit, unseen & defined, holes & defined)
 
 
@@ -410,7 +417,7 @@ def register_prior(
     valid: np.ndarray | None = None,
     *,
     heights_valid: np.ndarray,
-    calibration: smap.SceneCalibration,
+    calibration: darkness.SceneCalibration,
     dark_levels: tuple,
     edge_pixels: int,
     surface_prior: SurfacePrior,
@@ -421,25 +428,25 @@ def register_prior(
     block of the flight line), and measure how the two agree there.
 
     With ``register``, the cast shadow is moved by the sub-pixel shift that best matches the
-    NIR's darkness (:func:`geoboresight.shadow.map.prior_registration`), kept only where the
+    NIR's darkness (:func:`geoboresight.shadow.darkness.prior_registration`), kept only where the
     image's parts agree on it. Then the best whole-pixel shift of what remains onto the dark
-    pixels is measured (:func:`geoboresight.shadow.map.prior_agreement`: a DSM more than a
+    pixels is measured (:func:`geoboresight.shadow.darkness.prior_agreement`: a DSM more than a
     pixel off, another date). The block's arguments are those of :func:`prior_map_block`.
 
     Returns
     -------
     (SurfacePrior, dict)
         ``surface_prior`` with the move as its ``shift``, and the registration's and the
-        agreement's figures (:func:`geoboresight.shadow.map.registration_result`,
-        :func:`geoboresight.shadow.map.prior_agreement`).
+        agreement's figures (:func:`geoboresight.shadow.darkness.registration_result`,
+        :func:`geoboresight.shadow.darkness.prior_agreement`).
     """
     ok = np.ones(np.shape(heights), bool) if valid is None else np.asarray(valid, bool)
     sub_cells = sub_cell_cast(heights, heights_valid, surface_prior=surface_prior)
-    agreement = smap.registration_result()
+    agreement = darkness.registration_result()
     if register:
-        n = smap.signal(nir, dark_levels[1])
-        evidence = smap.nir_darkness(n, calibration, ok & heights_valid)
-        agreement = smap.prior_registration(evidence, sub_cells, ill.SUPERSAMPLE)
+        n = darkness.signal(nir, dark_levels[1])
+        evidence = darkness.nir_darkness(n, calibration, ok & heights_valid)
+        agreement = darkness.prior_registration(evidence, sub_cells, SUPERSAMPLE)
         surface_prior = dataclasses.replace(
             surface_prior,
             shift=(agreement["dsm_registration_rows"], agreement["dsm_registration_columns"]),
@@ -460,7 +467,7 @@ def register_prior(
         dark_levels=dark_levels,
         edge_pixels=edge_pixels,
     )
-    agreement.update(smap.prior_agreement(d, prior, ok))
+    agreement.update(darkness.prior_agreement(d, prior, ok))
     return surface_prior, agreement
 
 
@@ -476,9 +483,9 @@ def prior_method(surface_prior: SurfacePrior, *, registered: bool, edge_pixels: 
     )
     return (
         f"surface model prior: cast shadow from the DSM and the sun (ray march, {p.surface} "
-        f"surface{moved}), refined by SWIR/NIR darkness within {smap.DSM_TOLERANCE} px (lit "
-        f"above {smap.log_fraction_text(smap.LIT_DARKNESS)} of the sunlit mode, rim shadow at "
-        f"or below {smap.log_fraction_text(smap.RIM_DARKNESS)} unless more than the clearance "
+        f"surface{moved}), refined by SWIR/NIR darkness within {darkness.DSM_TOLERANCE} px (lit "
+        f"above {darkness.log_fraction_text(darkness.LIT_DARKNESS)} of the sunlit mode, rim shadow at "
+        f"or below {darkness.log_fraction_text(darkness.RIM_DARKNESS)} unless more than the clearance "
         f"({p.clearance:g} m) above the shadow: a caster's top; beyond it, down-sun of the "
         f"predicted shadow by the {p.reach:.2f} cells the clearance shortens a shadow, where "
         "connected to it along the sun's direction) and unmixed within "

@@ -18,7 +18,7 @@ pytestmark = pytest.mark.qgis
 
 @pytest.fixture(scope="module")
 def ortho_scene(tmp_path_factory):
-    from geoboresight.operations.georef import geolocate_file, simulate_ortho_file
+    from geoboresight import geolocate_file, simulate_ortho_file
 
     folder = tmp_path_factory.mktemp("overlay")
     sim = str(folder / "sim")

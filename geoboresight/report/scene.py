@@ -9,13 +9,8 @@ from .. import io
 from ..dem.height import FlightGeometry
 from ..io.dual import BandChoice, DualLayout
 from ..io.write import temp_name
-from ._operation import operation
 
 
-@operation(
-    inputs=("vnir", "swir", "shadow_truth", "target_truth", "cloud_mask"),
-    outputs=("output", "products"),
-)
 def report_file(
     vnir,
     swir=None,
@@ -35,8 +30,8 @@ def report_file(
 
     Runs the operations (``ratio``, ``stats``, ``shadow-map``, ``shadow-classes``, ``shadow-cluster``,
     ``shadow-fraction-fit``, ``relative-dem``, ``view-3d``, ``boresight-indicator``, ``rx``,
-    ``svdd``, ``roc``) through their specs, as any face would, and lays out their figures and
-    numbers (see :mod:`geoboresight.operations._report_page`). A step that cannot run becomes
+    ``svdd``, ``roc``) on the values this operation's spec has checked, and lays out their
+    figures and numbers (see :mod:`geoboresight.report.page`). A step that cannot run becomes
     a note in its section.
 
     Parameters
@@ -81,7 +76,7 @@ def report_file(
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (Eq. 3, Table 1 and
     Figure 3; §3.1, Table 2, Figures 4 and 5; §3.2, Figure 9; §3.3, Figure 12).
     """
-    from ._report_page import build_report  # matplotlib and jinja2: loaded only for a report
+    from .page import build_report  # matplotlib and jinja2: loaded only for a report
 
     # The primary input must open (and carry wavelengths): a report of notes saying that
     # nothing could run would be a success in name only. Optional inputs given must open too

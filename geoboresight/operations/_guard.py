@@ -1,9 +1,9 @@
-"""What every file-level operation shares: outputs checked before any work, removed after a
-failure, and progress optional.
-
-A file-level operation is a plain function a rasterio script calls (``ratio_file(vnir, swir,
-output="ratio.tif")``); the specs declare the same function as their ``run``. Decorating it with
-:func:`operation` makes the promises of docs/DEVELOPING.md hold for scripts and faces alike:
+"""What every file-level operation's run shares: outputs checked before any work, removed
+after a failure, and progress optional. The spec of an operation runs it through
+:func:`run_guarded` with the files its parameters declare
+(:attr:`geoboresight.algorithms.Algorithm.operation` for a Python caller,
+:func:`geoboresight.algorithms.execute` for every face), so the promises of
+docs/DEVELOPING.md hold for scripts and faces alike:
 
 - an output may not be an input, nor one of an input's sidecar files (ENVI header, .aux.xml);
 - an existing output is replaced only with ``overwrite=True``;
@@ -12,21 +12,22 @@ output="ratio.tif")``); the specs declare the same function as their ``run``. De
 - every numeric argument is finite (NaN passes range checks silently);
 - an OS or GDAL error (unreadable input, full disk, read-only folder, memory) reaches the
   caller as a one-line :class:`~geoboresight.errors.GeoboresightError` naming the file.
+
+How GeoTIFF outputs are written (Cloud-Optimised, GDAL creation options, a local metric CRS
+for raw geometry) is set for every writer at once by the context
+:func:`geoboresight.writer_options`, as rasterio's ``Env`` sets GDAL's options.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import errno
-import functools
-import inspect
 import math
 import numbers
 import os
 import shutil
 from collections.abc import Callable
 
-from .._state import VALIDATED, spec_of
 from ..errors import (
     GeoboresightError,
     InputError,
@@ -39,65 +40,28 @@ from ..io.write import check_output_path, output_error
 from ..progress import as_progress
 
 
-def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) -> Callable:
-    """Declare a file-level operation whose parameters ``inputs`` name files it reads (a path
-    or a list of paths) and ``outputs`` the files or folders it writes. A file inside a
-    parameter group's value is named ``"group.member"`` (``"surface.dsm"``: the ``dsm`` of the
-    ``surface`` value), and is checked as an input like any other.
-
-    The decorated function takes ``progress`` (a :class:`~geoboresight.progress.Progress` or
-    None) and gains ``overwrite`` (default False). How GeoTIFF outputs are written
-    (Cloud-Optimised, GDAL creation options, a local metric CRS for raw geometry) is set for
-    every writer at once by the context :func:`geoboresight.writer_options`, as rasterio's
-    ``Env`` sets GDAL's options: ``with gb.writer_options(cog=True): gb.ratio_file(...)``.
-    """
-
-    def decorate(func: Callable) -> Callable:
-        sig = inspect.signature(func)
-        missing = [
-            n for n in (*inputs, *outputs, "progress") if n.split(".")[0] not in sig.parameters
-        ]
-        if missing:
-            raise TypeError(f"{func.__name__}: no parameter(s) {', '.join(missing)}")
-
-        @functools.wraps(func)
-        def run(*args, overwrite: bool = False, **kwargs):
-            bound = sig.bind(*args, **kwargs)
-            bound.apply_defaults()
-            values = bound.arguments
-            spec = spec_of(run)
-            if spec is not None and not VALIDATED.get():
-                # A Python call: the spec's coercion and checks, as the CLI, QGIS, the engine
-                # and batch get them (types, ranges, choices, finite numbers, bands).
-                flat, given = spec.flatten({k: v for k, v in values.items() if k != "progress"})
-                values.update(spec.bind(spec.validate(flat), given))
-            values["progress"] = as_progress(values.get("progress"))
-            check_finite(values)
-            outs = check_paths(values, inputs, outputs, overwrite)
-            existed = {o for o in outs if os.path.lexists(o)}
-            token = VALIDATED.set(False)  # operations it calls check their own arguments
-            try:
-                return func(*bound.args, **bound.kwargs)
-            except BaseException as exc:
-                for o in outs:
-                    if o not in existed:
-                        _remove(o)
-                if isinstance(exc, GeoboresightError) or not isinstance(exc, OSError | MemoryError):
-                    raise
-                ins = [p for name in inputs for p in _paths(_value(values, name))]
-                names = [p.name for p in spec.params] if spec is not None else list(values)
-                raise translate_error(exc, ins, outs, names) from exc
-            finally:
-                VALIDATED.reset(token)
-
-        params = list(sig.parameters.values())
-        params.append(inspect.Parameter("overwrite", inspect.Parameter.KEYWORD_ONLY, default=False))
-        run.__signature__ = sig.replace(parameters=params)
-        run.inputs = tuple(inputs)
-        run.outputs = tuple(outputs)
-        return run
-
-    return decorate
+def run_guarded(
+    func: Callable, values: dict, *, inputs, outputs, overwrite: bool, params=()
+) -> dict:
+    """Call ``func(**values)``, values validated, whose arguments ``inputs`` name files it
+    reads (a path or a list of paths; ``"group.member"``: a file inside a group's value) and
+    ``outputs`` the files or folders it writes; ``params`` are the parameter names an error
+    about memory may advise on."""
+    values = dict(values)
+    values["progress"] = as_progress(values.get("progress"))
+    check_finite(values)
+    outs = check_paths(values, inputs, outputs, overwrite)
+    existed = {o for o in outs if os.path.lexists(o)}
+    try:
+        return func(**values)
+    except BaseException as exc:
+        for o in outs:
+            if o not in existed:
+                _remove(o)
+        if isinstance(exc, GeoboresightError) or not isinstance(exc, OSError | MemoryError):
+            raise
+        ins = [p for name in inputs for p in _paths(_value(values, name))]
+        raise translate_error(exc, ins, outs, params or list(values)) from exc
 
 
 def _value(values: dict, name: str):

@@ -12,7 +12,7 @@ geometry for the DEM, a missing optional package) becomes a note in its section;
 sections are still written.
 
 The page is the ``report.html`` template (:mod:`geoboresight.html`, autoescaped); the file-level
-operation that writes it is :func:`geoboresight.operations.report.report_file`.
+operation that writes it is :func:`geoboresight.report.scene.report_file`.
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ from ..errors import Cancelled, GeoboresightError
 from ..figures import new_figure
 from ..html import macro, png_data_uri, render
 from ..io.write import save_figure
+from ..operations._guard import translate_error
 from ..progress import Progress
 
 
@@ -239,10 +240,14 @@ class Runner:
         self.done = min(self.done + 1, self.n_steps)
         sub.info(f"report: running {name}")
         try:
-            step.result = function(*args, **kwargs, progress=sub, overwrite=True)
+            # The report's own spec has checked the values the steps share; each step writes
+            # into the work folder, which is the report's own.
+            step.result = function(*args, **kwargs, progress=sub)
         except Cancelled:
             raise
-        except (GeoboresightError, ImportError) as exc:
+        except (GeoboresightError, ImportError, OSError, MemoryError) as exc:
+            if isinstance(exc, OSError | MemoryError):
+                exc = translate_error(exc, [], [], list(signature.parameters))
             step.error = f"'{name}' could not run: {exc}"
         section.steps.append(step)
         if step.error:
@@ -317,7 +322,7 @@ def build_report(values: dict, work_dir: str, progress: Progress) -> str:
     """Run the operations for the scene described by ``values`` (the ``report`` operation's
     arguments: ``dual`` the opened dataset, ``layout``, ``bands``, ``geometry``, the truths,
     the cloud mask, ``svdd``) with their products in ``work_dir``; the whole HTML page."""
-    from .anomaly import rx_file, svdd_file
+    from ..operations.anomaly import rx_file, svdd_file
 
     detectors = [rx_file, svdd_file] if values.get("svdd") else [rx_file]
     run = Runner(work_dir, progress, n_steps=11 + len(detectors))
@@ -352,8 +357,8 @@ def _numbers(result: dict) -> list[tuple[str, object]]:
 def _ratio_section(run: Runner, values: dict) -> tuple[Section, str | None]:
     """Ratio and statistics (Eq. 3, Table 1, Figure 3); the section and the ratio's path (None
     when it could not be computed)."""
-    from .ratio import ratio_file
-    from .stats import stats_file
+    from ..operations.ratio import ratio_file
+    from ..operations.stats import stats_file
 
     s = Section(
         "Boresight ratio and statistics",
@@ -385,7 +390,7 @@ def _ratio_section(run: Runner, values: dict) -> tuple[Section, str | None]:
 
 def _shadow_section(run: Runner, values: dict, ratio_path: str | None) -> Section:
     """Shadow (§3.1, Table 2, Figures 4 and 5): the shadow map, then what the ratio gives."""
-    from .shadow_map import shadow_map_file
+    from ..operations.shadow_map import shadow_map_file
 
     s = Section(
         "Shadow",
@@ -395,7 +400,7 @@ def _shadow_section(run: Runner, values: dict, ratio_path: str | None) -> Sectio
         "component in the ratio against 941 nm scatter (Figure 4) and, with ground truth, the "
         "linear shadow-fraction model (Figure 5).",
     )
-    smap = run.run(
+    mapped = run.run(
         s,
         shadow_map_file,
         values["dual"],
@@ -404,17 +409,17 @@ def _shadow_section(run: Runner, values: dict, ratio_path: str | None) -> Sectio
         layout=values["layout"],
         bands=values["bands"],
     )
-    if smap.result:
+    if mapped.result:
         s.figure(
             raster_figure(
-                smap.result["output"],
+                mapped.result["output"],
                 "Shadow map (Table 2 classes on the scene's sunlit ratio)",
                 "class",
                 run.path("shadow_map.png"),
             ),
             CLASS_CAPTION.format(what="Shadow map"),
         )
-        for w in smap.result.get("warnings", []):
+        for w in mapped.result.get("warnings", []):
             s.remark(f"shadow-map: {w}")
     if ratio_path:
         _ratio_shadow(run, s, values, ratio_path)
@@ -425,7 +430,7 @@ def _shadow_section(run: Runner, values: dict, ratio_path: str | None) -> Sectio
 
 def _ratio_shadow(run: Runner, s: Section, values: dict, ratio_path: str) -> None:
     """Table 2's fixed thresholds, the Figure 4 cluster and the Figure 5 fit, on the ratio."""
-    from .shadow import shadow_classes_file, shadow_cluster_file
+    from ..operations.shadow import NirBand, shadow_classes_file, shadow_cluster_file
 
     classes = run.run(s, shadow_classes_file, ratio_path, output=run.path("shadow_classes.tif"))
     if classes.result and classes.result.get("warnings"):
@@ -451,7 +456,7 @@ def _ratio_shadow(run: Runner, s: Section, values: dict, ratio_path: str) -> Non
         values["dual"].vnir.path,
         output=run.path("shadow_cluster.tif"),
         plot=run.path("scatter.png"),
-        vnir_wavelengths=values["layout"].vnir_wavelengths,
+        nir=NirBand(vnir_wavelengths=values["layout"].vnir_wavelengths),
     )
     if cluster.result:
         warnings = cluster.result.get("warnings") or []
@@ -472,7 +477,7 @@ def _ratio_shadow(run: Runner, s: Section, values: dict, ratio_path: str) -> Non
 
 def _fraction_fit(run: Runner, s: Section, values: dict, ratio_path: str) -> None:
     """Figure 5: the ratio against the true shadow fraction, when the truth is given."""
-    from .shadow import shadow_fraction_fit_file
+    from ..operations.shadow import shadow_fraction_fit_file
 
     if not values.get("shadow_truth"):
         s.note("No ground-truth shadow fraction given: the Figure 5 model fit is left out.")
@@ -500,7 +505,7 @@ def _fraction_fit(run: Runner, s: Section, values: dict, ratio_path: str) -> Non
 
 def _dem_section(run: Runner, values: dict) -> Section:
     """Relative DEM (§3.2, Figure 9)."""
-    from .dem import relative_dem_file, view_3d_file
+    from ..operations.dem import relative_dem_file, view_3d_file
 
     s = Section(
         "Relative DEM",
@@ -532,7 +537,7 @@ def _dem_section(run: Runner, values: dict) -> Section:
 
 def _anomaly_section(run: Runner, values: dict, ratio_path: str | None, detectors) -> Section:
     """Anomaly (§3.3, Figure 12): the boresight indicator against ``detectors``, and ROC."""
-    from .anomaly import boresight_indicator_file
+    from ..operations.anomaly import boresight_indicator_file
 
     s = Section(
         "Anomaly detection",
@@ -566,7 +571,7 @@ def _anomaly_section(run: Runner, values: dict, ratio_path: str | None, detector
 
 
 def _roc(run: Runner, s: Section, scores: list, names: list, truth: str) -> None:
-    from .anomaly import roc_file
+    from ..operations.anomaly import roc_file
 
     roc = run.run(
         s,

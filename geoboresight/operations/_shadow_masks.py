@@ -3,10 +3,10 @@
 
 from __future__ import annotations
 
-from ..shadow import classes as cls
-from .grid import Grid
-from .raster import create_class_raster
-from .windows import band_reader
+from ..io.grid import Grid
+from ..io.raster import create_class_raster
+from ..io.windows import band_reader
+from ..shadow import classes
 
 
 def mask_raster(path, grid: Grid, tags: dict, band_name: str):
@@ -16,8 +16,8 @@ def mask_raster(path, grid: Grid, tags: dict, band_name: str):
         grid,
         tags=tags,
         band_name=band_name,
-        colormap=cls.MASK_COLORMAP,
-        category_names=cls.MASK_CATEGORIES,
+        colormap=classes.MASK_COLORMAP,
+        category_names=classes.MASK_CATEGORIES,
     )
 
 

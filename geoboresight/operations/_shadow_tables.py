@@ -18,7 +18,16 @@ import numpy as np
 from rasterio.transform import Affine
 
 from ..errors import InputError
-from ..shadow.classes import COLUMNS, ClassTable, class_from_row, format_ratio, validate_classes
+from ..io.vector import trace_shapes
+from ..io.write import write_text
+from ..shadow.classes import (
+    COLUMNS,
+    ClassTable,
+    class_from_row,
+    default_table,
+    format_ratio,
+    validate_classes,
+)
 from ..shadow.polygons import (
     CONNECTIVITY,
     MIN_PIXELS,
@@ -26,8 +35,6 @@ from ..shadow.polygons import (
     shadow_pixels,
     shadow_polygons,
 )
-from .vector import trace_shapes
-from .write import write_text
 
 #: Raw sensor geometry as polygons: x = column, y = −line (so a layer is not upside down).
 RAW_TRANSFORM = Affine(1, 0, 0, 0, -1, 0)
@@ -70,6 +77,11 @@ def read_class_table(path: str | os.PathLike) -> ClassTable:
                 continue
             classes.append(class_from_row(row, f"{source}, line {i}"))
     return validate_classes(classes, source)
+
+
+def class_table(path=None) -> ClassTable:
+    """The class table in ``path`` (CSV or JSON), or Table 2 when None."""
+    return read_class_table(path) if path else default_table()
 
 
 def class_table_csv(table: ClassTable) -> str:

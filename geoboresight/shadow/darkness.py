@@ -16,7 +16,7 @@ sunlit asphalt road from a shaded lawn. A dual-sensor cube carries what does:
    both at most a fifth of the scene's sunlit mode (:data:`CORE_DARKNESS`) is core shadow, while
    a sunlit dark roof or road (reflectance 5–10 %, flat) stays above it in the SWIR.
 3. **The boresight effect itself**: the SWIR sees the ground shifted by the boresight offset
-   (:func:`geoboresight.dem.offset.estimate_offset`); the SWIR signal is resampled onto the
+   (:func:`geoboresight.sensor.offset.estimate_offset`); the SWIR signal is resampled onto the
    VNIR grid before it is compared, so that shadow edges line up.
 4. **Spatial context**: a pixel next to core shadow (within :data:`EDGE_PIXELS`) is shadow when
    its signal is below the midpoint of its neighbourhood's sunlit and shadowed means (more than
@@ -46,6 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError, ParameterError
+from ..sensor.dark import DarkLevel
 from .classes import MASK_NODATA, MASK_NOT_SHADOW, MASK_SHADOW, NO_SHADOW, NODATA_CLASS, ClassTable
 
 #: Darkest share of the pixels taken as the dark object of an instrument.
@@ -100,44 +101,6 @@ def log_fraction_text(darkness: float) -> str:
     if abs(n - round(n)) < 1e-9 and round(n) >= 1:
         return f"ln 1/{round(n)}"
     return f"{darkness:.3f}"
-
-
-@dataclass(frozen=True)
-class DarkLevel:
-    """The DN of zero signal of one instrument and how it was found."""
-
-    level: float
-    source: str  # "estimated (dark object)", "given", "header of PATH", a product's dark source
-    #: The dark object's mean DN per band (estimated, ``n_pixels`` > 0), or the level of each
-    #: band from a header or a product's dark reference (``n_pixels`` 0).
-    band_levels: np.ndarray | None = None
-    n_pixels: int = 0
-    #: The parameter the user gave the level in ("vnir_dark"), named by the messages; "" if none.
-    param: str = ""
-
-    def describe(self, name: str) -> str:
-        if self.band_levels is None:
-            return f"{name} dark level {self.level:.1f} DN ({self.source})"
-        if self.n_pixels == 0:  # per band from a header or a product's dark reference
-            return (
-                f"{name} dark level {self.level:.1f} DN ({self.source}; per band "
-                f"{np.min(self.band_levels):.1f}–{np.max(self.band_levels):.1f} DN)"
-            )
-        return (
-            f"{name} dark level {self.level:.1f} DN ({self.source}: the {self.n_pixels} darkest "
-            f"pixels, dimmest band; their band means span {np.min(self.band_levels):.1f}–"
-            f"{np.max(self.band_levels):.1f} DN)"
-        )
-
-    def for_bands(self, bands, wanted):
-        """The level to subtract from the ``wanted`` bands, ``band_levels`` being those of
-        ``bands``: one per band when measured per band (a header or a product's dark
-        reference: ``n_pixels`` 0), else the one level (given, or the dark object's dimmest
-        band)."""
-        if self.band_levels is not None and self.n_pixels == 0:
-            bands = list(bands)
-            return np.asarray(self.band_levels)[[bands.index(b) for b in wanted]]
-        return self.level
 
 
 @dataclass(frozen=True)
@@ -1165,7 +1128,7 @@ def shadow_fraction_block(
     ``prior`` (a surface model's cast-shadow fraction on the block; ``heights``,
     ``clearance``, ``unseen``, ``ray`` and ``reach``, the surface model's) by
     :func:`dsm_shadow_fraction` instead of :func:`shadow_fraction_estimate`."""
-    from ..dem.coregister import coregister
+    from ..sensor.coregister import coregister
 
     blue_level, nir_level, swir_level = dark_levels
     b = signal(blue, blue_level)

@@ -1,7 +1,7 @@
 """Co-registration: resample SWIR bands onto the VNIR pixel grid (removing the boresight offset).
 
 The method of the paper uses the boresight effect first (ratio, shadow, relief); the same tool
-then corrects it: with the offset measured by :func:`geoboresight.dem.offset.estimate_offset`
+then corrects it: with the offset measured by :func:`geoboresight.sensor.offset.estimate_offset`
 (a constant, or a profile along the flight line to follow drift), SWIR pixel values are
 interpolated at ``(r + along, c + across)`` so that they line up with VNIR pixel ``(r, c)``.
 
@@ -306,9 +306,9 @@ def coregister_stack(
     stack : array (bands, lines, columns), any numeric type
         The SWIR bands (DN or radiance); read as they are, converted to float32 on the fly.
     along, across : float, or 1-D array with one value per line
-        Offset of the SWIR image relative to VNIR (see :class:`~geoboresight.dem.offset.Offset`):
+        Offset of the SWIR image relative to VNIR (see :class:`~geoboresight.sensor.offset.Offset`):
         output ``(r, c)`` is the input at ``(r + along, c + across)``. Per-line values (an
-        interpolated :class:`~geoboresight.dem.offset.OffsetProfile`) follow drift.
+        interpolated :class:`~geoboresight.sensor.offset.OffsetProfile`) follow drift.
     valid : bool array (lines, columns), optional
         Valid SWIR pixels (all bands). The values of invalid pixels are never used.
     order : {0, 1, 3}
