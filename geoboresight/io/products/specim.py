@@ -223,6 +223,19 @@ def read(path) -> Product | None:
     return _read(path, hdr, data, stamps)
 
 
+def capture(path) -> tuple[str, dict, RawCube] | None:
+    """(header path, header keys, byte layout of the whole file, dark lines included) of the
+    Specim capture at ``path``, or None when it is not one (what radiance calibration reads)."""
+    found = _paths(os.fspath(path))
+    if found is None:
+        return None
+    hdr, data = found
+    keys = _header_keys(hdr)
+    if keys is None or not any(k in keys for k in SPECIM_KEYS):
+        return None
+    return hdr, keys, _layout(keys, hdr, data)
+
+
 def _header_keys(hdr: str) -> dict | None:
     """The keys of ``hdr`` itself (:func:`envi_header` looks beside a data file)."""
     return envi_header(hdr[:-4]) if os.path.isfile(hdr) else None
@@ -295,4 +308,4 @@ def _read(path: str, hdr: str, data: str, stamps: tuple) -> Product | None:
     return Product(KIND, path, (image,), notes=tuple(notes))
 
 
-__all__ = ["KIND", "first_dark_line", "has_frame_counter", "image_name", "read"]
+__all__ = ["KIND", "capture", "first_dark_line", "has_frame_counter", "image_name", "read"]

@@ -1,0 +1,1 @@
+"""The instruments: what each detector adds to the signal and how to take it off."""
