@@ -45,6 +45,7 @@ from .georef.transforms import fit_transform as fit_transform
 from .io.bands import BoresightOffset as BoresightOffset
 from .io.bands import Coregistration as Coregistration
 from .io.bands import MatchBands as MatchBands
+from .io.calibration import read_calibration as read_calibration
 from .io.cube import open_cube as open_cube
 from .io.dark import DarkLevels as DarkLevels
 from .io.dual import BandChoice as BandChoice
@@ -76,6 +77,7 @@ from .operations.georef import simulate_ortho_file as simulate_ortho_file
 from .operations.info import info_file as info_file
 from .operations.offset import boresight_offset_file as boresight_offset_file
 from .operations.offset import coregister_file as coregister_file
+from .operations.radiance import radiance_file as radiance_file
 from .operations.ratio import ratio_file as ratio_file
 from .operations.report import report_file as report_file
 from .operations.shadow import shadow_classes_file as shadow_classes_file
@@ -93,6 +95,8 @@ from .operations.simulate import simulate_file as simulate_file
 from .operations.stats import stats_file as stats_file
 from .progress import Progress as Progress
 from .ratio import boresight_ratio as boresight_ratio
+from .sensor.calibration import Calibration as Calibration
+from .sensor.calibration import radiance as radiance
 from .shadow.cluster import fit_shadow_cluster as fit_shadow_cluster
 from .shadow.darkpixel import fit_dark_pixel as fit_dark_pixel
 from .shadow.fraction import fit_fraction_model as fit_fraction_model

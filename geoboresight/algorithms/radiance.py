@@ -5,12 +5,12 @@ from __future__ import annotations
 from ..io.calibration import SMEAR_CHOICES
 from ..io.products import FILE_FORMATS
 from ..operations.radiance import radiance_file
-from ._common import BLOCK_ROWS
-from .spec import Algorithm, Enum, FileIn, RasterIn, RasterOut, Result
+from ._common import BLOCK_ROWS, CALIBRATION
+from .spec import Algorithm, Enum, RasterIn, RasterOut, Result
 
 RADIANCE = Algorithm(
     name="radiance",
-    example={"input": "capture.hdr", "calibration": "capture.cal", "output": "radiance.tif"},
+    example={"input": "capture.hdr", "calibration": "calibration.cal", "output": "radiance.tif"},
     results=(
         Result("bands", "number", "Bands written"),
         Result("lines", "number", "Image lines written"),
@@ -40,13 +40,7 @@ RADIANCE = Algorithm(
             description="Raw Specim capture (ENVI .hdr/.raw) or HySpex .hyspex file",
             formats=FILE_FORMATS,
         ),
-        FileIn(
-            name="calibration",
-            label="Calibration",
-            description="Specim calibration file (.cal or .dat with its .hdr); empty for HySpex",
-            optional=True,
-            extensions=("cal", "dat", "hdr"),
-        ),
+        CALIBRATION,
         Enum(
             name="smear",
             label="Smear correction",
@@ -56,9 +50,7 @@ RADIANCE = Algorithm(
             advanced=True,
         ),
         BLOCK_ROWS,
-        RasterOut(
-            name="output", label="Radiance", description="Radiance cube (GeoTIFF, float32)"
-        ),
+        RasterOut(name="output", label="Radiance", description="Radiance cube (GeoTIFF, float32)"),
     ),
     run=radiance_file,
 )

@@ -61,7 +61,7 @@ def _paths(path: str, label: str) -> tuple[str, str]:
             )
         return path, data
     if not os.path.isfile(path):
-        raise InputError(f"{label} {path}: no such file")
+        raise InputError(f"{label} {path} does not exist: check the path")
     stem = os.path.splitext(path)[0]
     for hdr in (path + ".hdr", stem + ".hdr"):
         if os.path.isfile(hdr):
@@ -474,6 +474,8 @@ def radiance_plan(path, calibration=None, smear: str = "auto") -> RadiancePlan:
     from .products import hyspex, specim
 
     path = os.fspath(path)
+    if not os.path.exists(path):
+        raise InputError(f"input {path} does not exist: check the path")
     if smear not in SMEAR_CHOICES:
         raise ParameterError(
             f"parameter 'smear': {smear!r} is not one of {', '.join(SMEAR_CHOICES)}",

@@ -3,18 +3,20 @@ calibration, streamed strip by strip into a float32 cube."""
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from .. import io
 from ..io.calibration import radiance_plan
-from ..sensor.calibration import radiance
+from ..sensor.calibration import Calibration, radiance
 from ._operation import operation
 
 
 @operation(inputs=("input", "calibration"), outputs=("output",))
 def radiance_file(
     input,
-    calibration=None,
+    calibration: str | os.PathLike | Calibration | None = None,
     *,
     output,
     smear="auto",
@@ -28,9 +30,9 @@ def radiance_file(
     input : path
         A raw Specim capture (AISA Eagle, Hawk, Dual; AisaFENIX: ENVI with its Specim header
         and dark frames or a DARKREF file) or a HySpex ``.hyspex`` file.
-    calibration : path, optional
+    calibration : path or Calibration, optional
         The Specim calibration (the ``.cal``/``.dat`` of the calibration pack, or its
-        ``.hdr``); a ``.bad`` file of the same name masks bad detector cells. A HySpex file
+        ``.hdr``, or :func:`geoboresight.read_calibration`'s value); a ``.bad`` file of the same name masks bad detector cells. A HySpex file
         carries its own calibration: leave it empty.
     output : path
         Float32 GeoTIFF in µW cm⁻² sr⁻¹ nm⁻¹, one band per band of the capture (its image
@@ -63,7 +65,11 @@ def radiance_file(
     wl = plan.wavelengths
     band_tags = []
     for i, w in enumerate(wl):
-        bt = {"wavelength": f"{w:.3f}", "wavelength_units": "Nanometers", "units": plan.tags["units"]}
+        bt = {
+            "wavelength": f"{w:.3f}",
+            "wavelength_units": "Nanometers",
+            "units": plan.tags["units"],
+        }
         if plan.fwhm is not None:
             bt["fwhm"] = f"{plan.fwhm[i]:.3f}"
         band_tags.append(bt)

@@ -76,6 +76,11 @@ class Calibration:
     bad_source: str = ""
 
     @property
+    def files(self) -> tuple[str, ...]:
+        """The file it was read from (what an operation checks as its input)."""
+        return (self.source,) if self.source else ()
+
+    @property
     def bands(self) -> int:
         return int(self.gain.shape[0])
 
@@ -169,7 +174,7 @@ def radiance(
     dn: np.ndarray,
     dark: np.ndarray,
     gain: np.ndarray,
-    tint_ms=1.0,
+    tint_ms,
     valid: np.ndarray | None = None,
     *,
     saturation=None,
