@@ -394,3 +394,73 @@ def test_hyspex_without_calibration_arrays_is_refused(tmp_path):
 def test_capture_without_calibration_is_refused(tmp_path):
     hdr, *_ = _fenix(tmp_path)
     _refused(tmp_path, "calibration", input=hdr)
+
+
+# -------------------------------------------------------------------- radiance on the fly
+def _ratio(path):
+    with rasterio.open(path) as src:
+        return src.read(1), src.nodata
+
+
+def test_ratio_on_the_fly_equals_ratio_of_radiance(tmp_path):
+    hdr, cal, cube, gain, tints = _fenix(tmp_path, seed=8)
+    fly = str(tmp_path / "fly.tif")
+    gb.ratio_file(hdr, output=fly, layout=gb.DualLayout(vnir_calibration=cal))
+    want, nd = _fenix_expected(cube, gain, tints)
+    i1010, i920 = 13, 4
+    assert FENIX_WL[i1010] == 1010 and FENIX_WL[i920] == 920
+    got, nodata = _ratio(fly)
+    ok = ~(nd[:, i1010] | nd[:, i920])
+    np.testing.assert_allclose(got[ok], (want[:, i1010] / want[:, i920])[ok], rtol=1e-4)
+    assert (got[~ok] == nodata).all()  # the frame counter's cells are nodata
+    # Without a calibration the same ratio is raw DN (dark, gains and tints in it).
+    dn = str(tmp_path / "dn.tif")
+    gb.ratio_file(hdr, output=dn)
+    raw = cube[:LINES].astype(np.float64)
+    dn_ratio = _ratio(dn)[0]
+    np.testing.assert_allclose(dn_ratio[ok], (raw[:, i1010] / raw[:, i920])[ok], rtol=1e-5)
+    assert np.median(np.abs(dn_ratio[ok] / got[ok] - 1)) > 0.5
+
+
+def test_radiance_on_the_fly_through_the_command_line(tmp_path):
+    from click.testing import CliRunner
+
+    from geoboresight.cli import main
+
+    hdr, cal, cube, gain, tints = _fenix(tmp_path, seed=9)
+    out = str(tmp_path / "ratio.tif")
+    run = CliRunner().invoke(
+        main, ["ratio", "--vnir", hdr, "--vnir-calibration", cal, "--output", out]
+    )
+    assert run.exit_code == 0, run.output
+    want, nd = _fenix_expected(cube, gain, tints)
+    got, _ = _ratio(out)
+    ok = ~(nd[:, 13] | nd[:, 4])
+    np.testing.assert_allclose(got[ok], (want[:, 13] / want[:, 4])[ok], rtol=1e-4)
+    info = CliRunner().invoke(main, ["info", "--vnir", hdr, "--vnir-calibration", cal])
+    assert info.exit_code == 0, info.output
+    assert "uW cm-2 sr-1 nm-1" in info.output
+    assert "tint1 = 28 ms" in info.output and "calibration 350005 (match)" in info.output
+    plain = CliRunner().invoke(main, ["info", "--vnir", hdr])
+    assert "values: DN" in plain.output and "tint2 = 8 ms" in plain.output
+
+
+def test_info_refuses_a_mismatched_calibration_naming_both(tmp_path):
+    from click.testing import CliRunner
+
+    from geoboresight.cli import main
+
+    hdr, cal, *_ = _fenix(tmp_path, sensorid="350002")
+    run = CliRunner().invoke(main, ["info", "--vnir", hdr, "--vnir-calibration", cal])
+    assert run.exit_code == 1
+    line = run.output.strip().splitlines()[-1]
+    assert "350002" in line and "350005" in line
+
+
+def test_hyspex_on_the_fly_reads_its_own_calibration(tmp_path):
+    path, want, nd = _hyspex(tmp_path, "line")
+    image, plan = gb.io.calibration.radiance_image(path, path)
+    with rasterio.open(image.source) as src:
+        got = src.read().transpose(1, 0, 2)
+    np.testing.assert_array_equal(~np.isfinite(got), nd)
+    np.testing.assert_allclose(got[~nd], want[~nd], rtol=1e-5)

@@ -78,6 +78,26 @@ LAYOUT = Group(
             optional=True,
             advanced=True,
         ),
+        CalibrationIn(
+            name="vnir_calibration",
+            label="VNIR calibration",
+            description=(
+                "Calibration of a raw VNIR (or one-file) capture: Specim .cal/.dat, or the "
+                "HySpex file itself; the capture is then read as radiance"
+            ),
+            optional=True,
+            extensions=("cal", "dat", "hdr", "hyspex"),
+        ),
+        CalibrationIn(
+            name="swir_calibration",
+            label="SWIR calibration",
+            description=(
+                "Calibration of a raw SWIR capture: Specim .cal/.dat, or the HySpex file "
+                "itself; the capture is then read as radiance"
+            ),
+            optional=True,
+            extensions=("cal", "dat", "hdr", "hyspex"),
+        ),
     ),
 )
 

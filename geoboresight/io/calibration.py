@@ -668,8 +668,192 @@ def _hyspex_plan(path: str) -> RadiancePlan:
     )
 
 
+# ------------------------------------------------------------------------ radiance on the fly
+_ON_THE_FLY: dict[tuple, object] = {}
+
+
+def _stamp(path) -> tuple:
+    st = os.stat(path)
+    return (os.path.realpath(path), st.st_size, st.st_mtime_ns)
+
+
+def radiance_image(path, calibration):
+    """The image of the raw capture at ``path`` as radiance, read by GDAL with no file written
+    in between: a :class:`~geoboresight.io.products.SensorImage` whose ``source`` is a VRT of
+    ``L = (DN − dark) · gain / tint`` per band (GDAL's ``sum`` and ``mul`` pixel functions
+    over the capture's own bytes and one line of coefficients per band), NaN where a pixel is
+    saturated, a bad cell or the frame counter; ``units`` radiance, ``dark`` 0.
+
+    ``calibration`` is the Specim calibration (a path or :class:`Calibration`), or, for a
+    HySpex file, the file itself (its own calibration). The Eagle's frame-transfer smear is
+    left out here (each band would need every band before it): ``radiance`` applies it.
+    """
+    from .products import hyspex, recognise
+
+    path = os.fspath(path)
+    own = hyspex.read(path) is not None
+    if own:
+        given = calibration.source if isinstance(calibration, Calibration) else calibration
+        if given is not None and os.path.realpath(os.fspath(given)) != os.path.realpath(path):
+            raise ParameterError(
+                f"parameter 'calibration': {path} is a HySpex file, which carries its own "
+                f"calibration: give the file itself as its calibration, not {given}",
+                params=("calibration",),
+            )
+        calibration = None
+    key = (
+        _stamp(path),
+        id(calibration)
+        if isinstance(calibration, Calibration)
+        else (None if calibration is None else _stamp(calibration)),
+    )
+    found = _ON_THE_FLY.get(key)
+    if found is None:
+        if calibration is not None and not isinstance(calibration, Calibration):
+            if not os.path.exists(os.fspath(calibration)):
+                raise InputError(f"calibration {calibration} does not exist: check the path")
+        plan = radiance_plan(path, calibration, "off")
+        image = recognise(path).images[0]
+        found = _ON_THE_FLY[key] = _radiance_vrt(plan, image)
+    return found
+
+
+def _radiance_vrt(plan: RadiancePlan, image):
+    """A SensorImage reading ``image`` (DN) as radiance through two VRTs (see
+    :func:`radiance_image`)."""
+    import dataclasses
+    from xml.sax.saxutils import escape
+
+    import rasterio
+
+    from .products._calibrated import temp_path
+    from .products.vrt import write_vrt
+    from .raster import quiet_georef
+
+    nb, ns, h = plan.cube.bands, plan.cube.samples, plan.lines
+    dark = np.asarray(plan.dark, np.float64).copy()
+    scale = plan.gain / plan.tint[:, None]
+    if plan.bad is not None:
+        scale[plan.bad] = np.nan
+    rows_path = temp_path("radiance-rows", ".tif")
+    with (
+        quiet_georef(),
+        rasterio.open(
+            rows_path, "w", driver="GTiff", width=ns, height=1, count=2 * nb, dtype="float64"
+        ) as dst,
+    ):
+        dst.write(np.concatenate([dark, scale])[:, None, :])
+    rows = escape(rows_path)
+    src = escape(os.path.abspath(image.source))
+    full = f'xOff="0" yOff="0" xSize="{ns}" ySize="{h}"'
+    line = f'xOff="0" yOff="0" xSize="{ns}" ySize="1"'
+
+    def source(name, band, rect, extra=""):
+        return (
+            f'<ComplexSource><SourceFilename relativeToVRT="0">{name}</SourceFilename>'
+            f"<SourceBand>{band}</SourceBand><SrcRect {rect}/><DstRect {full}/>{extra}"
+            "</ComplexSource>"
+        )
+
+    def band(i, function, dtype, sources, meta=""):
+        # A source pixel at its NODATA (the saturated DN) reads as the band's NaN nodata,
+        # which the sum and the product carry through.
+        return (
+            f'<VRTRasterBand dataType="{dtype}" band="{i}" subClass="VRTDerivedRasterBand">'
+            f"{meta}<NoDataValue>nan</NoDataValue><PixelFunctionType>{function}"
+            "</PixelFunctionType><SourceTransferType>Float64</SourceTransferType>"
+            f"{sources}</VRTRasterBand>"
+        )
+
+    head = f'<VRTDataset rasterXSize="{ns}" rasterYSize="{h}">'
+    signal = []
+    for b in range(nb):
+        sat = f"<NODATA>{plan.saturation[b]:.17g}</NODATA>"
+        minus = "<ScaleOffset>0</ScaleOffset><ScaleRatio>-1</ScaleRatio>"
+        signal.append(
+            band(
+                b + 1,
+                "sum",
+                "Float64",
+                source(src, b + 1, full, sat) + source(rows, b + 1, line, minus),
+            )
+        )
+    l1 = escape(write_vrt(head + "".join(signal) + "</VRTDataset>\n", "radiance-signal"))
+    out = []
+    for b in range(nb):
+        meta = (
+            f"<Description>{plan.wavelengths[b]:.3f} nm</Description><Metadata>"
+            f'<MDI key="wavelength">{plan.wavelengths[b]:.6f}</MDI>'
+            '<MDI key="wavelength_units">nm</MDI>'
+            f'<MDI key="units">{escape(plan.tags["units"])}</MDI></Metadata>'
+        )
+        out.append(
+            band(
+                b + 1,
+                "mul",
+                "Float32",
+                source(l1, b + 1, full) + source(rows, nb + b + 1, line),
+                meta,
+            )
+        )
+    l2 = write_vrt(head + "".join(out) + "</VRTDataset>\n", "radiance")
+    return dataclasses.replace(
+        image,
+        source=l2,
+        nodata=None,
+        units=plan.tags["units"],
+        gains=None,
+        offsets=None,
+        dark=np.zeros((nb, ns)),
+        dark_source="radiance (" + plan.tags["dark"] + ", subtracted)",
+    ), plan
+
+
+def radiometry(path, calibration=None) -> dict | None:
+    """What the values of the raw capture at ``path`` are, as ``info`` states it: ``values``
+    ("DN" or the radiance units), its integration time(s), and with ``calibration`` the file,
+    whether its ``sensorid`` and binning match the capture's (a mismatch is refused, naming
+    both) and the binning ratio. None for anything but a raw Specim capture or HySpex file."""
+    from .products import hyspex, specim
+
+    path = os.fspath(path)
+    if hyspex.read(path) is not None:
+        out = {"values": "DN", "calibration": "in the file's header (QE, RE, background)"}
+        if calibration is not None and calibration != "":
+            _, plan = radiance_image(path, calibration)
+            out.update(values=plan.tags["units"], arrays=plan.tags["calibration_arrays"])
+        return out
+    found = specim.capture(path)
+    if found is None:
+        return None
+    hdr, keys, cube = found
+    where = f"Specim header {hdr}"
+    out = {"values": "DN", "sensorid": keys.get("sensorid", "").strip() or None}
+    try:
+        out["integration_time"] = capture_tints(keys, where, cube.bands)[1]
+    except InputError as exc:
+        out["integration_time"] = f"unknown ({exc})"
+    out["binning"] = "{}x{}".format(*binning_of(keys, where))
+    if calibration is not None and calibration != "":
+        _, plan = radiance_image(path, calibration)
+        t = plan.tags
+        out.update(
+            values=t["units"],
+            calibration_file=t["calibration_file"],
+            sensorid=f"capture {t['capture_sensorid']}, calibration {t['calibration_sensorid']}"
+            " (match)",
+            binning=f"capture {t['capture_binning']}, calibration {t['calibration_binning']} "
+            f"(ratio {t['binning_ratio'].split(' ')[0]})",
+            dark=t["dark"],
+            bad_pixels=t["bad_pixels"],
+        )
+    return out
+
+
 __all__ = [
     "DARK_SIGMA",
+    "radiometry",
+    "radiance_image",
     "SMEAR_CHOICES",
     "RadiancePlan",
     "radiance_plan",

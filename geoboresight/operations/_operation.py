@@ -38,6 +38,9 @@ from ..errors import (
 from ..io.write import check_output_path, output_error
 from ..progress import as_progress
 
+#: The files a dual-sensor dataset's layout (:class:`~geoboresight.io.dual.DualLayout`) names.
+LAYOUT_FILES = ("vnir_calibration", "swir_calibration")
+
 
 def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) -> Callable:
     """Declare a file-level operation whose parameters ``inputs`` name files it reads (a path
@@ -53,7 +56,15 @@ def operation(*, inputs: tuple[str, ...] = (), outputs: tuple[str, ...] = ()) ->
     """
 
     def decorate(func: Callable) -> Callable:
+        nonlocal inputs
         sig = inspect.signature(func)
+        if "layout" in sig.parameters:
+            # A dual-sensor dataset's layout carries its captures' calibration files: inputs of
+            # every operation that reads one (an output may not overwrite them).
+            inputs = (
+                *inputs,
+                *(f"layout.{n}" for n in LAYOUT_FILES if f"layout.{n}" not in inputs),
+            )
         missing = [
             n for n in (*inputs, *outputs, "progress") if n.split(".")[0] not in sig.parameters
         ]
