@@ -464,3 +464,15 @@ def test_hyspex_on_the_fly_reads_its_own_calibration(tmp_path):
         got = src.read().transpose(1, 0, 2)
     np.testing.assert_array_equal(~np.isfinite(got), nd)
     np.testing.assert_allclose(got[~nd], want[~nd], rtol=1e-5)
+
+
+def test_the_report_and_the_ratio_say_dn_or_radiance(tmp_path):
+    from geoboresight.operations._report_page import ratio_values
+
+    hdr, cal, *_ = _fenix(tmp_path)
+    assert "raw DN" in ratio_values(gb.open_dual(hdr))
+    assert "radiances (uW cm-2 sr-1 nm-1)" in ratio_values(gb.open_dual(hdr, vnir_calibration=cal))
+    out = str(tmp_path / "ratio.tif")
+    gb.ratio_file(hdr, output=out, layout=gb.DualLayout(vnir_calibration=cal))
+    with rasterio.open(out) as src:
+        assert src.tags()["NUMERATOR_UNITS"] == "uW cm-2 sr-1 nm-1"
