@@ -476,3 +476,25 @@ def test_the_report_and_the_ratio_say_dn_or_radiance(tmp_path):
     gb.ratio_file(hdr, output=out, layout=gb.DualLayout(vnir_calibration=cal))
     with rasterio.open(out) as src:
         assert src.tags()["NUMERATOR_UNITS"] == "uW cm-2 sr-1 nm-1"
+
+
+def test_envi_bil_output_holds_the_same_radiance(tmp_path):
+    hdr, cal, cube, gain, tints = _fenix(tmp_path, seed=12)
+    tif, img = str(tmp_path / "rad.tif"), str(tmp_path / "rad.img")
+    gb.radiance_file(hdr, cal, output=tif)
+    gb.radiance_file(hdr, cal, output=img)
+    a, nd_a, *_ = _read(tif)
+    b, nd_b, tags, _ = _read(img)
+    np.testing.assert_array_equal(a, b)
+    assert nd_a == nd_b == -9999
+    with rasterio.open(img) as src:
+        envi = src.tags(ns="ENVI")
+        wl, fwhm = gb.io.read_wavelengths(src)
+    np.testing.assert_allclose(wl, FENIX_WL)
+    np.testing.assert_allclose(fwhm, 3.0)
+    assert envi["units"] == "uW cm-2 sr-1 nm-1" and "tint1: 28 ms" in envi["integration_time"]
+    # Read back as a dual-sensor cube: the ratio is the same from either file.
+    r1, r2 = str(tmp_path / "r1.tif"), str(tmp_path / "r2.tif")
+    gb.ratio_file(tif, output=r1)
+    gb.ratio_file(str(tmp_path / "rad.hdr"), output=r2)
+    np.testing.assert_array_equal(_ratio(r1)[0], _ratio(r2)[0])

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ..io.bil import BIL_ENDINGS
 from ..io.calibration import SMEAR_CHOICES
 from ..io.products import FILE_FORMATS
 from ..operations.radiance import radiance_file
@@ -30,8 +31,9 @@ RADIANCE = Algorithm(
         "(.cal or .dat with its .hdr), or a HySpex .hyspex file, which carries its own "
         "calibration (HyPro's formula). A calibration for another sensor or binning is "
         "refused.\n\n"
-        "Output: a float32 GeoTIFF, one band per band of the capture, wavelengths and FWHM in "
-        "its band metadata, nodata -9999, every choice and source in its tags."
+        "Output: float32, one band per band of the capture, wavelengths and FWHM in its band "
+        "metadata, nodata -9999, every choice and source in its tags: a GeoTIFF (.tif), or an "
+        "ENVI BIL cube (.img), uncompressed and much faster to write and to read."
     ),
     params=(
         RasterIn(
@@ -50,7 +52,12 @@ RADIANCE = Algorithm(
             advanced=True,
         ),
         BLOCK_ROWS,
-        RasterOut(name="output", label="Radiance", description="Radiance cube (GeoTIFF, float32)"),
+        RasterOut(
+            name="output",
+            label="Radiance",
+            description="Radiance cube, float32: GeoTIFF (.tif) or ENVI BIL (.img, .bil, .dat)",
+            also=BIL_ENDINGS,
+        ),
     ),
     run=radiance_file,
 )

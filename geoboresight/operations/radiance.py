@@ -5,9 +5,8 @@ from __future__ import annotations
 
 import os
 
-import numpy as np
-
 from .. import io
+from ..io.bil import create_bil, is_bil
 from ..io.calibration import radiance_plan
 from ..sensor.calibration import Calibration, radiance
 from ._operation import operation
@@ -35,9 +34,11 @@ def radiance_file(
         ``.hdr``, or :func:`geoboresight.read_calibration`'s value); a ``.bad`` file of the same name masks bad detector cells. A HySpex file
         carries its own calibration: leave it empty.
     output : path
-        Float32 GeoTIFF in µW cm⁻² sr⁻¹ nm⁻¹, one band per band of the capture (its image
+        Float32 radiance in µW cm⁻² sr⁻¹ nm⁻¹, one band per band of the capture (its image
         lines only), nodata -9999 where a pixel is saturated, a bad cell or the frame counter;
-        wavelengths and FWHM as band tags, every choice and source in the tags.
+        wavelengths and FWHM as band metadata, every choice and source in the tags. A GeoTIFF
+        (``.tif``, compressed, with overviews) or an ENVI BIL cube (``.img``, ``.bil``,
+        ``.dat``: uncompressed, written as fast as the disk takes it).
     smear : {"auto", "on", "off"}
         The Eagle's frame-transfer smear correction: "auto" applies it to an Eagle.
     block_rows : int
@@ -88,18 +89,29 @@ def radiance_file(
             bad=plan.bad,
             smear=plan.smear,
         )
-        out = np.where(ok, rad, np.float32(io.FLOAT_NODATA)).transpose(1, 0, 2)
-        return out, int(ok.sum())
+        rad[~ok] = io.FLOAT_NODATA
+        return rad, int(ok.sum())
 
     n_ok = 0
-    with io.create_raster(
-        output,
-        grid,
-        count=cube.bands,
-        tags=tags,
-        band_names=[f"{w:.2f} nm" for w in wl],
-        band_tags=band_tags,
-    ) as dst:
+    names = [f"{w:.2f} nm" for w in wl]
+    if is_bil(output):
+        # ENVI BIL: the strips as the kernel gives them, appended uncompressed.
+        writer = create_bil(
+            output,
+            grid,
+            count=cube.bands,
+            wavelengths=wl,
+            fwhm=plan.fwhm,
+            tags=tags,
+            band_names=names,
+        )
+        order = (0, 1, 2)
+    else:
+        writer = io.create_raster(
+            output, grid, count=cube.bands, tags=tags, band_names=names, band_tags=band_tags
+        )
+        order = (1, 0, 2)  # GeoTIFF: bands first
+    with writer as dst:
         for win, (block, n) in io.map_windows(
             plan.dn,
             kernel,
@@ -109,7 +121,7 @@ def radiance_file(
             progress=progress,
             message="radiance",
         ):
-            dst.write(np.ascontiguousarray(block), window=win)
+            dst.write(block.transpose(order), window=win)
             n_ok += n
     total = cube.bands * plan.lines * cube.samples
     progress.info(f"{n_ok} of {total} values are radiance ({n_ok / total:.4%})")

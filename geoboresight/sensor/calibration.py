@@ -216,12 +216,16 @@ def radiance(
     ``ApplyGains``, ``FlagPixels``); Brook & Ben-Dor, Remote Sens. 2011, 3, 484–502,
     https://doi.org/10.3390/rs3030484.
     """
-    signal = np.asarray(dn, np.float64) - np.asarray(dark, np.float64)[None]
+    # float32 is exact for the DN and the dark difference and rounds the product at 6e-8;
+    # the smear's running sum over the bands is kept in float64.
+    kind = np.float64 if smear else np.float32
+    signal = np.asarray(dn, kind) - np.asarray(dark, kind)[None]
     if smear:
         signal = smear_correct(signal, smear)
     tint = np.asarray(tint_ms, np.float64)
     scale = np.asarray(gain, np.float64) / (tint[:, None] if tint.ndim else tint)
-    out = (signal * scale[None]).astype(np.float32)
+    signal *= scale.astype(kind)[None]
+    out = signal.astype(np.float32, copy=False)
     ok = np.isfinite(out)
     if valid is not None:
         ok &= np.broadcast_to(valid, ok.shape)
