@@ -4,12 +4,13 @@ A raw capture (uint16 BIL, 64 bands: 32 VNIR with tint1, 32 SWIR with tint2; 256
 its Specim header, dark frames after the image, a frame counter) and its calibration (.cal)
 are written for each line length. Each case runs in a fresh process (wall time, peak RSS):
 
-* ``radiance``: the whole cube through the calibration into a float32 GeoTIFF;
+* ``radiance``: the whole cube through the calibration into a float32 ENVI BIL cube, and
+  into a GeoTIFF (compressed, with overviews);
 * ``cube read``: every band of the same line read in strips, as the cube operations read it
   (``io.open_cube`` of the capture's image): the floor of any operation over the whole cube;
 * ``ratio`` in DN and ``ratio`` with ``--vnir-calibration`` (radiance on the fly).
 
-Reported: radiance / cube read, on-the-fly ratio / DN ratio (the same run), and the peaks at
+Reported: radiance (ENVI BIL, GeoTIFF) / cube read, on-the-fly ratio / DN ratio (the same run), and the peaks at
 each length (memory must stay flat as the line grows).
 
     python benchmarks/radiance.py [--lines 5000,20000] [--work DIR] [--keep]
@@ -74,7 +75,8 @@ def write_capture(folder: str, lines: int, seed: int = 0) -> tuple[str, str]:
 
 
 CASES = {
-    "radiance": "gb.radiance_file(HDR, CAL, output=OUT + '/rad.tif', overwrite=True)",
+    "radiance (ENVI BIL)": "gb.radiance_file(HDR, CAL, output=OUT + '/rad.img', overwrite=True)",
+    "radiance (GeoTIFF)": "gb.radiance_file(HDR, CAL, output=OUT + '/rad.tif', overwrite=True)",
     "cube read": (
         "from geoboresight.io import open_dual, open_cube\n"
         "d = open_dual(HDR)\n"
@@ -124,11 +126,16 @@ def main(argv=None) -> int:
             print(
                 f"| {n} | {name} | {r.get('seconds', float('nan')):.2f} | {r.get('peak_mib', float('nan')):.0f} |"
             )
-    print("\n| lines | radiance / cube read | on-the-fly ratio / DN ratio |\n|---|---|---|")
+    print(
+        "\n| lines | radiance .img / cube read | radiance .tif / cube read "
+        "| on-the-fly ratio / DN ratio |\n|---|---|---|---|"
+    )
     for n, res in rows:
-        a = res["radiance"]["seconds"] / res["cube read"]["seconds"]
+        read = res["cube read"]["seconds"]
+        a = res["radiance (ENVI BIL)"]["seconds"] / read
+        t = res["radiance (GeoTIFF)"]["seconds"] / read
         b = res["ratio (radiance on the fly)"]["seconds"] / res["ratio (DN)"]["seconds"]
-        print(f"| {n} | {a:.2f} | {b:.2f} |")
+        print(f"| {n} | {a:.2f} | {t:.2f} | {b:.2f} |")
     return 0
 
 

@@ -62,7 +62,22 @@ SCENE_FILES = (
 #: Every name a scene folder may hold: an existing folder with anything else is never replaced.
 #: The scene's navigation (``simulate --navigation``).
 NAVIGATION_FILES = ("igm.tif", "ortho.tif")
-SCENE_FOLDER_FILES = (*SCENE_FILES, "merged.img", "merged.hdr", *NAVIGATION_FILES)
+#: The raw capture of both detectors and its calibration (``simulate --capture``).
+CAPTURE_FILES = ("capture.raw", "capture.hdr", "capture_cal.cal", "capture_cal.hdr")
+SCENE_FOLDER_FILES = (
+    *SCENE_FILES,
+    "merged.img",
+    "merged.hdr",
+    *NAVIGATION_FILES,
+    *CAPTURE_FILES,
+)
+#: Integration times (ms) of the capture's VNIR and SWIR detectors: the simulated DN are
+#: taken to be recorded at these, the SWIR's 3.3 times shorter as on an AisaFENIX.
+CAPTURE_TINTS_MS = (10.0, 3.0)
+#: Dark frames after the capture's image lines (shutter closed).
+CAPTURE_DARK_LINES = 64
+#: The capture's sensor id: an AisaFENIX's, as NERC-ARF APL lists them.
+CAPTURE_SENSORID = "350005"
 
 
 def check_scene_folder(folder) -> None:
@@ -72,13 +87,19 @@ def check_scene_folder(folder) -> None:
 
 
 def write_scene(
-    scene, folder, merged: bool = False, overwrite: bool = False, navigation=None
+    scene,
+    folder,
+    merged: bool = False,
+    overwrite: bool = False,
+    navigation=None,
+    capture: bool = False,
 ) -> str:
     """Write ``scene`` to ``folder`` (created; written whole or not at all); ``folder``.
 
     ``merged=True`` also writes ``merged.img/.hdr`` with all 198 bands; ``navigation`` (a
     :class:`geoboresight.simulate.navigation.Navigation`) writes ``igm.tif`` and ``ortho.tif``
-    and records the map placement in ``truth.json``. An existing folder is replaced only with
+    and records the map placement in ``truth.json``; ``capture=True`` writes the raw capture
+    and its calibration (:func:`write_capture`). An existing folder is replaced only with
     ``overwrite=True``.
     """
     import rasterio
@@ -103,6 +124,8 @@ def write_scene(
     ):
         os.makedirs(tmp)
         write_cubes(scene, tmp, merged=merged)
+        if capture:
+            write_capture(scene, tmp)
         write_truth_rasters(scene, tmp)
         truth = scene.truth
         if navigation is not None:
@@ -135,6 +158,78 @@ def write_cubes(scene, folder: str, merged: bool = False) -> None:
             description=f"{desc} {label}",
         )
         _fix_envi_description(os.path.join(folder, f"{name}.hdr"), f"{desc} {label}")
+
+
+def write_capture(scene, folder: str) -> None:
+    """``capture.raw/.hdr``: the scene's DN as an AisaFENIX-like raw capture of both detectors
+    in one file (the VNIR bands, ``vimg1``, at ``tint1``; the SWIR bands at ``tint2``:
+    :data:`CAPTURE_TINTS_MS`), with its Specim header, dark frames after the image and a frame
+    counter in band 1, sample 0 (which then holds no image); and ``capture_cal.cal/.hdr``, its
+    radiometric calibration in the layout of Specim's calibration packs, such that
+    L = (DN − dark) · gain / tint[ms] is the simulated at-sensor radiance in µW cm⁻² sr⁻¹ nm⁻¹:
+    gain = 100 · tint / (G · r(λ)), with G and r the simulated detector's gain and spectral
+    response (:mod:`geoboresight.simulate.sensor`; 1 W m⁻² = 100 µW cm⁻²)."""
+    from ..simulate.sensor import SWIR, VNIR
+
+    vnir, swir = as_dn(scene.vnir), as_dn(scene.swir)
+    nv, ns_b = vnir.shape[0], swir.shape[0]
+    lines, samples = vnir.shape[1], vnir.shape[2]
+    image = np.concatenate([vnir, swir]).transpose(1, 0, 2)
+    rng = np.random.default_rng(int(scene.truth["seed"]) + 7919)
+    dark = np.r_[np.full(nv, VNIR.dark_dn), np.full(ns_b, SWIR.dark_dn)][None, :, None]
+    noise = np.r_[np.full(nv, VNIR.read_noise_dn), np.full(ns_b, SWIR.read_noise_dn)]
+    shape = (CAPTURE_DARK_LINES, nv + ns_b, samples)
+    frames = dark + noise[None, :, None] * rng.standard_normal(shape)
+    raw = np.concatenate([image, np.clip(np.rint(frames), 0, 4095).astype("uint16")])
+    # The frame counter jumps at the first dark line (frames pass while the shutter closes).
+    count = 1 + np.arange(raw.shape[0]) + np.where(np.arange(raw.shape[0]) >= lines, 25, 0)
+    raw[:, 0, 0] = count % 65536
+    raw[:, 0, 1] = 0
+    raw.astype("<u2").tofile(os.path.join(folder, "capture.raw"))
+    wl = np.asarray(scene.wavelengths, float)
+    fwhm = np.asarray(scene.fwhm, float)
+    t1, t2 = CAPTURE_TINTS_MS
+    common = [
+        f"samples = {samples}",
+        f"bands = {nv + ns_b}",
+        "header offset = 0",
+        "interleave = bil",
+        "byte order = 0",
+        f"sensorid = {CAPTURE_SENSORID}",
+        "binning = {1, 1}",
+        f"tint1 = {t1:g}",
+        f"tint2 = {t2:g}",
+        f"vimg1 = {{1, {nv}}}",
+        f"vimg2 = {{{nv + 1}, {nv + ns_b}}}",
+        "wavelength units = Nanometers",
+        "wavelength = {" + ", ".join(f"{w:.2f}" for w in wl) + "}",
+        "fwhm = {" + ", ".join(f"{w:.2f}" for w in fwhm) + "}",
+    ]
+    desc = f"geoboresight simulate preset={scene.truth['preset']} seed={scene.truth['seed']}"
+    with open(os.path.join(folder, "capture.hdr"), "w", encoding="utf-8", newline="\n") as f:
+        f.write(
+            "\n".join(
+                ["ENVI", f"description = {{{desc} raw capture}}", f"lines = {raw.shape[0]}"]
+                + ["data type = 12", f"autodarkstartline = {lines}", "fps = 25"]
+                + common
+            )
+            + "\n"
+        )
+    tints = np.r_[np.full(nv, t1), np.full(ns_b, t2)]
+    response = np.r_[
+        VNIR.gain * VNIR.relative_response(wl[:nv]), SWIR.gain * SWIR.relative_response(wl[nv:])
+    ]
+    gain = np.repeat((100.0 * tints / response)[:, None], samples, axis=1)
+    gain.astype("<f4").tofile(os.path.join(folder, "capture_cal.cal"))
+    with open(os.path.join(folder, "capture_cal.hdr"), "w", encoding="utf-8", newline="\n") as f:
+        f.write(
+            "\n".join(
+                ["ENVI", f"description = {{{desc} radiometric calibration}}", "lines = 1"]
+                + ["data type = 4"]
+                + common
+            )
+            + "\n"
+        )
 
 
 def write_truth_rasters(scene, folder: str) -> None:
@@ -259,10 +354,12 @@ def as_dn(cube: np.ndarray) -> np.ndarray:
 
 
 __all__ = [
+    "CAPTURE_FILES",
     "MATERIAL_COLOURS",
     "NAVIGATION_FILES",
     "SCENE_FILES",
     "as_dn",
+    "write_capture",
     "write_cubes",
     "write_endmembers",
     "write_navigation",

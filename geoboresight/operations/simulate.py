@@ -57,6 +57,7 @@ def simulate_file(
     sensor=SensorOptions(),
     merged=False,
     navigation=False,
+    capture=False,
     progress=None,
 ) -> dict:
     """Simulate a raw-geometry AISA-Dual scene (VNIR + SWIR) with its ground truth, into a folder.
@@ -96,6 +97,11 @@ def simulate_file(
         :mod:`geoboresight.simulate.navigation`) and write ``igm.tif`` (easting and northing
         of each VNIR pixel, for ``geolocate --igm``) and ``ortho.tif`` (an RGB orthophoto of
         the ground, 1 m cells).
+    capture : bool
+        Also write ``capture.raw/.hdr``, the DN as an AisaFENIX-like raw capture of both
+        detectors (two integration times, dark frames, frame counter), and its calibration
+        ``capture_cal.cal/.hdr`` (:func:`geoboresight.io.scene.write_capture`), for
+        ``radiance`` and ``--vnir-calibration``.
     progress : Progress, optional
 
     Returns
@@ -145,7 +151,7 @@ def simulate_file(
         nav = scene_navigation(scene, seed=seed)
     progress.update(0.95, "writing files")
     # The operation has refused an existing folder unless asked to overwrite it.
-    write_scene(scene, output, merged=merged, overwrite=True, navigation=nav)
+    write_scene(scene, output, merged=merged, overwrite=True, navigation=nav, capture=capture)
     progress.update(1.0, "done")
     t = scene.truth
     sigma_h = t["height_precision_m_per_px"]  # None without squint: relief is invisible
