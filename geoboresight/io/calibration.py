@@ -681,7 +681,8 @@ def radiance_image(path, calibration):
     """The image of the raw capture at ``path`` as radiance, read by GDAL with no file written
     in between: a :class:`~geoboresight.io.products.SensorImage` whose ``source`` is a VRT of
     ``L = (DN − dark) · gain / tint`` per band (GDAL's ``sum`` and ``mul`` pixel functions
-    over the capture's own bytes and one line of coefficients per band), NaN where a pixel is
+    over the capture's own bytes and one line of coefficients per band); returns
+    ``(SensorImage, RadiancePlan)``. NaN where a pixel is
     saturated, a bad cell or the frame counter; ``units`` radiance, ``dark`` 0.
 
     ``calibration`` is the Specim calibration (a path or :class:`Calibration`), or, for a
@@ -724,29 +725,30 @@ def _radiance_vrt(plan: RadiancePlan, image):
     import dataclasses
     from xml.sax.saxutils import escape
 
-    import rasterio
-
     from .products._calibrated import temp_path
     from .products.vrt import write_vrt
-    from .raster import quiet_georef
 
     nb, ns, h = plan.cube.bands, plan.cube.samples, plan.lines
     dark = np.asarray(plan.dark, np.float64).copy()
     scale = plan.gain / plan.tint[:, None]
     if plan.bad is not None:
         scale[plan.bad] = np.nan
-    rows_path = temp_path("radiance-rows", ".tif")
-    with (
-        quiet_georef(),
-        rasterio.open(
-            rows_path, "w", driver="GTiff", width=ns, height=1, count=2 * nb, dtype="float64"
-        ) as dst,
-    ):
-        dst.write(np.concatenate([dark, scale])[:, None, :])
-    rows = escape(rows_path)
+    # The coefficients, one line per band (dark, then gain / tint), repeated down every line
+    # of the image by a raw band whose line offset is 0: read 1:1 with the pixels, nothing
+    # resampled (a one-line source stretched over the image cost 4× the pixels' own read).
+    coef_path = temp_path("radiance-coefficients", ".bin")
+    np.concatenate([dark, scale]).astype("<f8").tofile(coef_path)
+    coef_xml = [f'<VRTDataset rasterXSize="{ns}" rasterYSize="{h}">']
+    for i in range(2 * nb):
+        coef_xml.append(
+            f'<VRTRasterBand dataType="Float64" band="{i + 1}" subClass="VRTRawRasterBand">'
+            f'<SourceFilename relativeToVRT="0">{escape(coef_path)}</SourceFilename>'
+            f"<ImageOffset>{i * ns * 8}</ImageOffset><PixelOffset>8</PixelOffset>"
+            "<LineOffset>0</LineOffset><ByteOrder>LSB</ByteOrder></VRTRasterBand>"
+        )
+    rows = escape(write_vrt("".join(coef_xml) + "</VRTDataset>\n", "radiance-coefficients"))
     src = escape(os.path.abspath(image.source))
     full = f'xOff="0" yOff="0" xSize="{ns}" ySize="{h}"'
-    line = f'xOff="0" yOff="0" xSize="{ns}" ySize="1"'
 
     def source(name, band, rect, extra=""):
         return (
@@ -775,7 +777,7 @@ def _radiance_vrt(plan: RadiancePlan, image):
                 b + 1,
                 "sum",
                 "Float64",
-                source(src, b + 1, full, sat) + source(rows, b + 1, line, minus),
+                source(src, b + 1, full, sat) + source(rows, b + 1, full, minus),
             )
         )
     l1 = escape(write_vrt(head + "".join(signal) + "</VRTDataset>\n", "radiance-signal"))
@@ -792,7 +794,7 @@ def _radiance_vrt(plan: RadiancePlan, image):
                 b + 1,
                 "mul",
                 "Float32",
-                source(l1, b + 1, full) + source(rows, nb + b + 1, line),
+                source(l1, b + 1, full) + source(rows, nb + b + 1, full),
                 meta,
             )
         )
