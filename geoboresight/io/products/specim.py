@@ -28,8 +28,8 @@ What is read, and from where (sources in ``docs/sensors.md``):
 * Wavelengths, FWHM and ``bbl`` from the header, as for any ENVI file
   (:mod:`geoboresight.io.wavelengths`). The image is named "VNIR" when every band centre is
   below 1000 nm, "SWIR" when every one is above 950 nm, else "cube" (an AISA-Dual merged cube,
-  split at the seam by :func:`~geoboresight.io.open_dual`). Values are raw DN: no radiometric
-  calibration is applied (APL's gains live in separate calibration files, not read here).
+  split at the seam by :func:`~geoboresight.io.open_dual`). Values are raw DN; the
+  calibration file turns them into radiance (:mod:`geoboresight.io.calibration`).
 """
 
 from __future__ import annotations
