@@ -528,3 +528,18 @@ def test_simulated_capture_calibrates_to_the_simulated_radiance(tmp_path):
         layout=gb.DualLayout(vnir_calibration=str(folder / "capture_cal.cal")),
     )
     assert ratio["valid_pixels"] > 0
+
+
+def test_a_calibration_for_a_file_that_is_not_a_raw_capture_is_refused(tmp_path):
+    hdr, cal, *_ = _fenix(tmp_path)
+    rad = str(tmp_path / "rad.tif")
+    gb.radiance_file(hdr, cal, output=rad)
+    out = tmp_path / "ratio.tif"
+    for layout, words in (
+        (gb.DualLayout(vnir_calibration=cal), ("rad.tif", "raw Specim capture or a HySpex")),
+        (gb.DualLayout(swir_calibration=cal), ("swir_calibration", "no SWIR file")),
+    ):
+        with pytest.raises(GeoboresightError) as err:
+            gb.ratio_file(rad if "rad.tif" in words else hdr, output=str(out), layout=layout)
+        assert all(w in str(err.value) for w in words), str(err.value)
+        assert not out.exists()
