@@ -543,3 +543,19 @@ def test_a_calibration_for_a_file_that_is_not_a_raw_capture_is_refused(tmp_path)
             gb.ratio_file(rad if "rad.tif" in words else hdr, output=str(out), layout=layout)
         assert all(w in str(err.value) for w in words), str(err.value)
         assert not out.exists()
+
+
+def test_on_the_fly_without_python_pixel_functions_gives_the_same_ratio(tmp_path, monkeypatch):
+    """Where GDAL may not run Python pixel functions, GDAL's own sum and mul read the capture
+    as radiance: the same ratio."""
+    hdr, cal, *_ = _fenix(tmp_path, seed=14)
+    layout = gb.DualLayout(vnir_calibration=cal)
+    a, b = str(tmp_path / "a.tif"), str(tmp_path / "b.tif")
+    gb.ratio_file(hdr, output=a, layout=layout)
+    with open(gb.io.calibration.radiance_image(hdr, cal)[0].source) as f:
+        assert "<PixelFunctionLanguage>Python" in f.read()  # the one-level VRT by default
+    monkeypatch.setenv("GDAL_VRT_ENABLE_PYTHON", "NO")
+    gb.ratio_file(hdr, output=b, layout=layout)
+    np.testing.assert_allclose(_ratio(a)[0], _ratio(b)[0], rtol=1e-6)
+    with open(gb.io.calibration.radiance_image(hdr, cal)[0].source) as f:
+        assert "Python" not in f.read()

@@ -702,12 +702,12 @@ def radiance_image(path, calibration):
                 params=("calibration",),
             )
         calibration = None
-    key = (
-        _stamp(path),
-        id(calibration)
-        if isinstance(calibration, Calibration)
-        else (None if calibration is None else _stamp(calibration)),
-    )
+    from . import _pixel
+
+    cal_key = id(calibration) if isinstance(calibration, Calibration) else calibration
+    if isinstance(cal_key, str | os.PathLike) and os.path.exists(cal_key):
+        cal_key = _stamp(cal_key)
+    key = (_stamp(path), cal_key, _pixel.python_allowed())
     found = _ON_THE_FLY.get(key)
     if found is None:
         if calibration is not None and not isinstance(calibration, Calibration):
@@ -725,6 +725,7 @@ def _radiance_vrt(plan: RadiancePlan, image):
     import dataclasses
     from xml.sax.saxutils import escape
 
+    from . import _pixel
     from .products._calibrated import temp_path
     from .products.vrt import write_vrt
 
@@ -757,47 +758,67 @@ def _radiance_vrt(plan: RadiancePlan, image):
             "</ComplexSource>"
         )
 
-    def band(i, function, dtype, sources, meta=""):
+    def band(i, function, dtype, sources, meta="", python=False):
         # A source pixel at its NODATA (the saturated DN) reads as the band's NaN nodata,
-        # which the sum and the product carry through.
+        # which the arithmetic carries through.
+        language = "<PixelFunctionLanguage>Python</PixelFunctionLanguage>" if python else ""
         return (
             f'<VRTRasterBand dataType="{dtype}" band="{i}" subClass="VRTDerivedRasterBand">'
             f"{meta}<NoDataValue>nan</NoDataValue><PixelFunctionType>{function}"
-            "</PixelFunctionType><SourceTransferType>Float64</SourceTransferType>"
+            f"</PixelFunctionType>{language}<SourceTransferType>Float64</SourceTransferType>"
             f"{sources}</VRTRasterBand>"
         )
 
     head = f'<VRTDataset rasterXSize="{ns}" rasterYSize="{h}">'
-    signal = []
-    for b in range(nb):
-        sat = f"<NODATA>{plan.saturation[b]:.17g}</NODATA>"
-        minus = "<ScaleOffset>0</ScaleOffset><ScaleRatio>-1</ScaleRatio>"
-        signal.append(
-            band(
-                b + 1,
-                "sum",
-                "Float64",
-                source(src, b + 1, full, sat) + source(rows, b + 1, full, minus),
-            )
-        )
-    l1 = escape(write_vrt(head + "".join(signal) + "</VRTDataset>\n", "radiance-signal"))
-    out = []
-    for b in range(nb):
-        meta = (
+
+    def meta(b):
+        return (
             f"<Description>{plan.wavelengths[b]:.3f} nm</Description><Metadata>"
             f'<MDI key="wavelength">{plan.wavelengths[b]:.6f}</MDI>'
             '<MDI key="wavelength_units">nm</MDI>'
             f'<MDI key="units">{escape(plan.tags["units"])}</MDI></Metadata>'
         )
-        out.append(
-            band(
-                b + 1,
-                "mul",
-                "Float32",
-                source(l1, b + 1, full) + source(rows, nb + b + 1, full),
-                meta,
+
+    def saturated(b):
+        return f"<NODATA>{plan.saturation[b]:.17g}</NODATA>"
+
+    out = []
+    if _pixel.python_allowed():
+        # One level: NumPy's (DN − dark) · scale in this package's trusted pixel function.
+        _pixel.trust()
+        for b in range(nb):
+            sources = (
+                source(src, b + 1, full, saturated(b))
+                + source(rows, b + 1, full)
+                + source(rows, nb + b + 1, full)
             )
-        )
+            out.append(
+                band(
+                    b + 1,
+                    f"{_pixel.MODULE}.radiance",
+                    "Float32",
+                    sources,
+                    meta(b),
+                    python=True,
+                )
+            )
+    else:
+        # GDAL's own functions: sum (DN − dark), then mul (· scale).
+        signal = []
+        for b in range(nb):
+            minus = "<ScaleOffset>0</ScaleOffset><ScaleRatio>-1</ScaleRatio>"
+            signal.append(
+                band(
+                    b + 1,
+                    "sum",
+                    "Float64",
+                    source(src, b + 1, full, saturated(b)) + source(rows, b + 1, full, minus),
+                )
+            )
+        l1 = escape(write_vrt(head + "".join(signal) + "</VRTDataset>\n", "radiance-signal"))
+        for b in range(nb):
+            sources = source(l1, b + 1, full) + source(rows, nb + b + 1, full)
+            out.append(band(b + 1, "mul", "Float32", sources, meta(b)))
     l2 = write_vrt(head + "".join(out) + "</VRTDataset>\n", "radiance")
     return dataclasses.replace(
         image,
