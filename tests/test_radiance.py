@@ -459,7 +459,7 @@ def test_info_refuses_a_mismatched_calibration_naming_both(tmp_path):
 
 def test_hyspex_on_the_fly_reads_its_own_calibration(tmp_path):
     path, want, nd = _hyspex(tmp_path, "line")
-    image, plan = gb.io.calibration.radiance_image(path, path)
+    image, plan = gb.io.radiance.radiance_image(path, path)
     with rasterio.open(image.source) as src:
         got = src.read().transpose(1, 0, 2)
     np.testing.assert_array_equal(~np.isfinite(got), nd)
@@ -552,10 +552,10 @@ def test_on_the_fly_without_python_pixel_functions_gives_the_same_ratio(tmp_path
     layout = gb.DualLayout(vnir_calibration=cal)
     a, b = str(tmp_path / "a.tif"), str(tmp_path / "b.tif")
     gb.ratio_file(hdr, output=a, layout=layout)
-    with open(gb.io.calibration.radiance_image(hdr, cal)[0].source) as f:
+    with open(gb.io.radiance.radiance_image(hdr, cal)[0].source) as f:
         assert "<PixelFunctionLanguage>Python" in f.read()  # the one-level VRT by default
     monkeypatch.setenv("GDAL_VRT_ENABLE_PYTHON", "NO")
     gb.ratio_file(hdr, output=b, layout=layout)
     np.testing.assert_allclose(_ratio(a)[0], _ratio(b)[0], rtol=1e-6)
-    with open(gb.io.calibration.radiance_image(hdr, cal)[0].source) as f:
+    with open(gb.io.radiance.radiance_image(hdr, cal)[0].source) as f:
         assert "Python" not in f.read()

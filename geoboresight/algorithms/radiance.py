@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from ..io.bil import BIL_ENDINGS
-from ..io.calibration import SMEAR_CHOICES
 from ..io.products import FILE_FORMATS
+from ..io.radiance import SMEAR_CHOICES
 from ..operations.radiance import radiance_file
 from ._common import BLOCK_ROWS, CALIBRATION
 from .spec import Algorithm, Enum, RasterIn, RasterOut, Result

@@ -1,5 +1,5 @@
 """The pixel function GDAL calls to read a raw capture as radiance on the fly
-(:func:`geoboresight.io.calibration.radiance_image`): one derived VRT band per band,
+(:func:`geoboresight.io.radiance.radiance_image`): one derived VRT band per band,
 ``(DN − dark) · gain / tint`` with NumPy, over the capture's own bytes and its coefficients.
 
 GDAL runs Python pixel functions only from modules it is told to trust

@@ -93,8 +93,8 @@ def _layout_args(layout: DualLayout) -> tuple:
 
 
 def _describe_file(path: str, label: str, calibration=None) -> dict:
-    from .calibration import radiance_image, radiometry
     from .products import recognise
+    from .radiance import radiance_image, radiometry
 
     product = recognise(path)
     values = radiometry(path, calibration) if product is not None else None

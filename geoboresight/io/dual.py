@@ -191,7 +191,7 @@ def _image(path: str, label: str, user: str | None, sensor: str, calibration=Non
     product = recognise(path)
     images = product.images if product is not None else None
     if calibration is not None and calibration != "":
-        from .calibration import radiance_image
+        from .radiance import radiance_image
 
         if product is None or product.kind not in ("Specim raw ENVI", "HySpex"):
             raise InputError(
@@ -274,7 +274,7 @@ def open_dual(
     vnir_calibration, swir_calibration : path or Calibration, optional
         The calibration of a raw capture given as ``vnir`` (also a one-file capture of both
         detectors) or ``swir``: it is then read as radiance
-        (:func:`geoboresight.io.calibration.radiance_image`).
+        (:func:`geoboresight.io.radiance.radiance_image`).
     """
     from .image import dataset_path
 

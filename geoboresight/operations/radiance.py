@@ -7,7 +7,7 @@ import os
 
 from .. import io
 from ..io.bil import create_bil, is_bil
-from ..io.calibration import radiance_plan
+from ..io.radiance import radiance_plan
 from ..sensor.calibration import Calibration, radiance
 from ._operation import operation
 
