@@ -454,7 +454,7 @@ def test_info_refuses_a_mismatched_calibration_naming_both(tmp_path):
     run = CliRunner().invoke(main, ["info", "--vnir", hdr, "--vnir-calibration", cal])
     assert run.exit_code == 1
     line = run.output.strip().splitlines()[-1]
-    assert "350002" in line and "350005" in line
+    assert "350002" in line and "350005" in line and "--vnir-calibration" in line
 
 
 def test_hyspex_on_the_fly_reads_its_own_calibration(tmp_path):

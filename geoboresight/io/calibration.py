@@ -301,23 +301,29 @@ def refined_dark(cube: RawCube, first: int, stop: int) -> np.ndarray:
         return np.where(count > 0, total / np.maximum(count, 1), mean)
 
 
-def require_match(cal: Calibration, sensorid: str, binning: tuple[int, int], capture: str):
+def require_match(
+    cal: Calibration,
+    sensorid: str,
+    binning: tuple[int, int],
+    capture: str,
+    param: str = "calibration",
+):
     """Refuse a calibration measured on another sensor, or at a binning the capture's is not a
     whole multiple of (naming both values); the (spectral, spatial) binning ratio."""
     if cal.sensorid and sensorid and cal.sensorid != sensorid:
         raise ParameterError(
-            f"parameter 'calibration': {cal.source} is for sensorid {cal.sensorid} but "
+            f"parameter '{param}': {cal.source} is for sensorid {cal.sensorid} but "
             f"{capture} was taken by sensorid {sensorid}: use that sensor's calibration",
-            params=("calibration",),
+            params=(param,),
         )
     ratio = []
     for name, have, want in zip(("spectral", "spatial"), binning, cal.binning, strict=True):
         if have % want:
             raise ParameterError(
-                f"parameter 'calibration': {cal.source} was measured at {name} binning {want} "
+                f"parameter '{param}': {cal.source} was measured at {name} binning {want} "
                 f"but {capture} is binned {have}: use the calibration for binning "
                 f"{binning[0]}×{binning[1]}",
-                params=("calibration",),
+                params=(param,),
             )
         ratio.append(have // want)
     return tuple(ratio)

@@ -97,9 +97,11 @@ def _describe_file(path: str, label: str, calibration=None) -> dict:
     from .radiance import radiance_image, radiometry
 
     product = recognise(path)
-    values = radiometry(path, calibration) if product is not None else None
+    param = "swir_calibration" if label == "SWIR" else "vnir_calibration"
+    values = radiometry(path, calibration, param) if product is not None else None
     if values is not None and values["values"] != "DN":
-        product = dataclasses.replace(product, images=(radiance_image(path, calibration)[0],))
+        image = radiance_image(path, calibration, param)[0]
+        product = dataclasses.replace(product, images=(image,))
     if product is None:
         with open_raster(path, label) as src:
             wl, _ = read_wavelengths(src)

@@ -63,7 +63,9 @@ class RadiancePlan:
 SMEAR_CHOICES = ("auto", "on", "off")
 
 
-def radiance_plan(path, calibration=None, smear: str = "auto") -> RadiancePlan:
+def radiance_plan(
+    path, calibration=None, smear: str = "auto", param: str = "calibration"
+) -> RadiancePlan:
     """The :class:`RadiancePlan` of the raw Specim capture or HySpex file at ``path``.
 
     ``calibration`` is the Specim calibration (a path or a :class:`Calibration`); a HySpex
@@ -84,9 +86,9 @@ def radiance_plan(path, calibration=None, smear: str = "auto") -> RadiancePlan:
     if hyspex.read(path) is not None:
         if calibration is not None:
             raise ParameterError(
-                f"parameter 'calibration': {path} is a HySpex file, which carries its own "
+                f"parameter '{param}': {path} is a HySpex file, which carries its own "
                 "calibration: leave 'calibration' empty",
-                params=("calibration",),
+                params=(param,),
             )
         return _hyspex_plan(path)
     found = specim.capture(path)
@@ -99,17 +101,17 @@ def radiance_plan(path, calibration=None, smear: str = "auto") -> RadiancePlan:
         )
     if calibration is None:
         raise ParameterError(
-            f"parameter 'calibration': {path} is a raw Specim capture in DN: give its "
+            f"parameter '{param}': {path} is a raw Specim capture in DN: give its "
             "calibration file (the .cal or .dat of the sensor's calibration pack)",
-            params=("calibration",),
+            params=(param,),
         )
     cal = calibration
     if not isinstance(cal, Calibration):
         cal = read_calibration(cal, "calibration")
-    return _specim_plan(path, found, product, cal, smear)
+    return _specim_plan(path, found, product, cal, smear, param)
 
 
-def _specim_plan(path, found, product, cal: Calibration, smear: str) -> RadiancePlan:
+def _specim_plan(path, found, product, cal: Calibration, smear: str, param: str) -> RadiancePlan:
     from ..sensor.calibration import (
         FRAME_TRANSFER_MS,
         bin_gain,
@@ -127,24 +129,24 @@ def _specim_plan(path, found, product, cal: Calibration, smear: str) -> Radiance
     sensorid = keys.get("sensorid", "").strip()
     binning = binning_of(keys, where)
     family = sensor_family(sensorid, keys, wl)
-    ratio = require_match(cal, sensorid, binning, path)
+    ratio = require_match(cal, sensorid, binning, path, param)
     gain_b = bin_gain(cal.gain, *ratio)
     wl_b = binned_wavelengths(cal.wavelengths, ratio[0])
     if gain_b.shape[1] != cube.samples:
         raise ParameterError(
-            f"parameter 'calibration': {cal.source} has {cal.samples} samples (binned "
+            f"parameter '{param}': {cal.source} has {cal.samples} samples (binned "
             f"{ratio[1]}×: {gain_b.shape[1]}) but {path} has {cube.samples}: use the "
             "calibration of this sensor and binning",
-            params=("calibration",),
+            params=(param,),
         )
     index, ok = match_bands(wl, wl_b)
     if not ok.all():
         b = int(np.flatnonzero(~ok)[0])
         raise ParameterError(
-            f"parameter 'calibration': band {b + 1} of {path} ({wl[b]:.2f} nm) has no band "
+            f"parameter '{param}': band {b + 1} of {path} ({wl[b]:.2f} nm) has no band "
             f"of {cal.source} within half a band (nearest {wl_b[index[b]]:.2f} nm): the "
             "calibration is for another band set",
-            params=("calibration",),
+            params=(param,),
         )
     tint, tint_note = capture_tints(keys, where, cube.bands)
     dark, dark_note = _specim_dark(path, hdr, keys, cube, lines, image, tint)
@@ -277,7 +279,7 @@ def _stamp(path) -> tuple:
     return (os.path.realpath(path), st.st_size, st.st_mtime_ns)
 
 
-def radiance_image(path, calibration):
+def radiance_image(path, calibration, param: str = "calibration"):
     """The image of the raw capture at ``path`` as radiance, read by GDAL with no file written
     in between: a :class:`~geoboresight.io.products.SensorImage` whose ``source`` is a VRT of
     ``L = (DN − dark) · gain / tint`` per band (GDAL's ``sum`` and ``mul`` pixel functions
@@ -286,7 +288,7 @@ def radiance_image(path, calibration):
     saturated, a bad cell or the frame counter; ``units`` radiance, ``dark`` 0.
 
     ``calibration`` is the Specim calibration (a path or :class:`Calibration`), or, for a
-    HySpex file, the file itself (its own calibration). The Eagle's frame-transfer smear is
+    HySpex file, the file itself (its own calibration); ``param`` names it in messages. The Eagle's frame-transfer smear is
     left out here (each band would need every band before it): ``radiance`` applies it.
     """
     from .products import hyspex, recognise
@@ -297,9 +299,9 @@ def radiance_image(path, calibration):
         given = calibration.source if isinstance(calibration, Calibration) else calibration
         if given is not None and os.path.realpath(os.fspath(given)) != os.path.realpath(path):
             raise ParameterError(
-                f"parameter 'calibration': {path} is a HySpex file, which carries its own "
+                f"parameter '{param}': {path} is a HySpex file, which carries its own "
                 f"calibration: give the file itself as its calibration, not {given}",
-                params=("calibration",),
+                params=(param,),
             )
         calibration = None
     from . import _pixel
@@ -313,7 +315,7 @@ def radiance_image(path, calibration):
         if calibration is not None and not isinstance(calibration, Calibration):
             if not os.path.exists(os.fspath(calibration)):
                 raise InputError(f"calibration {calibration} does not exist: check the path")
-        plan = radiance_plan(path, calibration, "off")
+        plan = radiance_plan(path, calibration, "off", param)
         image = recognise(path).images[0]
         found = _ON_THE_FLY[key] = _radiance_vrt(plan, image)
     return found
@@ -432,7 +434,7 @@ def _radiance_vrt(plan: RadiancePlan, image):
     ), plan
 
 
-def radiometry(path, calibration=None) -> dict | None:
+def radiometry(path, calibration=None, param: str = "vnir_calibration") -> dict | None:
     """What the values of the raw capture at ``path`` are, as ``info`` states it: ``values``
     ("DN" or the radiance units), its integration time(s), and with ``calibration`` the file,
     whether its ``sensorid`` and binning match the capture's (a mismatch is refused, naming
@@ -443,7 +445,7 @@ def radiometry(path, calibration=None) -> dict | None:
     if hyspex.read(path) is not None:
         out = {"values": "DN", "calibration": "in the file's header (QE, RE, background)"}
         if calibration is not None and calibration != "":
-            _, plan = radiance_image(path, calibration)
+            _, plan = radiance_image(path, calibration, param)
             out.update(values=plan.tags["units"], arrays=plan.tags["calibration_arrays"])
         return out
     found = specim.capture(path)
@@ -458,7 +460,7 @@ def radiometry(path, calibration=None) -> dict | None:
         out["integration_time"] = f"unknown ({exc})"
     out["binning"] = "{}x{}".format(*binning_of(keys, where))
     if calibration is not None and calibration != "":
-        _, plan = radiance_image(path, calibration)
+        _, plan = radiance_image(path, calibration, param)
         t = plan.tags
         out.update(
             values=t["units"],
