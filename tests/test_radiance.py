@@ -559,3 +559,14 @@ def test_on_the_fly_without_python_pixel_functions_gives_the_same_ratio(tmp_path
     np.testing.assert_allclose(_ratio(a)[0], _ratio(b)[0], rtol=1e-6)
     with open(gb.io.radiance.radiance_image(hdr, cal)[0].source) as f:
         assert "Python" not in f.read()
+
+
+@pytest.mark.parametrize("smear", ["auto", "on"])
+def test_strip_by_strip_equals_one_strip(tmp_path, smear):
+    """The operation streams: strips of 7 lines give the radiance of one 64-line strip (the
+    smear runs along the bands of each line, never across lines)."""
+    hdr, cal, *_ = _fenix(tmp_path, seed=15)
+    a, b = str(tmp_path / "a.img"), str(tmp_path / "b.img")
+    gb.radiance_file(hdr, cal, output=a, block_rows=7, smear=smear)
+    gb.radiance_file(hdr, cal, output=b, block_rows=LINES, smear=smear)
+    np.testing.assert_array_equal(_read(a)[0], _read(b)[0])
