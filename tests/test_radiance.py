@@ -570,3 +570,31 @@ def test_strip_by_strip_equals_one_strip(tmp_path, smear):
     gb.radiance_file(hdr, cal, output=a, block_rows=7, smear=smear)
     gb.radiance_file(hdr, cal, output=b, block_rows=LINES, smear=smear)
     np.testing.assert_array_equal(_read(a)[0], _read(b)[0])
+
+
+def test_a_darkref_file_at_the_captures_tint_gives_the_dark_level(tmp_path):
+    """Without dark frames, a DARKREF_<name> capture beside it (hylite's lab convention) at the
+    same integration time is the dark level: its mean per band and sample."""
+    rng = np.random.default_rng(16)
+    wl = np.arange(1000.0, 1120.0, 10.0)
+    gain = rng.uniform(1.0, 3.0, (wl.size, SAMPLES))
+    cal = write_calibration(tmp_path, "hawk", gain, wl, sensorid="300011")
+    dn = np.rint(_scene(rng, wl.size, low=2000, high=6000))
+    hdr, _, cube = write_specim_raw(tmp_path, "line", dn, wl, sensorid="300011")
+    _, _, ref = write_specim_raw(
+        tmp_path,
+        "DARKREF_line",
+        800.0 + rng.normal(0, 3, (wl.size, 16, SAMPLES)),
+        wl,
+        sensorid="300011",
+    )
+    out = str(tmp_path / "rad.tif")
+    gb.radiance_file(hdr, cal, output=out)
+    got, nodata, tags, _ = _read(out)
+    dark = ref.astype(float).mean(axis=0)
+    want = (cube.astype(float) - dark) * gain / 10.0
+    nd = np.zeros(want.shape, bool)
+    nd[:, 0, :2] = True
+    med, p99 = _compare(got, want, nodata, nd)
+    assert med <= 1e-4 and p99 <= 1e-3, (med, p99)
+    assert "DARKREF_line.hdr" in tags["DARK"]
