@@ -62,6 +62,7 @@ KERNELS = {
     "simulate_ortho": "geoboresight.simulate.ortho",
     "attitude_jitter": "geoboresight.simulate.ortho",
     "simulate_scene": "geoboresight.simulate.scene",
+    "radiance": "geoboresight.sensor.calibration",
 }
 
 
@@ -108,6 +109,7 @@ VALUES = {
     "Detection": "geoboresight.operations.shadow_map",
     "SurfaceModel": "geoboresight.operations.shadow_map",
     "NirBand": "geoboresight.operations.shadow",
+    "Calibration": "geoboresight.sensor.calibration",
 }
 
 #: What a script needs beside the operations: readers, writers, the block loop, progress and
@@ -116,6 +118,7 @@ IO = {
     "open_dual": "geoboresight.io.dual",
     "open_cube": "geoboresight.io.cube",
     "recognise": "geoboresight.io.products",
+    "read_calibration": "geoboresight.io.calibration",
     "writer_options": "geoboresight.io.raster",
     "map_windows": "geoboresight.io.windows",
     "reduce_windows": "geoboresight.io.windows",

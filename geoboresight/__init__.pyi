@@ -23,6 +23,7 @@ from .algorithms.georef_auto import auto_georeference_file as auto_georeference_
 from .algorithms.info import info_file as info_file
 from .algorithms.offset import boresight_offset_file as boresight_offset_file
 from .algorithms.offset import coregister_file as coregister_file
+from .algorithms.radiance import radiance_file as radiance_file
 from .algorithms.ratio import ratio_file as ratio_file
 from .algorithms.report import report_file as report_file
 from .algorithms.roc import anomaly_polygons_file as anomaly_polygons_file
@@ -71,6 +72,7 @@ from .georef.transforms import fit_transform as fit_transform
 from .io.bands import BoresightOffset as BoresightOffset
 from .io.bands import Coregistration as Coregistration
 from .io.bands import MatchBands as MatchBands
+from .io.calibration import read_calibration as read_calibration
 from .io.cube import open_cube as open_cube
 from .io.dual import BandChoice as BandChoice
 from .io.dual import DualLayout as DualLayout
@@ -90,6 +92,8 @@ from .operations.shadow_map import SurfaceModel as SurfaceModel
 from .progress import Progress as Progress
 from .ratio import boresight_ratio as boresight_ratio
 from .sensor.bands import band_mean as band_mean
+from .sensor.calibration import Calibration as Calibration
+from .sensor.calibration import radiance as radiance
 from .sensor.coregister import coregister as coregister
 from .sensor.dark import DarkLevels as DarkLevels
 from .sensor.offset import estimate_offset as estimate_offset

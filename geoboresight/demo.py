@@ -51,6 +51,7 @@ def _scene(out: Path, scene: str | None) -> Path:
                 "geometry": "large-squint",
                 "clouds": 1,
                 "navigation": True,
+                "capture": True,
                 "output": str(target),
             },
             overwrite=True,
@@ -72,7 +73,7 @@ def steps(scene: Path, out: Path) -> list[tuple[str, dict]]:
     )
     s = _Scene(scene, out, truth)
     todo = [*_ratio_and_shadow(s), *_dem(s), *_anomaly(s)]
-    return [*todo, *_on_the_map(s, todo), ("report", _report(s))]
+    return [*todo, *_on_the_map(s, todo), *_radiance(s), ("report", _report(s))]
 
 
 class _Scene:
@@ -163,6 +164,36 @@ def _ratio_and_shadow(s: _Scene) -> list[tuple[str, dict]]:
             )
         )
     return todo
+
+
+def _radiance(s: _Scene) -> list[tuple[str, dict]]:
+    """The ratio in radiance beside the ratio in DN, on a raw AisaFENIX-like capture of both
+    detectors with its calibration (``simulate --capture``): the scene's own, else a short one
+    simulated with the sample's recipe; and the capture's radiance cube."""
+    cap, cal = s.scene / "capture.hdr", s.scene / "capture_cal.cal"
+    todo: list[tuple[str, dict]] = []
+    if not cap.exists():
+        folder = s.out / "capture_scene"
+        todo.append(
+            (
+                "simulate",
+                {"preset": "mixed", "lines": 64, "seed": 4, "capture": True, "output": str(folder)},
+            )
+        )
+        cap, cal = folder / "capture.hdr", folder / "capture_cal.cal"
+    return [
+        *todo,
+        ("radiance", {"input": str(cap), "calibration": str(cal), "output": s.o("radiance.img")}),
+        ("ratio", {"vnir": str(cap), "output": s.o("capture_ratio_dn.tif")}),
+        (
+            "ratio",
+            {
+                "vnir": str(cap),
+                "vnir_calibration": str(cal),
+                "output": s.o("capture_ratio_radiance.tif"),
+            },
+        ),
+    ]
 
 
 def _flight(truth: dict) -> dict:

@@ -77,6 +77,7 @@ def make_inputs(d: Path) -> Path:
             wl, rng.uniform(0.05, 0.5, wl.size), rng.uniform(0.05, 0.5, wl.size), strict=True
         )
     ]
+    _specim_capture(d)
     (d / "em.csv").write_text("wavelength_nm,fwhm_nm,grass,soil\n" + "\n".join(rows) + "\n")
     # Georeferencing: ground control points and an input geometry map (x, y of each pixel).
     cols, lines = np.meshgrid(np.arange(COLS) + 0.5, np.arange(ROWS) + 0.5)
@@ -88,6 +89,17 @@ def make_inputs(d: Path) -> Path:
         + "".join(f"{p},{q},{700000 + 2 * p},{3500000 - 2 * q}\n" for p, q in gcp)
     )
     return d
+
+
+def _specim_capture(d: Path) -> None:
+    """A raw Specim capture (dark frames after the image) and the calibration of its sensor
+    (tests/products.py: APL's and the calpacks' layouts), for ``radiance``."""
+    from products import write_calibration, write_specim_raw
+
+    vn = cube(len(VNIR_WL), ROWS, COLS, seed=1)
+    write_specim_raw(d, "specim_capture", vn, VNIR_WL, dark=5.0, dark_lines=8, sensorid="110001")
+    gain = np.random.default_rng(10).uniform(1.0, 2.0, (len(VNIR_WL), COLS))
+    write_calibration(d, "specim_calibration", gain, VNIR_WL, sensorid="110001")
 
 
 def snapshot(*folders: Path) -> dict[str, str]:

@@ -25,6 +25,93 @@ HYSPEX_AT = {
 }
 
 
+#: Radiometric HySpex header fields: byte and struct format (hypro ``Radiometry.py``).
+HYSPEX_FIELDS = {
+    "scalingFactor": (336, "<d"),
+    "integrationTime": (1977, "<I"),
+    "bitshift": (1997, "<I"),
+    "SF": (2109, "<d"),
+    "apertureSize": (2117, "<d"),
+    "pixelSizeX": (2125, "<d"),
+    "pixelSizeY": (2133, "<d"),
+}
+
+
+def write_calibration(
+    folder,
+    name,
+    gain,
+    wavelengths,
+    *,
+    sensorid,
+    binning=(1, 1),
+    fwhm=None,
+    extra_keys=None,
+    extension=".cal",
+    truncate_to=None,
+):
+    """A Specim radiometric calibration: ``name + extension`` and ``name.hdr``; returns the
+    data path. ``gain`` is (bands, samples).
+
+    The layout of NERC-ARF APL's ``Calibration::TestCalfile``/``ReadBinAndTrimGains``
+    (github.com/arsf/APL ``src/calibration.cpp``) and of the FENIX calibration packs hylite
+    ships (``hylite/sensors/calibration_data/fenix/Radiometric_2x2_1x1.hdr``): ENVI,
+    ``lines = 1``, ``data type = 4`` (float32), ``interleave = bil``, ``byte order = 0``,
+    ``samples`` × ``bands`` gains, a ``wavelength`` list, ``fwhm``, ``sensorid``,
+    ``binning = {spectral, spatial}`` (and, in a FENIX pack, ``tint1``/``tint2``/``vimg1``,
+    which APL ignores: ``extra_keys``). ``truncate_to`` cuts the data file to that many bytes.
+    """
+    os.makedirs(folder, exist_ok=True)
+    gain = np.asarray(gain, "<f4")
+    bands, samples = gain.shape
+    data = os.path.join(folder, name + extension)
+    blob = gain.tobytes()
+    with open(data, "wb") as f:
+        f.write(blob if truncate_to is None else blob[:truncate_to])
+    keys = {
+        "description": "{Radiometric calibration (geoboresight test fixture)}",
+        "samples": samples,
+        "bands": bands,
+        "lines": 1,
+        "interleave": "bil",
+        "data type": 4,
+        "header offset": 0,
+        "byte order": 0,
+        "sensorid": sensorid,
+        "binning": "{" + f"{binning[0]}, {binning[1]}" + "}",
+    }
+    keys.update(extra_keys or {})
+    text = ["ENVI"] + [f"{k} = {v}" for k, v in keys.items()]
+    text.append("wavelength = " + _braces(wavelengths))
+    if fwhm is not None:
+        text.append("fwhm = " + _braces(fwhm))
+    with open(os.path.join(folder, name + ".hdr"), "w", encoding="ascii") as f:
+        f.write("\n".join(text) + "\n")
+    return data
+
+
+def write_bad(path, cells, *, layout="specim", ccd=(320, 256)):
+    """A bad-pixel file listing ``cells`` (0-based (band, sample) of the calibration).
+
+    Layouts of NERC-ARF APL ``Hawk::DecodeSpecimBadPixels``/``DecodeARSFBadPixels``
+    (``src/specimsensors.cpp``): Specim's first line ``name ccd_samples ccd_bands``, then
+    ``id sample band replacement_sample replacement_band GON``, 1-based; ARSF's first line
+    ``headerlines = N``, N − 1 more header lines (method descriptions), then
+    ``id band sample methods``, 0-based.
+    """
+    if layout == "specim":
+        lines = [f"NERC_Hawk_BPR_NUC2_GON0.txt  {ccd[0]} {ccd[1]}"]
+        for i, (b, s) in enumerate(cells, start=1):
+            lines.append(f"{i} {s + 1} {b + 1} {s + 2} {b + 1} GON")
+    else:
+        lines = ["headerlines = 3", "method A: dead pixel", "method B: hot pixel"]
+        for i, (b, s) in enumerate(cells):
+            lines.append(f"{i} {b} {s} A,B")
+    with open(path, "w", encoding="ascii") as f:
+        f.write("\n".join(lines) + "\n")
+    return path
+
+
 def _braces(values, fmt="{:.4f}") -> str:
     return "{" + ", ".join(fmt.format(v) for v in values) + "}"
 
@@ -54,6 +141,7 @@ def write_specim_raw(
     sensorid="110001",
     extension=".raw",
     extra_keys=None,
+    drop_keys=(),
     seed=0,
 ):
     """A Specim raw capture: ``name + extension`` (uint16 BIL) and ``name.hdr``. Returns
@@ -112,6 +200,8 @@ def write_specim_raw(
     if autodarkstartline is not None:
         keys["autodarkstartline"] = autodarkstartline
     keys.update(extra_keys or {})
+    for key in drop_keys:
+        keys.pop(key, None)
     text = ["ENVI"] + [f"{k} = {v}" for k, v in keys.items()]
     text.append("Wavelength = " + _braces(wavelengths))
     if fwhm is not None:
@@ -131,6 +221,11 @@ def write_hyspex(
     serial=1234,
     hdr_size=None,
     truncate_to=None,
+    qe=None,
+    re=None,
+    re_first=False,
+    fields=None,
+    calibration=True,
 ):
     """A HySpex ``name.hyspex``: the binary header, then the uint16 BIL pixels. Returns its
     path. ``image`` is (bands, lines, samples) DN, ``background`` (bands, samples) DN.
@@ -148,6 +243,12 @@ def write_hyspex(
       samples), C order), then the bad-pixel list (uint32 × nobp);
     * pixels uint16 BIL (hypro memory-maps them as (lines, bands, samples)) from ``hdrSize``.
 
+    * radiometric fields (hypro, in the order it reads them): ``scalingFactor`` float64 at
+      336, ``integrationTime`` uint32 at 1977, ``bitshift`` uint32 at 1997, ``SF`` float64 at
+      2109, ``apertureSize`` at 2117, ``pixelSizeX`` at 2125, ``pixelSizeY`` at 2133
+      (``fields`` sets them by name). ``re_first`` writes RE before QE (the order the other
+      open reader assumes); ``calibration=False`` writes the wavelength vector only.
+
     Serial numbers 3000–5000 add a second background block (hypro): avoided by the default.
     ``hdr_size`` overrides the field (e.g. past the end of the file); ``truncate_to`` cuts the
     file to that many bytes.
@@ -156,12 +257,12 @@ def write_hyspex(
     bands, lines, samples = image.shape
     header = bytearray(HYSPEX_AT["spectralVector"])
     header[0:8] = b"HYSPEX\0\0"
-    matrices = [
-        np.asarray(wavelengths, "<f8"),
-        np.ones(bands, "<f8"),  # QE
-        np.ones((bands, samples), "<f8"),  # RE
-        np.asarray(background, "<f8").reshape(bands, samples),
-    ]
+    qe_arr = np.ones(bands, "<f8") if qe is None else np.asarray(qe, "<f8")
+    re_arr = np.ones((bands, samples), "<f8") if re is None else np.asarray(re, "<f8")
+    matrices = [np.asarray(wavelengths, "<f8")]
+    if calibration:
+        matrices += [re_arr, qe_arr] if re_first else [qe_arr, re_arr]
+        matrices.append(np.asarray(background, "<f8").reshape(bands, samples))
     header += b"".join(m.tobytes() for m in matrices)
     header += b"\0" * (-len(header) % 64)  # padding up to hdrSize, as a writer may add
     size = len(header) if hdr_size is None else hdr_size
@@ -174,6 +275,9 @@ def write_hyspex(
         ("nobp", 0),
     ):
         struct.pack_into("<I", header, HYSPEX_AT[key], value)
+    for key, value in (fields or {}).items():
+        at, fmt = HYSPEX_FIELDS[key]
+        struct.pack_into(fmt, header, at, value)
     pixels = np.ascontiguousarray(np.asarray(image).transpose(1, 0, 2)).astype("<u2")
     path = os.path.join(folder, name + ".hyspex")
     blob = bytes(header) + pixels.tobytes()

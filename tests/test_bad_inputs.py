@@ -51,6 +51,8 @@ FIXTURES = {
     "gcps.csv": "gcps.csv",
     "ratio_map.tif": "ratio_g.tif",
     "shadow_fraction.tif": "truth.tif",
+    "capture.hdr": "specim_capture.hdr",
+    "calibration.cal": "specim_calibration.cal",
 }
 #: Where the catalogue's inputs differ from the example's for one operation.
 OVERRIDES = {("reproject-to", "reference"): "truth37.tif", ("geolocate", "igm_crs"): UTM36}
@@ -271,6 +273,35 @@ def _specific_cases() -> list[Case]:
             setup=_edit_header("v.hdr", "lines   = 40", "lines   = 41"),
         )
     )
+    # A calibration that does not fit the capture: refused naming both values or the file.
+    for cid, setup, expect in (
+        (
+            "sensorid",
+            _edit_header("specim_calibration.hdr", "sensorid = 110001", "sensorid = 100022"),
+            ("100022", "110001"),
+        ),
+        (
+            "binning",
+            _edit_header("specim_calibration.hdr", "binning = {1, 1}", "binning = {2, 1}"),
+            ("binning 2",),
+        ),
+        (
+            "wavelength",
+            _edit_header("specim_calibration.hdr", "400.0000,", "440.0000,"),
+            ("band 1", "400.00 nm"),
+        ),
+        (
+            "truncated",
+            _resize("specim_calibration.cal", -40),
+            ("specim_calibration.cal", "truncated"),
+        ),
+        (
+            "no-tint",
+            _edit_header("specim_capture.hdr", "tint = 10.0", "shutter = 10.0"),
+            ("specim_capture.hdr", "'tint'"),
+        ),
+    ):
+        c.append(Case(f"radiance-calibration-{cid}", "radiance", {}, expect, setup=setup))
     # Garbled and partial wavelength metadata: the token and the file are named.
     for token in ("5l0", "n/a", "abc", "nan"):
         vals = v12.replace("500.0", token)

@@ -188,4 +188,46 @@ panels([(rgb, "(A) RGB"), *scores], "out/figure11.png", cmap="magma")
         ],
         "image": "out/figure12.png",
     },
+    {
+        "figure": "Radiance",
+        "title": "The ratio of an AisaFENIX capture in DN and in radiance",
+        "caption": "A raw capture of both detectors in one file, the VNIR bands integrated for "
+        "10 ms and the SWIR bands for 3 ms (simulate --capture, with its calibration file). "
+        "(A) the ratio b(1010)/b(920) of the raw DN: dark levels, gains and the two tints are "
+        "in it, and the dark offsets make it rise in shadow; (B) the same ratio in radiance "
+        "(L = (DN − dark) · gain / tint, µW cm⁻² sr⁻¹ nm⁻¹) read on the fly through the "
+        "calibration: the tints and offsets are gone, what stands out is where the two optics "
+        "see different ground (the edges), and its values compare between flights "
+        "(docs/sensors.md, Radiance).",
+        "steps": [
+            (
+                "sh",
+                "geoboresight simulate --preset mixed --lines 96 --seed 4 --capture "
+                "--output out/capture_scene",
+            ),
+            ("sh", "geoboresight ratio --vnir out/capture_scene/capture.hdr -o out/ratio_dn.tif"),
+            (
+                "sh",
+                "geoboresight ratio --vnir out/capture_scene/capture.hdr "
+                "--vnir-calibration out/capture_scene/capture_cal.cal -o out/ratio_radiance.tif",
+            ),
+            (
+                "python",
+                PANELS
+                + """
+with rasterio.open("out/ratio_dn.tif") as dn, rasterio.open("out/ratio_radiance.tif") as rad:
+    a, b = dn.read(1), rad.read(1)
+median = [float(np.median(x[x != -9999])) for x in (a, b)]
+panels(
+    [
+        (a, f"(A) DN ratio (median {median[0]:.2f})"),
+        (b, f"(B) radiance ratio (median {median[1]:.2f})"),
+    ],
+    "out/radiance_ratio.png",
+)
+""",
+            ),
+        ],
+        "image": "out/radiance_ratio.png",
+    },
 ]

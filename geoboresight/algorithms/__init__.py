@@ -55,6 +55,7 @@ SPECS: dict[str, tuple[str, ...]] = {
     "simulate": ("simulate",),
     "georef": ("geolocate", "georeference", "reproject-to", "simulate-ortho"),
     "georef_auto": ("auto-georeference",),
+    "radiance": ("radiance",),
     "report": ("report",),
 }
 

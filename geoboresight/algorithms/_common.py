@@ -11,7 +11,29 @@ from ..io.bands import BoresightOffset, Coregistration
 from ..io.dual import SEAM_NM, SWIR_NM, TOLERANCE_NM, VNIR_NM, BandChoice, DualLayout
 from ..io.products import FILE_FORMATS
 from ..sensor.dark import DarkLevels
-from .spec import Enum, Flag, Group, Number, RasterIn, Result, Text, Wavelength
+from .spec import Enum, FileIn, Flag, Group, Number, RasterIn, Result, Text, Wavelength
+
+
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class CalibrationIn(FileIn):
+    """A radiometric calibration: its file (``.cal``/``.dat`` or ``.hdr``) on every face, or a
+    :class:`~geoboresight.Calibration` value in Python."""
+
+    def coerce(self, value):
+        from ..sensor.calibration import Calibration
+
+        if isinstance(value, Calibration):
+            return value
+        return super().coerce(value)
+
+
+CALIBRATION = CalibrationIn(
+    name="calibration",
+    label="Calibration",
+    description="Specim calibration file (.cal or .dat with its .hdr); empty for HySpex",
+    optional=True,
+    extensions=("cal", "dat", "hdr"),
+)
 
 VNIR = RasterIn(
     name="vnir",
@@ -55,6 +77,26 @@ LAYOUT = Group(
             description="Band centres of the SWIR file in nm, comma-separated (only if the file has none)",
             optional=True,
             advanced=True,
+        ),
+        CalibrationIn(
+            name="vnir_calibration",
+            label="VNIR calibration",
+            description=(
+                "Calibration of a raw VNIR (or one-file) capture: Specim .cal/.dat, or the "
+                "HySpex file itself; the capture is then read as radiance"
+            ),
+            optional=True,
+            extensions=("cal", "dat", "hdr", "hyspex"),
+        ),
+        CalibrationIn(
+            name="swir_calibration",
+            label="SWIR calibration",
+            description=(
+                "Calibration of a raw SWIR capture: Specim .cal/.dat, or the HySpex file "
+                "itself; the capture is then read as radiance"
+            ),
+            optional=True,
+            extensions=("cal", "dat", "hdr", "hyspex"),
         ),
     ),
 )

@@ -240,6 +240,11 @@ SIMULATE = Algorithm(
             description="Also write merged.img/.hdr with all 198 bands",
         ),
         Flag(
+            name="capture",
+            label="Raw capture with calibration",
+            description="Also write capture.raw/.hdr (both detectors as one AisaFENIX-like raw capture: two integration times, dark frames) and its calibration capture_cal.cal/.hdr",
+        ),
+        Flag(
             name="navigation",
             label="Navigation",
             description="Also place the scene on a map (UTM 36N) and write igm.tif (easting, northing of each VNIR pixel, for geolocate --igm) and ortho.tif (an RGB orthophoto of the ground)",

@@ -4,6 +4,7 @@ atomic writes.
 Core kernels never see a file; everything about files lives here (docs/DEVELOPING.md).
 """
 
+from . import _pixel
 from .cube import Cube, open_cube, open_sensors
 from .dual import BandChoice, DualLayout, DualSensor, RatioBands, SensorFile, as_dual, open_dual
 from .grid import FLOAT_NODATA, Grid, is_georeferenced, require_same_grid
@@ -38,6 +39,10 @@ from .write import (
     write_json,
     write_text,
 )
+
+# GDAL may run this package's radiance pixel function (and only it) in a VRT this process,
+# or a worker it hands a flight line to, opens.
+_pixel.trust()
 
 __all__ = [
     "DEFAULT_BLOCK_ROWS",

@@ -9,6 +9,7 @@ Metadata only: no pixel is read, beyond a product reader's own dark reference.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 import xml.etree.ElementTree as ET
 
@@ -39,7 +40,10 @@ def describe_product(
     """
     paths = [os.fspath(vnir)] + ([os.fspath(swir)] if swir else [])
     labels = ["VNIR", "SWIR"] if swir else ["input"]
-    files = [_describe_file(p, label) for p, label in zip(paths, labels, strict=True)]
+    cals = [layout.vnir_calibration, layout.swir_calibration]
+    files = [
+        _describe_file(p, label, cal) for p, label, cal in zip(paths, labels, cals, strict=False)
+    ]
     kinds = list(dict.fromkeys(f["product"] for f in files))
     out = {
         "product": " + ".join(kinds),
@@ -79,13 +83,25 @@ def describe_product(
 
 
 def _layout_args(layout: DualLayout) -> tuple:
-    return layout.seam_nm, layout.vnir_wavelengths, layout.swir_wavelengths
+    return (
+        layout.seam_nm,
+        layout.vnir_wavelengths,
+        layout.swir_wavelengths,
+        layout.vnir_calibration,
+        layout.swir_calibration,
+    )
 
 
-def _describe_file(path: str, label: str) -> dict:
+def _describe_file(path: str, label: str, calibration=None) -> dict:
     from .products import recognise
+    from .radiance import radiance_image, radiometry
 
     product = recognise(path)
+    param = "swir_calibration" if label == "SWIR" else "vnir_calibration"
+    values = radiometry(path, calibration, param) if product is not None else None
+    if values is not None and values["values"] != "DN":
+        image = radiance_image(path, calibration, param)[0]
+        product = dataclasses.replace(product, images=(image,))
     if product is None:
         with open_raster(path, label) as src:
             wl, _ = read_wavelengths(src)
@@ -146,6 +162,7 @@ def _describe_file(path: str, label: str) -> dict:
         "images": images,
         "geolocation": geo,
         "notes": notes,
+        **({"radiometry": values} if values is not None else {}),
     }
 
 
@@ -323,6 +340,8 @@ def format_description(d: dict) -> str:
                 f"  geolocation: {geo['kind']}, {geo['crs'] or 'no CRS'}, "
                 f"{geo['lines']} lines × {geo['samples']} samples"
             )
+        for key, value in (f.get("radiometry") or {}).items():
+            lines.append(f"  {key.replace('_', ' ')}: {value}")
         for note in f["notes"]:
             lines.append(f"  note: {note}")
     lines.append("")

@@ -6,11 +6,12 @@ Either two files (VNIR, SWIR), or one merged cube that is split at a seam wavele
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, ParameterError
 from .grid import Grid
 from .raster import open_raster
 from .wavelengths import good_bands, nearest_band, wavelengths_of
@@ -31,6 +32,11 @@ class DualLayout:
     seam_nm: float = SEAM_NM
     vnir_wavelengths: str | None = None
     swir_wavelengths: str | None = None
+    #: Calibration of a raw capture (a Specim ``.cal``/``.dat`` or its ``.hdr``, a
+    #: :class:`~geoboresight.Calibration`; a HySpex file: the file itself): the VNIR (or
+    #: one-file) capture and the SWIR capture are then read as radiance.
+    vnir_calibration: object = None
+    swir_calibration: object = None
 
 
 @dataclass(frozen=True)
@@ -176,14 +182,26 @@ def _good(src, label: str, path: str) -> np.ndarray:
     return good
 
 
-def _image(path: str, label: str, user: str | None, sensor: str):
+def _image(path: str, label: str, user: str | None, sensor: str, calibration=None):
     """(SensorImage, Grid, Product or None) of one file given for ``sensor`` ("VNIR" or
-    "SWIR"): a recognised sensor product's images, or the file as GDAL reads it (one image,
-    named "cube")."""
+    "SWIR"): a recognised sensor product's images (as radiance with ``calibration``), or the
+    file as GDAL reads it (one image, named "cube")."""
     from .products import SensorImage, recognise
 
     product = recognise(path)
     images = product.images if product is not None else None
+    if calibration is not None and calibration != "":
+        from .radiance import radiance_image
+
+        if product is None or product.kind not in ("Specim raw ENVI", "HySpex"):
+            raise InputError(
+                f"{label} {path}: a calibration ({sensor.lower()}_calibration) applies to a "
+                "raw Specim capture or a HySpex file in DN, and this is "
+                + (f"a {product.kind} product" if product else "not one")
+            )
+        image, plan = radiance_image(path, calibration, f"{sensor.lower()}_calibration")
+        images = (image,)
+        product = dataclasses.replace(product, notes=product.notes + (_calibration_note(plan),))
     if images is None:
         with open_raster(path, label) as src:
             wl, fw = _sensor_wavelengths(src, path, user, sensor)
@@ -196,6 +214,17 @@ def _image(path: str, label: str, user: str | None, sensor: str):
         with open_raster(im.source, f"{label} {product.kind}") as src:
             grid.require_same(Grid.of(src), f"{product.kind} {path} ({images[0].name})", im.name)
     return images, grid, product
+
+
+def _calibration_note(plan) -> str:
+    tags = plan.tags
+    parts = [f"radiance in {tags['units']} through {tags['calibration_file']}"]
+    for key in ("integration_time", "binning_ratio", "dark", "bad_pixels"):
+        if key in tags:
+            parts.append(f"{key.replace('_', ' ')}: {tags[key]}")
+    if tags.get("sensor") == "Eagle":
+        parts.append("Eagle frame-transfer smear not corrected on the fly (radiance corrects it)")
+    return "; ".join(parts)
 
 
 def _sensor(path: str, name: str, image, pick: np.ndarray, seam_nm=None) -> SensorFile:
@@ -226,6 +255,8 @@ def open_dual(
     seam_nm: float = SEAM_NM,
     vnir_wavelengths: str | None = None,
     swir_wavelengths: str | None = None,
+    vnir_calibration=None,
+    swir_calibration=None,
 ) -> DualSensor:
     """Describe a dual-sensor dataset (reads metadata only, no pixels).
 
@@ -240,13 +271,23 @@ def open_dual(
         In a merged cube, bands below the seam are VNIR, bands at or above it SWIR.
     vnir_wavelengths, swir_wavelengths : str, optional
         Comma-separated band centres (nm) for files without wavelength metadata.
+    vnir_calibration, swir_calibration : path or Calibration, optional
+        The calibration of a raw capture given as ``vnir`` (also a one-file capture of both
+        detectors) or ``swir``: it is then read as radiance
+        (:func:`geoboresight.io.radiance.radiance_image`).
     """
     from .image import dataset_path
 
     # Open rasterio datasets are read through their names, as every raster input is.
     vnir, swir = str(dataset_path(vnir)), dataset_path(swir)
+    if swir is None and swir_calibration is not None and swir_calibration != "":
+        raise ParameterError(
+            "parameter 'swir_calibration': there is no SWIR file; give the calibration of a "
+            "one-file capture as vnir_calibration",
+            params=("swir_calibration",),
+        )
     label = "VNIR" if swir else "merged cube"
-    images, grid_v, product = _image(vnir, label, vnir_wavelengths, "VNIR")
+    images, grid_v, product = _image(vnir, label, vnir_wavelengths, "VNIR", vnir_calibration)
     named = {im.name: im for im in images}
     if swir is None and "VNIR" in named and "SWIR" in named:
         # One product holding both detectors (EnMAP L1B, PRISMA L1).
@@ -284,7 +325,7 @@ def open_dual(
         )
 
     swir = str(swir)
-    s_images, grid_s, s_product = _image(swir, "SWIR", swir_wavelengths, "SWIR")
+    s_images, grid_s, s_product = _image(swir, "SWIR", swir_wavelengths, "SWIR", swir_calibration)
     v = named.get("VNIR", images[0])
     s = {im.name: im for im in s_images}.get("SWIR", s_images[0])
     grid_v.require_same(grid_s, f"VNIR {vnir}", f"SWIR {swir}")
@@ -309,7 +350,15 @@ def as_dual(vnir, swir=None, layout: DualLayout = DualLayout()) -> DualSensor:
                 "give either an opened dual-sensor dataset or two files, not both (swir)"
             )
         return vnir
-    return open_dual(vnir, swir, layout.seam_nm, layout.vnir_wavelengths, layout.swir_wavelengths)
+    return open_dual(
+        vnir,
+        swir,
+        layout.seam_nm,
+        layout.vnir_wavelengths,
+        layout.swir_wavelengths,
+        layout.vnir_calibration,
+        layout.swir_calibration,
+    )
 
 
 def _option(label: str) -> str:

@@ -62,7 +62,15 @@ SCENE_FILES = (
 #: Every name a scene folder may hold: an existing folder with anything else is never replaced.
 #: The scene's navigation (``simulate --navigation``).
 NAVIGATION_FILES = ("igm.tif", "ortho.tif")
-SCENE_FOLDER_FILES = (*SCENE_FILES, "merged.img", "merged.hdr", *NAVIGATION_FILES)
+#: The raw capture of both detectors and its calibration (``simulate --capture``).
+CAPTURE_FILES = ("capture.raw", "capture.hdr", "capture_cal.cal", "capture_cal.hdr")
+SCENE_FOLDER_FILES = (
+    *SCENE_FILES,
+    "merged.img",
+    "merged.hdr",
+    *NAVIGATION_FILES,
+    *CAPTURE_FILES,
+)
 
 
 def check_scene_folder(folder) -> None:
@@ -72,13 +80,20 @@ def check_scene_folder(folder) -> None:
 
 
 def write_scene(
-    scene, folder, merged: bool = False, overwrite: bool = False, navigation=None
+    scene,
+    folder,
+    merged: bool = False,
+    overwrite: bool = False,
+    navigation=None,
+    capture=None,
 ) -> str:
     """Write ``scene`` to ``folder`` (created; written whole or not at all); ``folder``.
 
     ``merged=True`` also writes ``merged.img/.hdr`` with all 198 bands; ``navigation`` (a
     :class:`geoboresight.simulate.navigation.Navigation`) writes ``igm.tif`` and ``ortho.tif``
-    and records the map placement in ``truth.json``. An existing folder is replaced only with
+    and records the map placement in ``truth.json``; ``capture`` (a
+    :class:`geoboresight.simulate.capture.Capture`) writes the raw capture and its calibration
+    (:func:`write_capture`). An existing folder is replaced only with
     ``overwrite=True``.
     """
     import rasterio
@@ -103,6 +118,8 @@ def write_scene(
     ):
         os.makedirs(tmp)
         write_cubes(scene, tmp, merged=merged)
+        if capture is not None:
+            write_capture(capture, scene, tmp)
         write_truth_rasters(scene, tmp)
         truth = scene.truth
         if navigation is not None:
@@ -135,6 +152,56 @@ def write_cubes(scene, folder: str, merged: bool = False) -> None:
             description=f"{desc} {label}",
         )
         _fix_envi_description(os.path.join(folder, f"{name}.hdr"), f"{desc} {label}")
+
+
+def write_capture(capture, scene, folder: str) -> None:
+    """``capture.raw/.hdr``: a raw capture of both detectors in one file
+    (:class:`geoboresight.simulate.capture.Capture`: the VNIR bands, ``vimg1``, at ``tint1``; the
+    SWIR bands at ``tint2``), with its Specim header, dark frames after the image and a frame
+    counter in band 1, sample 0; and ``capture_cal.cal/.hdr``, its radiometric calibration in
+    the layout of Specim's calibration packs (float32 BIL, one line of bands × samples)."""
+    raw, nv = capture.raw, capture.n_vnir
+    ns_b, samples = raw.shape[1] - nv, raw.shape[2]
+    raw.astype("<u2").tofile(os.path.join(folder, "capture.raw"))
+    wl = np.asarray(scene.wavelengths, float)
+    fwhm = np.asarray(scene.fwhm, float)
+    t1, t2 = capture.tints_ms
+    common = [
+        f"samples = {samples}",
+        f"bands = {nv + ns_b}",
+        "header offset = 0",
+        "interleave = bil",
+        "byte order = 0",
+        f"sensorid = {capture.sensorid}",
+        "binning = {1, 1}",
+        f"tint1 = {t1:g}",
+        f"tint2 = {t2:g}",
+        f"vimg1 = {{1, {nv}}}",
+        f"vimg2 = {{{nv + 1}, {nv + ns_b}}}",
+        "wavelength units = Nanometers",
+        "wavelength = {" + ", ".join(f"{w:.2f}" for w in wl) + "}",
+        "fwhm = {" + ", ".join(f"{w:.2f}" for w in fwhm) + "}",
+    ]
+    desc = f"geoboresight simulate preset={scene.truth['preset']} seed={scene.truth['seed']}"
+    with open(os.path.join(folder, "capture.hdr"), "w", encoding="utf-8", newline="\n") as f:
+        f.write(
+            "\n".join(
+                ["ENVI", f"description = {{{desc} raw capture}}", f"lines = {raw.shape[0]}"]
+                + ["data type = 12", f"autodarkstartline = {capture.lines}", "fps = 25"]
+                + common
+            )
+            + "\n"
+        )
+    capture.gain.astype("<f4").tofile(os.path.join(folder, "capture_cal.cal"))
+    with open(os.path.join(folder, "capture_cal.hdr"), "w", encoding="utf-8", newline="\n") as f:
+        f.write(
+            "\n".join(
+                ["ENVI", f"description = {{{desc} radiometric calibration}}", "lines = 1"]
+                + ["data type = 4"]
+                + common
+            )
+            + "\n"
+        )
 
 
 def write_truth_rasters(scene, folder: str) -> None:
@@ -259,10 +326,12 @@ def as_dn(cube: np.ndarray) -> np.ndarray:
 
 
 __all__ = [
+    "CAPTURE_FILES",
     "MATERIAL_COLOURS",
     "NAVIGATION_FILES",
     "SCENE_FILES",
     "as_dn",
+    "write_capture",
     "write_cubes",
     "write_endmembers",
     "write_navigation",

@@ -66,6 +66,8 @@ def ratio_file(
         "denominator_file": dual.vnir.path,
         "denominator_band": bands.vnir_band,
         "denominator_wavelength_nm": f"{bands.vnir_nm:.3f}",
+        "numerator_units": dual.swir.units,
+        "denominator_units": dual.vnir.units,
     }
     n_valid = 0
     with (

@@ -8,8 +8,8 @@ block registers its cast shadow onto the image (:func:`geoboresight.shadow.prior
 Then the map is written strip by strip, each strip's fraction by
 :func:`geoboresight.shadow.darkness.shadow_fraction_block`, or with the surface model by
 :func:`geoboresight.shadow.prior.prior_map_block`. What this shares with other operations
-(dark levels, the offset, opening the surface model, the sun) is in
-:mod:`geoboresight.operations._shared`.
+is in :mod:`geoboresight.operations._dark` (dark levels), :mod:`geoboresight.operations._offset`
+(the offset) and :mod:`geoboresight.operations._surface` (the surface model, the sun).
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 from ..errors import ParameterError
-from ..io.scene import check_scene_folder, write_scene
+from ..io.scene import as_dn, check_scene_folder, write_scene
 from ..simulate.scene import (
     LINES,
     PRESET,
@@ -55,6 +55,7 @@ def simulate_file(
     sensor=SensorOptions(),
     merged=False,
     navigation=False,
+    capture=False,
     progress=None,
 ) -> dict:
     """Simulate a raw-geometry AISA-Dual scene (VNIR + SWIR) with its ground truth, into a folder.
@@ -94,6 +95,11 @@ def simulate_file(
         :mod:`geoboresight.simulate.navigation`) and write ``igm.tif`` (easting and northing
         of each VNIR pixel, for ``geolocate --igm``) and ``ortho.tif`` (an RGB orthophoto of
         the ground, 1 m cells).
+    capture : bool
+        Also write ``capture.raw/.hdr``, the DN as an AisaFENIX-like raw capture of both
+        detectors (two integration times, dark frames, frame counter), and its calibration
+        ``capture_cal.cal/.hdr`` (:func:`geoboresight.io.scene.write_capture`), for
+        ``radiance`` and ``--vnir-calibration``.
     progress : Progress, optional
 
     Returns
@@ -141,9 +147,15 @@ def simulate_file(
 
         progress.update(0.9, "orthophoto")
         nav = scene_navigation(scene, seed=seed)
+    raw = None
+    if capture:
+        from ..simulate.capture import raw_capture
+
+        dn = (as_dn(scene.vnir), as_dn(scene.swir))
+        raw = raw_capture(*dn, scene.wavelengths, seed=int(scene.truth["seed"]))
     progress.update(0.95, "writing files")
     # The operation has refused an existing folder unless asked to overwrite it.
-    write_scene(scene, output, merged=merged, overwrite=True, navigation=nav)
+    write_scene(scene, output, merged=merged, overwrite=True, navigation=nav, capture=raw)
     progress.update(1.0, "done")
     t = scene.truth
     sigma_h = t["height_precision_m_per_px"]  # None without squint: relief is invisible

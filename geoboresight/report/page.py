@@ -354,6 +354,21 @@ def _numbers(result: dict) -> list[tuple[str, object]]:
     ]
 
 
+def ratio_values(dual) -> str:
+    """Whether the ratio divides radiances or raw DN, in a sentence."""
+    units = {dual.vnir.units, dual.swir.units}
+    kind = getattr(dual.product, "kind", "")
+    if "DN" not in units:
+        return f"The ratio divides radiances ({' and '.join(sorted(units))})."
+    if kind in ("Specim raw ENVI", "HySpex"):
+        return (
+            "The ratio divides raw DN: each detector's dark level, gain and integration time are "
+            "in it, so it compares with other flights only in radiance (give the captures' "
+            "calibration: vnir_calibration, swir_calibration)."
+        )
+    return "The ratio divides the files' values as they are (no sensor calibration applied)."
+
+
 def _ratio_section(run: Runner, values: dict) -> tuple[Section, str | None]:
     """Ratio and statistics (Eq. 3, Table 1, Figure 3); the section and the ratio's path (None
     when it could not be computed)."""
@@ -369,6 +384,7 @@ def _ratio_section(run: Runner, values: dict) -> tuple[Section, str | None]:
         s, ratio_file, values["dual"], output=run.path("ratio.tif"), bands=values["bands"]
     )
     ratio_path = ratio.result["output"] if ratio.result else None
+    s.remark(ratio_values(values["dual"]))
     if ratio_path:
         s.figure(
             raster_figure(ratio_path, "Boresight ratio", "b(1010)/b(920)", run.path("ratio.png")),

@@ -44,6 +44,11 @@ CASES: dict[str, dict] = {
     "shadow-cluster": {"n_components": 2},
     "unmix": {"swir": None, "names": lambda i: ",".join(i.endmember_names()[:3])},
     "simulate": {"lines": 16},
+    # A raw capture with its calibration file (the scene's ENVI cubes carry neither).
+    "radiance": {
+        "input": lambda i: i.capture("capture.hdr"),
+        "calibration": lambda i: i.capture("capture_cal.cal"),
+    },
     "report": {"svdd": False},  # the DEM section then says it needs the sensor geometry
     # Georeferencing: a jittered raw line with its true IGM and orthophoto (simulate-ortho).
     "simulate-ortho": {"lines": 48},
@@ -112,6 +117,16 @@ class Inputs:
             from geoboresight import simulate_ortho_file
 
             simulate_ortho_file(output=folder, lines=96, jitter_deg=0.05, seed=2)
+        return os.path.join(folder, name)
+
+    def capture(self, name: str) -> str:
+        """A file of a small scene with its raw capture and calibration (simulate --capture),
+        made once by the library."""
+        folder = os.path.join(self.work_dir, "capture")
+        if not os.path.isdir(folder):
+            from geoboresight import simulate_file
+
+            simulate_file(output=folder, lines=16, seed=2, capture=True)
         return os.path.join(folder, name)
 
     def _igm(self):

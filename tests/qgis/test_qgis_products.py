@@ -90,3 +90,25 @@ def test_a_missing_product_path_is_refused_before_the_engine(provider, tmp_path)
             "geoboresight:ratio",
             {"vnir": str(tmp_path / "nowhere.he5"), "output": str(tmp_path / "r.tif")},
         )
+
+
+def test_radiance_and_the_ratio_on_the_fly_through_qgis_equal_the_library(provider, tmp_path):
+    """A raw capture and its calibration file (simulate --capture) in QGIS: 'radiance' takes
+    the calibration as a file input, 'ratio' reads the capture as radiance with the VNIR
+    calibration, and both equal the library's."""
+    import processing
+
+    import geoboresight as gb
+
+    scene = tmp_path / "scene"
+    gb.simulate_file(output=str(scene), lines=16, seed=3, capture=True)
+    cap, cal = str(scene / "capture.hdr"), str(scene / "capture_cal.cal")
+    q_rad, q_ratio = str(tmp_path / "q_rad.tif"), str(tmp_path / "q_ratio.tif")
+    processing.run("geoboresight:radiance", {"input": cap, "calibration": cal, "output": q_rad})
+    processing.run("geoboresight:ratio", {"vnir": cap, "vnir_calibration": cal, "output": q_ratio})
+    l_rad, l_ratio = str(tmp_path / "l_rad.tif"), str(tmp_path / "l_ratio.tif")
+    gb.radiance_file(cap, cal, output=l_rad)
+    gb.ratio_file(cap, output=l_ratio, layout=gb.DualLayout(vnir_calibration=cal))
+    for a, b in ((q_rad, l_rad), (q_ratio, l_ratio)):
+        with quiet_georef(), rasterio.open(a) as qa, rasterio.open(b) as lb:
+            np.testing.assert_array_equal(qa.read(), lb.read())

@@ -50,7 +50,8 @@ Not verified, and how the reader copes:
   line). The background block is used only when it ends within ``hdrSize``.
 * FWHM is not in the header (hypro estimates it from the band spacing): None here.
 
-Radiometric calibration (QE, RE, aperture, integration time) is not applied: values stay DN.
+Values are raw DN; the header's calibration (QE, RE, background, scaling factor, aperture,
+integration time) turns them into radiance (:func:`geoboresight.io.calibration.hyspex_calibration`).
 """
 
 from __future__ import annotations

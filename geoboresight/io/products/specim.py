@@ -28,8 +28,8 @@ What is read, and from where (sources in ``docs/sensors.md``):
 * Wavelengths, FWHM and ``bbl`` from the header, as for any ENVI file
   (:mod:`geoboresight.io.wavelengths`). The image is named "VNIR" when every band centre is
   below 1000 nm, "SWIR" when every one is above 950 nm, else "cube" (an AISA-Dual merged cube,
-  split at the seam by :func:`~geoboresight.io.open_dual`). Values are raw DN: no radiometric
-  calibration is applied (APL's gains live in separate calibration files, not read here).
+  split at the seam by :func:`~geoboresight.io.open_dual`). Values are raw DN; the
+  calibration file turns them into radiance (:mod:`geoboresight.io.calibration`).
 """
 
 from __future__ import annotations
@@ -223,6 +223,19 @@ def read(path) -> Product | None:
     return _read(path, hdr, data, stamps)
 
 
+def capture(path) -> tuple[str, dict, RawCube] | None:
+    """(header path, header keys, byte layout of the whole file, dark lines included) of the
+    Specim capture at ``path``, or None when it is not one (what radiance calibration reads)."""
+    found = _paths(os.fspath(path))
+    if found is None:
+        return None
+    hdr, data = found
+    keys = _header_keys(hdr)
+    if keys is None or not any(k in keys for k in SPECIM_KEYS):
+        return None
+    return hdr, keys, _layout(keys, hdr, data)
+
+
 def _header_keys(hdr: str) -> dict | None:
     """The keys of ``hdr`` itself (:func:`envi_header` looks beside a data file)."""
     return envi_header(hdr[:-4]) if os.path.isfile(hdr) else None
@@ -295,4 +308,4 @@ def _read(path: str, hdr: str, data: str, stamps: tuple) -> Product | None:
     return Product(KIND, path, (image,), notes=tuple(notes))
 
 
-__all__ = ["KIND", "first_dark_line", "has_frame_counter", "image_name", "read"]
+__all__ = ["KIND", "capture", "first_dark_line", "has_frame_counter", "image_name", "read"]
