@@ -89,6 +89,18 @@ def test_the_changelog_begins_with_this_version():
     assert re.search(rf"^\[{re.escape(gb.__version__)}\]: https://", text, flags=re.M)
 
 
+def test_the_changelogs_newest_section_speaks_to_users():
+    """One line per change a user sees; the timings stay in benchmarks/RESULTS.md."""
+    text = (ROOT / "CHANGELOG.md").read_text(encoding="utf-8")
+    sections = re.split(r"^## ", text, flags=re.M)
+    newest = sections[1]
+    timings = re.findall(r"\d\s?(?:s|ms|min)\b|→|\d\s?×", newest)
+    assert not timings, timings
+    if newest.startswith("[Unreleased]"):
+        link = rf"^\[Unreleased\]: https://\S+/compare/v{re.escape(gb.__version__)}\.\.\.HEAD$"
+        assert re.search(link, text, flags=re.M)
+
+
 def test_plugins_xml_is_written_from_the_zips_metadata(tmp_path):
     zip_path = tmp_path / "plugin.zip"
     with zipfile.ZipFile(zip_path, "w") as z:
