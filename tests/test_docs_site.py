@@ -131,3 +131,100 @@ def test_the_gallery_shows_each_command_as_a_shell_runs_it():
                 shown = site._wrapped(text)
                 assert all(len(line) <= 100 for line in shown.splitlines()), shown
                 assert shlex.split(shown.replace("\\\n", "")) == shlex.split(text)
+
+
+# --------------------------------------------------------------------------- command reference
+commands = _load("docs_commands", ROOT / "docs" / "hooks" / "commands.py")
+
+
+def _sections(page: str) -> dict[str, str]:
+    """``{operation: its section's text}`` of one page of the command reference."""
+    parts = re.split(r"^## (\S+)\n", page, flags=re.M)
+    return dict(zip(parts[1::2], parts[2::2], strict=True))
+
+
+def test_the_command_reference_has_every_operation_and_every_option():
+    from geoboresight.algorithms import registry
+    from geoboresight.cli import make_command
+    from geoboresight.engine import field_label
+
+    pages = commands.pages()
+    for alg in registry().values():
+        sections = _sections(pages[commands.page_of(alg.group)])
+        assert alg.name in sections, f"{alg.name} is missing from the command reference"
+        text = sections[alg.name]
+        command = make_command(alg)
+        visible = [o for o in command.params if isinstance(o, type(command.params[-1]))]
+        rows = {}
+        for line in text.splitlines():
+            cells = [c.strip() for c in re.split(r"(?<!\\)\|", line)[1:-1]]
+            for flag in re.findall(r"`(--[a-z0-9-]+)", cells[0] if cells else ""):
+                rows.setdefault(flag, []).append(cells)
+        for p in alg.params:
+            found = rows.get(f"--{p.name.replace('_', '-')}", [])
+            assert len(found) == 1, f"{alg.name}: option {p.name} is not in the reference"
+            cells = found[0]
+            assert cells[1] == field_label(p).replace("|", "\\|"), (alg.name, p.name)
+            if not p.is_output and not p.required and p.default not in (None, ""):
+                assert cells[3] == f"`{commands.value_text(p.default)}`", (alg.name, p.name)
+        # every option the command line shows (but the shared ones) has its row
+        shared = {"overwrite", "cog", "co", "raw_gsd", "quiet", "as_json", "debug"}
+        for option in visible:
+            if not option.hidden and option.name not in shared:
+                assert f"`{option.opts[-1]}" in text, (alg.name, option.opts)
+        if alg.example:
+            assert f"```bash\n{alg.example_command()}\n```" in text
+
+
+def test_a_default_is_shown_as_its_value():
+    class P:
+        required, default = False, 0.5
+
+    assert commands.default_text(P()) == "`0.5`"
+    P.default = 1010.0
+    assert commands.default_text(P()) == "`1010`"
+    P.default = False
+    assert commands.default_text(P()) == "`off`"
+    P.required = True
+    assert commands.default_text(P()) == "required"
+
+
+def test_the_command_reference_is_in_the_sites_navigation():
+    from geoboresight.algorithms import GROUPS, registry
+
+    nav = [{"Home": "index.md"}, {"Command reference": "commands/index.md"}]
+    out = site.expand_nav(nav, commands.nav(), "commands/index.md")
+    section = out[1]["Command reference"]
+    assert section[0] == "commands/index.md"
+    used = [g for g in GROUPS if any(a.group == g for a in registry().values())]
+    assert [next(iter(e)) for e in section[1:]] == used
+    assert set(commands.pages()) == {"commands/index.md", *(commands.page_of(g) for g in used)}
+
+
+# --------------------------------------------------------------------------- troubleshooting
+def test_the_pages_of_messages_are_in_step_with_the_code_and_ordered_by_task():
+    from geoboresight import errors
+
+    pages = errors.catalogue_pages()
+    on_disk = {
+        f"{errors.CATALOGUE_FOLDER}/{p.name}": p.read_text(encoding="utf-8")
+        for p in (ROOT / "docs" / errors.CATALOGUE_FOLDER).glob("*.md")
+    }
+    assert on_disk == pages, (
+        "the pages of messages are out of date: run "
+        "python -m geoboresight.errors --update docs/troubleshooting.md"
+    )
+    listed = sum(len(re.findall(r"^- \*\*", text, flags=re.M)) for text in pages.values())
+    assert listed == len(errors.message_catalogue())
+    assert errors.message_task("geoboresight/io/products/enmap.py", "read") == "reading"
+    assert errors.message_task("geoboresight/io/georef.py", "read_glt") == "georef"
+    assert errors.message_task("geoboresight/operations/_shared.py", "sun_angles") == "shadow"
+    assert errors.message_task("geoboresight/engine.py", "run") == "qgis"
+
+
+def test_no_page_of_the_docs_is_over_400_lines():
+    pages = [*(ROOT / "docs").glob("*.md"), *(ROOT / "docs").glob("*/*.md")]
+    long = {
+        p.name: n for p in pages if (n := len(p.read_text(encoding="utf-8").splitlines())) > 400
+    }
+    assert not long, long

@@ -168,6 +168,13 @@ def _run_command(command: str) -> None:
     main.main(args=words[1:], prog_name="geoboresight", standalone_mode=False)
 
 
+def _commands_module():
+    spec = importlib.util.spec_from_file_location("docs_commands", DOCS / "hooks" / "commands.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 def run_gallery() -> dict[str, pathlib.Path]:
     """Run every figure's steps in a folder like the repository's top (``sample_data`` beside
     ``out/``); ``{image name: path}`` of the pictures, from the cache when nothing changed."""
@@ -294,6 +301,30 @@ def rewrite_links(markdown: str, src_uri: str, repo_url: str) -> str:
 
 
 # --------------------------------------------------------------------------- MkDocs events
+def expand_nav(nav: list, entries: list, placeholder: str) -> list:
+    """``nav`` with the entry whose page is ``placeholder`` made a section of ``entries``
+    (the command reference: one page per group of operations, whatever groups exist)."""
+    out = []
+    for item in nav:
+        if isinstance(item, dict):
+            (title, value), *_ = item.items()
+            if value == placeholder:
+                out.append({title: entries})
+            elif isinstance(value, list):
+                out.append({title: expand_nav(value, entries, placeholder)})
+            else:
+                out.append(item)
+        else:
+            out.append(item)
+    return out
+
+
+def on_config(config):
+    commands = _commands_module()
+    config["nav"] = expand_nav(config["nav"], commands.nav(), f"{commands.FOLDER}/index.md")
+    return config
+
+
 def on_files(files, config):
     from mkdocs.structure.files import File
 
@@ -305,6 +336,7 @@ def on_files(files, config):
         "changelog.md": changelog_page(),
         "gallery.md": gallery_page(),
         **reference_pages(),
+        **_commands_module().pages(),
     }
     for uri, text in generated.items():
         files.append(File.generated(config, uri, content=text))
