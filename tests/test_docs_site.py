@@ -228,3 +228,31 @@ def test_no_page_of_the_docs_is_over_400_lines():
         p.name: n for p in pages if (n := len(p.read_text(encoding="utf-8").splitlines())) > 400
     }
     assert not long, long
+
+
+# --------------------------------------------------------------------------- validation
+def test_the_validation_report_is_on_the_site_whole_and_links_to_it_stay_there():
+    pages, anchors = site.validation_report_pages()
+    report = (ROOT / "validation" / "REPORT.md").read_text(encoding="utf-8")
+    headings = re.findall(r"^##+ .+$", report, flags=re.M)
+    shown = re.findall(r"^##+ .+$", "\n".join(pages.values()), flags=re.M)
+    assert sorted(shown) == sorted(headings)  # every section, once
+    shadow = next(h for h in headings if h.startswith("## Shadow map"))[3:]
+    assert anchors[site._slug(shadow)] == "validation-report/shadow-map.md"
+    out = site.rewrite_links(
+        f"[r](../validation/REPORT.md#{site._slug(shadow)}) [c](../CHANGELOG.md)",
+        "shadow.md",
+        "https://github.com/o/r",
+    )
+    assert f"[r](validation-report/shadow-map.md#{site._slug(shadow)})" in out
+    assert "[c](changelog.md)" in out
+
+
+def test_the_method_pages_link_to_the_validation_page_and_no_link_is_a_placeholder():
+    for name in ("shadow", "deshadow", "dem", "anomaly"):
+        text = (ROOT / "docs" / f"{name}.md").read_text(encoding="utf-8")
+        assert "](validation.md#" in text, name
+        assert "hold-out:" not in text, name  # the tables live on the validation page
+    pages = [ROOT / "README.md", ROOT / "mkdocs.yml", *sorted((ROOT / "docs").rglob("*.md"))]
+    placeholder = re.compile(r"example\.(org|com)|github\.com/(OWNER|USER|your)", re.I)
+    assert not [p.name for p in pages if placeholder.search(p.read_text(encoding="utf-8"))]

@@ -131,6 +131,66 @@ def home_page() -> str:
     return _LINK.sub(relink, text)
 
 
+#: The validation report's pages on the site: (page, title, the report's sections that go
+#: there, by how their heading begins); the introduction and the protocol make the first.
+VALIDATION_REPORT = ROOT / "validation" / "REPORT.md"
+REPORT_PAGES = (
+    ("validation-report/index.md", "Validation report: protocol", ()),
+    ("validation-report/shadow-map.md", "Validation report: shadow map", ("Shadow map",)),
+    ("validation-report/deshadow.md", "Validation report: de-shadowing", ("De-shadowing",)),
+    (
+        "validation-report/dem.md",
+        "Validation report: relative DEM and the relief test",
+        ("Relative DEM", "The relief test"),
+    ),
+    ("validation-report/anomaly.md", "Validation report: anomalies", ("Anomaly",)),
+)
+
+
+def _slug(text: str) -> str:
+    from pymdownx.slugs import slugify
+
+    return slugify(case="lower")(text, "-")
+
+
+def validation_report_pages() -> tuple[dict[str, str], dict[str, str]]:
+    """validation/REPORT.md as pages of the site, one per method (:data:`REPORT_PAGES`), and
+    ``{anchor: page}`` of its headings, so that a link to the report's section reaches the page
+    that holds it."""
+    text = VALIDATION_REPORT.read_text(encoding="utf-8")
+    chunks = re.split(r"^(?=## )", text, flags=re.M)
+    bodies = {page: [] for page, _, _ in REPORT_PAGES}
+    for chunk in chunks:
+        heading = chunk.splitlines()[0][3:] if chunk.startswith("## ") else ""
+        page = next(
+            (p for p, _, starts in REPORT_PAGES if heading.startswith(tuple(starts) or "\0")),
+            REPORT_PAGES[0][0],
+        )
+        if not chunk.startswith("## "):  # the report's title and introduction
+            chunk = chunk.split("\n", 1)[1] if chunk.startswith("# ") else chunk
+        bodies[page].append(chunk)
+    pages, anchors = {}, {}
+    for page, title, _ in REPORT_PAGES:
+        body = "".join(bodies[page]).strip("\n")
+        pages[page] = f"# {title}\n\n{body}\n"
+        for heading in re.findall(r"^#{2,6} (.+)$", body, flags=re.M):
+            anchors.setdefault(_slug(heading), page)
+    return pages, anchors
+
+
+#: Files of the repository that are pages of the site: a link to one stays on the site.
+SITE_PAGES = {"README.md": "index.md", "CHANGELOG.md": "changelog.md"}
+
+
+def site_page(rel: str, anchor: str) -> str | None:
+    """The site's page (from docs/) for the repository file ``rel`` (``validation/REPORT.md``)
+    and its anchor; None when the file is not on the site."""
+    if rel == VALIDATION_REPORT.relative_to(ROOT).as_posix():
+        _, anchors = validation_report_pages()
+        return anchors.get(anchor, REPORT_PAGES[0][0])
+    return SITE_PAGES.get(rel)
+
+
 def changelog_page() -> str:
     return (ROOT / "CHANGELOG.md").read_text(encoding="utf-8")
 
@@ -272,7 +332,9 @@ _FENCE = re.compile(r"(^```.*?^```)", re.M | re.S)
 
 
 def _outside_link(target: str, page_dir: pathlib.Path, repo_url: str, where: str) -> str | None:
-    """The repository URL for a relative link that leaves docs/, None for one that stays."""
+    """The repository URL for a relative link that leaves docs/ (the site's page for a file
+    the site shows: the README, the changelog, the validation report), None for one that
+    stays."""
     path, _, anchor = target.partition("#")
     if not path or re.match(r"^[a-z]+:", path):
         return None
@@ -284,6 +346,10 @@ def _outside_link(target: str, page_dir: pathlib.Path, repo_url: str, where: str
         return None
     kind = "tree" if resolved.is_dir() else "blob"
     rel = resolved.relative_to(ROOT).as_posix()
+    page = site_page(rel, anchor)
+    if page is not None:  # a file the site shows as a page: the page
+        target = os.path.relpath(DOCS / page, page_dir).replace(os.sep, "/")
+        return target + (f"#{anchor}" if anchor else "")
     return f"{repo_url.rstrip('/')}/{kind}/main/{rel}" + (f"#{anchor}" if anchor else "")
 
 
@@ -337,6 +403,7 @@ def on_files(files, config):
         "gallery.md": gallery_page(),
         **reference_pages(),
         **_commands_module().pages(),
+        **validation_report_pages()[0],
     }
     for uri, text in generated.items():
         files.append(File.generated(config, uri, content=text))
