@@ -70,6 +70,19 @@ def test_the_home_page_is_the_readme_with_links_from_docs():
     home = site.home_page()
     assert home.startswith("# geoboresight")
     assert "](docs/" not in home and "](qgis.md)" in home
+    # a user reads how to install first; the fresh clone's two commands stay in the README
+    assert "make test" not in home and "](install.md)" in home
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    top = readme[: readme.index("\n## ", readme.index("## Two commands") + 3)]
+    assert re.findall(r"^make (\w+)", top, flags=re.M) == ["demo", "test"]
+
+
+def test_the_install_page_says_how_to_install_and_shows_five_commands():
+    text = (ROOT / "docs" / "install.md").read_text(encoding="utf-8")
+    assert "pip install geoboresight" in text and "make plugin-zip" in text
+    assert "geoboresight simulate" in text
+    shown = re.findall(r"^\$ geoboresight (\S+)", text, flags=re.M)
+    assert len([c for c in shown if c != "simulate"]) == 5
 
 
 def test_the_gallery_shows_the_papers_figures_with_their_commands():

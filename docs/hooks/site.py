@@ -116,10 +116,17 @@ def reference_pages() -> dict[str, str]:
     return pages
 
 
+#: README.md's sections that the site's home page leaves out: what a fresh clone runs, which
+#: the install page (for a user) and the developer's guide (for a contributor) say on the site.
+HOME_SKIPS = ("Two commands",)
+
+
 def home_page() -> str:
-    """README.md with its links as seen from docs/ (``docs/x.md`` -> ``x.md``, anything else
-    one folder up)."""
+    """README.md without :data:`HOME_SKIPS`, with its links as seen from docs/ (``docs/x.md``
+    -> ``x.md``, anything else one folder up)."""
     text = (ROOT / "README.md").read_text(encoding="utf-8")
+    for title in HOME_SKIPS:
+        text = re.sub(rf"^## {re.escape(title)}\n.*?(?=^## |\Z)", "", text, flags=re.M | re.S)
 
     def relink(match):
         label, target = match.group(1), match.group(2)
@@ -353,13 +360,27 @@ def _outside_link(target: str, page_dir: pathlib.Path, repo_url: str, where: str
     return f"{repo_url.rstrip('/')}/{kind}/main/{rel}" + (f"#{anchor}" if anchor else "")
 
 
-def rewrite_links(markdown: str, src_uri: str, repo_url: str) -> str:
-    """``markdown`` with its links to files outside docs/ made repository URLs (fenced code
-    left as it is)."""
+def rewrite_links(
+    markdown: str, src_uri: str, repo_url: str, site_url: str = "", pages: frozenset = frozenset()
+) -> str:
+    """``markdown`` with its links to files outside docs/ made repository URLs, and its links
+    to the site's own address (``site_url``) of one of its ``pages`` (e.g. a page made by a
+    hook, which GitHub cannot show) made relative, as MkDocs checks them (fenced code left as
+    it is)."""
     page_dir = (DOCS / src_uri).parent
+    home = site_url.rstrip("/") + "/"
 
     def relink(match):
-        url = _outside_link(match.group(2), page_dir, repo_url, src_uri)
+        target = match.group(2)
+        if site_url and target.startswith(home):
+            path, _, anchor = target[len(home) :].partition("#")
+            path = path.strip("/")
+            for page in (f"{path}.md", f"{path}/index.md") if path else ("index.md",):
+                if page in pages:
+                    rel = os.path.relpath(DOCS / page, page_dir).replace(os.sep, "/")
+                    return f"[{match.group(1)}]({rel}{'#' + anchor if anchor else ''})"
+            return match.group(0)
+        url = _outside_link(target, page_dir, repo_url, src_uri)
         return match.group(0) if url is None else f"[{match.group(1)}]({url})"
 
     parts = _FENCE.split(markdown)
@@ -413,4 +434,7 @@ def on_files(files, config):
 
 
 def on_page_markdown(markdown, page, config, files):
-    return rewrite_links(markdown, page.file.src_uri, config["repo_url"])
+    pages = frozenset(f.src_uri for f in files.documentation_pages())
+    return rewrite_links(
+        markdown, page.file.src_uri, config["repo_url"], config["site_url"] or "", pages
+    )
