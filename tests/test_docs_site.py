@@ -269,3 +269,17 @@ def test_the_method_pages_link_to_the_validation_page_and_no_link_is_a_placehold
     pages = [ROOT / "README.md", ROOT / "mkdocs.yml", *sorted((ROOT / "docs").rglob("*.md"))]
     placeholder = re.compile(r"example\.(org|com)|github\.com/(OWNER|USER|your)", re.I)
     assert not [p.name for p in pages if placeholder.search(p.read_text(encoding="utf-8"))]
+
+
+def test_the_operations_and_kernels_reference_is_split_by_area():
+    pages = site.reference_pages()
+    for table in site.SPLIT:
+        page = next(p for p, _, t, _ in site.REFERENCE if t == table)
+        areas = [p for p in pages if p.startswith(f"reference/{page}/")]
+        assert len(areas) >= 5, areas
+        assert "::: " not in pages[f"reference/{page}.md"]  # the index links, the areas hold
+        nav = site.reference_nav()[f"reference/{page}.md"]
+        assert sorted(next(iter(e.values())) for e in nav[1:]) == sorted(areas)
+    assert site.area_of("geoboresight.operations.shadow_map") == ("shadow", "Shadow")
+    assert site.area_of("geoboresight.anomaly.rx")[0] == "anomaly"
+    assert site.area_of("geoboresight.radiometry.calibrate")[0] == "more"

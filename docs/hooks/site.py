@@ -32,8 +32,6 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 DOCS = ROOT / "docs"
 GALLERY_CACHE = ROOT / "build" / "docs-gallery"
 
-#: The API reference's pages: file, title, the table of ``geoboresight`` they list, and what
-#: it holds.
 #: The API reference's pages: file, title, the table of ``geoboresight`` they list, what it holds.
 REFERENCE = (
     (
@@ -86,9 +84,37 @@ def missing_docstrings() -> list[str]:
 
 
 # --------------------------------------------------------------------------- pages
+#: The tables of the API reference split into one page per area of the library (a page of
+#: 10,000 words is not read): the area of a name is the first part of its module's name
+#: (``geoboresight.operations.shadow_map`` -> ``shadow_map``), gathered as the paper's
+#: applications; a module of an area not named here goes to "More".
+SPLIT = ("OPERATIONS", "KERNELS")
+AREAS = (
+    ("ratio", "Boresight ratio and statistics", ("ratio", "stats", "info", "report")),
+    ("shadow", "Shadow", ("shadow", "shadow_map", "shadow_truth", "deshadow")),
+    ("dem", "Relative DEM and offset", ("dem", "offset")),
+    ("anomaly", "Anomaly", ("anomaly",)),
+    ("georef", "Georeferencing", ("georef",)),
+    ("simulate", "Simulation", ("simulate",)),
+)
+
+
+def area_of(module: str) -> tuple[str, str]:
+    """``(page, title)`` of the area of ``module`` (:data:`AREAS`)."""
+    parts = module.split(".")[1:]
+    if parts and parts[0] == "operations":
+        parts = parts[1:]
+    head = parts[0] if parts else ""
+    for page, title, heads in AREAS:
+        if head in heads:
+            return page, title
+    return "more", "More"
+
+
 def reference_pages() -> dict[str, str]:
     """``{path: markdown}`` of the API reference: an index of every public name, then one
-    page per table, one mkdocstrings entry per name."""
+    page per table (for :data:`SPLIT`, an index of its areas and one page per area), one
+    mkdocstrings entry per name."""
     import geoboresight as gb
 
     pages = {}
@@ -102,18 +128,48 @@ def reference_pages() -> dict[str, str]:
     ]
     for page, title, table, about in REFERENCE:
         names = getattr(gb, table)
-        body = [f"# {title}", "", about, ""]
         index += [f"## [{title}]({page}.md)", "", about, "", "| name | what it does |", "|---|---|"]
+        by_area: dict[tuple[str, str], list[str]] = {}
         for name in sorted(names, key=lambda n: (names[n], n)):
-            path = f"{names[name]}.{name}"
-            body += [f"::: {path}", ""]
+            area = area_of(names[name]) if table in SPLIT else ("", "")
+            by_area.setdefault(area, []).append(name)
             summary = (inspect.getdoc(getattr(gb, name)) or "").split("\n\n")[0]
             summary = " ".join(summary.split()).replace("|", "\\|")
-            index.append(f"| [`gb.{name}`][{path}] | {summary} |")
+            index.append(f"| [`gb.{name}`][{names[name]}.{name}] | {summary} |")
         index.append("")
+        body = [f"# {title}", "", about, ""]
+        if table not in SPLIT:
+            body += [f"::: {names[name]}.{name}\n" for name in by_area[("", "")]]
+        else:
+            order = [a[0] for a in AREAS] + ["more"]
+            for area, area_title in sorted(by_area, key=lambda a: order.index(a[0])):
+                members = by_area[(area, area_title)]
+                body += [
+                    f"- [{area_title}]({page}/{area}.md): " + ", ".join(f"`{n}`" for n in members)
+                ]
+                pages[f"reference/{page}/{area}.md"] = "\n".join(
+                    [f"# {title}: {area_title.lower() if area != 'dem' else area_title}", ""]
+                    + [f"::: {names[name]}.{name}\n" for name in members]
+                )
         pages[f"reference/{page}.md"] = "\n".join(body)
     pages["reference/index.md"] = "\n".join(index)
     return pages
+
+
+def reference_nav() -> dict[str, list]:
+    """``{placeholder page: its section}`` of the site's navigation: each split table's index,
+    then its areas' pages."""
+    out = {}
+    for placeholder in (f"reference/{page}.md" for page, _, t, _ in REFERENCE if t in SPLIT):
+        folder = placeholder.removesuffix(".md")
+        areas = [p for p in reference_pages() if p.startswith(folder + "/")]
+        titles = {page: title for page, title, _ in AREAS}
+        order = [a[0] for a in AREAS] + ["more"]
+        areas.sort(key=lambda p: order.index(p.rsplit("/", 1)[1][:-3]))
+        out[placeholder] = [placeholder] + [
+            {titles.get(p.rsplit("/", 1)[1][:-3], "More"): p} for p in areas
+        ]
+    return out
 
 
 #: README.md's sections that the site's home page leaves out: what a fresh clone runs, which
@@ -409,6 +465,8 @@ def expand_nav(nav: list, entries: list, placeholder: str) -> list:
 def on_config(config):
     commands = _commands_module()
     config["nav"] = expand_nav(config["nav"], commands.nav(), f"{commands.FOLDER}/index.md")
+    for placeholder, entries in reference_nav().items():
+        config["nav"] = expand_nav(config["nav"], entries, placeholder)
     return config
 
 
