@@ -34,7 +34,16 @@ OUTER = 17
 class RXBackground:
     """What an RX score measures a pixel against: the scene mean (``mode="global"``), or the
     mean of an ``outer`` window minus an ``inner`` guard window around the pixel
-    (``"local"``; odd sizes in pixels, inner < outer). The covariance is the scene's either way."""
+    (``"local"``; odd sizes in pixels, inner < outer). The covariance is the scene's either way.
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.RXBackground()
+    RXBackground(mode='global', inner=3, outer=17)
+    >>> gb.RXBackground(mode="local", outer=25)  # a local window: --mode local --outer 25
+    RXBackground(mode='local', inner=3, outer=25)
+    """
 
     mode: str = "global"
     inner: int = INNER

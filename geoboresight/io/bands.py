@@ -36,7 +36,16 @@ class MatchBands:
     """The VNIR and SWIR images matched for the boresight offset and the relative DEM (§3.2):
     the band nearest ``vnir_nm`` (``swir_nm``), or the mean of the bands centred in
     [``vnir_nm``, ``vnir_to_nm``] ([``swir_nm``, ``swir_to_nm``]). By default the ratio's two
-    bands (Eq. 3); dense matching averages band ranges (:data:`DENSE_MATCH`)."""
+    bands (Eq. 3); dense matching averages band ranges (:data:`DENSE_MATCH`).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.MatchBands()  # the ratio's two bands
+    MatchBands(vnir_nm=920.0, swir_nm=1010.0, vnir_to_nm=None, swir_to_nm=None, tolerance_nm=10.0)
+    >>> gb.MatchBands(vnir_nm=900, vnir_to_nm=970, swir_nm=980, swir_to_nm=1100)  # band means
+    MatchBands(vnir_nm=900, swir_nm=980, vnir_to_nm=970, swir_to_nm=1100, tolerance_nm=10.0)
+    """
 
     vnir_nm: float = VNIR_NM
     swir_nm: float = SWIR_NM

@@ -467,6 +467,17 @@ def rx_file(
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.3, Figure 11B).
     Reed, I.S.; Yu, X. Adaptive multiple-band CFAR detection of an optical pattern with unknown
     spectral distribution. IEEE Trans. Acoust. Speech Signal Process. 1990, 38, 1760–1770.
+
+    Examples
+    --------
+    RX scores of the sample scene, the SWIR co-registered onto the VNIR first:
+
+    >>> import geoboresight as gb
+    >>> result = gb.rx_file(
+    ...     "sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr", output="out/rx.tif"
+    ... )
+    >>> result["bands"], result["coregistered"], result["offset_along_px"]
+    (176, True, 0.87)
     """
     from ..anomaly import physical, rx
 

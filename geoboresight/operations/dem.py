@@ -325,6 +325,13 @@ def relative_dem_file(
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.2, the relative DEM
     by kriging; Figure 9).
+
+    Examples
+    --------
+    >>> geometry = gb.FlightGeometry(squint_deg=3, flying_height=1500, ifov_mrad=1)  # the sample's
+    >>> gb.relative_dem_file("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...                      output="out/dem.tif", geometry=geometry)["sigma_h_m"]
+    2.431
     """
     factor = geometry.factor()
     gsd = geometry.gsd

@@ -129,6 +129,20 @@ def geolocate_file(
     dict
         ``output``, the grid (CRS, resolution, size), the resampling and the pixels masked in
         the IGM (NaN, non-monotonic).
+
+    Examples
+    --------
+    The sample scene's boresight ratio on the map, with the scene's IGM:
+
+    >>> import geoboresight as gb
+    >>> _ = gb.ratio_file(
+    ...     "sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr", output="out/ratio.tif"
+    ... )
+    >>> result = gb.geolocate_file(
+    ...     "out/ratio.tif", igm="sample_data/scene/igm.tif", output="out/ratio_map.tif"
+    ... )
+    >>> result["crs"], result["resolution"], result["width"], result["height"]
+    ('EPSG:32636', 1.5, 346, 323)
     """
     if igm and glt:
         raise ParameterError("give either --igm or --glt, not both")

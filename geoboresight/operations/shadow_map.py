@@ -160,6 +160,18 @@ def shadow_map_file(
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1, Table 2).
     Chavez, P.S. Remote Sens. Environ. 1988, 24, 459–479 (dark-object subtraction).
+
+    Examples
+    --------
+    The sample scene's shadow classes, mask and shadow fraction:
+
+    >>> import geoboresight as gb
+    >>> result = gb.shadow_map_file(
+    ...     "sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...     output="out/classes.tif", mask="out/mask.tif", fraction="out/fraction.tif",
+    ... )
+    >>> result["shadow_share"], result["offset_along_px"]
+    (0.1894, 0.87)
     """
     core_darkness = detection.core_darkness
     edge_pixels = detection.edge_pixels
