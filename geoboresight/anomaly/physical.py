@@ -83,7 +83,14 @@ DPRIME_MIN = 3.0
 class Detectability:
     """The target a scene's detectability is computed for: ``target_fraction`` of a pixel
     filled (0–1], ``target_contrast`` its signal above dark relative to the background's
-    minus 1 (−0.3: 30 % darker; the sign does not change d′)."""
+    minus 1 (−0.3: 30 % darker; the sign does not change d′).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.Detectability()  # the target whose expected d′ an anomaly operation reports
+    Detectability(target_fraction=0.09, target_contrast=0.3)
+    """
 
     target_fraction: float = TARGET_FRACTION
     target_contrast: float = TARGET_CONTRAST

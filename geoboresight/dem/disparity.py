@@ -48,9 +48,11 @@ class Matching:
     --------
     >>> import geoboresight as gb
     >>> gb.Matching()
-    Matching(window=15, search_along=3, search_across=1, min_peak=0.6, min_sharpness=0.005, refine=1)
+    Matching(window=15, search_along=3, search_across=1, min_peak=0.6, min_sharpness=0.005,
+        refine=1)
     >>> gb.Matching(window=21)  # --window 21: fewer, steadier matches
-    Matching(window=21, search_along=3, search_across=1, min_peak=0.6, min_sharpness=0.005, refine=1)
+    Matching(window=21, search_along=3, search_across=1, min_peak=0.6, min_sharpness=0.005,
+        refine=1)
     """
 
     window: int = WINDOW

@@ -160,7 +160,8 @@ class FlightGeometry:
     --------
     >>> import geoboresight as gb
     >>> gb.FlightGeometry(squint_deg=3, flying_height=1500, ifov_mrad=1)
-    FlightGeometry(height_factor=None, squint_deg=3, flying_height=1500, ifov_mrad=1, parallax_axis='along', invert_parallax=False)
+    FlightGeometry(height_factor=None, squint_deg=3, flying_height=1500, ifov_mrad=1,
+        parallax_axis='along', invert_parallax=False)
     """
 
     height_factor: float | None = None

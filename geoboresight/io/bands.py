@@ -58,7 +58,16 @@ class MatchBands:
 class BoresightOffset:
     """The boresight offset of the SWIR relative to the VNIR (px, SWIR minus VNIR position),
     along- and across-track, when the user gives it; both None = measured on the data
-    (:func:`geoboresight.dem.offset.estimate_offset`), one None = 0."""
+    (:func:`geoboresight.dem.offset.estimate_offset`), one None = 0.
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.BoresightOffset()  # measured on the scene
+    BoresightOffset(offset_along=None, offset_across=None)
+    >>> gb.BoresightOffset(offset_along=0.87, offset_across=-0.07)  # known (pixels)
+    BoresightOffset(offset_along=0.87, offset_across=-0.07)
+    """
 
     offset_along: float | None = None
     offset_across: float | None = None
@@ -67,7 +76,18 @@ class BoresightOffset:
 @dataclass(frozen=True)
 class Coregistration(BoresightOffset):
     """Whether RX and SVDD shift the SWIR onto the VNIR grid first (``coregister``), and by
-    which boresight offset (given, or both None: measured)."""
+    which boresight offset (given, or both None: measured).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.Coregistration()  # the offset measured on the scene, the SWIR shifted onto the VNIR
+    Coregistration(offset_along=None, offset_across=None, coregister=True)
+    >>> result = gb.rx_file("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...                     output="out/rx.tif", coregistration=gb.Coregistration(coregister=False))
+    >>> result["coregistered"]
+    False
+    """
 
     coregister: bool = True
 

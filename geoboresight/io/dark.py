@@ -32,7 +32,7 @@ class DarkLevels:
     >>> import geoboresight as gb
     >>> gb.DarkLevels()  # each instrument's dark level found on the scene
     DarkLevels(vnir_dark=None, swir_dark=None)
-    >>> gb.DarkLevels(vnir_dark=190, swir_dark=800)  # known levels (DN): --vnir-dark 190 --swir-dark 800
+    >>> gb.DarkLevels(vnir_dark=190, swir_dark=800)  # --vnir-dark 190 --swir-dark 800
     DarkLevels(vnir_dark=190, swir_dark=800)
     """
 

@@ -388,7 +388,14 @@ class Sample:
     (:func:`sample_windows`): about ``sample_size`` pixels, the same ones for the same
     ``seed``. The default size is the shadow cluster's and the dark-pixel baseline's; an
     operation with another default declares a subclass with it (e.g. the shadow map's
-    ``MapSample``)."""
+    ``MapSample``).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.Sample()
+    Sample(sample_size=50000, seed=0)
+    """
 
     sample_size: int = 50_000
     seed: int = 0
