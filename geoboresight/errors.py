@@ -155,8 +155,13 @@ def _template(node) -> str:
 #: The tasks a user meets messages in, in the order a newcomer meets them: (page, title,
 #: the modules whose messages belong to it). A module is matched by its path under the package
 #: (``io/products/``: a folder; ``operations/_shared.py:sun_angles``: one function); the most
-#: specific match wins, and a module no task names goes to the first page.
+#: specific match wins, and a module no task names goes to :data:`FALLBACK`.
 TASKS = (
+    (
+        "reading",
+        "Reading an image or a sensor product",
+        ("io/", "stats.py", "operations/stats.py", "operations/_shared.py:no_valid_error"),
+    ),
     (
         "options",
         "Giving an operation its options",
@@ -170,11 +175,6 @@ TASKS = (
             "io/raster.py:writer_options",
             "stats.py:parse_",
         ),
-    ),
-    (
-        "reading",
-        "Reading an image or a sensor product",
-        ("io/", "stats.py", "operations/stats.py", "operations/_shared.py:no_valid_error"),
     ),
     (
         "writing",
@@ -217,6 +217,9 @@ TASKS = (
     ("qgis", "QGIS, the engine and batch runs", ("engine.py", "batch.py")),
 )
 
+#: The task of a message whose module no task names.
+FALLBACK = "options"
+
 #: Where the pages of messages are written, beside the troubleshooting page.
 CATALOGUE_FOLDER = "messages"
 
@@ -225,7 +228,7 @@ def message_task(module: str, func: str) -> str:
     """The task (a page of :data:`TASKS`) of a message raised in ``func`` of ``module``
     (``geoboresight/io/dual.py``)."""
     where = module.split("/", 1)[1] if "/" in module else module
-    best, length = TASKS[0][0], -1
+    best, length = FALLBACK, -1
     for page, _title, prefixes in TASKS:
         for prefix in prefixes:
             path, _, name = prefix.partition(":")

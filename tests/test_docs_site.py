@@ -233,6 +233,11 @@ def test_the_pages_of_messages_are_in_step_with_the_code_and_ordered_by_task():
     assert errors.message_task("geoboresight/io/georef.py", "read_glt") == "georef"
     assert errors.message_task("geoboresight/operations/_shared.py", "sun_angles") == "shadow"
     assert errors.message_task("geoboresight/engine.py", "run") == "qgis"
+    assert errors.message_task("geoboresight/newmodule.py", "f") == errors.FALLBACK
+    index = errors.catalogue_markdown()
+    assert [f"{errors.CATALOGUE_FOLDER}/{page}.md" for page, _, _ in errors.TASKS] == re.findall(
+        r"\]\((\S+\.md)\)", index
+    )
 
 
 def test_no_page_of_the_docs_is_over_400_lines():
