@@ -1,12 +1,16 @@
 """MkDocs hooks of the documentation site (mkdocs.yml ``hooks``).
 
-- The pages made from elsewhere: the home page (README.md), the changelog (CHANGELOG.md), the
-  API reference (one mkdocstrings entry per public name of ``geoboresight``) and the gallery
+- The pages made from elsewhere: the home page (README.md without its fresh-clone section),
+  the changelog (CHANGELOG.md), the command reference (docs/hooks/commands.py: one page per
+  group of operations, from the registry of specs), the API reference (one mkdocstrings entry
+  per public name of ``geoboresight``, the operations and kernels on one page per area), the
+  validation report (validation/REPORT.md, one page per method) and the gallery
   (docs/hooks/gallery.py, run on the sample scene; its outputs are kept in
   ``build/docs-gallery/`` until the library, the scene or the gallery change).
 - Links from a page to a file outside docs/ (``../geoboresight/io/dual.py``) point at the
-  repository on GitHub; a link to a file that does not exist is a warning, which
-  ``mkdocs build --strict`` turns into a failure.
+  repository on GitHub, unless the site shows that file as a page (the README, the changelog,
+  the validation report); a link to the site's own address reaches its page here. A link to a
+  file that does not exist is a warning, which ``mkdocs build --strict`` turns into a failure.
 - A public name without a docstring is a warning too.
 """
 
