@@ -288,3 +288,27 @@ def test_the_operations_and_kernels_reference_is_split_by_area():
     assert site.area_of("geoboresight.operations.shadow_map") == ("shadow", "Shadow")
     assert site.area_of("geoboresight.anomaly.rx")[0] == "anomaly"
     assert site.area_of("geoboresight.radiometry.calibrate")[0] == "more"
+
+
+def test_the_install_pages_commands_print_what_it_shows(tmp_path, monkeypatch):
+    """Every ``$ geoboresight ...`` block of docs/install.md, run in order in an empty folder:
+    each line the page shows (``...`` stands for lines left out) is a line the command
+    prints."""
+    import shlex
+
+    from click.testing import CliRunner
+
+    from geoboresight.cli import main
+
+    text = (ROOT / "docs" / "install.md").read_text(encoding="utf-8")
+    blocks = re.findall(r"```console\n\$ (geoboresight [^\n]+)\n(.*?)```", text, flags=re.S)
+    assert len(blocks) == 6, [command for command, _ in blocks]
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "out").mkdir()
+    for command, shown in blocks:
+        result = CliRunner().invoke(main, shlex.split(command)[1:], catch_exceptions=False)
+        assert result.exit_code == 0, (command, result.output)
+        printed = {line.rstrip() for line in result.output.splitlines()}
+        for line in shown.splitlines():
+            if line.strip() and line.strip() != "...":
+                assert line.rstrip() in printed, (command, line)
