@@ -15,7 +15,17 @@ from collections.abc import Callable
 
 class GeoboresightError(Exception):
     """Base class: a problem the user can fix; the message says how. ``params``: the
-    parameters the message names (Python names), for the faces to word (:func:`worded`)."""
+    parameters the message names (Python names), for the faces to word (:func:`worded`).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> try:
+    ...     gb.ratio_file("no/such.hdr", output="out/ratio.tif")
+    ... except gb.GeoboresightError as exc:
+    ...     print(type(exc).__name__, exc)
+    InputError merged cube no/such.hdr does not exist: check the path
+    """
 
     def __init__(self, *args, params=()):
         super().__init__(*args)

@@ -263,6 +263,15 @@ def open_dual(
         In a merged cube, bands below the seam are VNIR, bands at or above it SWIR.
     vnir_wavelengths, swir_wavelengths : str, optional
         Comma-separated band centres (nm) for files without wavelength metadata.
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> dual = gb.open_dual("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr")
+    >>> dual.grid.width, dual.grid.height
+    (286, 192)
+    >>> dual.ratio_bands()  # the bands nearest 920 and 1010 nm
+    RatioBands(vnir_band=88, vnir_nm=922.0, swir_band=3, swir_nm=1009.109)
     """
     from .image import dataset_path
 

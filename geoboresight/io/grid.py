@@ -67,7 +67,16 @@ class OutputGrid:
 
 @dataclass(frozen=True)
 class Grid:
-    """Size, CRS and geotransform of a raster; ``transform`` is None in raw sensor geometry."""
+    """Size, CRS and geotransform of a raster; ``transform`` is None in raw sensor geometry.
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> grid = gb.Grid(width=286, height=192)  # raw sensor geometry: no CRS, no transform
+    >>> profile = grid.profile(count=1, dtype="float32", nodata=-9999.0)
+    >>> profile["driver"], profile["compress"], profile["tiled"], "crs" in profile
+    ('GTiff', 'deflate', True, False)
+    """
 
     width: int
     height: int
