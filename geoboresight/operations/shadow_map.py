@@ -63,7 +63,14 @@ class MapSample(Sample):
 class MapCalibration(MapSample, BoresightOffset):
     """How the shadow map is calibrated on the flight line: the random sample
     (``sample_size``, ``seed``; :class:`MapSample`) and the boresight offset of the SWIR
-    (``offset_along``, ``offset_across``; :class:`BoresightOffset`: both None = measured)."""
+    (``offset_along``, ``offset_across``; :class:`BoresightOffset`: both None = measured).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.MapCalibration()  # the offset measured; 200,000 pixels sampled, seed 0
+    MapCalibration(offset_along=None, offset_across=None, sample_size=200000, seed=0)
+    """
 
 
 @dataclass(frozen=True)
@@ -71,7 +78,18 @@ class Detection:
     """The spectral shadow test: core shadow at or below ``core_darkness`` (natural log of the
     SWIR signal over its sunlit mode; with a surface model, whose prior replaces it, only for
     the edges a pixel this dark is at least half shaded, and near the model's sunward edge)
-    and partial shadow looked for ``edge_pixels`` around it."""
+    and partial shadow looked for ``edge_pixels`` around it.
+
+    Examples
+    --------
+    >>> import math
+    >>> import geoboresight as gb
+    >>> detection = gb.Detection()
+    >>> detection.core_darkness == math.log(1 / 6)  # core shadow: below a sixth of sunlit
+    True
+    >>> detection.edge_pixels
+    2
+    """
 
     core_darkness: float = smap.CORE_DARKNESS
     edge_pixels: int = smap.EDGE_PIXELS
