@@ -352,7 +352,14 @@ class Dipole:
     """How the physical indicator scores the dipole (docs/anomaly.md): one-sided by
     ``target_sign`` where known, against the median and spread of an odd ``dipole_window``
     neighbourhood, along the boresight offset (``offset_along``, ``offset_across`` px; both
-    None: measured)."""
+    None: measured).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.Dipole()  # a target brighter or darker than its ground, the offset measured
+    Dipole(target_sign='unknown', dipole_window=7, offset_along=None, offset_across=None)
+    """
 
     target_sign: str = "unknown"
     dipole_window: int = WINDOW
