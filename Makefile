@@ -55,7 +55,7 @@ test-qgis: $(QVENV)/.installed $(VENV)/.installed  # the QGIS tests run .venv/bi
 	QT_QPA_PLATFORM=offscreen $(QVENV)/bin/python -m pytest -m "qgis or compat" $(PYTEST_ARGS)
 
 # The rest of the suite in the QGIS environment (numpy 1.26): with test-qgis, all of it there.
-test-qgis-rest: $(QVENV)/.installed
+test-qgis-rest: $(QVENV)/.installed $(VENV)/.installed  # some tests build the plugin zip with .venv
 	$(QVENV)/bin/python -m pytest -m "not qgis and not compat" $(PYTEST_ARGS)
 
 lint: $(VENV)/.installed
