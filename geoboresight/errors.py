@@ -15,7 +15,17 @@ from collections.abc import Callable
 
 class GeoboresightError(Exception):
     """Base class: a problem the user can fix; the message says how. ``params``: the
-    parameters the message names (Python names), for the faces to word (:func:`worded`)."""
+    parameters the message names (Python names), for the faces to word (:func:`worded`).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> try:
+    ...     gb.ratio_file("no/such.hdr", output="out/ratio.tif")
+    ... except gb.GeoboresightError as exc:
+    ...     print(type(exc).__name__, exc)
+    InputError merged cube no/such.hdr does not exist: check the path
+    """
 
     def __init__(self, *args, params=()):
         super().__init__(*args)
@@ -152,33 +162,183 @@ def _template(node) -> str:
     return "{" + ast.unparse(node) + "}"
 
 
-def catalogue_markdown() -> str:
-    """The generated part of docs/troubleshooting.md: every message, by module."""
-    lines = [CATALOGUE_BEGIN, ""]
-    module = None
+#: The tasks a user meets messages in, in the order a newcomer meets them: (page, title,
+#: the modules whose messages belong to it). A module is matched by its path under the package
+#: (``io/products/``: a folder; ``io/raster.py:parse_creation``: one function); the most
+#: specific match wins, and a module no task names goes to :data:`FALLBACK`.
+TASKS = (
+    (
+        "reading",
+        "Reading an image or a sensor product",
+        ("io/", "stats.py", "operations/stats.py", "io/checks.py:no_valid_error"),
+    ),
+    (
+        "radiance",
+        "Radiance and the instrument's calibration",
+        ("sensor/calibration.py", "io/calibration.py", "io/radiance.py", "operations/radiance.py"),
+    ),
+    (
+        "options",
+        "Giving an operation its options",
+        (
+            "algorithms/",
+            "operations/_guard.py",
+            "progress.py",
+            "io/raster.py:parse_creation",
+            "operations/stats.py:parse_",
+            "io/raster.py:check_creation",
+            "io/raster.py:writer_options",
+            "stats.py:parse_",
+        ),
+    ),
+    (
+        "writing",
+        "Writing outputs",
+        (
+            "io/write.py",
+            "io/vector.py",
+            "io/scene.py",
+            "io/orthoscene.py",
+            "io/raster.py:verify_written",
+        ),
+    ),
+    (
+        "shadow",
+        "Shadow maps, classes and de-shadowing",
+        (
+            "shadow/",
+            "operations/shadow",
+            "operations/_shadow",
+            "operations/deshadow.py",
+            "operations/_surface.py",
+            "operations/_dark.py",
+            "io/checks.py",
+        ),
+    ),
+    (
+        "dem",
+        "The boresight offset and the relative DEM",
+        ("dem/", "sensor/", "operations/dem.py", "operations/offset.py", "operations/_offset.py"),
+    ),
+    (
+        "anomaly",
+        "Anomalies, unmixing and ROC curves",
+        ("anomaly/", "operations/anomaly.py", "io/anomaly.py", "io/spectra.py"),
+    ),
+    (
+        "georef",
+        "Georeferencing",
+        (
+            "georef/",
+            "io/georef.py",
+            "io/navigation.py",
+            "operations/georef",
+            "operations/_glt.py",
+            "operations/direct_georef.py",
+            "operations/boresight_calibrate.py",
+            "io/sample.py",
+        ),
+    ),
+    ("simulate", "Simulating a scene", ("simulate/", "operations/simulate.py")),
+    ("qgis", "QGIS, the engine and batch runs", ("engine.py", "batch.py", "report/")),
+)
+
+#: The task of a message whose module no task names.
+FALLBACK = "options"
+
+#: Where the pages of messages are written, beside the troubleshooting page.
+CATALOGUE_FOLDER = "messages"
+
+
+def message_task(module: str, func: str) -> str:
+    """The task (a page of :data:`TASKS`) of a message raised in ``func`` of ``module``
+    (``geoboresight/io/dual.py``)."""
+    where = module.split("/", 1)[1] if "/" in module else module
+    best, length = FALLBACK, -1
+    for page, _title, prefixes in TASKS:
+        for prefix in prefixes:
+            path, _, name = prefix.partition(":")
+            matched = where == path or (path.endswith("/") and where.startswith(path))
+            matched = matched or (not path.endswith((".py", "/")) and where.startswith(path))
+            if matched and (not name or func.startswith(name)):
+                score = len(path) + (1000 if name else 0)
+                if score > length:
+                    best, length = page, score
+    return best
+
+
+def _entry(cls: str, func: str, module: str, template: str) -> str:
+    text = " ".join(template.split())
+    fence = "``" if "`" in text else "`"
+    pad = " " if "`" in text else ""
+    return f"- **{cls}**: {fence}{pad}{text}{pad}{fence} ({func}, `{module}`)"
+
+
+def catalogue_pages() -> dict[str, str]:
+    """The pages of messages, ``{"messages/<task>.md": markdown}``: every message of the code,
+    one page per task (:data:`TASKS`), in the order of the source."""
+    by_task: dict[str, list[str]] = {page: [] for page, _, _ in TASKS}
     for mod, func, cls, template in message_catalogue():
-        if mod != module:
-            module = mod
-            lines += ["", f"### `{mod}`", ""]
-        text = " ".join(template.split())
-        fence = "``" if "`" in text else "`"
-        pad = " " if "`" in text else ""
-        lines.append(f"- **{cls}** ({func}): {fence}{pad}{text}{pad}{fence}")
+        by_task[message_task(mod, func)].append(_entry(cls, func, mod, template))
+    pages = {}
+    for page, title, _ in TASKS:
+        lines = [
+            f"# {title}: every message",
+            "",
+            "Generated from the source by `python -m geoboresight.errors --update "
+            "docs/troubleshooting.md`; what each kind of error means and what to do is on the "
+            "[troubleshooting page](../troubleshooting.md). `{...}` marks what the message "
+            "fills in (a path, a value); the function and module that raise it follow.",
+            "",
+            *by_task[page],
+            "",
+        ]
+        pages[f"{CATALOGUE_FOLDER}/{page}.md"] = "\n".join(lines)
+    return pages
+
+
+def catalogue_markdown() -> str:
+    """The generated part of docs/troubleshooting.md: the pages of messages, by task, with
+    how many each holds."""
+    counts = {page: 0 for page, _, _ in TASKS}
+    for mod, func, _cls, _template in message_catalogue():
+        counts[message_task(mod, func)] += 1
+    lines = [CATALOGUE_BEGIN, ""]
+    for page, title, _ in TASKS:
+        lines.append(f"- [{title}]({CATALOGUE_FOLDER}/{page}.md): {counts[page]} messages")
     lines += ["", CATALOGUE_END]
-    return "\n".join(lines[:2] + lines[3:]) + "\n"
+    return "\n".join(lines) + "\n"
 
 
 def _update(path: str) -> bool:
-    """Rewrite the generated part of ``path``; True when it changed."""
+    """Rewrite the generated part of ``path`` and the pages of messages beside it; True when
+    anything changed."""
+    import os
+
     with open(path, encoding="utf-8") as f:
         text = f.read()
     head, _, rest = text.partition(CATALOGUE_BEGIN)
     _, _, tail = rest.partition(CATALOGUE_END)
     new = head + catalogue_markdown().rstrip("\n") + tail
-    if new != text:
+    changed = new != text
+    if changed:
         with open(path, "w", encoding="utf-8") as f:
             f.write(new)
-    return new != text
+    folder = os.path.join(os.path.dirname(os.path.abspath(path)), CATALOGUE_FOLDER)
+    os.makedirs(folder, exist_ok=True)
+    pages = catalogue_pages()
+    for name in sorted(os.listdir(folder)):  # a task that no longer exists
+        if name.endswith(".md") and f"{CATALOGUE_FOLDER}/{name}" not in pages:
+            os.remove(os.path.join(folder, name))
+            changed = True
+    for name, page in pages.items():
+        target = os.path.join(os.path.dirname(folder), name)
+        old = open(target, encoding="utf-8").read() if os.path.exists(target) else None
+        if old != page:
+            with open(target, "w", encoding="utf-8") as f:
+                f.write(page)
+            changed = True
+    return changed
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -27,6 +27,16 @@ class Progress:
         Polled at every update; when it returns True, :class:`Cancelled` is raised.
     log : callable(str) or None
         Receives informative messages (QGIS: ``feedback.pushInfo``; CLI: stderr).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> seen = []
+    >>> progress = gb.Progress(lambda fraction, message: seen.append(round(fraction, 2)))
+    >>> _ = gb.ratio_file("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...                   output="out/ratio.tif", block_rows=64, progress=progress)
+    >>> seen  # once per strip of 64 lines
+    [0.33, 0.67, 1.0]
     """
 
     def __init__(

@@ -35,6 +35,20 @@ def boresight_ratio(
     ----------
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (Eq. 3).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import geoboresight as gb
+    >>> swir = np.array([[2.0, 3.0], [4.0, 1.0]])
+    >>> vnir = np.array([[1.0, 1.5], [0.0, 2.0]])  # a zero denominator is not a ratio
+    >>> ratio, valid = gb.boresight_ratio(swir, vnir)
+    >>> ratio
+    array([[2. , 2. ],
+           [nan, 0.5]]...)
+    >>> valid
+    array([[ True,  True],
+           [False,  True]])
     """
     num = np.asarray(numerator, dtype="float32")
     den = np.asarray(denominator, dtype="float32")

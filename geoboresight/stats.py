@@ -447,6 +447,14 @@ def describe(
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (Table 1, Figure 3).
     Pébay, P. Formulas for robust, one-pass parallel computation of covariances and
     arbitrary-order statistical moments. Sandia report SAND2008-6212, 2008.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import geoboresight as gb
+    >>> d = gb.describe(np.array([1.0, 2.0, 3.0, 4.0, 10.0]))
+    >>> d.n, d.mean, round(d.std, 4), round(d.skewness, 4), round(d.se_skewness, 4)
+    (5, 4.0, 3.5355, 1.6971, 0.9129)
     """
     v = np.asarray(values, dtype="float64")
     v = v[valid] if valid is not None else v.ravel()

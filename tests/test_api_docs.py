@@ -60,3 +60,68 @@ def test_the_docs_use_the_flat_api_only():
         if deep.search(line)
     ]
     assert not found, "\n".join(found)
+
+
+# --------------------------------------------------------------------------- docstring Examples
+def _own_doc(obj) -> str:
+    """An object's own docstring (a class's, not its dataclass-generated signature)."""
+    doc = obj.__dict__.get("__doc__") if isinstance(obj, type) else obj.__doc__
+    return doc or ""
+
+
+def _with_examples() -> list[str]:
+    import geoboresight as gb
+
+    return sorted(
+        n for n in gb.__all__ if re.search(r"^\s*Examples\n\s*-+\n", _own_doc(getattr(gb, n)), re.M)
+    )
+
+
+#: The names a newcomer meets first: each shows how it is called, and what it gives, in an
+#: Examples section that runs.
+MOST_USED = {
+    "ratio_file",
+    "stats_file",
+    "shadow_map_file",
+    "deshadow_file",
+    "rx_file",
+    "relative_dem_file",
+    "geolocate_file",
+    "info_file",
+    "boresight_ratio",
+    "describe",
+    "BandChoice",
+    "DualLayout",
+    "FlightGeometry",
+    "Matching",
+}
+
+
+def test_the_most_used_names_have_examples():
+    missing = sorted(MOST_USED - set(_with_examples()))
+    assert not missing, f"no Examples section: {missing}"
+
+
+@pytest.mark.parametrize("name", _with_examples())
+def test_docstring_examples_run_as_written(name, tmp_path, monkeypatch):
+    """Each Examples section runs as a doctest from a folder like the repository's top (the
+    sample scene in ``sample_data/``, outputs into ``out/``), and prints what it shows."""
+    import doctest
+
+    import geoboresight as gb
+
+    (tmp_path / "sample_data").symlink_to(ROOT / "sample_data")
+    (tmp_path / "out").mkdir()
+    monkeypatch.chdir(tmp_path)
+    # As NumPy's examples take ``np`` as imported, these take ``gb`` (``import geoboresight as
+    # gb``, docs/api.md) when they do not import it themselves.
+    test = doctest.DocTestParser().get_doctest(
+        _own_doc(getattr(gb, name)), {"gb": gb}, f"gb.{name}", None, 0
+    )
+    assert test.examples, name
+    report = []
+    runner = doctest.DocTestRunner(
+        optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE, verbose=False
+    )
+    runner.run(test, out=report.append)
+    assert runner.failures == 0, "".join(report)

@@ -112,24 +112,40 @@ def test_the_hostile_cases_in_batch(tmp_path):
     """hostile.FACE_CASES as a Dask batch meets them, one batch per operation: each job's
     result (with the warning of an accepted repeat) or its one-line error naming the file and
     the parameter as Python names it ('vnir_dark'); a Specim capture's image lines only."""
+    import dask
+    from dask.distributed import LocalCluster
     from hostile import COLS, FACE_CASES, ROWS, face_values, make_face_inputs, make_products
+
+    from geoboresight.batch import worker_environ
 
     d = make_face_inputs(tmp_path / "in")
     by_op = {}
     for case in FACE_CASES:
         by_op.setdefault(case.op, []).append(case)
-    for op, cases in by_op.items():
-        results = run_batch(op, [face_values(c, d, tmp_path) for c in cases], n_workers=1)
-        for case, res in zip(cases, results, strict=True):
-            assert res.ok == (case.code == 0), (case.id, res.error)
-            if res.ok:
-                assert any(case.warning in w for w in res.result["warnings"]), case.id
-                continue
-            assert "\n" not in res.error
-            for expect in case.expect:
-                assert expect in res.error, (case.id, expect, res.error)
-            if case.param:
-                assert f"'{case.param}'" in res.error, res.error
+    # One cluster for the batches of every operation, as run_batch makes its own (one
+    # single-threaded worker process), given by its address; the last batch below makes its own.
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": worker_environ()}):
+        cluster = LocalCluster(
+            n_workers=1,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            local_directory=str(tmp_path / "dask"),
+        )
+    with cluster:
+        for op, cases in by_op.items():
+            values = [face_values(c, d, tmp_path) for c in cases]
+            results = run_batch(op, values, scheduler=cluster.scheduler_address)
+            for case, res in zip(cases, results, strict=True):
+                assert res.ok == (case.code == 0), (case.id, res.error)
+                if res.ok:
+                    assert any(case.warning in w for w in res.result["warnings"]), case.id
+                    continue
+                assert "\n" not in res.error
+                for expect in case.expect:
+                    assert expect in res.error, (case.id, expect, res.error)
+                if case.param:
+                    assert f"'{case.param}'" in res.error, res.error
     p = make_products(tmp_path / "p")["specim"]
     [res] = run_batch("stats", [{"input": p.path, "band": 2, "output": str(tmp_path / "s.json")}])
     assert res.ok and res.result["n"] == ROWS * COLS

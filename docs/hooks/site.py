@@ -1,12 +1,16 @@
 """MkDocs hooks of the documentation site (mkdocs.yml ``hooks``).
 
-- The pages made from elsewhere: the home page (README.md), the changelog (CHANGELOG.md), the
-  API reference (one mkdocstrings entry per public name of ``geoboresight``) and the gallery
+- The pages made from elsewhere: the home page (README.md without its fresh-clone section),
+  the changelog (CHANGELOG.md), the command reference (docs/hooks/commands.py: one page per
+  group of operations, from the registry of specs), the API reference (one mkdocstrings entry
+  per public name of ``geoboresight``, the operations and kernels on one page per area), the
+  validation report (validation/REPORT.md, one page per method) and the gallery
   (docs/hooks/gallery.py, run on the sample scene; its outputs are kept in
   ``build/docs-gallery/`` until the library, the scene or the gallery change).
 - Links from a page to a file outside docs/ (``../geoboresight/io/dual.py``) point at the
-  repository on GitHub; a link to a file that does not exist is a warning, which
-  ``mkdocs build --strict`` turns into a failure.
+  repository on GitHub, unless the site shows that file as a page (the README, the changelog,
+  the validation report); a link to the site's own address reaches its page here. A link to a
+  file that does not exist is a warning, which ``mkdocs build --strict`` turns into a failure.
 - A public name without a docstring is a warning too.
 """
 
@@ -32,8 +36,6 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 DOCS = ROOT / "docs"
 GALLERY_CACHE = ROOT / "build" / "docs-gallery"
 
-#: The API reference's pages: file, title, the table of ``geoboresight`` they list, and what
-#: it holds.
 #: The API reference's pages: file, title, the table of ``geoboresight`` they list, what it holds.
 REFERENCE = (
     (
@@ -86,9 +88,38 @@ def missing_docstrings() -> list[str]:
 
 
 # --------------------------------------------------------------------------- pages
+#: The tables of the API reference split into one page per area of the library (a page of
+#: 10,000 words is not read): the area of a name is the first part of its module's name
+#: (``geoboresight.operations.shadow_map`` -> ``shadow_map``), gathered as the paper's
+#: applications; a module of an area not named here goes to "More".
+SPLIT = ("OPERATIONS", "KERNELS")
+AREAS = (
+    ("sensor", "The instrument and radiance", ("sensor", "radiance")),
+    ("ratio", "Boresight ratio and statistics", ("ratio", "stats", "info", "report")),
+    ("shadow", "Shadow", ("shadow", "shadow_map", "shadow_truth", "deshadow")),
+    ("dem", "Relative DEM and offset", ("dem", "offset")),
+    ("anomaly", "Anomaly", ("anomaly",)),
+    ("georef", "Georeferencing", ("georef", "georef_auto", "direct_georef", "boresight_calibrate")),
+    ("simulate", "Simulation", ("simulate",)),
+)
+
+
+def area_of(module: str) -> tuple[str, str]:
+    """``(page, title)`` of the area of ``module`` (:data:`AREAS`)."""
+    parts = module.split(".")[1:]
+    if parts and parts[0] == "operations":
+        parts = parts[1:]
+    head = parts[0] if parts else ""
+    for page, title, heads in AREAS:
+        if head in heads:
+            return page, title
+    return "more", "More"
+
+
 def reference_pages() -> dict[str, str]:
     """``{path: markdown}`` of the API reference: an index of every public name, then one
-    page per table, one mkdocstrings entry per name."""
+    page per table (for :data:`SPLIT`, an index of its areas and one page per area), one
+    mkdocstrings entry per name."""
     import geoboresight as gb
 
     pages = {}
@@ -102,16 +133,30 @@ def reference_pages() -> dict[str, str]:
     ]
     for page, title, table, about in REFERENCE:
         names = getattr(gb, table)
-        body = [f"# {title}", "", about, ""]
         index += [f"## [{title}]({page}.md)", "", about, "", "| name | what it does |", "|---|---|"]
         where = {n: _defined_in(table, n, names[n]) for n in names}
+        by_area: dict[tuple[str, str], list[str]] = {}
         for name in sorted(names, key=lambda n: (where[n], n)):
-            path = f"{where[name]}.{name}"
-            body += [f"::: {path}", ""]
+            area = area_of(names[name]) if table in SPLIT else ("", "")
+            by_area.setdefault(area, []).append(name)
             summary = (inspect.getdoc(getattr(gb, name)) or "").split("\n\n")[0]
             summary = " ".join(summary.split()).replace("|", "\\|")
-            index.append(f"| [`gb.{name}`][{path}] | {summary} |")
+            index.append(f"| [`gb.{name}`][{where[name]}.{name}] | {summary} |")
         index.append("")
+        body = [f"# {title}", "", about, ""]
+        if table not in SPLIT:
+            body += [f"::: {where[name]}.{name}\n" for name in by_area[("", "")]]
+        else:
+            order = [a[0] for a in AREAS] + ["more"]
+            for area, area_title in sorted(by_area, key=lambda a: order.index(a[0])):
+                members = by_area[(area, area_title)]
+                body += [
+                    f"- [{area_title}]({page}/{area}.md): " + ", ".join(f"`{n}`" for n in members)
+                ]
+                pages[f"reference/{page}/{area}.md"] = "\n".join(
+                    [f"# {title}: {area_title.lower() if area != 'dem' else area_title}", ""]
+                    + [f"::: {where[name]}.{name}\n" for name in members]
+                )
         pages[f"reference/{page}.md"] = "\n".join(body)
     pages["reference/index.md"] = "\n".join(index)
     return pages
@@ -127,10 +172,33 @@ def _defined_in(table: str, name: str, module: str) -> str:
     return getattr(gb, name).__wrapped__.__module__
 
 
+def reference_nav() -> dict[str, list]:
+    """``{placeholder page: its section}`` of the site's navigation: each split table's index,
+    then its areas' pages."""
+    out = {}
+    for placeholder in (f"reference/{page}.md" for page, _, t, _ in REFERENCE if t in SPLIT):
+        folder = placeholder.removesuffix(".md")
+        areas = [p for p in reference_pages() if p.startswith(folder + "/")]
+        titles = {page: title for page, title, _ in AREAS}
+        order = [a[0] for a in AREAS] + ["more"]
+        areas.sort(key=lambda p: order.index(p.rsplit("/", 1)[1][:-3]))
+        out[placeholder] = [placeholder] + [
+            {titles.get(p.rsplit("/", 1)[1][:-3], "More"): p} for p in areas
+        ]
+    return out
+
+
+#: README.md's sections that the site's home page leaves out: what a fresh clone runs, which
+#: the install page (for a user) and the developer's guide (for a contributor) say on the site.
+HOME_SKIPS = ("Two commands",)
+
+
 def home_page() -> str:
-    """README.md with its links as seen from docs/ (``docs/x.md`` -> ``x.md``, anything else
-    one folder up)."""
+    """README.md without :data:`HOME_SKIPS`, with its links as seen from docs/ (``docs/x.md``
+    -> ``x.md``, anything else one folder up)."""
     text = (ROOT / "README.md").read_text(encoding="utf-8")
+    for title in HOME_SKIPS:
+        text = re.sub(rf"^## {re.escape(title)}\n.*?(?=^## |\Z)", "", text, flags=re.M | re.S)
 
     def relink(match):
         label, target = match.group(1), match.group(2)
@@ -140,6 +208,66 @@ def home_page() -> str:
         return f"[{label}]({target})"
 
     return _LINK.sub(relink, text)
+
+
+#: The validation report's pages on the site: (page, title, the report's sections that go
+#: there, by how their heading begins); the introduction and the protocol make the first.
+VALIDATION_REPORT = ROOT / "validation" / "REPORT.md"
+REPORT_PAGES = (
+    ("validation-report/index.md", "Validation report: protocol", ()),
+    ("validation-report/shadow-map.md", "Validation report: shadow map", ("Shadow map",)),
+    ("validation-report/deshadow.md", "Validation report: de-shadowing", ("De-shadowing",)),
+    (
+        "validation-report/dem.md",
+        "Validation report: relative DEM and the relief test",
+        ("Relative DEM", "The relief test"),
+    ),
+    ("validation-report/anomaly.md", "Validation report: anomalies", ("Anomaly",)),
+)
+
+
+def _slug(text: str) -> str:
+    from pymdownx.slugs import slugify
+
+    return slugify(case="lower")(text, "-")
+
+
+def validation_report_pages() -> tuple[dict[str, str], dict[str, str]]:
+    """validation/REPORT.md as pages of the site, one per method (:data:`REPORT_PAGES`), and
+    ``{anchor: page}`` of its headings, so that a link to the report's section reaches the page
+    that holds it."""
+    text = VALIDATION_REPORT.read_text(encoding="utf-8")
+    chunks = re.split(r"^(?=## )", text, flags=re.M)
+    bodies = {page: [] for page, _, _ in REPORT_PAGES}
+    for chunk in chunks:
+        heading = chunk.splitlines()[0][3:] if chunk.startswith("## ") else ""
+        page = next(
+            (p for p, _, starts in REPORT_PAGES if heading.startswith(tuple(starts) or "\0")),
+            REPORT_PAGES[0][0],
+        )
+        if not chunk.startswith("## "):  # the report's title and introduction
+            chunk = chunk.split("\n", 1)[1] if chunk.startswith("# ") else chunk
+        bodies[page].append(chunk)
+    pages, anchors = {}, {}
+    for page, title, _ in REPORT_PAGES:
+        body = "".join(bodies[page]).strip("\n")
+        pages[page] = f"# {title}\n\n{body}\n"
+        for heading in re.findall(r"^#{2,6} (.+)$", body, flags=re.M):
+            anchors.setdefault(_slug(heading), page)
+    return pages, anchors
+
+
+#: Files of the repository that are pages of the site: a link to one stays on the site.
+SITE_PAGES = {"README.md": "index.md", "CHANGELOG.md": "changelog.md"}
+
+
+def site_page(rel: str, anchor: str) -> str | None:
+    """The site's page (from docs/) for the repository file ``rel`` (``validation/REPORT.md``)
+    and its anchor; None when the file is not on the site."""
+    if rel == VALIDATION_REPORT.relative_to(ROOT).as_posix():
+        _, anchors = validation_report_pages()
+        return anchors.get(anchor, REPORT_PAGES[0][0])
+    return SITE_PAGES.get(rel)
 
 
 def changelog_page() -> str:
@@ -177,6 +305,13 @@ def _run_command(command: str) -> None:
     words = shlex.split(command)
     assert words[0] == "geoboresight", command
     main.main(args=words[1:], prog_name="geoboresight", standalone_mode=False)
+
+
+def _commands_module():
+    spec = importlib.util.spec_from_file_location("docs_commands", DOCS / "hooks" / "commands.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def run_gallery() -> dict[str, pathlib.Path]:
@@ -276,7 +411,9 @@ _FENCE = re.compile(r"(^```.*?^```)", re.M | re.S)
 
 
 def _outside_link(target: str, page_dir: pathlib.Path, repo_url: str, where: str) -> str | None:
-    """The repository URL for a relative link that leaves docs/, None for one that stays."""
+    """The repository URL for a relative link that leaves docs/ (the site's page for a file
+    the site shows: the README, the changelog, the validation report), None for one that
+    stays."""
     path, _, anchor = target.partition("#")
     if not path or re.match(r"^[a-z]+:", path):
         return None
@@ -288,16 +425,34 @@ def _outside_link(target: str, page_dir: pathlib.Path, repo_url: str, where: str
         return None
     kind = "tree" if resolved.is_dir() else "blob"
     rel = resolved.relative_to(ROOT).as_posix()
+    page = site_page(rel, anchor)
+    if page is not None:  # a file the site shows as a page: the page
+        target = os.path.relpath(DOCS / page, page_dir).replace(os.sep, "/")
+        return target + (f"#{anchor}" if anchor else "")
     return f"{repo_url.rstrip('/')}/{kind}/main/{rel}" + (f"#{anchor}" if anchor else "")
 
 
-def rewrite_links(markdown: str, src_uri: str, repo_url: str) -> str:
-    """``markdown`` with its links to files outside docs/ made repository URLs (fenced code
-    left as it is)."""
+def rewrite_links(
+    markdown: str, src_uri: str, repo_url: str, site_url: str = "", pages: frozenset = frozenset()
+) -> str:
+    """``markdown`` with its links to files outside docs/ made repository URLs, and its links
+    to the site's own address (``site_url``) of one of its ``pages`` (e.g. a page made by a
+    hook, which GitHub cannot show) made relative, as MkDocs checks them (fenced code left as
+    it is)."""
     page_dir = (DOCS / src_uri).parent
+    home = site_url.rstrip("/") + "/"
 
     def relink(match):
-        url = _outside_link(match.group(2), page_dir, repo_url, src_uri)
+        target = match.group(2)
+        if site_url and target.startswith(home):
+            path, _, anchor = target[len(home) :].partition("#")
+            path = path.strip("/")
+            for page in (f"{path}.md", f"{path}/index.md") if path else ("index.md",):
+                if page in pages:
+                    rel = os.path.relpath(DOCS / page, page_dir).replace(os.sep, "/")
+                    return f"[{match.group(1)}]({rel}{'#' + anchor if anchor else ''})"
+            return match.group(0)
+        url = _outside_link(target, page_dir, repo_url, src_uri)
         return match.group(0) if url is None else f"[{match.group(1)}]({url})"
 
     parts = _FENCE.split(markdown)
@@ -305,6 +460,32 @@ def rewrite_links(markdown: str, src_uri: str, repo_url: str) -> str:
 
 
 # --------------------------------------------------------------------------- MkDocs events
+def expand_nav(nav: list, entries: list, placeholder: str) -> list:
+    """``nav`` with the entry whose page is ``placeholder`` made a section of ``entries``
+    (the command reference: one page per group of operations, whatever groups exist)."""
+    out = []
+    for item in nav:
+        if isinstance(item, dict):
+            (title, value), *_ = item.items()
+            if value == placeholder:
+                out.append({title: entries})
+            elif isinstance(value, list):
+                out.append({title: expand_nav(value, entries, placeholder)})
+            else:
+                out.append(item)
+        else:
+            out.append(item)
+    return out
+
+
+def on_config(config):
+    commands = _commands_module()
+    config["nav"] = expand_nav(config["nav"], commands.nav(), f"{commands.FOLDER}/index.md")
+    for placeholder, entries in reference_nav().items():
+        config["nav"] = expand_nav(config["nav"], entries, placeholder)
+    return config
+
+
 def on_files(files, config):
     from mkdocs.structure.files import File
 
@@ -316,6 +497,8 @@ def on_files(files, config):
         "changelog.md": changelog_page(),
         "gallery.md": gallery_page(),
         **reference_pages(),
+        **_commands_module().pages(),
+        **validation_report_pages()[0],
     }
     for uri, text in generated.items():
         files.append(File.generated(config, uri, content=text))
@@ -325,4 +508,7 @@ def on_files(files, config):
 
 
 def on_page_markdown(markdown, page, config, files):
-    return rewrite_links(markdown, page.file.src_uri, config["repo_url"])
+    pages = frozenset(f.src_uri for f in files.documentation_pages())
+    return rewrite_links(
+        markdown, page.file.src_uri, config["repo_url"], config["site_url"] or "", pages
+    )

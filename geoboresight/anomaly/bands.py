@@ -22,7 +22,18 @@ WATER_BANDS_NM = "1340-1460,1790-1980,2450-2600"
 class BandSelection:
     """Which bands per-pixel spectral work (RX, SVDD, unmixing) uses, by wavelength: those in
     the ``include_nm`` ranges (every band when empty), less those in the ``exclude_nm`` ranges
-    (default: the water-vapour absorption bands), e.g. ``include_nm="400-900,1000-1300"``."""
+    (default: the water-vapour absorption bands), e.g. ``include_nm="400-900,1000-1300"``.
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.BandSelection()  # every band but the water-vapour absorptions and the SWIR's end
+    BandSelection(include_nm='', exclude_nm='1340-1460,1790-1980,2450-2600')
+    >>> vnir_only = gb.BandSelection(include_nm="400-970")  # --include-nm 400-970
+    >>> gb.rx_file("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...            output="out/rx.tif", spectral=vnir_only)["bands"]
+    96
+    """
 
     include_nm: str = ""
     exclude_nm: str = WATER_BANDS_NM

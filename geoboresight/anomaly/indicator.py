@@ -240,7 +240,16 @@ def boresight_indicator(
 class Eq3Reference:
     """What the paper's Eq. 3 z-score compares a pixel's ratio with: the whole scene
     (``window`` 0) or the median of its odd ``window`` × ``window`` neighbourhood, and which
-    ``tail`` is anomalous ("both", "high", "low")."""
+    ``tail`` is anomalous ("both", "high", "low").
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.Eq3Reference()  # both tails of the ratio, against the whole scene
+    Eq3Reference(tail='both', window=0)
+    >>> gb.Eq3Reference(tail="high", window=31)  # --tail high --window 31
+    Eq3Reference(tail='high', window=31)
+    """
 
     tail: str = "both"
     window: int = 0

@@ -83,7 +83,14 @@ DPRIME_MIN = 3.0
 class Detectability:
     """The target a scene's detectability is computed for: ``target_fraction`` of a pixel
     filled (0–1], ``target_contrast`` its signal above dark relative to the background's
-    minus 1 (−0.3: 30 % darker; the sign does not change d′)."""
+    minus 1 (−0.3: 30 % darker; the sign does not change d′).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.Detectability()  # the target whose expected d′ an anomaly operation reports
+    Detectability(target_fraction=0.09, target_contrast=0.3)
+    """
 
     target_fraction: float = TARGET_FRACTION
     target_contrast: float = TARGET_CONTRAST
@@ -345,7 +352,14 @@ class Dipole:
     """How the physical indicator scores the dipole (docs/anomaly.md): one-sided by
     ``target_sign`` where known, against the median and spread of an odd ``dipole_window``
     neighbourhood, along the boresight offset (``offset_along``, ``offset_across`` px; both
-    None: measured)."""
+    None: measured).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.Dipole()  # a target brighter or darker than its ground, the offset measured
+    Dipole(target_sign='unknown', dipole_window=7, offset_along=None, offset_across=None)
+    """
 
     target_sign: str = "unknown"
     dipole_window: int = WINDOW

@@ -106,6 +106,15 @@ def roc_curve(scores: np.ndarray, targets: np.ndarray, background: np.ndarray) -
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.3, Figure 12: ROC
     performance of the global RX, SVDD and boresight band detectors).
     Fawcett, T. An introduction to ROC analysis. Pattern Recognit. Lett. 2006, 27, 861–874.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import geoboresight as gb
+    >>> scores = np.array([0.1, 0.4, 0.35, 0.8, 0.9])
+    >>> targets = np.array([False, False, False, True, True])
+    >>> gb.roc_curve(scores, targets, ~targets).auc  # every target above every background pixel
+    1.0
     """
     from sklearn import metrics
 

@@ -34,7 +34,16 @@ OUTER = 17
 class RXBackground:
     """What an RX score measures a pixel against: the scene mean (``mode="global"``), or the
     mean of an ``outer`` window minus an ``inner`` guard window around the pixel
-    (``"local"``; odd sizes in pixels, inner < outer). The covariance is the scene's either way."""
+    (``"local"``; odd sizes in pixels, inner < outer). The covariance is the scene's either way.
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.RXBackground()
+    RXBackground(mode='global', inner=3, outer=17)
+    >>> gb.RXBackground(mode="local", outer=25)  # a local window: --mode local --outer 25
+    RXBackground(mode='local', inner=3, outer=25)
+    """
 
     mode: str = "global"
     inner: int = INNER
@@ -382,6 +391,22 @@ def rx(
     detector, Figure 11(B), compared in Figure 12).
     Reed, I.S.; Yu, X. Adaptive multiple-band CFAR detection of an optical pattern with unknown
     spectral distribution. IEEE Trans. Acoust. Speech Signal Process. 1990, 38, 1760–1770.
+
+    Examples
+    --------
+    A planted anomaly scores highest, and the score is the squared Mahalanobis distance:
+
+    >>> import numpy as np
+    >>> import geoboresight as gb
+    >>> cube = np.random.default_rng(0).normal(size=(5, 32, 32))
+    >>> cube[:, 10, 20] += 6
+    >>> scores = gb.rx(cube)
+    >>> divmod(int(np.argmax(scores)), 32)
+    (10, 20)
+    >>> x = cube.reshape(5, -1) - cube.reshape(5, -1).mean(axis=1, keepdims=True)
+    >>> d2 = np.einsum("ij,ik,kj->j", x, np.linalg.inv(np.cov(x)), x).reshape(32, 32)
+    >>> bool(np.allclose(scores, d2))
+    True
     """
     cube = np.asarray(cube)
     stats = background_stats([(cube, valid)], cube.shape[0])

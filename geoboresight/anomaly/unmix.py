@@ -102,6 +102,19 @@ def unmix(X: np.ndarray, E: np.ndarray, method: str = "fcls", chunk: int = 65536
     Heinz, D.C.; Chang, C.-I. Fully constrained least squares linear spectral mixture analysis
     method for material quantification in hyperspectral imagery. IEEE Trans. Geosci. Remote
     Sens. 2001, 39, 529–545.
+
+    Examples
+    --------
+    Two pixels mixed from two endmembers on four bands, their abundances recovered:
+
+    >>> import numpy as np
+    >>> import geoboresight as gb
+    >>> endmembers = np.array([[0.1, 0.2, 0.4, 0.8], [0.5, 0.6, 0.2, 0.1]])
+    >>> pixels = endmembers.T @ np.array([[0.25, 1.0], [0.75, 0.0]])  # bands × pixels
+    >>> abundances, residual = gb.unmix(pixels, endmembers)
+    >>> abundances.round(6)
+    array([[0.25, 1.  ],
+           [0.75, 0.  ]])
     """
     if method not in METHODS:
         raise ParameterError(f"unmixing method must be one of {', '.join(METHODS)}, got {method!r}")

@@ -42,7 +42,18 @@ REFINE = 1
 class Matching:
     """How the VNIR and SWIR images are matched pixel by pixel (§3.2): the window, the search
     range around the global offset, the reliability thresholds and the sub-pixel refinement
-    (the keyword options of :func:`disparity_map`, as one value)."""
+    (the keyword options of :func:`disparity_map`, as one value).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.Matching()
+    Matching(window=15, search_along=3, search_across=1, min_peak=0.6, min_sharpness=0.005,
+        refine=1)
+    >>> gb.Matching(window=21)  # --window 21: fewer, steadier matches
+    Matching(window=21, search_along=3, search_across=1, min_peak=0.6, min_sharpness=0.005,
+        refine=1)
+    """
 
     window: int = WINDOW
     search_along: int = SEARCH_ALONG

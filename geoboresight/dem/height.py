@@ -154,7 +154,15 @@ def parallax_factor(
 class FlightGeometry:
     """The flight geometry the relative DEM needs (§3.2): the height-to-disparity factor
     ``k`` itself, or the squint, flying height and IFOV that give it; the parallax's axis
-    and direction. The flying height and IFOV alone give the ground sample distance."""
+    and direction. The flying height and IFOV alone give the ground sample distance.
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.FlightGeometry(squint_deg=3, flying_height=1500, ifov_mrad=1)
+    FlightGeometry(height_factor=None, squint_deg=3, flying_height=1500, ifov_mrad=1,
+        parallax_axis='along', invert_parallax=False)
+    """
 
     height_factor: float | None = None
     squint_deg: float | None = None

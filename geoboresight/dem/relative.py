@@ -70,7 +70,14 @@ SAMPLE_SIZE = 2**21
 class Kriging:
     """How the DEM is interpolated from the matched heights (§3.2, "kriging"): one control
     point per ``point_spacing`` pixels, the ``variogram`` model, and ``n_closest_points`` in
-    each local kriging neighbourhood."""
+    each local kriging neighbourhood.
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.Kriging()
+    Kriging(point_spacing=5, variogram='spherical', n_closest_points=32)
+    """
 
     point_spacing: int = POINT_SPACING
     variogram: str = VARIOGRAM

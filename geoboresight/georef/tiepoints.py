@@ -57,7 +57,17 @@ class TieMatching:
     ``model_block_lines`` lines, blended; "tps": thin-plate spline), the largest error of
     the rough placement ``max_shift_px``, and the acceptance test (at least ``min_inliers``
     tie points, cross-validated RMSE at most ``max_rmse_px``, both in product pixels);
-    ``seed`` is RANSAC's."""
+    ``seed`` is RANSAC's.
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.TieMatching()
+    TieMatching(detector='sift', model='blocks', model_block_lines=16, max_shift_px=30.0,
+        min_inliers=12, max_rmse_px=1.0, seed=0)
+    >>> gb.TieMatching(detector="orb").detector  # --detector orb
+    'orb'
+    """
 
     detector: str = "sift"
     model: str = "blocks"

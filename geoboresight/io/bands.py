@@ -36,7 +36,16 @@ class MatchBands:
     """The VNIR and SWIR images matched for the boresight offset and the relative DEM (§3.2):
     the band nearest ``vnir_nm`` (``swir_nm``), or the mean of the bands centred in
     [``vnir_nm``, ``vnir_to_nm``] ([``swir_nm``, ``swir_to_nm``]). By default the ratio's two
-    bands (Eq. 3); dense matching averages band ranges (:data:`DENSE_MATCH`)."""
+    bands (Eq. 3); dense matching averages band ranges (:data:`DENSE_MATCH`).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.MatchBands()  # the ratio's two bands
+    MatchBands(vnir_nm=920.0, swir_nm=1010.0, vnir_to_nm=None, swir_to_nm=None, tolerance_nm=10.0)
+    >>> gb.MatchBands(vnir_nm=900, vnir_to_nm=970, swir_nm=980, swir_to_nm=1100)  # band means
+    MatchBands(vnir_nm=900, swir_nm=980, vnir_to_nm=970, swir_to_nm=1100, tolerance_nm=10.0)
+    """
 
     vnir_nm: float = VNIR_NM
     swir_nm: float = SWIR_NM
@@ -49,7 +58,16 @@ class MatchBands:
 class BoresightOffset:
     """The boresight offset of the SWIR relative to the VNIR (px, SWIR minus VNIR position),
     along- and across-track, when the user gives it; both None = measured on the data
-    (:func:`geoboresight.sensor.offset.estimate_offset`), one None = 0."""
+    (:func:`geoboresight.sensor.offset.estimate_offset`), one None = 0.
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.BoresightOffset()  # measured on the scene
+    BoresightOffset(offset_along=None, offset_across=None)
+    >>> gb.BoresightOffset(offset_along=0.87, offset_across=-0.07)  # known (pixels)
+    BoresightOffset(offset_along=0.87, offset_across=-0.07)
+    """
 
     offset_along: float | None = None
     offset_across: float | None = None
@@ -58,7 +76,18 @@ class BoresightOffset:
 @dataclass(frozen=True)
 class Coregistration(BoresightOffset):
     """Whether RX and SVDD shift the SWIR onto the VNIR grid first (``coregister``), and by
-    which boresight offset (given, or both None: measured)."""
+    which boresight offset (given, or both None: measured).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.Coregistration()  # the offset measured on the scene, the SWIR shifted onto the VNIR
+    Coregistration(offset_along=None, offset_across=None, coregister=True)
+    >>> result = gb.rx_file("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...                     output="out/rx.tif", coregistration=gb.Coregistration(coregister=False))
+    >>> result["coregistered"]
+    False
+    """
 
     coregister: bool = True
 

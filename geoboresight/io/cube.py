@@ -333,6 +333,17 @@ def open_cube(paths, label: str = "image") -> Cube:
     """Describe one cube, or several files on one grid stacked band-wise (e.g. VNIR then SWIR).
 
     Raises :class:`InputError` when the files are on different grids.
+
+    Examples
+    --------
+    Every fourth band of the sample scene's first 64 lines, VNIR then SWIR:
+
+    >>> import numpy as np
+    >>> import geoboresight as gb
+    >>> with gb.open_cube(["sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr"]) as cube:
+    ...     data, valid = cube.read(0, 64, bands=np.arange(0, cube.count, 4))
+    >>> data.shape, valid.shape
+    ((50, 64, 286), (64, 286))
     """
     if isinstance(paths, str | os.PathLike):
         paths = [paths]

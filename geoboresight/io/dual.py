@@ -27,7 +27,16 @@ TOLERANCE_NM = 10.0
 @dataclass(frozen=True)
 class DualLayout:
     """How a dual-sensor dataset is read when its files do not say it all: the seam of a
-    merged cube, band centres for files without wavelength metadata."""
+    merged cube, band centres for files without wavelength metadata.
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.DualLayout()
+    DualLayout(seam_nm=975.0, vnir_wavelengths=None, swir_wavelengths=None)
+    >>> gb.DualLayout(seam_nm=1000)  # a merged cube split at 1000 nm: --seam-nm 1000
+    DualLayout(seam_nm=1000, vnir_wavelengths=None, swir_wavelengths=None)
+    """
 
     seam_nm: float = SEAM_NM
     vnir_wavelengths: str | None = None
@@ -43,7 +52,21 @@ class DualLayout:
 class BandChoice:
     """Which two bands make the boresight ratio (Eq. 3): nearest ``vnir_nm`` and ``swir_nm``
     within ``tolerance_nm`` (``band_mode="wavelength"``), or the last VNIR band and the first
-    SWIR band (``"edges"``)."""
+    SWIR band (``"edges"``).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.BandChoice()
+    BandChoice(band_mode='wavelength', vnir_nm=920.0, swir_nm=1010.0, tolerance_nm=10.0)
+    >>> bands = gb.BandChoice(vnir_nm=900, swir_nm=1050)  # --vnir-nm 900 --swir-nm 1050
+    >>> result = gb.ratio_file(
+    ...     "sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...     output="out/ratio.tif", bands=bands,
+    ... )
+    >>> result["vnir_wavelength_nm"], result["swir_wavelength_nm"]
+    (898.0, 1052.772)
+    """
 
     band_mode: str = "wavelength"
     vnir_nm: float = VNIR_NM
@@ -275,6 +298,15 @@ def open_dual(
         The calibration of a raw capture given as ``vnir`` (also a one-file capture of both
         detectors) or ``swir``: it is then read as radiance
         (:func:`geoboresight.io.radiance.radiance_image`).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> dual = gb.open_dual("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr")
+    >>> dual.grid.width, dual.grid.height
+    (286, 192)
+    >>> dual.ratio_bands()  # the bands nearest 920 and 1010 nm
+    RatioBands(vnir_band=88, vnir_nm=922.0, swir_band=3, swir_nm=1009.109)
     """
     from .image import dataset_path
 

@@ -45,7 +45,20 @@ class OutputGrid:
     """The map grid a raw-geometry product is warped onto: its ``crs`` (None: that of the
     coordinates), cell size ``resolution`` in the CRS's units (0: the product's median pixel
     spacing) and the ``resampling`` ("auto": nearest for class rasters, bilinear otherwise;
-    "nearest", "bilinear", "cubic")."""
+    "nearest", "bilinear", "cubic").
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.OutputGrid()  # the IGM's CRS, its pixel size, resampling chosen by the data type
+    OutputGrid(crs=None, resolution=0.0, resampling='auto')
+    >>> _ = gb.ratio_file("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...                   output="out/ratio.tif")
+    >>> result = gb.geolocate_file("out/ratio.tif", igm="sample_data/scene/igm.tif",
+    ...                            output="out/ratio_3m.tif", grid=gb.OutputGrid(resolution=3))
+    >>> result["resolution"], result["width"], result["height"], result["resampling"]
+    (3.0, 174, 163, 'bilinear')
+    """
 
     crs: str | None = None
     resolution: float = 0.0
@@ -54,7 +67,16 @@ class OutputGrid:
 
 @dataclass(frozen=True)
 class Grid:
-    """Size, CRS and geotransform of a raster; ``transform`` is None in raw sensor geometry."""
+    """Size, CRS and geotransform of a raster; ``transform`` is None in raw sensor geometry.
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> grid = gb.Grid(width=286, height=192)  # raw sensor geometry: no CRS, no transform
+    >>> profile = grid.profile(count=1, dtype="float32", nodata=-9999.0)
+    >>> profile["driver"], profile["compress"], profile["tiled"], "crs" in profile
+    ('GTiff', 'deflate', True, False)
+    """
 
     width: int
     height: int

@@ -106,6 +106,20 @@ def map_windows(
         Updated once per strip (and so checked for cancellation within one strip).
     message : str, optional
         The progress message.
+
+    Examples
+    --------
+    A kernel over strips of 4 lines of an array (a raster's reader in practice):
+
+    >>> import numpy as np
+    >>> import geoboresight as gb
+    >>> image = np.arange(12.0).reshape(6, 2)
+    >>> for window, part in gb.map_windows(
+    ...     lambda row0, row1: image[row0:row1], lambda x: 2 * x, height=6, width=2, block_rows=4
+    ... ):
+    ...     print(window.row_off, window.height, part.sum())
+    0 4 56.0
+    4 2 76.0
     """
     progress = as_progress(progress)
     above, below = (max(0, int(h)) for h in halo)
@@ -162,7 +176,22 @@ def reduce_windows(
 ) -> Any:
     """Fold ``func``'s per-strip results with ``merge``, starting from ``initial``, in strip
     order (exact merged statistics: moments, histograms, counts). ``options`` are
-    :func:`map_windows`'s."""
+    :func:`map_windows`'s.
+
+    Examples
+    --------
+    A sum merged over strips of 4 lines equals the sum of the whole:
+
+    >>> import numpy as np
+    >>> import geoboresight as gb
+    >>> image = np.arange(12.0).reshape(6, 2)
+    >>> total = gb.reduce_windows(
+    ...     lambda row0, row1: image[row0:row1], np.sum, lambda a, b: a + b, 0.0,
+    ...     height=6, width=2, block_rows=4,
+    ... )
+    >>> float(total), float(image.sum())
+    (66.0, 66.0)
+    """
     total = initial
     for _, part in map_windows(read, func, **options):
         total = merge(total, part)
@@ -388,7 +417,14 @@ class Sample:
     (:func:`sample_windows`): about ``sample_size`` pixels, the same ones for the same
     ``seed``. The default size is the shadow cluster's and the dark-pixel baseline's; an
     operation with another default declares a subclass with it (e.g. the shadow map's
-    ``MapSample``)."""
+    ``MapSample``).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.Sample()
+    Sample(sample_size=50000, seed=0)
+    """
 
     sample_size: int = 50_000
     seed: int = 0

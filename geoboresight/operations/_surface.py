@@ -39,7 +39,18 @@ class SurfaceModel:
     shift, within :data:`geoboresight.shadow.darkness.DSM_TOLERANCE` pixels, that best matches the
     image's NIR darkness, where the image's parts agree on it
     (:func:`geoboresight.shadow.darkness.prior_registration`; False = the prediction where the DSM
-    puts it)."""
+    puts it).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.SurfaceModel()  # no surface model: the shadow map from the image alone
+    SurfaceModel(dsm=None, sun_zenith=None, sun_azimuth=None, cell_size=None, clearance=1.0,
+        igm=None, acquisition_time=None, glt=None, igm_crs=None, register=True)
+    >>> surface = gb.SurfaceModel(dsm="dsm.tif", acquisition_time="2009-06-12T09:30:00Z")
+    >>> surface.sun_zenith is None  # found from the time and the DSM's position when run
+    True
+    """
 
     dsm: str | None = None
     sun_zenith: float | None = None

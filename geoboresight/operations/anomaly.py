@@ -473,6 +473,17 @@ def rx_file(
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.3, Figure 11B).
     Reed, I.S.; Yu, X. Adaptive multiple-band CFAR detection of an optical pattern with unknown
     spectral distribution. IEEE Trans. Acoust. Speech Signal Process. 1990, 38, 1760–1770.
+
+    Examples
+    --------
+    RX scores of the sample scene, the SWIR co-registered onto the VNIR first:
+
+    >>> import geoboresight as gb
+    >>> result = gb.rx_file(
+    ...     "sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr", output="out/rx.tif"
+    ... )
+    >>> result["bands"], result["coregistered"], result["offset_along_px"]
+    (176, True, 0.87)
     """
     from ..anomaly import physical, rx
 
@@ -607,6 +618,14 @@ def svdd_file(
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.3, Eq. 7–9, Figure 11C).
     Tax, D.M.J.; Duin, R.P.W. Support vector data description. Mach. Learn. 2004, 54, 45–66.
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> result = gb.svdd_file("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...                       output="out/svdd.tif")
+    >>> result["support_vectors"], result["coregistered"]
+    (23, True)
     """
     from ..anomaly import physical, svdd
 
@@ -759,6 +778,15 @@ def boresight_indicator_file(
     ----------
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.3, Figure 11D).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> _ = gb.ratio_file("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...                   output="out/ratio.tif")
+    >>> result = gb.boresight_indicator_file("out/ratio.tif", output="out/indicator.tif")
+    >>> result["method"], round(result["median"], 3)
+    ('eq3', 2.163)
     """
     method = _indicator_method(method, vnir, swir, ratio, dipole, dark)
     if method == "physical":
@@ -1113,6 +1141,16 @@ def anomaly_polygons_file(
     ----------
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.3, Figure 11 as vectors).
+
+    Examples
+    --------
+    The pixels of the sample scene's RX score above 5, as polygons:
+
+    >>> import geoboresight as gb
+    >>> _ = gb.rx_file("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...                output="out/rx.tif")
+    >>> gb.anomaly_polygons_file("out/rx.tif", threshold=5, output="out/anomalies.gpkg")
+    {'output': 'out/anomalies.gpkg', 'features': 1}
     """
     from ..anomaly.polygons import check_geometry, label_anomalies
     from ..io.anomaly import label_polygons, pixel_points
@@ -1294,6 +1332,18 @@ def roc_file(
     ----------
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.3, Figure 12).
+
+    Examples
+    --------
+    RX against the sample scene's true sub-pixel targets:
+
+    >>> import geoboresight as gb
+    >>> _ = gb.rx_file("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...                output="out/rx.tif")
+    >>> result = gb.roc_file(["out/rx.tif"], "sample_data/scene/truth_target_abundance.tif",
+    ...                      output="out/roc.png")
+    >>> round(result["auc_rx"], 2)
+    0.61
     """
     from ..anomaly import roc
     from ..errors import InputError, ParameterError

@@ -179,6 +179,14 @@ def disparity_file(
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.2, image matching
     within ± 3 pixels along-track and ± 1 across-track).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> result = gb.disparity_file("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...                            output="out/disparity.tif")
+    >>> result["reliable_pixels"], result["offset_along_px"]
+    (49531, 0.87)
     """
     dual = io.as_dual(vnir, swir, layout)
     with open_matching_pair(dual, match, cloud_mask) as pair:
@@ -319,6 +327,13 @@ def relative_dem_file(
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.2, the relative DEM
     by kriging; Figure 9).
+
+    Examples
+    --------
+    >>> geometry = gb.FlightGeometry(squint_deg=3, flying_height=1500, ifov_mrad=1)  # the sample's
+    >>> gb.relative_dem_file("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...                      output="out/dem.tif", geometry=geometry)["sigma_h_m"]
+    2.431
     """
     factor = geometry.factor()
     gsd = geometry.gsd

@@ -143,6 +143,13 @@ def deshadow_file(
     ----------
     Richter, R.; Müller, A. Int. J. Remote Sens. 2005, 26, 3137–3148 (de-shadowing).
     Brook, A.; Ben-Dor, E. Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484.
+
+    Examples
+    --------
+    >>> v, s = "sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr"
+    >>> _ = gb.shadow_map_file(v, s, output="out/classes.tif", fraction="out/fraction.tif")
+    >>> gb.deshadow_file(v, s, shadow="out/fraction.tif", output="out/deshadowed.tif")["pairs_used"]
+    161
     """
     dual = io.as_dual(vnir, swir, layout)
     wl = np.concatenate([dual.vnir.wavelengths, dual.swir.wavelengths]).astype(float)

@@ -130,6 +130,20 @@ def geolocate_file(
     dict
         ``output``, the grid (CRS, resolution, size), the resampling and the pixels masked in
         the IGM (NaN, non-monotonic).
+
+    Examples
+    --------
+    The sample scene's boresight ratio on the map, with the scene's IGM:
+
+    >>> import geoboresight as gb
+    >>> _ = gb.ratio_file(
+    ...     "sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr", output="out/ratio.tif"
+    ... )
+    >>> result = gb.geolocate_file(
+    ...     "out/ratio.tif", igm="sample_data/scene/igm.tif", output="out/ratio_map.tif"
+    ... )
+    >>> result["crs"], result["resolution"], result["width"], result["height"]
+    ('EPSG:32636', 1.5, 346, 323)
     """
     if igm and glt:
         raise ParameterError("give either --igm or --glt, not both")
@@ -526,6 +540,20 @@ def reproject_to_file(input, reference, *, output, resampling="auto", progress=N
     -------
     dict
         ``output``, the CRS and size of the grid (features for a vector).
+
+    Examples
+    --------
+    The sample scene's ratio, geolocated, then on the orthophoto's exact grid:
+
+    >>> import geoboresight as gb
+    >>> _ = gb.ratio_file("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...                   output="out/ratio.tif")
+    >>> _ = gb.geolocate_file("out/ratio.tif", igm="sample_data/scene/igm.tif",
+    ...                       output="out/ratio_map.tif")
+    >>> result = gb.reproject_to_file("out/ratio_map.tif", reference="sample_data/scene/ortho.tif",
+    ...                               output="out/ratio_on_ortho.tif")
+    >>> result["crs"], result["width"], result["height"]
+    ('EPSG:32636', 544, 510)
     """
     if os.path.splitext(os.fspath(input))[1].lower() in (".gpkg", ".geojson", ".json"):
         return _reproject_vector(input, reference, output)

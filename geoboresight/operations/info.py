@@ -50,6 +50,15 @@ def info_file(
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (Eq. 3: the bands
     reported are those of the boresight ratio).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> info = gb.info_file("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr")
+    >>> info["lines"], info["samples"], info["vnir_bands"], info["swir_bands"]
+    (192, 286, 96, 102)
+    >>> print(info["summary"].splitlines()[-2])
+    Boresight ratio: SWIR band 3 (1009.1 nm) / VNIR band 88 (922.0 nm)
     """
     if isinstance(vnir, DualSensor):
         vnir, swir = vnir.files[0], (vnir.files[1] if len(vnir.files) > 1 else None)

@@ -81,6 +81,15 @@ def boresight_offset_file(
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.2; the bands of
     Eq. 3).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> result = gb.boresight_offset_file(
+    ...     "sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr", output="out/offset.json"
+    ... )
+    >>> result["along_px"], result["across_px"]
+    (0.87, -0.07)
     """
     dual = io.as_dual(vnir, swir, layout)
     with open_matching_pair(dual, match, cloud_mask) as pair:
@@ -196,6 +205,14 @@ def coregister_file(
     ----------
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.2).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> result = gb.coregister_file("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...                             output="out/swir_on_vnir.tif")
+    >>> result["bands"], result["along_px"], result["across_px"]
+    (102, 0.87, -0.07)
     """
     if (along is None) != (across is None):
         raise ParameterError("give both 'along' and 'across', or neither (then they are measured)")

@@ -49,6 +49,27 @@ def ratio_file(
     ----------
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (Eq. 3).
+
+    Examples
+    --------
+    On the bundled sample scene, from the repository's top folder (outputs into ``out/``):
+
+    >>> import geoboresight as gb
+    >>> result = gb.ratio_file(
+    ...     "sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr", output="out/ratio.tif"
+    ... )
+    >>> result["swir_wavelength_nm"], result["vnir_wavelength_nm"], result["valid_pixels"]
+    (1009.109, 922.0, 54912)
+
+    The first SWIR band over the last VNIR band instead of the bands nearest 1010 and 920 nm:
+
+    >>> edges = gb.BandChoice(band_mode="edges")
+    >>> result = gb.ratio_file(
+    ...     "sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...     output="out/ratio_edges.tif", bands=edges,
+    ... )
+    >>> result["swir_wavelength_nm"], result["vnir_wavelength_nm"]
+    (980.0, 970.0)
     """
     dual = io.as_dual(vnir, swir, layout)
     bands = dual.ratio_bands(bands)

@@ -99,6 +99,17 @@ def shadow_classes_file(
     ----------
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1, Table 2).
+
+    Examples
+    --------
+    Table 2's classes of the sample scene's boresight ratio:
+
+    >>> import geoboresight as gb
+    >>> _ = gb.ratio_file("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...                   output="out/ratio.tif")
+    >>> result = gb.shadow_classes_file("out/ratio.tif", output="out/classes.tif")
+    >>> result["class_1_pixels"], result["no_shadow_pixels"]
+    (7871, 4255)
     """
     table = class_table(classes)
     ids = table.shadow_ids(mask_fraction)
@@ -287,6 +298,16 @@ def shadow_cluster_file(
     ----------
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1, Figure 4).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> _ = gb.ratio_file("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...                   output="out/ratio.tif")
+    >>> result = gb.shadow_cluster_file("out/ratio.tif", "sample_data/scene/vnir.hdr",
+    ...                                 output="out/cluster.tif")
+    >>> result["components"], result["shadow_pixels"]
+    (5, 11726)
     """
     with (
         io.open_raster(ratio, "ratio raster") as rsrc,
@@ -419,6 +440,19 @@ def shadow_fraction_fit_file(
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1, Figure 5B:
     a = −0.74, b = 1.31, R² = 0.913).
+
+    Examples
+    --------
+    The fraction model of the sample scene's ratio against its true shadow fraction:
+
+    >>> import geoboresight as gb
+    >>> _ = gb.ratio_file("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...                   output="out/ratio.tif")
+    >>> fit = gb.shadow_fraction_fit_file(
+    ...     "out/ratio.tif", "sample_data/scene/truth_shadow_fraction.tif", report="out/fit.json"
+    ... )
+    >>> round(fit["slope"], 3), round(fit["intercept"], 3), fit["n"]
+    (1.778, 1.812, 17534)
     """
     rng = np.random.default_rng(0)
     with contextlib.ExitStack() as stack:
@@ -532,6 +566,17 @@ def shadow_fraction_apply_file(
     ----------
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1, Figure 5B).
+
+    Examples
+    --------
+    With the paper's model (Table 2's regression):
+
+    >>> import geoboresight as gb
+    >>> _ = gb.ratio_file("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...                   output="out/ratio.tif")
+    >>> result = gb.shadow_fraction_apply_file("out/ratio.tif", output="out/fraction.tif")
+    >>> result["slope"], result["intercept"]
+    (-0.74, 1.31)
     """
     if model:
         slope, intercept = read_fraction_model(model)
@@ -617,6 +662,16 @@ def shadow_polygons_file(
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1, Table 2,
     Figures 6–7).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> _ = gb.ratio_file("sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...                   output="out/ratio.tif")
+    >>> _ = gb.shadow_classes_file("out/ratio.tif", output="out/classes.tif")
+    >>> result = gb.shadow_polygons_file("out/classes.tif", output="out/shadow.gpkg")
+    >>> result["polygons"], result["geometry"]
+    (6076, 'raw sensor (pixel) geometry')
     """
     from ..io.vector import vector_format, write_vector
 

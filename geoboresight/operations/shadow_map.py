@@ -77,7 +77,14 @@ class MapSample(Sample):
 class MapCalibration(MapSample, BoresightOffset):
     """How the shadow map is calibrated on the flight line: the random sample
     (``sample_size``, ``seed``; :class:`MapSample`) and the boresight offset of the SWIR
-    (``offset_along``, ``offset_across``; :class:`BoresightOffset`: both None = measured)."""
+    (``offset_along``, ``offset_across``; :class:`BoresightOffset`: both None = measured).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.MapCalibration()  # the offset measured; 200,000 pixels sampled, seed 0
+    MapCalibration(offset_along=None, offset_across=None, sample_size=200000, seed=0)
+    """
 
 
 @dataclass(frozen=True)
@@ -85,7 +92,18 @@ class Detection:
     """The spectral shadow test: core shadow at or below ``core_darkness`` (natural log of the
     SWIR signal over its sunlit mode; with a surface model, whose prior replaces it, only for
     the edges a pixel this dark is at least half shaded, and near the model's sunward edge)
-    and partial shadow looked for ``edge_pixels`` around it."""
+    and partial shadow looked for ``edge_pixels`` around it.
+
+    Examples
+    --------
+    >>> import math
+    >>> import geoboresight as gb
+    >>> detection = gb.Detection()
+    >>> detection.core_darkness == math.log(1 / 6)  # core shadow: below a sixth of sunlit
+    True
+    >>> detection.edge_pixels
+    2
+    """
 
     core_darkness: float = CORE_DARKNESS
     edge_pixels: int = EDGE_PIXELS
@@ -170,6 +188,18 @@ def shadow_map_file(
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1, Table 2).
     Chavez, P.S. Remote Sens. Environ. 1988, 24, 459–479 (dark-object subtraction).
+
+    Examples
+    --------
+    The sample scene's shadow classes, mask and shadow fraction:
+
+    >>> import geoboresight as gb
+    >>> result = gb.shadow_map_file(
+    ...     "sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr",
+    ...     output="out/classes.tif", mask="out/mask.tif", fraction="out/fraction.tif",
+    ... )
+    >>> result["shadow_share"], result["offset_along_px"]
+    (0.1894, 0.87)
     """
     core_darkness = detection.core_darkness
     edge_pixels = detection.edge_pixels

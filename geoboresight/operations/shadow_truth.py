@@ -305,6 +305,13 @@ def dark_pixel_shadow_file(
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1: the comparison
     with ATCOR-4's statistical shadow detection). Richter, R.; Müller, A. De-shadowing of
     satellite/airborne imagery. Int. J. Remote Sens. 2005, 26, 3137–3148.
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> result = gb.dark_pixel_shadow_file("sample_data/scene/vnir.hdr", output="out/dark.tif")
+    >>> result["shadow_pixels"]
+    12980
     """
     targets = _wavelength_list(bands_nm)
     with io.open_raster(vnir, "VNIR image") as src:

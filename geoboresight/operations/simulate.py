@@ -115,6 +115,16 @@ def simulate_file(
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (section 2: the
     AISA-Dual and its boresight offset; section 3.3: the plastic-bag targets).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> result = gb.simulate_file(output="out/scene", lines=16)
+    >>> round(result["offset_along_px"], 3), round(result["disparity_px_per_m"], 5)
+    (1.148, 0.00349)
+    >>> import pathlib
+    >>> sorted(p.name for p in pathlib.Path("out/scene").glob("*.hdr"))
+    ['swir.hdr', 'vnir.hdr']
     """
     # Before the (long) simulation: an existing folder holding the user's own files is never
     # replaced, even with overwrite.

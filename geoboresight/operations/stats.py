@@ -79,6 +79,20 @@ def stats_file(
     ----------
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (Table 1, Figure 3).
+
+    Examples
+    --------
+    Table 1's statistics of the sample scene's boresight ratio:
+
+    >>> import geoboresight as gb
+    >>> _ = gb.ratio_file(
+    ...     "sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr", output="out/ratio.tif"
+    ... )
+    >>> stats = gb.stats_file("out/ratio.tif", output="out/stats.json", histogram="out/hist.png")
+    >>> stats["n"], round(stats["mean"], 3), round(stats["skewness"], 3)
+    (54912, 2.434, 0.976)
+    >>> round(stats["se_skewness"], 4)  # follows from N alone (SPSS)
+    0.0105
     """
     qs = parse_percentiles(percentiles)
     image = io.raster_image(input, "input")

@@ -15,7 +15,16 @@ import numpy as np
 class DarkLevels:
     """The dark levels the user gives (DN of zero signal) of the VNIR and the SWIR instrument;
     None = from the sensor product's dark reference or the header, else estimated from the
-    data. Give 0 for radiance."""
+    data. Give 0 for radiance.
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.DarkLevels()  # each instrument's dark level found on the scene
+    DarkLevels(vnir_dark=None, swir_dark=None)
+    >>> gb.DarkLevels(vnir_dark=190, swir_dark=800)  # --vnir-dark 190 --swir-dark 800
+    DarkLevels(vnir_dark=190, swir_dark=800)
+    """
 
     vnir_dark: float | None = None
     swir_dark: float | None = None

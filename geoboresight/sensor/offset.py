@@ -215,6 +215,18 @@ def estimate_offset(
     boresight shift between the VNIR and SWIR images; §3.2, Figure 8).
     Guizar-Sicairos, M.; Thurman, S.T.; Fienup, J.R. Efficient subpixel image registration
     algorithms. Opt. Lett. 2008, 33, 156–158. https://doi.org/10.1364/OL.33.000156
+
+    Examples
+    --------
+    A SWIR image that sees the VNIR's ground two lines later:
+
+    >>> import numpy as np
+    >>> import geoboresight as gb
+    >>> vnir = np.random.default_rng(0).random((64, 64))
+    >>> swir = np.roll(vnir, 2, axis=0)
+    >>> offset = gb.estimate_offset(vnir, swir)
+    >>> float(offset.along), abs(float(offset.across))
+    (2.0, 0.0)
     """
     return offset_of(cross_power(vnir, swir, valid, upsample=upsample), upsample=upsample)
 

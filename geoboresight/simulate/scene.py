@@ -76,7 +76,18 @@ class SimulatedFlight:
     (:data:`.presets.GEOMETRIES`) with any of its values overridden: the squint (degrees), the
     flying height and the vendor's co-registration altitude (m), or each instrument's full
     boresight angles ``"roll,pitch,yaw"`` (degrees; SWIR's override the squint). None keeps
-    the preset's value (see :func:`flight_geometry`)."""
+    the preset's value (see :func:`flight_geometry`).
+
+    Examples
+    --------
+    The paper's geometry measures no relief; a 3° squint makes a pixel of parallax per 29 m:
+
+    >>> import geoboresight as gb
+    >>> flight = gb.SimulatedFlight(geometry="large-squint")  # --geometry large-squint
+    >>> result = gb.simulate_file(output="out/scene", lines=16, flight=flight)
+    >>> round(result["disparity_px_per_m"], 4)
+    0.0349
+    """
 
     geometry: str = GEOMETRY
     squint_deg: float | None = None
@@ -91,7 +102,16 @@ class Sky:
     """The sun and the atmosphere of a simulated flight: sun zenith and azimuth (degrees,
     azimuth clockwise from the flight direction; None: the paper's scene for the preset), the
     aerosol optical depth at 550 nm, the water-vapour column (cm), and whether the
-    surroundings hide part of the sky (``sky_obstruction``, :func:`simulate_scene`)."""
+    surroundings hide part of the sky (``sky_obstruction``, :func:`simulate_scene`).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.Sky()  # the sun of the preset's scene, a clear sky
+    Sky(sun_zenith=None, sun_azimuth=None, aot550=0.15, water_vapour_cm=2.0, sky_obstruction=False)
+    >>> gb.Sky(sun_zenith=30, aot550=0.4).aot550  # a hazier sky: --sun-zenith 30 --aot550 0.4
+    0.4
+    """
 
     sun_zenith: float | None = None
     sun_azimuth: float | None = None
@@ -103,7 +123,14 @@ class Sky:
 @dataclass(frozen=True)
 class SensorOptions:
     """How the detectors are simulated: noise-free DN (still rounded to 12 bits when written)
-    and the rays per pixel side integrating each footprint."""
+    and the rays per pixel side integrating each footprint.
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.SensorOptions()
+    SensorOptions(noise_free=False, supersample=3)
+    """
 
     noise_free: bool = False
     supersample: int = SUPERSAMPLE

@@ -11,11 +11,12 @@ tests/conftest.py turns the skips into failures.
 from __future__ import annotations
 
 import os
+import subprocess
 import sys
 import tempfile
 
 import pytest
-from qgis_harness import QGIS_PLUGINS, import_plugin, require_engine
+from qgis_harness import QGIS_PLUGINS, REPO, import_plugin, require_engine
 
 
 @pytest.fixture(scope="session")
@@ -71,3 +72,14 @@ def inputs(tmp_path_factory):
     ratio = str(folder / "ratio.tif")
     registry()["ratio"](vnir=scene["vnir"], swir=scene["swir"], output=ratio)
     return Inputs(scene, ratio, str(folder))
+
+
+@pytest.fixture(scope="session")
+def plugin_zip(tmp_path_factory):
+    """The zip ``make plugin-zip`` builds (the wheel inside it included), built once for every
+    test that installs the plugin: they only read it."""
+    path = tmp_path_factory.mktemp("plugin-zip") / "geoboresight-plugin.zip"
+    make = ["make", "-s", "-C", str(REPO), "plugin-zip", f"PLUGIN_ZIP={path}"]
+    done = subprocess.run(make, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, (done.stdout + done.stderr)[-3000:]
+    return path

@@ -25,7 +25,7 @@ import subprocess
 import pytest
 from qgis_cases import to_qgis, values_for
 from qgis_compare import assert_same_file, same_value
-from qgis_harness import FORBIDDEN_MODULES, REPO, library_run, require_engine
+from qgis_harness import FORBIDDEN_MODULES, library_run, require_engine
 
 from geoboresight.algorithms import registry
 
@@ -35,19 +35,13 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 
 
 @pytest.fixture(scope="module")
-def desktop(tmp_path_factory, inputs):
+def desktop(tmp_path_factory, inputs, plugin_zip):
     """Run the whole desktop script once; the report and the folders of both runs."""
     for tool in ("qgis", "xvfb-run"):
         if not shutil.which(tool):
             pytest.skip(f"{tool} not found (apt packages qgis, xvfb)")
     root = tmp_path_factory.mktemp("desktop")
-    zip_path = root / "geoboresight-plugin.zip"
-    subprocess.run(
-        ["make", "-s", "-C", str(REPO), "plugin-zip", f"PLUGIN_ZIP={zip_path}"],
-        check=True,
-        capture_output=True,
-        timeout=600,
-    )
+    zip_path = plugin_zip
     q_root, l_root = root / "qgis", root / "lib"
     cases, lib_values, no_case = {}, {}, {}
     for name, spec in registry().items():

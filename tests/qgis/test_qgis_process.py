@@ -24,7 +24,7 @@ PLUGIN = "geoboresight_qgis"
 
 
 @pytest.fixture(scope="module")
-def qgis_env(tmp_path_factory):
+def qgis_env(tmp_path_factory, plugin_zip):
     """A fresh profile (a temporary HOME), the plugin from the zip, QGIS's own Python with no
     PYTHONPATH: the library is reached only through the engine."""
     if not os.path.exists(QGIS_PROCESS):
@@ -32,14 +32,7 @@ def qgis_env(tmp_path_factory):
     root = tmp_path_factory.mktemp("qgis_process")
     plugins = root / "plugins"
     plugins.mkdir()
-    zip_path = root / "geoboresight-plugin.zip"
-    subprocess.run(
-        ["make", "-s", "-C", str(REPO), "plugin-zip", f"PLUGIN_ZIP={zip_path}"],
-        check=True,
-        capture_output=True,
-        timeout=600,
-    )
-    with zipfile.ZipFile(zip_path) as z:
+    with zipfile.ZipFile(plugin_zip) as z:
         assert all(n.startswith(f"{PLUGIN}/") for n in z.namelist())
         assert f"{PLUGIN}/metadata.txt" in z.namelist()
         z.extractall(plugins)

@@ -29,7 +29,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 
 
 @pytest.fixture(scope="module")
-def qgis_run(tmp_path_factory):
+def qgis_run(tmp_path_factory, plugin_zip):
     for tool in ("qgis", "xvfb-run"):
         if not shutil.which(tool):
             pytest.skip(f"{tool} not found (apt packages qgis, xvfb)")
@@ -41,8 +41,10 @@ def qgis_run(tmp_path_factory):
             "-s",
             "-C",
             str(REPO),
+            "-o",  # the zip is the session's, built by `make plugin-zip` (tests/qgis/conftest.py)
+            "plugin-zip",
             "plugin-repo",
-            f"PLUGIN_ZIP={root / 'geoboresight-plugin.zip'}",
+            f"PLUGIN_ZIP={plugin_zip}",
             f"PLUGIN_REPO={repo}",
         ],
         check=True,
