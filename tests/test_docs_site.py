@@ -233,7 +233,7 @@ def test_the_pages_of_messages_are_in_step_with_the_code_and_ordered_by_task():
     assert listed == len(errors.message_catalogue())
     assert errors.message_task("geoboresight/io/products/enmap.py", "read") == "reading"
     assert errors.message_task("geoboresight/io/georef.py", "read_glt") == "georef"
-    assert errors.message_task("geoboresight/operations/_shared.py", "sun_angles") == "shadow"
+    assert errors.message_task("geoboresight/operations/_surface.py", "sun_angles") == "shadow"
     assert errors.message_task("geoboresight/engine.py", "run") == "qgis"
     assert errors.message_task("geoboresight/newmodule.py", "f") == errors.FALLBACK
     index = errors.catalogue_markdown()

@@ -98,7 +98,7 @@ AREAS = (
     ("ratio", "Boresight ratio and statistics", ("ratio", "stats", "info", "report")),
     ("shadow", "Shadow", ("shadow", "shadow_map", "shadow_truth", "deshadow")),
     ("dem", "Relative DEM and offset", ("dem", "offset")),
-    ("anomaly", "Anomaly", ("anomaly",)),
+    ("anomaly", "Anomaly", ("anomaly", "roc")),
     ("georef", "Georeferencing", ("georef", "georef_auto", "direct_georef", "boresight_calibrate")),
     ("simulate", "Simulation", ("simulate",)),
 )
@@ -107,7 +107,7 @@ AREAS = (
 def area_of(module: str) -> tuple[str, str]:
     """``(page, title)`` of the area of ``module`` (:data:`AREAS`)."""
     parts = module.split(".")[1:]
-    if parts and parts[0] == "operations":
+    if parts and parts[0] in ("operations", "algorithms"):
         parts = parts[1:]
     head = parts[0] if parts else ""
     for page, title, heads in AREAS:

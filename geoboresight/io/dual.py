@@ -33,9 +33,11 @@ class DualLayout:
     --------
     >>> import geoboresight as gb
     >>> gb.DualLayout()
-    DualLayout(seam_nm=975.0, vnir_wavelengths=None, swir_wavelengths=None)
+    DualLayout(seam_nm=975.0, vnir_wavelengths=None, swir_wavelengths=None, vnir_calibration=None,
+        swir_calibration=None)
     >>> gb.DualLayout(seam_nm=1000)  # a merged cube split at 1000 nm: --seam-nm 1000
-    DualLayout(seam_nm=1000, vnir_wavelengths=None, swir_wavelengths=None)
+    DualLayout(seam_nm=1000, vnir_wavelengths=None, swir_wavelengths=None, vnir_calibration=None,
+        swir_calibration=None)
     """
 
     seam_nm: float = SEAM_NM

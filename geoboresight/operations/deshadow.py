@@ -79,9 +79,9 @@ def deshadow_file(
 
     ``L_sun = L / (1 − f·(1 − 1/k_b))`` on the signal above the dark level (from
     ``L = (E_dir·(1 − f) + E_diff)·ρ``), ``k_b`` measured on pairs of fully shadowed and
-    sunlit pixels across the shadow edges of the scene
+    sunlit pixels across the scene's shadow edges
     (:func:`geoboresight.shadow.deshadow.illumination_ratio`). The output is in the input's
-    units (the dark level added back): pixels out of shadow keep their values.
+    units: pixels out of shadow keep their values.
 
     Parameters
     ----------
@@ -98,13 +98,11 @@ def deshadow_file(
     report : path, optional
         JSON: the illumination ratio and factor at full shadow of each band, the pairs used.
     surface : SurfaceModel
-        A surface model on the image's grid and the sun (as ``shadow-map --dsm``; its
-        ``clearance`` is the height noise the horizon search ignores): pairs are kept only
-        down-sun or lateral of the shadow and between cells of about the same height (the same
-        surface), the median of all of them is the ratio, and each pixel gets the sky in
-        proportion to its sky-view factor
-        (:func:`geoboresight.shadow.illumination.sky_view_factor`): the ratio is that of open
-        ground, each pixel's own follows from its sky view. None: one ratio for every pixel.
+        A surface model on the image's grid and the sun (as ``shadow-map --dsm``): pairs are
+        kept only down-sun or lateral of the shadow and between cells of about the same
+        height, their median is open ground's ratio, and each pixel's own follows from its
+        sky-view factor (:func:`geoboresight.shadow.illumination.sky_view_factor`). None: one
+        ratio for every pixel.
     layout : DualLayout
     dark : DarkLevels
         Dark level of each instrument (None = the product's, the header's, else estimated as
@@ -120,16 +118,13 @@ def deshadow_file(
         side's slope, cos i, enters it), combined band by band with the dark object (an upper
         bound, :func:`geoboresight.shadow.deshadow.combine_additive`) by their estimated
         errors; the ratio is then measured, and the signal scaled, above it (it is added
-        back). Off by default: on the validation scenes it helps model 2 with a surface model
-        and harms the simulator, where the pairs of one surface are not found
+        back). Off by default: it helps only where pairs of one surface are found
         (docs/deshadow.md).
     adjacency : bool
-        Also light each pixel by its sunlit surroundings (ATCOR-4's terrain-reflected term,
-        ``(1 − V)·ρ̄·E_global``: ρ̄·E_global the mean sunlit signal within
-        :data:`~geoboresight.shadow.deshadow.ADJACENCY_M` around it), its share fitted per
-        band on the pairs with the ratio (:func:`geoboresight.shadow.deshadow.adjacency_ratio`),
-        so each pixel gets its own ratio. Needs the surface model (V). Off by default
-        (docs/deshadow.md).
+        Also light each pixel by its sunlit surroundings (ATCOR-4's ``(1 − V)·ρ̄·E_global``,
+        within :data:`~geoboresight.shadow.deshadow.ADJACENCY_M`), its share fitted per band
+        (:func:`geoboresight.shadow.deshadow.adjacency_ratio`): each pixel gets its own ratio.
+        Needs the surface model (V). Off by default (docs/deshadow.md).
     block_rows : int
     progress : Progress, optional
 
