@@ -188,3 +188,118 @@ def test_transfer_follows_the_local_offset():
     want_line = (pl[:, 1] - 0.5 + 3.0) / 0.99 + 0.5  # y = r + along(y), solved for y
     assert np.abs(out[ok, 1] - want_line[ok]).max() < 0.1
     assert np.abs(out[ok, 0] - (pl[ok, 0] - 2.0)).max() < 0.1
+
+
+# ---------------------------------------------------------------------------------------
+# Through the direct georeferencing: a geodetic trajectory (WGS84), a DEM in UTM, pyproj.
+UTM = "EPSG:32636"
+E0, N0 = 700000.0, 3500000.0
+DEM_CELL = 2.0
+
+
+def geodetic_scene(lines=LINES):
+    """A Navigation at 100 Hz over the line (straight track, jittered attitude, 1,000 m
+    above the relief), its line times, and a DEM (Surface) of the relief in UTM."""
+    from pyproj import Transformer
+
+    from geoboresight.sensor.georeference import Surface
+    from geoboresight.sensor.navigation import Navigation
+
+    t = np.arange(-2.0, lines * LINE_S + 2.0, 0.01)
+    trk = np.radians(HEADING)
+    e = E0 + SPEED * t * np.sin(trk)
+    n = N0 + SPEED * t * np.cos(trk)
+    lon, lat = Transformer.from_crs(UTM, "EPSG:4326", always_xy=True).transform(e, n)
+    roll, pitch, heading = attitude(t)
+    nav = Navigation(t + 1000.0, lat, lon, np.full(t.shape, H + 20.0), roll, pitch, heading)
+    times = 1000.0 + (np.arange(lines) + 0.5) * LINE_S
+    x = np.arange(E0 - 400.0, E0 + 500.0, DEM_CELL)
+    y = np.arange(N0 + 500.0, N0 - 400.0, -DEM_CELL)
+    xx, yy = np.meshgrid(x + DEM_CELL / 2, y - DEM_CELL / 2)
+    dem = Surface(20.0 + relief(xx - E0, yy - N0), (DEM_CELL, 0, x[0], 0, -DEM_CELL, y[0]), UTM)
+    return nav, times, dem
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return geodetic_scene()
+
+
+def test_tie_point_ground_is_the_direct_georeferencing(scene):
+    """At pixel and line centres, the tie points' forward model gives ground_points' IGM."""
+    from geoboresight.sensor.boresight import Boresight, LeverArm
+    from geoboresight.sensor.calibrate import tie_point_ground
+    from geoboresight.sensor.georeference import ground_points
+    from geoboresight.sensor.model import SensorModel
+
+    nav, times, dem = scene
+    model = SensorModel.ideal(48, 4.0)
+    lever = LeverArm(0.4, -0.3, 0.6)
+    angles = (0.3, -0.4, 0.5)
+    x, y, _ = ground_points(nav, times, model, Boresight(*angles), lever, dem, time_offset=0.01)
+    project = tie_point_ground(nav, times, model, lever, dem)
+    rows = np.array([0, 7, 80, 159])
+    cols = np.array([0, 13, 30, 47])
+    pl = np.column_stack([cols + 0.5, rows + 0.5])
+    got = project(angles, 0.01, pl)
+    assert np.allclose(got, np.column_stack([x[rows, cols], y[rows, cols]]), atol=1e-6)
+
+
+SENSORS = {
+    # pixels, field of view (deg), lever arm (m), true boresight (deg)
+    "VNIR": (96, 5.5, (0.4, -0.3, 0.6), (0.35, -0.45, 0.55)),
+    "SWIR": (64, 5.5, (0.4, 0.1, 0.6), (-0.25, 0.6, 0.3)),
+}
+
+
+def _direct(scene, name, true_offset=0.0, n=150, seed=2):
+    """The true IGM of a sensor, tie points taken from it (matching noise 0.15 px), and the
+    forward model to calibrate with."""
+    from geoboresight.sensor.boresight import LeverArm
+    from geoboresight.sensor.calibrate import tie_point_ground
+    from geoboresight.sensor.model import SensorModel
+
+    nav, times, dem = scene
+    pixels, fov, lever, true = SENSORS[name]
+    model, lever = SensorModel.ideal(pixels, fov), LeverArm(*lever)
+    project = tie_point_ground(nav, times, model, lever, dem)
+    rng = np.random.default_rng(seed)
+    pl = np.column_stack([rng.uniform(1, pixels - 1, n), rng.uniform(1, LINES - 1, n)])
+    xy = project(true, true_offset, pl)
+    return model, lever, project, pl + rng.normal(0, 0.15, pl.shape), xy
+
+
+def _igm_error_px(scene, model, lever, estimated, true, dt_est=0.0, dt_true=0.0):
+    from geoboresight.sensor.boresight import Boresight
+    from geoboresight.sensor.georeference import ground_points
+
+    nav, times, dem = scene
+    xe, ye, _ = ground_points(
+        nav, times, model, Boresight(*estimated), lever, dem, time_offset=dt_est
+    )
+    xt, yt, _ = ground_points(nav, times, model, Boresight(*true), lever, dem, time_offset=dt_true)
+    # pixel size on the ground: the mean spacing of neighbouring pixels across and along
+    gsd = 0.5 * (
+        np.nanmean(np.hypot(np.diff(xt, axis=1), np.diff(yt, axis=1)))
+        + np.nanmean(np.hypot(np.diff(xt, axis=0), np.diff(yt, axis=0)))
+    )
+    err = np.hypot(xe - xt, ye - yt).ravel() / gsd
+    return float(np.sqrt(np.mean(err**2))), float(np.percentile(err, 99))
+
+
+@pytest.mark.parametrize("name", ["VNIR", "SWIR"])
+def test_direct_georeferencing_angles(scene, name):
+    model, lever, project, pl, xy = _direct(scene, name)
+    cal = calibrate_boresight(pl, xy, project)
+    true = SENSORS[name][3]
+    rms, p99 = _igm_error_px(scene, model, lever, cal.angles_deg, true)
+    assert rms <= 0.3 and p99 <= 0.6, (cal.angles_deg, rms, p99)
+
+
+def test_direct_georeferencing_clock_offset(scene):
+    model, lever, project, pl, xy = _direct(scene, "VNIR", true_offset=0.020)
+    cal = calibrate_boresight(pl, xy, project, estimate_time_offset=True)
+    assert abs(cal.time_offset_s - 0.020) <= 0.002, cal.time_offset_s
+    true = SENSORS["VNIR"][3]
+    rms, p99 = _igm_error_px(scene, model, lever, cal.angles_deg, true, cal.time_offset_s, 0.020)
+    assert rms <= 0.3 and p99 <= 0.6, (cal.angles_deg, rms, p99)
