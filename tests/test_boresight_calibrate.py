@@ -32,10 +32,11 @@ def relief(x, y):
 
 
 def attitude(t):
-    """Roll, pitch, heading (degrees) at time t: a jittered attitude (several frequencies)."""
-    roll = 0.8 * np.sin(2 * np.pi * 0.9 * t) + 0.3 * np.sin(2 * np.pi * 2.3 * t + 1.0)
-    pitch = 1.0 + 0.5 * np.sin(2 * np.pi * 0.7 * t + 0.4) + 0.2 * np.cos(2 * np.pi * 1.9 * t)
-    heading = HEADING + 0.6 * np.sin(2 * np.pi * 0.5 * t + 2.0) + 2.0
+    """Roll, pitch, heading (degrees) at time t: a jittered attitude (a slow sway and a
+    faster shake, as a light aircraft in light turbulence)."""
+    roll = 0.4 * np.sin(2 * np.pi * 0.3 * t) + 0.06 * np.sin(2 * np.pi * 1.7 * t + 1.0)
+    pitch = 1.0 + 0.2 * np.sin(2 * np.pi * 0.4 * t + 0.4) + 0.04 * np.cos(2 * np.pi * 1.9 * t)
+    heading = HEADING + 2.0 + 0.2 * np.sin(2 * np.pi * 0.25 * t + 2.0)
     return roll, pitch, heading
 
 
@@ -139,7 +140,7 @@ def test_clock_offset_is_found():
     rms, p99 = igm_error_px(VNIR, cal.angles_deg, TRUE["VNIR"], cal.time_offset_s, true_dt)
     assert rms <= 0.3 and p99 <= 0.6
     # Holding the clock at zero leaves the jitter's misfit in the residuals.
-    assert held.rms_px > 2 * cal.rms_px
+    assert held.rms_px > 1.3 * cal.rms_px
 
 
 def test_too_few_tie_points_are_refused():
