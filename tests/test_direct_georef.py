@@ -9,6 +9,8 @@ pyproj's exact map position and height at every point, heights by SciPy's
 ``map_coordinates``, and bisection to 1e-7 m.
 """
 
+import os
+
 import numpy as np
 import pytest
 from pyproj import Transformer
@@ -25,7 +27,7 @@ from geoboresight.io.navigation import (
     write_sbet,
 )
 from geoboresight.sensor.boresight import Boresight
-from geoboresight.sensor.georeference import ground_points, platform, trace
+from geoboresight.sensor.georeference import Surface, ground_points, platform, trace
 from geoboresight.sensor.model import SensorModel
 from geoboresight.sensor.navigation import Navigation
 from geoboresight.simulate.flight import (
@@ -332,3 +334,138 @@ def test_trace_is_the_low_level_step(scene):
     b = ground_points(nav, scene["times"][:5], scene["swir"], TRUE_BORESIGHT["swir"],
                       TRUE_LEVER_ARM["swir"], scene["dem"])  # fmt: skip
     np.testing.assert_array_equal(a[0], b[0])
+
+
+# the operation, through the command line and Python
+
+
+def _write_line(folder, lines, samples, keys=None):
+    """A raw uint16 ENVI line (BIL) with the header keys a Specim line carries."""
+    import rasterio
+
+    path = str(folder / "line_vnir.bil")
+    with rasterio.open(path, "w", driver="ENVI", width=samples, height=lines, count=2,
+                       dtype="uint16", interleave="bil") as d:  # fmt: skip
+        d.write(np.full((2, lines, samples), 1000, "uint16"))
+    if keys:
+        with open(str(folder / "line_vnir.hdr"), "a", encoding="utf-8") as f:
+            for k, v in keys.items():
+                f.write(f"{k} = {v}\n")
+    return path
+
+
+def _write_dem(folder, dem):
+    import rasterio
+    from rasterio.transform import Affine
+
+    path = str(folder / "dem.tif")
+    z = dem.heights
+    with rasterio.open(path, "w", driver="GTiff", width=z.shape[1], height=z.shape[0], count=1,
+                       dtype="float64", crs=dem.crs, transform=Affine(*dem.transform)) as d:  # fmt: skip
+        d.write(z, 1)
+    return path
+
+
+@pytest.fixture(scope="module")
+def line_files(scene, tmp_path_factory):
+    from geoboresight.io.navigation import write_line_times, write_sensor_model_csv
+
+    folder = tmp_path_factory.mktemp("op")
+    lines = 48
+    image = _write_line(folder, lines, scene["vnir"].n_pixels)
+    times = str(folder / "times.txt")
+    write_line_times(times, scene["times"][:lines])
+    model = str(folder / "vnir.csv")
+    write_sensor_model_csv(model, scene["vnir"])
+    return dict(folder=folder, image=image, times=times, model=model, lines=lines,
+                dem=_write_dem(folder, scene["dem"]))  # fmt: skip
+
+
+def test_cli_takes_three_numbers_with_negative_values(scene, line_files):
+    from click.testing import CliRunner
+
+    from geoboresight.cli import main as cli
+
+    out = str(line_files["folder"] / "igm.tif")
+    b, lever = TRUE_BORESIGHT["vnir"], TRUE_LEVER_ARM["vnir"]
+    args = ["direct-georeference", "--input", line_files["image"], "--navigation", scene["sbet"],
+            "--line-times", line_files["times"], "--sensor-model", line_files["model"],
+            "--boresight", *map(str, b.as_tuple()), "--lever-arm", *map(str, lever.as_tuple()),
+            "--dem", line_files["dem"], "-o", out, "-q"]  # fmt: skip
+    res = CliRunner().invoke(cli, args)
+    assert res.exit_code == 0, res.output
+    import rasterio
+
+    with rasterio.open(out) as src:
+        igm = src.read()
+        assert src.count == 3 and src.dtypes[0] == "float64"
+    nav = read_sbet(scene["sbet"])
+    x, y, h = ground_points(nav, scene["times"][: line_files["lines"]], scene["vnir"], b, lever,
+                            scene["dem"])  # fmt: skip
+    np.testing.assert_allclose(igm[0], x, atol=1e-6)
+    np.testing.assert_allclose(igm[2], h, atol=1e-6)
+
+
+def test_envi_igm_in_apl_layout_goes_to_geolocate(scene, line_files):
+    import rasterio
+
+    from geoboresight.operations.direct_georef import direct_georeference_file
+    from geoboresight.operations.georef import geolocate_file
+
+    out = str(line_files["folder"] / "igm.bil")
+    direct_georeference_file(
+        line_files["image"], scene["csv"], output=out, sensor_model=line_files["model"],
+        line_times=line_files["times"], boresight=TRUE_BORESIGHT["vnir"],
+        lever_arm=(0.35, -0.12, 0.28), dem=line_files["dem"],
+    )  # fmt: skip
+    with rasterio.open(out) as src:
+        assert src.driver == "ENVI" and src.count == 3 and src.crs is not None
+    mapped = str(line_files["folder"] / "mapped.tif")
+    res = geolocate_file(line_files["image"], out, output=mapped)
+    assert res["valid_pixels"] > 0
+
+
+def test_dem_that_misses_the_swath_is_named_with_its_share(scene, line_files, tmp_path):
+    from geoboresight.operations.direct_georef import direct_georeference_file
+
+    dem = scene["dem"]
+    half = Surface(dem.heights[:, : dem.heights.shape[1] // 2], dem.transform, dem.crs)
+    path = _write_dem(tmp_path, half)
+    with pytest.raises(InputError, match=r"DEM .* misses \d+\.\d% of the pixels"):
+        direct_georeference_file(
+            line_files["image"], scene["sbet"], output=str(tmp_path / "i.tif"),
+            sensor_model=line_files["model"], line_times=line_files["times"], dem=path,
+        )  # fmt: skip
+    assert not os.path.exists(tmp_path / "i.tif")
+
+
+def test_dem_without_crs_or_in_feet_is_refused(scene, line_files, tmp_path):
+    import rasterio
+
+    from geoboresight.operations.direct_georef import direct_georeference_file
+
+    path = str(tmp_path / "nocrs.tif")
+    with rasterio.open(path, "w", driver="GTiff", width=4, height=4, count=1,
+                       dtype="float32") as d:  # fmt: skip
+        d.write(np.zeros((1, 4, 4), "float32"))
+    kw = dict(output=str(tmp_path / "i.tif"), sensor_model=line_files["model"],
+              line_times=line_files["times"])  # fmt: skip
+    with pytest.raises(InputError, match="carries no CRS"):
+        direct_georeference_file(line_files["image"], scene["sbet"], dem=path, **kw)
+    feet = str(tmp_path / "feet.tif")
+    from rasterio.transform import from_origin
+
+    with rasterio.open(feet, "w", driver="GTiff", width=4, height=4, count=1, dtype="float32",
+                       crs="EPSG:2227", transform=from_origin(0, 0, 1, 1)) as d:  # fmt: skip
+        d.write(np.zeros((1, 4, 4), "float32"))
+    with pytest.raises(InputError, match="in feet"):
+        direct_georeference_file(line_files["image"], scene["sbet"], dem=feet, **kw)
+
+
+def test_header_start_time_and_fps_give_the_line_times(tmp_path):
+    from geoboresight.io.navigation import header_line_times
+
+    keys = {"gps start time": "UTC 10:15:02.500", "acquisition date": "DATE(dd-mm-yyyy): 07-06-2011",
+            "fps": "50"}  # fmt: skip
+    t = header_line_times(keys, 3)
+    np.testing.assert_allclose(t, 2 * 86400 + 36902.5 + np.arange(3) / 50)
