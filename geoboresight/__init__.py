@@ -62,6 +62,7 @@ KERNELS = {
     "simulate_ortho": "geoboresight.simulate.ortho",
     "attitude_jitter": "geoboresight.simulate.ortho",
     "simulate_scene": "geoboresight.simulate.scene",
+    "ground_points": "geoboresight.sensor.georeference",
 }
 
 
@@ -114,6 +115,11 @@ VALUES = {
     "MapCalibration": "geoboresight.operations.shadow_map",
     "Detection": "geoboresight.operations.shadow_map",
     "SurfaceModel": "geoboresight.operations.shadow_map",
+    "Navigation": "geoboresight.sensor.navigation",
+    "SensorModel": "geoboresight.sensor.model",
+    "Boresight": "geoboresight.sensor.boresight",
+    "LeverArm": "geoboresight.sensor.boresight",
+    "Surface": "geoboresight.sensor.georeference",
 }
 
 #: What a script needs beside the operations: readers, writers, the block loop, progress and
@@ -127,6 +133,8 @@ IO = {
     "reduce_windows": "geoboresight.io.windows",
     "Grid": "geoboresight.io.grid",
     "write_scene": "geoboresight.io.scene",
+    "read_navigation": "geoboresight.io.navigation",
+    "read_sensor_model": "geoboresight.io.navigation",
     "Progress": "geoboresight.progress",
     "GeoboresightError": "geoboresight.errors",
     "InputError": "geoboresight.errors",

@@ -52,6 +52,8 @@ from .io.dual import DualLayout as DualLayout
 from .io.dual import open_dual as open_dual
 from .io.grid import Grid as Grid
 from .io.grid import OutputGrid as OutputGrid
+from .io.navigation import read_navigation as read_navigation
+from .io.navigation import read_sensor_model as read_sensor_model
 from .io.products import recognise as recognise
 from .io.raster import writer_options as writer_options
 from .io.scene import write_scene as write_scene
@@ -68,6 +70,7 @@ from .operations.dem import disparity_file as disparity_file
 from .operations.dem import relative_dem_file as relative_dem_file
 from .operations.dem import view_3d_file as view_3d_file
 from .operations.deshadow import deshadow_file as deshadow_file
+from .operations.direct_georef import direct_georeference_file as direct_georeference_file
 from .operations.georef import auto_georeference_file as auto_georeference_file
 from .operations.georef import geolocate_file as geolocate_file
 from .operations.georef import georeference_file as georeference_file
@@ -93,6 +96,12 @@ from .operations.simulate import simulate_file as simulate_file
 from .operations.stats import stats_file as stats_file
 from .progress import Progress as Progress
 from .ratio import boresight_ratio as boresight_ratio
+from .sensor.boresight import Boresight as Boresight
+from .sensor.boresight import LeverArm as LeverArm
+from .sensor.georeference import Surface as Surface
+from .sensor.georeference import ground_points as ground_points
+from .sensor.model import SensorModel as SensorModel
+from .sensor.navigation import Navigation as Navigation
 from .shadow.cluster import fit_shadow_cluster as fit_shadow_cluster
 from .shadow.darkpixel import fit_dark_pixel as fit_dark_pixel
 from .shadow.fraction import fit_fraction_model as fit_fraction_model
