@@ -115,11 +115,8 @@ VALUES = {
     "MapCalibration": "geoboresight.operations.shadow_map",
     "Detection": "geoboresight.operations.shadow_map",
     "SurfaceModel": "geoboresight.operations.shadow_map",
-    "Navigation": "geoboresight.sensor.navigation",
-    "SensorModel": "geoboresight.sensor.model",
     "Boresight": "geoboresight.sensor.boresight",
     "LeverArm": "geoboresight.sensor.boresight",
-    "Surface": "geoboresight.sensor.georeference",
 }
 
 #: What a script needs beside the operations: readers, writers, the block loop, progress and
@@ -133,6 +130,9 @@ IO = {
     "reduce_windows": "geoboresight.io.windows",
     "Grid": "geoboresight.io.grid",
     "write_scene": "geoboresight.io.scene",
+    "Navigation": "geoboresight.sensor.navigation",
+    "SensorModel": "geoboresight.sensor.model",
+    "Surface": "geoboresight.sensor.georeference",
     "read_navigation": "geoboresight.io.navigation",
     "read_sensor_model": "geoboresight.io.navigation",
     "Progress": "geoboresight.progress",

@@ -66,6 +66,7 @@ from .operations.anomaly import roc_file as roc_file
 from .operations.anomaly import rx_file as rx_file
 from .operations.anomaly import svdd_file as svdd_file
 from .operations.anomaly import unmix_file as unmix_file
+from .operations.boresight_calibrate import boresight_calibrate_file as boresight_calibrate_file
 from .operations.dem import disparity_file as disparity_file
 from .operations.dem import relative_dem_file as relative_dem_file
 from .operations.dem import view_3d_file as view_3d_file

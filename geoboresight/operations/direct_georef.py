@@ -141,8 +141,8 @@ def direct_georeference_file(
     sensor_model=None,
     fov=None,
     line_times=None,
-    lever_arm=None,
-    boresight=None,
+    lever_arm: LeverArm | tuple | None = None,
+    boresight: Boresight | tuple | None = None,
     time_offset=0.0,
     dem=None,
     height=None,
@@ -179,6 +179,17 @@ def direct_georeference_file(
         The DEM's vertical CRS when its heights are above a geoid (e.g. ``EPSG:5773``).
     view_angles_output : path, optional
         View zenith and azimuth of every pixel (degrees).
+
+    Returns
+    -------
+    dict
+        ``output``, ``lines``, ``samples``, ``missed_fraction`` (rays that met no DEM
+        height) and ``first_line_time``.
+
+    References
+    ----------
+    Brook, A. & Ben-Dor, E. (2011). Advantages of the boresight effect in hyperspectral data
+    analysis. Remote Sensing 3, 484–502, https://doi.org/10.3390/rs3030484 (§2, Eq. 1–2).
     """
     from ..io.georef import parse_crs
 
