@@ -95,28 +95,39 @@ def line_times_for(line_times, keys, lines, navigation_path, label):
     return nio.header_line_times(keys, lines, label)
 
 
-def _coverage(nav, times, model, b, lever, offset, low, high, bounds, crs):
-    """The share of pixels (a sparse sample) whose rays meet the DEM's heights outside it."""
-    step_l = max(1, len(times) // 64)
-    step_p = max(1, model.n_pixels // 64)
-    sub = SensorModel(model.across_rad[::step_p], model.along_rad[::step_p])
-    pos, r = platform(nav, times[::step_l], time_offset=offset)
-    left, bottom, right, top = bounds
-    out = np.zeros((len(times[::step_l]), sub.n_pixels), bool)
-    for h in (low, high):
-        x, y, _ = trace(pos, r, sub.look_vectors(), b, lever, None, height=h, crs=crs)
-        out |= ~((x >= left) & (x <= right) & (y >= bottom) & (y <= top))
-    return float(out.mean()), (pos, r, sub)
+def _edges(model):
+    """A sparse set of the model's pixels (every 16th and the last): the swath's outline."""
+    idx = np.unique(np.r_[np.arange(0, model.n_pixels, 16), model.n_pixels - 1])
+    return model.look_vectors()[idx]
 
 
-def _swath_bounds(pos, r, sub, b, lever, low, high, crs):
+def _footprint(pos, r, look, b, lever, low, high, crs):
+    """Map x, y of the rays of ``look`` on the constant heights ``low`` and ``high``."""
     xs, ys = [], []
     for h in (low, high):
-        x, y, _ = trace(pos, r, sub.look_vectors(), b, lever, None, height=h, crs=crs)
+        x, y, _ = trace(pos, r, look, b, lever, None, height=h, crs=crs)
         xs.append(x)
         ys.append(y)
-    x, y = np.concatenate(xs), np.concatenate(ys)
-    return np.nanmin(x), np.nanmin(y), np.nanmax(x), np.nanmax(y)
+    return np.concatenate(xs), np.concatenate(ys)
+
+
+def _coverage(nav, times, look, b, lever, offset, low, high, bounds, crs):
+    """The share of a sparse sample of pixels whose rays, between the DEM's lowest and
+    highest heights, leave its bounds."""
+    step = max(1, len(times) // 256)
+    pos, r = platform(nav, times[::step], time_offset=offset)
+    x, y = _footprint(pos, r, look, b, lever, low, high, crs)
+    left, bottom, right, top = bounds
+    out = ~((x >= left) & (x <= right) & (y >= bottom) & (y <= top))
+    return float(out.mean())
+
+
+def _window(pos, r, look, b, lever, low, high, crs):
+    """The DEM window (left, bottom, right, top) a block of lines sees, with a margin."""
+    x, y = _footprint(pos, r, look, b, lever, low, high, crs)
+    box = np.nanmin(x), np.nanmin(y), np.nanmax(x), np.nanmax(y)
+    pad = 0.02 * max(box[2] - box[0], box[3] - box[1]) + 5.0
+    return box[0] - pad, box[1] - pad, box[2] + pad, box[3] + pad
 
 
 def view_angles(positions, body_to_ecef, look, b, lever, nav_lat, nav_lon):
@@ -208,23 +219,18 @@ def direct_georeference_file(
     if dem is not None:
         low, high, bounds, dem_crs = dem_overview(dem)
         out_crs = parse_crs(crs).to_wkt() if crs else dem_crs
-        share, (pos, r, sub) = _coverage(
-            nav, times, model, b, lever, time_offset, low, high, bounds, dem_crs
-        )
+        edges = _edges(model)
+        share = _coverage(nav, times, edges, b, lever, time_offset, low, high, bounds, dem_crs)
         if share > 0:
             raise InputError(
                 f"DEM {dem} misses {share:.1%} of the pixels (the swath runs beyond it): "
                 "give a DEM that covers the line, or --height",
                 params=("dem",),
             )
-        window = _swath_bounds(pos, r, sub, b, lever, low, high, dem_crs)
-        pad = 0.05 * max(window[2] - window[0], window[3] - window[1]) + 10.0
-        window = (window[0] - pad, window[1] - pad, window[2] + pad, window[3] + pad)
-        surface = read_surface(dem, bounds=window, vertical_crs=dem_vertical_crs)
     else:
         if not crs:
             raise ParameterError("a constant height needs an output CRS", params=("crs",))
-        surface, out_crs = None, parse_crs(crs).to_wkt()
+        out_crs = parse_crs(crs).to_wkt()
     look = model.look_vectors()
     tags = {
         "boresight_deg": " ".join(f"{v:g}" for v in b.as_tuple()),
@@ -243,6 +249,11 @@ def direct_georeference_file(
             for row0 in range(0, lines, BLOCK_LINES):
                 t = times[row0 : row0 + BLOCK_LINES]
                 pos, r = platform(nav, t, time_offset=time_offset)
+                surface = None
+                if dem is not None:
+                    # only the DEM window this block sees: memory stays bounded by a block
+                    box = _window(pos, r, edges, b, lever, low, high, dem_crs)
+                    surface = read_surface(dem, bounds=box, vertical_crs=dem_vertical_crs)
                 x, y, h = trace(
                     pos, r, look, b, lever, surface,
                     height=None if surface is not None else height, crs=out_crs,
