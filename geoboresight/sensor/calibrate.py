@@ -367,48 +367,42 @@ def calibrate_boresight(
     )
 
 
-#: Side (pixels) of the window around each tie point where the VNIR/SWIR offset is measured.
-TRANSFER_WINDOW = 32
-#: Largest normalised error of a window's match for the offset to be taken.
-TRANSFER_MAX_ERROR = 0.5
-
-
 def transfer_tie_points(
     vnir: np.ndarray,
     swir: np.ndarray,
-    pixel_line: np.ndarray,
     valid: np.ndarray | None = None,
     *,
-    window: int = TRANSFER_WINDOW,
-    max_error: float = TRANSFER_MAX_ERROR,
-) -> tuple[np.ndarray, np.ndarray, tuple[float, float]]:
-    """VNIR tie points carried into the SWIR image through the VNIR/SWIR offset.
+    detector: str = "sift",
+    model_block_lines: int = 16,
+    max_shift_px: float = 10.0,
+    seed: int = 0,
+):
+    """Tie points between the SWIR and the VNIR image of one line, through the VNIR/SWIR
+    offset.
 
-    The offset of the two images is measured over the whole line first, then in a
-    ``window`` × ``window`` window around each tie point (the SWIR window moved by the
-    global offset): the local offset holds the relief parallax between the two
-    instruments' views at that point, which a single offset for the line would miss.
+    The line's offset (:func:`~geoboresight.dem.offset.estimate_offset`, SWIR minus VNIR
+    position) places the VNIR image into the SWIR's geometry; features are matched between
+    the two by the matcher of the orthophoto tie points
+    (:func:`~geoboresight.georef.tiepoints.match_tie_points`), whose RANSAC per block of
+    lines follows what one offset for the line misses: the relief parallax between the two
+    instruments' views and the attitude changing between the instants they see a feature.
+    Each SWIR tie point's ground is then the calibrated VNIR's ground at its VNIR position.
 
     Parameters
     ----------
     vnir, swir : 2-D arrays (lines, columns)
         One VNIR and one SWIR band on the same pixel grid (bands whose radiometry is close
         across the seam, e.g. 920 and 1010 nm).
-    pixel_line : (n, 2) array
-        VNIR tie points (continuous pixel, line).
     valid : bool array, optional
         Pixels usable in both bands.
-    window : int
-        Side of the window around each tie point (pixels).
-    max_error : float
-        A window whose match error (normalised RMS, 0 perfect) exceeds this gives no point.
+    detector, model_block_lines, max_shift_px, seed
+        The matcher's settings (``max_shift_px``: largest departure from the line's offset).
 
     Returns
     -------
-    swir_pixel_line : (n, 2) array
-        The same ground features in the SWIR image (NaN where not measured).
-    ok : bool (n,)
-    global_offset : (along, across)
+    swir_pixel_line, vnir_pixel_line : (n, 2) arrays
+        The same features in the SWIR and the VNIR image (continuous pixel, line).
+    offset : (along, across)
         The line's offset (pixels, SWIR minus VNIR).
 
     References
@@ -418,37 +412,34 @@ def transfer_tie_points(
     boresight shift between the VNIR and SWIR images; §3.2).
     """
     from ..dem.offset import estimate_offset
+    from ..georef.tiepoints import match_tie_points
 
     v = np.asarray(vnir, "float64")
     s = np.asarray(swir, "float64")
-    ok_px = np.isfinite(v) & np.isfinite(s)
+    ok = np.isfinite(v) & np.isfinite(s)
     if valid is not None:
-        ok_px &= np.asarray(valid, bool)
-    whole = estimate_offset(v, s, ok_px)
-    pl = np.asarray(pixel_line, "float64").reshape(-1, 2)
-    out = np.full_like(pl, np.nan)
-    ok = np.zeros(len(pl), bool)
-    lines, cols = v.shape
-    half = window // 2
-    da, dc = int(round(whole.along)), int(round(whole.across))
-    for i, (px, ln) in enumerate(pl):
-        r0, c0 = int(np.floor(ln)) - half, int(np.floor(px)) - half
-        r1, c1 = r0 + window, c0 + window
-        if min(r0, r0 + da, c0, c0 + dc) < 0 or max(r1, r1 + da) > lines:
-            continue
-        if max(c1, c1 + dc) > cols:
-            continue
-        a = v[r0:r1, c0:c1]
-        b = s[r0 + da : r1 + da, c0 + dc : c1 + dc]
-        w = ok_px[r0:r1, c0:c1] & ok_px[r0 + da : r1 + da, c0 + dc : c1 + dc]
-        if w.mean() < 0.9:
-            continue
-        local = estimate_offset(a, b, w)
-        if not local.error <= max_error or max(abs(local.along), abs(local.across)) > half / 2:
-            continue
-        out[i] = (px + dc + local.across, ln + da + local.along)
-        ok[i] = True
-    return out, ok, (float(whole.along), float(whole.across))
+        ok &= np.asarray(valid, bool)
+    whole = estimate_offset(v, s, ok)
+
+    def placement(pixel, line):
+        # a SWIR position to the VNIR position of the same ground, by the line's offset
+        return np.asarray(pixel) - whole.across, np.asarray(line) - whole.along
+
+    tie = match_tie_points(
+        np.where(ok, s, np.nan),
+        np.where(ok, v, np.nan),
+        ok,
+        ref_transform=(1.0, 0.0, 0.0, 0.0, 1.0, 0.0),  # "map" coordinates: VNIR pixels
+        placement=placement,
+        ref_valid=ok,
+        detector=detector,
+        model_block_lines=int(model_block_lines),
+        max_shift_px=float(max_shift_px),
+        seed=int(seed),
+    )
+    swir_pl = tie.pixel_line[tie.inlier]
+    vnir_pl = np.column_stack(placement(tie.placed[tie.inlier, 0], tie.placed[tie.inlier, 1]))
+    return swir_pl, vnir_pl, (float(whole.along), float(whole.across))
 
 
 def residual_figure(calibrations: dict, pixel_lines: dict, *, scale: float | None = None):

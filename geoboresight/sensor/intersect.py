@@ -1,12 +1,14 @@
 """The first intersection of straight rays (in ECEF) with a DEM, at the DEM's own resolution.
 
-A ray is straight in ECEF but curved in the DEM's map CRS and its heights. Along the stretch
-of each ray between the DEM's highest and lowest heights, its map position and ellipsoidal
-height are quadratics in the ray parameter through three points converted exactly by pyproj
-(the curvature is of order ``L²/R``: the cubic remainder is below a micrometre for a 3 km
-stretch). The ray is then marched in steps of at most one DEM cell in columns and rows,
-against the DEM's bilinear heights; the first step that goes below the surface is refined by
-bisection to convergence, and the hit's ECEF point is converted exactly by pyproj.
+A ray is straight in ECEF but curved in the DEM's map CRS and its heights. Around each line's
+ground, the conversion from ECEF to map x, y and ellipsoidal height is a second-order Taylor
+model built from 19 points converted exactly by pyproj (central differences over the line's
+extent; its remainder is of order ``r³/R²``: about 10 µm at 700 m from the line's centre,
+measured against pyproj). Under it, the stretch of each ray between the DEM's highest and
+lowest heights is exactly a quadratic in the ray parameter. The ray is marched along it in
+steps of at most one DEM cell in columns and rows, against the DEM's bilinear heights; the
+first step that goes below the surface is refined by the Illinois false-position method to
+1 µm, and the hit's ECEF point is converted exactly by pyproj (one transform per pixel).
 
 The march is a Numba kernel when Numba is installed (compiled on first use, cached where the
 package's folder is writable) and its NumPy reference otherwise; the two agree to round-off.
@@ -14,16 +16,14 @@ package's folder is writable) and its NumPy reference otherwise; the two agree t
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
+
+from ._refine import REFINE_STEPS, TOLERANCE
 
 #: WGS84 semi-major axis and semi-minor axis (m): the first guess of where a ray crosses a
 #: height (refined by pyproj's exact heights).
 _A = 6378137.0
 _B = 6356752.314245179
-#: Bisection steps on the bracketing step (a step is at most one cell: 2**-48 of a cell).
-BISECTIONS = 48
 
 
 def _to_unit(h_lo, h_hi, origins, directions):
@@ -53,22 +53,84 @@ def _to_unit(h_lo, h_hi, origins, directions):
     return t_hi, t_lo
 
 
-def quadratic_path(origins, directions, t0, t1, to_map):
-    """Coefficients (rays, 3 values, 3 powers) of map x, map y and height as quadratics in
-    ``s`` in [0, 1] along ``t = t0 + s (t1 - t0)``, through pyproj's exact values at
-    s = 0, ½, 1; and the exact values at the two ends."""
-    shape = t0.shape
-    s = np.array([0.0, 0.5, 1.0])
-    t = t0[..., None] + s * (t1 - t0)[..., None]
-    p = origins[:, None, None, :] + t[..., None] * directions[..., None, :]
-    x, y, h = to_map.transform(p[..., 0].ravel(), p[..., 1].ravel(), p[..., 2].ravel())
-    f = np.stack(
-        [np.reshape(x, shape + (3,)), np.reshape(y, shape + (3,)), np.reshape(h, shape + (3,))],
-        axis=-2,
-    )
-    f0, fm, f1 = f[..., 0], f[..., 1], f[..., 2]
-    c = np.stack([f0, -3.0 * f0 + 4.0 * fm - f1, 2.0 * f0 - 4.0 * fm + 2.0 * f1], axis=-1)
-    return c
+def _stencil(delta):
+    """The 19 offsets (19, 3) of a second-order central-difference stencil of step ``delta``."""
+    e = np.eye(3)
+    pts = [np.zeros(3)]
+    for i in range(3):
+        pts += [e[i], -e[i]]
+    for i in range(3):
+        for j in range(i + 1, 3):
+            pts += [e[i] + e[j], e[i] - e[j], -e[i] + e[j], -e[i] - e[j]]
+    return np.array(pts)[None] * np.asarray(delta, dtype=float)[:, None, None]
+
+
+def local_models(centers, delta, to_map):
+    """Second-order Taylor models of ``to_map`` (ECEF to map x, y, height) around each of
+    ``centers`` (n, 3): value (n, 3), gradient (n, 3 out, 3 in) and Hessian (n, 3, 3, 3),
+    by central differences of step ``delta`` (n,) metres on pyproj's exact values."""
+    n = centers.shape[0]
+    pts = centers[:, None, :] + _stencil(delta)
+    x, y, h = to_map.transform(pts[..., 0].ravel(), pts[..., 1].ravel(), pts[..., 2].ravel())
+    f = np.stack([np.reshape(x, (n, 19)), np.reshape(y, (n, 19)), np.reshape(h, (n, 19))], -1)
+    d = np.asarray(delta, dtype=float)[:, None]
+    f0 = f[:, 0]
+    g = np.empty((n, 3, 3))
+    hess = np.empty((n, 3, 3, 3))
+    for i in range(3):
+        fp, fm = f[:, 1 + 2 * i], f[:, 2 + 2 * i]
+        g[:, :, i] = (fp - fm) / (2 * d)
+        hess[:, :, i, i] = (fp - 2 * f0 + fm) / d**2
+    k = 7
+    for i in range(3):
+        for j in range(i + 1, 3):
+            fpp, fpm, fmp, fmm = (f[:, k + m] for m in range(4))
+            hess[:, :, i, j] = hess[:, :, j, i] = (fpp - fpm - fmp + fmm) / (4 * d**2)
+            k += 4
+    return f0, g, hess
+
+
+def quadratic_path(origins, directions, t0, t1, model, centers):
+    """Coefficients (lines, pixels, 3 values, 3 powers) of map x, map y and height as
+    quadratics in ``s`` in [0, 1] along ``t = t0 + s (t1 - t0)``, exact under each line's
+    local model (:func:`local_models` around ``centers``)."""
+    f0, g, hess = model
+    a = origins[:, None, :] + t0[..., None] * directions - centers[:, None, :]
+    dd = (t1 - t0)[..., None] * directions
+    out = np.empty(a.shape[:2] + (3, 3))
+    for k in range(3):
+        # batched (pixels, 3) @ (3, 3) products per line: BLAS, no large temporaries
+        ha = a @ hess[:, k]
+        hd = dd @ hess[:, k]
+        out[..., k, 0] = f0[:, None, k] + (a @ g[:, k, :, None])[..., 0] + 0.5 * np.sum(ha * a, -1)
+        out[..., k, 1] = (dd @ g[:, k, :, None])[..., 0] + np.sum(ha * dd, -1)
+        out[..., k, 2] = 0.5 * np.sum(hd * dd, -1)
+    return out
+
+
+def _path(origins, directions, t0, t1, to_map, h_lo, h_hi):
+    """The quadratic path of every ray between heights ``h_hi`` and ``h_lo`` (its ends moved
+    out until the path's own heights bracket them)."""
+    mid = 0.5 * (t0 + t1)
+    pts = origins[:, None, :] + np.nan_to_num(mid)[..., None] * directions
+    ok = np.isfinite(t1)
+    w = ok.sum(axis=1, keepdims=True)
+    centers = np.where(w > 0, (pts * ok[..., None]).sum(axis=1) / np.maximum(w, 1), origins)
+    ends = [origins[:, None, :] + np.nan_to_num(t)[..., None] * directions for t in (t0, t1)]
+    reach = np.max([np.linalg.norm(np.where(ok[..., None], e - centers[:, None, :], 0), axis=-1).max(axis=1) for e in ends], axis=0)  # fmt: skip
+    model = local_models(centers, np.maximum(reach, 50.0), to_map)
+    for _ in range(4):
+        coef = quadratic_path(origins, directions, t0, t1, model, centers)
+        top = coef[..., 2, 0]
+        bottom = coef[..., 2, 0] + coef[..., 2, 1] + coef[..., 2, 2]
+        high = ok & (top < h_hi)
+        low = ok & (bottom > h_lo)
+        if not (high.any() or low.any()):
+            break
+        # the first guess of the crossings missed by more than the margin: move the ends
+        t0 = np.where(high, np.maximum(t0 - 2.0 * (h_hi - top) - 1.0, 0.0), t0)
+        t1 = np.where(low, t1 + 2.0 * (bottom - h_lo) + 1.0, t1)
+    return coef, t0, t1
 
 
 def _pixel_path(coef, transform):
@@ -147,38 +209,60 @@ def march_numpy(path, z):
         if hit.any():
             idx = active[hit]
             lo, hi = s_prev[hit], s_k[hit]
-            f_lo = f_prev[hit]
+            f_lo, f_hi = f_prev[hit], f_k[hit]
             direct = ~np.isfinite(f_lo)  # entering the DEM from no data: the step's end
-            for _ in range(BISECTIONS):
-                mid = 0.5 * (lo + hi)
-                f_mid = f(idx, mid)
-                below = f_mid <= 0
-                hi = np.where(below, mid, hi)
-                lo = np.where(below, lo, mid)
-            out[idx] = np.where(direct, s_k[hit], 0.5 * (lo + hi))
+            s_hit = _illinois(lambda s_, i=idx: f(i, s_), lo, hi, np.where(direct, 1.0, f_lo), f_hi)
+            out[idx] = np.where(direct, s_k[hit], s_hit)
         done = hit | (s_k >= 1.0)
         active, s_prev, f_prev = active[~done], s_k[~done], f_k[~done]
         k += 1
     return out
 
 
+def _illinois(func, lo, hi, f_lo, f_hi):
+    """The Illinois false-position refinement of brackets [lo, hi] with ``f_lo > 0 >= f_hi``,
+    vectorised: the same steps as the compiled kernel."""
+    s = hi.copy()
+    side = np.zeros(lo.size, np.int8)
+    active = np.ones(lo.size, bool)
+    for _ in range(REFINE_STEPS):
+        if not active.any():
+            break
+        denom = f_lo - f_hi
+        c = np.where(
+            denom != 0,
+            (lo * (-f_hi) + hi * f_lo) / np.where(denom != 0, denom, 1.0),
+            0.5 * (lo + hi),
+        )
+        c = np.where((c <= lo) | (c >= hi), 0.5 * (lo + hi), c)
+        fc = func(c)
+        s = np.where(active, c, s)
+        below = fc <= 0
+        new_hi = active & below
+        new_lo = active & ~below
+        hi = np.where(new_hi, c, hi)
+        f_hi = np.where(new_hi, fc, f_hi)
+        f_lo = np.where(new_hi & (side == -1), 0.5 * f_lo, f_lo)
+        lo = np.where(new_lo, c, lo)
+        f_lo = np.where(new_lo, fc, f_lo)
+        f_hi = np.where(new_lo & (side == 1), 0.5 * f_hi, f_hi)
+        side = np.where(new_hi, -1, np.where(new_lo, 1, side)).astype(np.int8)
+        active &= (np.abs(fc) > TOLERANCE) & (hi - lo > 2.0**-40)
+    return s
+
+
 _NUMBA = None
 
 
 def _numba_kernel():
-    """The compiled march, or None without Numba. Cached on disk only where the package's
-    folder is writable (a read-only install compiles in memory)."""
+    """The compiled march, or None without Numba (imported on first use)."""
     global _NUMBA
     if _NUMBA is None:
         try:
-            import numba  # noqa: F401
+            from ._intersect_numba import march as compiled
         except ImportError:
-            _NUMBA = False
-        else:
-            from . import _intersect_numba
-
-            cache = os.access(os.path.dirname(_intersect_numba.__file__), os.W_OK)
-            _NUMBA = _intersect_numba.build(cache=cache, bisections=BISECTIONS)
+            compiled = False
+        _NUMBA = compiled
     return _NUMBA or None
 
 
@@ -216,10 +300,10 @@ def intersect(origins, directions, heights, transform, to_map, out_map, *, engin
         h_lo = h_hi = float(heights)
     else:
         h_lo, h_hi = float(np.nanmin(heights)), float(np.nanmax(heights))
-    pad = 2.0 + 0.01 * max(abs(h_lo), abs(h_hi))
+    pad = 2.0 + 0.001 * max(abs(h_lo), abs(h_hi))
     t0, t1 = _to_unit(h_lo - pad, h_hi + pad, origins, directions)
     t1f = np.where(np.isfinite(t1), t1, t0 + 1.0)
-    coef = quadratic_path(origins, directions, t0, t1f, to_map)
+    coef, t0, t1f = _path(origins, directions, t0, t1f, to_map, h_lo, h_hi)
     coef[~np.isfinite(t1)] = np.nan
     coef = coef.reshape(-1, 3, 3)
     if flat:
