@@ -379,13 +379,13 @@ def flight_files(tmp_path_factory, scene):
     return files
 
 
-def _op_error_px(scene, name, angles, dt=0.0):
+def _op_error_px(scene, name, angles, dt=0.0, dt_true=0.0):
     from geoboresight.sensor.boresight import LeverArm
     from geoboresight.sensor.model import SensorModel
 
     pixels, fov, lever, true = SENSORS[name]
     return _igm_error_px(
-        scene, SensorModel.ideal(pixels, fov), LeverArm(*lever), angles, true, dt, 0.0
+        scene, SensorModel.ideal(pixels, fov), LeverArm(*lever), angles, true, dt, dt_true
     )
 
 
@@ -428,3 +428,85 @@ def test_operation_on_a_reference_for_both_sensors(flight_files, scene, tmp_path
     assert int(table["used"].sum()) == used and set(table["sensor"]) == {"VNIR", "SWIR"}
     assert "32636" in meta["crs"]
     assert (tmp_path / "residuals.png").stat().st_size > 10_000
+
+
+def _gcp_file(path, scene, n, true_offset, seed=4):
+    """GCPs in WGS 84 longitude and latitude (another CRS than the DEM's UTM) on the VNIR."""
+    from pyproj import Transformer
+
+    from geoboresight.sensor.boresight import LeverArm
+    from geoboresight.sensor.calibrate import tie_point_ground
+    from geoboresight.sensor.model import SensorModel
+
+    nav, times, dem = scene
+    pixels, fov, lever, true = SENSORS["VNIR"]
+    project = tie_point_ground(nav, times, SensorModel.ideal(pixels, fov), LeverArm(*lever), dem)
+    rng = np.random.default_rng(seed)
+    pl = np.column_stack([rng.uniform(1, pixels - 1, n), rng.uniform(1, LINES - 1, n)])
+    xy = project(true, true_offset, pl)
+    lon, lat = Transformer.from_crs(UTM, "EPSG:4326", always_xy=True).transform(*xy.T)
+    pl = pl + rng.normal(0, 0.1, pl.shape)  # picked to a tenth of a pixel
+    rows = "\n".join(
+        f"{p:.4f},{q:.4f},{x:.9f},{y:.9f}" for (p, q), x, y in zip(pl, lon, lat, strict=True)
+    )
+    path.write_text("# CRS: EPSG:4326\npixel,line,x,y\n" + rows + "\n")
+    return str(path)
+
+
+def test_operation_on_gcps_finds_the_clock_offset(flight_files, scene, tmp_path):
+    """GCPs in another CRS, line times 20 ms late against the navigation: the offset the
+    report gives is the one direct-georeference takes."""
+    import json
+
+    import geoboresight as gb
+
+    f = flight_files
+    gcps = _gcp_file(tmp_path / "gcps.csv", scene, 60, 0.020)
+    gb.boresight_calibrate_file(
+        f["VNIR"],
+        f["navigation"],
+        gcps=gcps,
+        line_times=f["line_times"],
+        fov=SENSORS["VNIR"][1],
+        lever_arm=SENSORS["VNIR"][2],
+        dem=f["dem"],
+        estimate_time_offset=True,
+        output=str(tmp_path / "boresight.json"),
+    )
+    part = json.loads((tmp_path / "boresight.json").read_text())["vnir"]
+    assert abs(part["time_offset_s"] - 0.020) <= 0.002, part["time_offset_s"]
+    angles = (part["roll_deg"], part["pitch_deg"], part["heading_deg"])
+    rms, p99 = _op_error_px(scene, "VNIR", angles, part["time_offset_s"], 0.020)
+    assert rms <= 0.3 and p99 <= 0.6, (angles, rms, p99)
+    assert part["time_offset_se_s"] > 0 and part["tie_points_used"] >= 55
+
+
+def test_operation_refuses_too_few_gcps(flight_files, scene, tmp_path):
+    import geoboresight as gb
+
+    f = flight_files
+    gcps = _gcp_file(tmp_path / "gcps.csv", scene, 4, 0.0)
+    with pytest.raises(InputError, match=r"only 4 tie point\(s\).*at least 6"):
+        gb.boresight_calibrate_file(
+            f["VNIR"],
+            f["navigation"],
+            gcps=gcps,
+            line_times=f["line_times"],
+            fov=SENSORS["VNIR"][1],
+            dem=f["dem"],
+            output=str(tmp_path / "boresight.json"),
+            vectors=str(tmp_path / "residuals.gpkg"),
+        )
+    assert not (tmp_path / "boresight.json").exists()
+    assert not (tmp_path / "residuals.gpkg").exists()
+
+
+def test_operation_needs_tie_points(flight_files, tmp_path):
+    import geoboresight as gb
+    from geoboresight.errors import ParameterError
+
+    f = flight_files
+    with pytest.raises(ParameterError, match="give tie points"):
+        gb.boresight_calibrate_file(
+            f["VNIR"], f["navigation"], fov=5.5, dem=f["dem"], output=str(tmp_path / "b.json")
+        )
