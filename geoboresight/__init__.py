@@ -63,6 +63,9 @@ KERNELS = {
     "attitude_jitter": "geoboresight.simulate.ortho",
     "simulate_scene": "geoboresight.simulate.scene",
     "ground_points": "geoboresight.sensor.georeference",
+    "calibrate_boresight": "geoboresight.sensor.calibrate",
+    "tie_point_ground": "geoboresight.sensor.calibrate",
+    "transfer_tie_points": "geoboresight.sensor.calibrate",
 }
 
 

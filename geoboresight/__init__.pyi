@@ -99,6 +99,9 @@ from .progress import Progress as Progress
 from .ratio import boresight_ratio as boresight_ratio
 from .sensor.boresight import Boresight as Boresight
 from .sensor.boresight import LeverArm as LeverArm
+from .sensor.calibrate import calibrate_boresight as calibrate_boresight
+from .sensor.calibrate import tie_point_ground as tie_point_ground
+from .sensor.calibrate import transfer_tie_points as transfer_tie_points
 from .sensor.georeference import Surface as Surface
 from .sensor.georeference import ground_points as ground_points
 from .sensor.model import SensorModel as SensorModel

@@ -116,7 +116,7 @@ MATCHING = Group(
             maximum=500.0,
             advanced=True,
         ),
-        seed("RANSAC's random seed"),
+        seed("Random seed (RANSAC's): the same seed gives the same tie points"),
     ),
 )
 
@@ -168,7 +168,7 @@ BORESIGHT_CALIBRATE = Algorithm(
         RasterIn(
             name="vnir",
             label="VNIR image",
-            description="The raw VNIR line (its lines, samples and header)",
+            description="VNIR image: the raw line (its lines, samples and header)",
             formats=FILE_FORMATS,
         ),
         FileIn(
@@ -193,7 +193,7 @@ BORESIGHT_CALIBRATE = Algorithm(
         RasterIn(
             name="swir",
             label="SWIR image",
-            description="The raw SWIR line on the VNIR's pixel grid: its angles too",
+            description="SWIR image on the same pixel grid: its angles too",
             formats=FILE_FORMATS,
             optional=True,
         ),

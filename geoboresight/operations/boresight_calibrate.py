@@ -379,6 +379,18 @@ def _band(path, band, label):
     return np.ma.getdata(data).astype("float64"), ~np.ma.getmaskarray(data)
 
 
+def _check_choices(reference, gcps, dem, height) -> None:
+    if not reference and not gcps:
+        raise ParameterError(
+            "give tie points: a reference orthophoto, GCPs, or both",
+            params=("reference", "gcps"),
+        )
+    if (dem is None) == (height is None):
+        raise ParameterError(
+            "give a DEM or a constant height, one of them", params=("dem", "height")
+        )
+
+
 @operation(
     inputs=(
         "vnir",
@@ -489,15 +501,7 @@ def boresight_calibrate_file(
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§2, Eq. 1–2).
     """
-    if not reference and not gcps:
-        raise ParameterError(
-            "give tie points: a reference orthophoto, GCPs, or both",
-            params=("reference", "gcps"),
-        )
-    if (dem is None) == (height is None):
-        raise ParameterError(
-            "give a DEM or a constant height, one of them", params=("dem", "height")
-        )
+    _check_choices(reference, gcps, dem, height)
     nav = nio.read_navigation(navigation)
     v = _Sensor(vnir, nav, navigation, sensor_model, fov, line_times, lever_arm, boresight)
     nav.check_covers(v.times + time_offset, "the VNIR line times (with the time offset)")
@@ -508,15 +512,13 @@ def boresight_calibrate_file(
     surface = _dem_window(v, dem, dem_vertical_crs, time_offset) if dem is not None else None
     if ref_crs is None:
         ref_crs = surface.crs
-    centre = _placement(
-        tie_point_ground(nav, v.times, v.model, v.lever, surface, height=height, crs=ref_crs),
-        v.start.as_tuple(),
-        time_offset,
-    )(np.array([v.width / 2]), np.array([v.lines / 2]))
-    crs = metric_crs(gio.parse_crs(str(ref_crs.to_wkt())), *centre)
     project_ref = tie_point_ground(
         nav, v.times, v.model, v.lever, surface, height=height, crs=ref_crs
     )
+    centre = _placement(project_ref, v.start.as_tuple(), time_offset)(
+        np.array([v.width / 2]), np.array([v.lines / 2])
+    )
+    crs = metric_crs(gio.parse_crs(str(ref_crs.to_wkt())), *centre)
     image, valid = _band(vnir, band, "VNIR") if reference else (None, None)
     pl, xy, source, info = _vnir_ties(
         v,
@@ -531,37 +533,47 @@ def boresight_calibrate_file(
     solve = {"time_offset": time_offset, "estimate": estimate_time_offset, "loss": loss}
     sensors = {"VNIR": (_solve("VNIR", v, surface, height, crs, pl, xy, **solve), pl, xy, source)}
     if swir is not None:
-        progress.update(0.7, "carrying the tie points into the SWIR")
-        vcal = sensors["VNIR"][0]
-        project_v = tie_point_ground(
-            nav, v.times, v.model, v.lever, surface, height=height, crs=crs
+        progress.update(0.7, "matching the VNIR and the SWIR")
+        geo = (nav, surface, height, crs)
+        sensors["SWIR"] = _calibrate_swir(
+            vnir, swir, v, s, geo, sensors["VNIR"][0], solve, matching, progress
         )
-
-        def vnir_ground(q):
-            return project_v(vcal.angles_deg, vcal.time_offset_s, q)
-
-        spl, sxy, ssource, whole = swir_ties(_dual(vnir, swir), MatchBands(), vnir_ground, matching)
-        progress.info(
-            f"{len(spl)} features matched between the VNIR and the SWIR (line offset "
-            f"{whole[0]:+.2f} px along, {whole[1]:+.2f} px across)"
-        )
-        progress.update(0.8, "solving the SWIR's angles")
-        # One clock for the line: the SWIR's rays are timed by the VNIR's clock offset.
-        held = {**solve, "time_offset": vcal.time_offset_s, "estimate": False}
-        cal = _solve("SWIR", s, surface, height, crs, spl, sxy, **held)
-        sensors["SWIR"] = (cal, spl, sxy, ssource)
     data = report_of(
         {"vnir": os.fspath(vnir), "navigation": os.fspath(navigation), **info}, crs, sensors
     )
     write_json(output, data)
-    rows = [row for name in sensors for row in data[name.lower()]["tie_points"]]
     if vectors:
+        rows = [row for name in sensors for row in data[name.lower()]["tie_points"]]
         write_residual_vectors(vectors, crs, rows)
     if plot:
-        cals = {name: s[0] for name, s in sensors.items()}
-        save_figure(residual_figure(cals, {name: s[1] for name, s in sensors.items()}), plot)
+        cals = {name: part[0] for name, part in sensors.items()}
+        save_figure(residual_figure(cals, {name: part[1] for name, part in sensors.items()}), plot)
     progress.update(1.0, "done")
-    out = {"output": os.fspath(output), "vectors": vectors, "plot": plot}
+    return {"output": os.fspath(output), "vectors": vectors, "plot": plot, **_results(sensors)}
+
+
+def _calibrate_swir(vnir, swir, v: _Sensor, s: _Sensor, geo, vcal, solve, matching, progress):
+    """The SWIR's tie points (features matched to the VNIR, on the calibrated VNIR's
+    ground) and its angles; the clock offset is the VNIR's (one clock for the line)."""
+    nav, surface, height, crs = geo
+    project_v = tie_point_ground(nav, v.times, v.model, v.lever, surface, height=height, crs=crs)
+
+    def vnir_ground(q):
+        return project_v(vcal.angles_deg, vcal.time_offset_s, q)
+
+    spl, sxy, source, whole = swir_ties(_dual(vnir, swir), MatchBands(), vnir_ground, matching)
+    progress.info(
+        f"{len(spl)} features matched between the VNIR and the SWIR (line offset "
+        f"{whole[0]:+.2f} px along, {whole[1]:+.2f} px across)"
+    )
+    progress.update(0.8, "solving the SWIR's angles")
+    held = {**solve, "time_offset": vcal.time_offset_s, "estimate": False}
+    return _solve("SWIR", s, surface, height, crs, spl, sxy, **held), spl, sxy, source
+
+
+def _results(sensors) -> dict:
+    """The scalar results: the VNIR's angles and residuals (``swir_``-prefixed, the SWIR's)."""
+    out = {}
     for name, (cal, *_) in sensors.items():
         prefix = "" if name == "VNIR" else "swir_"
         rep = cal.report()
