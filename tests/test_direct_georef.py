@@ -469,3 +469,35 @@ def test_header_start_time_and_fps_give_the_line_times(tmp_path):
             "fps": "50"}  # fmt: skip
     t = header_line_times(keys, 3)
     np.testing.assert_allclose(t, 2 * 86400 + 36902.5 + np.arange(3) / 50)
+
+
+def test_the_demo_goes_from_the_sample_navigation_to_the_map(tmp_path):
+    import shlex
+
+    import rasterio
+    from click.testing import CliRunner
+
+    from geoboresight.algorithms import execute, registry
+    from geoboresight.cli import main
+    from geoboresight.demo import SAMPLE, _command_line, _from_navigation, _Scene
+
+    if not (SAMPLE / "flight" / "flight.json").exists():
+        pytest.skip("no sample flight")
+    s = _Scene(SAMPLE, tmp_path, {})
+    todo = _from_navigation(s)
+    assert [n for n, _ in todo] == ["direct-georeference"] * 2 + ["geolocate"]
+    for name, values in todo[:2]:
+        execute(registry()[name], values)
+    with (
+        rasterio.open(tmp_path / "vnir_igm.tif") as v,
+        rasterio.open(tmp_path / "swir_igm.tif") as w,
+    ):
+        a, b = v.read(), w.read()
+    assert np.isfinite(a).all() and a.shape == (3, 192, 286)
+    # the two sensors' boresights differ by about a degree: metres apart on the ground
+    assert 5.0 < np.median(np.hypot(a[0] - b[0], a[1] - b[1])) < 60.0
+    # the printed command pastes as printed (three numbers after --boresight, negative ones too)
+    words = shlex.split(_command_line(*todo[0]))
+    assert "--boresight" in words
+    out = CliRunner().invoke(main, [*words[1:], "-q"])
+    assert out.exit_code == 0, out.output

@@ -114,10 +114,13 @@ def _convergence(crs, lon, lat):
     return np.asarray(f.meridian_convergence)
 
 
-def relief_dem(flight: Flight, *, size_m=1100.0, cell=1.0, base=340.0, seed=0) -> Surface:
+def relief_dem(
+    flight: Flight, *, size_m=1100.0, cell=1.0, base=340.0, roughness=1.5, seed=0
+) -> Surface:
     """A DEM with real relief around the track: rolling hills (±40 m), a knoll, a steep
     scarp (15 m over about 10 m) and fine roughness, ellipsoidal heights, north-up on
-    ``cell`` metres in the flight's CRS, centred on the track's first 300 m."""
+    ``cell`` metres in the flight's CRS, centred on the track's first 300 m; ``roughness``
+    the standard deviation (m) of the fine roughness."""
     rng = np.random.default_rng(seed)
     a = np.radians(flight.track_deg)
     cx = flight.origin[0] + 150.0 * np.sin(a)
@@ -136,7 +139,7 @@ def relief_dem(flight: Flight, *, size_m=1100.0, cell=1.0, base=340.0, seed=0) -
     from scipy import ndimage
 
     rough = ndimage.gaussian_filter(rng.normal(size=z.shape), 2.0)
-    z = z + 1.5 * rough / rough.std()
+    z = z + roughness * rough / rough.std()
     return Surface(z, (cell, 0.0, x0, 0.0, -cell, y1), flight.crs, source="the simulated DEM")
 
 
@@ -152,3 +155,55 @@ def sensor_models(vnir_pixels=320, swir_pixels=128):
         return SensorModel(across, along, source=f"the simulated {n}-pixel sensor model")
 
     return model(vnir_pixels, 30.0, 1.2e-3, 4e-3), model(swir_pixels, 28.0, -2.0e-3, -3e-3)
+
+
+#: The sample line's flight: the sample scene's heading, origin, flying height (1,500 m
+#: above the ground), IFOV (1 mrad: 286 pixels across 16.4°) and line spacing (1.5 m).
+SAMPLE_FLIGHT = dict(track_deg=35.0, origin=(660000.0, 3450000.0), height=1840.0, speed=60.0)
+
+
+def write_flight(folder, *, lines=192, samples=286, line_rate=40.0, nav_rate=100.0) -> dict:
+    """Write what the aircraft writes for a line of ``lines`` × ``samples`` pixels into
+    ``folder``: ``flight.out`` (SBET), ``line_times.txt``, ``vnir_model.csv`` and
+    ``swir_model.csv``, ``dem.tif`` (2 m, ellipsoidal heights) and ``flight.json`` (the true
+    boresight angles and lever arms). Returns what ``flight.json`` holds."""
+    import json
+    import os
+
+    import rasterio
+    from rasterio.transform import Affine
+
+    from ..io.navigation import write_line_times, write_sbet, write_sensor_model_csv
+
+    os.makedirs(folder, exist_ok=True)
+    flight = Flight(**SAMPLE_FLIGHT)
+    times = flight.line_times(lines, rate=line_rate)
+    nav = flight.navigation(times[0] - 1.0, times[-1] + 1.0, rate=nav_rate)
+    write_sbet(os.path.join(folder, "flight.out"), nav, wander_deg=flight.wander(nav.time))
+    write_line_times(os.path.join(folder, "line_times.txt"), times)
+    fov = np.degrees(samples * 1e-3)
+    vnir, swir = sensor_models(samples, samples)
+    # the simulator's models narrowed to the sample's field of view (their smile kept)
+    for name, m, own in (("vnir", vnir, 30.0), ("swir", swir, 28.0)):
+        scale = np.tan(np.radians(fov / 2)) / np.tan(np.radians(own / 2))
+        m = type(m)(np.arctan(np.tan(m.across_rad) * scale), m.along_rad)
+        write_sensor_model_csv(os.path.join(folder, f"{name}_model.csv"), m)
+    dem = relief_dem(flight, size_m=800.0, cell=2.0, roughness=0.0)
+    z = dem.heights.astype("float32")
+    profile = dict(driver="GTiff", width=z.shape[1], height=z.shape[0], count=1,
+                   dtype="float32", crs=flight.crs, transform=Affine(*dem.transform),
+                   compress="deflate", predictor=3, tiled=True)  # fmt: skip
+    with rasterio.open(os.path.join(folder, "dem.tif"), "w", **profile) as dst:
+        dst.write(z, 1)
+    truth = {
+        "boresight_deg": {k: list(b.as_tuple()) for k, b in TRUE_BORESIGHT.items()},
+        "lever_arm_m": {k: list(v.as_tuple()) for k, v in TRUE_LEVER_ARM.items()},
+        "time_offset_s": 0.0,
+        "crs": flight.crs,
+        "note": "a simulated flight of the sample's size: SBET (platform heading = true "
+        "heading + wander angle), line times (GPS s of week), sensor models (radians), a DEM "
+        "of ellipsoidal heights; the scene's radiance was simulated in its own track frame",
+    }
+    with open(os.path.join(folder, "flight.json"), "w", encoding="utf-8") as f:
+        json.dump(truth, f, indent=1)
+    return truth
