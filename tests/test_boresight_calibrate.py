@@ -510,3 +510,36 @@ def test_operation_needs_tie_points(flight_files, tmp_path):
         gb.boresight_calibrate_file(
             f["VNIR"], f["navigation"], fov=5.5, dem=f["dem"], output=str(tmp_path / "b.json")
         )
+
+
+def test_command_line_and_rio_give_the_same_angles(flight_files, scene, tmp_path):
+    """Three numbers after --lever-arm, negative ones as written; rio boresight runs the same
+    operation; too few GCPs give one line and exit 1."""
+    import json
+
+    from click.testing import CliRunner
+    from rasterio.rio.main import main_group
+
+    from geoboresight.cli import main as cli
+
+    f = flight_files
+    gcps = _gcp_file(tmp_path / "gcps.csv", scene, 30, 0.0)
+    args = ["--vnir", f["VNIR"], "--navigation", f["navigation"], "--gcps", gcps,
+            "--line-times", f["line_times"], "--fov", str(SENSORS["VNIR"][1]),
+            "--lever-arm", *map(str, SENSORS["VNIR"][2]), "--dem", f["dem"]]  # fmt: skip
+    res = CliRunner().invoke(cli, ["boresight-calibrate", *args, "-o", str(tmp_path / "a.json")])
+    assert res.exit_code == 0, res.output
+    res = CliRunner().invoke(
+        main_group, ["boresight", "boresight-calibrate", *args, "-o", str(tmp_path / "b.json")]
+    )
+    assert res.exit_code == 0, res.output
+    a, b = (json.loads((tmp_path / n).read_text())["vnir"] for n in ("a.json", "b.json"))
+    assert a["roll_deg"] == b["roll_deg"] and a["pitch_deg"] == b["pitch_deg"]
+    rms, p99 = _op_error_px(scene, "VNIR", (a["roll_deg"], a["pitch_deg"], a["heading_deg"]))
+    assert rms <= 0.3 and p99 <= 0.6
+    few = _gcp_file(tmp_path / "few.csv", scene, 3, 0.0)
+    args[args.index(gcps)] = few
+    res = CliRunner().invoke(cli, ["boresight-calibrate", *args, "-o", str(tmp_path / "c.json")])
+    assert res.exit_code == 1 and "Traceback" not in res.output
+    errors = [ln for ln in res.output.splitlines() if ln.startswith("Error")]
+    assert len(errors) == 1 and "only 3 tie point(s)" in errors[0]
