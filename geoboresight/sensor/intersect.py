@@ -108,28 +108,46 @@ def quadratic_path(origins, directions, t0, t1, model, centers):
     return out
 
 
-def _path(origins, directions, t0, t1, to_map, h_lo, h_hi):
-    """The quadratic path of every ray between heights ``h_hi`` and ``h_lo`` (its ends moved
-    out until the path's own heights bracket them)."""
-    mid = 0.5 * (t0 + t1)
-    pts = origins[:, None, :] + np.nan_to_num(mid)[..., None] * directions
+def _line_models(origins, directions, lo, hi, to_map):
+    """Each line's centre (the mean middle of a sample of its rays' stretches between the
+    heights ``hi`` and ``lo``) and its local model, of a step that reaches those stretches'
+    ends."""
+    n = directions.shape[1]
+    idx = np.unique(np.r_[np.arange(0, n, 8), n - 1])
+    t0, t1 = _to_unit(lo, hi, origins, directions[:, idx])
     ok = np.isfinite(t1)
+    mid = np.nan_to_num(0.5 * (t0 + t1))
+    pts = origins[:, None, :] + mid[..., None] * directions[:, idx]
     w = ok.sum(axis=1, keepdims=True)
     centers = np.where(w > 0, (pts * ok[..., None]).sum(axis=1) / np.maximum(w, 1), origins)
-    ends = [origins[:, None, :] + np.nan_to_num(t)[..., None] * directions for t in (t0, t1)]
-    reach = np.max([np.linalg.norm(np.where(ok[..., None], e - centers[:, None, :], 0), axis=-1).max(axis=1) for e in ends], axis=0)  # fmt: skip
-    model = local_models(centers, np.maximum(reach, 50.0), to_map)
+    reach = np.zeros(len(origins))
+    for t in (t0, t1):
+        ends = origins[:, None, :] + np.nan_to_num(t)[..., None] * directions[:, idx]
+        dist = np.linalg.norm(ends - centers[:, None, :], axis=-1)
+        reach = np.maximum(reach, np.where(ok, dist, 0.0).max(axis=1))
+    # the stencil spans the line's rays, with room for the ends moved by _path
+    return centers, local_models(centers, np.maximum(1.2 * reach, 50.0), to_map)
+
+
+def _path(origins, directions, t0, t1, model, centers, h_lo, h_hi):
+    """The quadratic path of every ray between heights ``h_hi`` and ``h_lo`` (its ends moved
+    out until the path's own heights bracket them)."""
+    ok = np.isfinite(t1)
+    moved = np.zeros(t0.shape, bool)
     for _ in range(4):
         coef = quadratic_path(origins, directions, t0, t1, model, centers)
         top = coef[..., 2, 0]
         bottom = coef[..., 2, 0] + coef[..., 2, 1] + coef[..., 2, 2]
         high = ok & (top < h_hi)
         low = ok & (bottom > h_lo)
-        if not (high.any() or low.any()):
+        moved = high | low
+        if not moved.any():
             break
         # the first guess of the crossings missed by more than the margin: move the ends
         t0 = np.where(high, np.maximum(t0 - 2.0 * (h_hi - top) - 1.0, 0.0), t0)
         t1 = np.where(low, t1 + 2.0 * (bottom - h_lo) + 1.0, t1)
+    if moved.any():
+        coef = quadratic_path(origins, directions, t0, t1, model, centers)
     return coef, t0, t1
 
 
@@ -254,21 +272,22 @@ def _illinois(func, lo, hi, f_lo, f_hi):
 _NUMBA = None
 
 
-def _numba_kernel():
-    """The compiled march, or None without Numba (imported on first use)."""
+def _numba_kernel(name: str = "march"):
+    """The compiled kernel ``name`` (``march`` or ``trace_rays``), or None without Numba
+    (imported on first use)."""
     global _NUMBA
     if _NUMBA is None:
         try:
-            from ._intersect_numba import march as compiled
+            from . import _intersect_numba as compiled
         except ImportError:
             compiled = False
         _NUMBA = compiled
-    return _NUMBA or None
+    return getattr(_NUMBA, name) if _NUMBA else None
 
 
 def march(path, z, *, engine: str = "auto"):
-    """First-hit ``s`` per ray: the Numba kernel (``engine='numba'``, or ``'auto'`` when
-    Numba is installed) or the NumPy reference (``'numpy'``)."""
+    """First-hit ``s`` per ray of ``path`` (rays, 3, 3): the Numba kernel (``engine='numba'``,
+    or ``'auto'`` when Numba is installed) or the NumPy reference (``'numpy'``)."""
     if engine not in ("auto", "numba", "numpy"):
         raise ValueError(f"engine must be 'auto', 'numba' or 'numpy', not {engine!r}")
     kernel = None if engine == "numpy" else _numba_kernel()
@@ -292,6 +311,8 @@ def intersect(origins, directions, heights, transform, to_map, out_map, *, engin
     Returns (x, y, h) in ``out_map``'s CRS, each (lines, pixels); NaN where a ray misses
     (it leaves the DEM or meets only no data before reaching the ground).
     """
+    if engine not in ("auto", "numba", "numpy"):
+        raise ValueError(f"engine must be 'auto', 'numba' or 'numpy', not {engine!r}")
     origins = np.asarray(origins, dtype=np.float64)
     directions = np.asarray(directions, dtype=np.float64)
     shape = directions.shape[:2]
@@ -301,19 +322,37 @@ def intersect(origins, directions, heights, transform, to_map, out_map, *, engin
     else:
         h_lo, h_hi = float(np.nanmin(heights)), float(np.nanmax(heights))
     pad = 2.0 + 0.001 * max(abs(h_lo), abs(h_hi))
-    t0, t1 = _to_unit(h_lo - pad, h_hi + pad, origins, directions)
-    t1f = np.where(np.isfinite(t1), t1, t0 + 1.0)
-    coef, t0, t1f = _path(origins, directions, t0, t1f, to_map, h_lo, h_hi)
-    coef[~np.isfinite(t1)] = np.nan
-    coef = coef.reshape(-1, 3, 3)
-    if flat:
-        s = _quadratic_root(coef[:, 2, :], h_lo)
+    centers, model = _line_models(origins, directions, h_lo - pad, h_hi + pad, to_map)
+    kernel = None if flat or engine == "numpy" else _numba_kernel("trace_rays")
+    if engine == "numba" and not flat and kernel is None:
+        raise ImportError("engine='numba' needs Numba (pip install numba)")
+    if kernel is not None:
+        t = np.empty(shape)
+        kernel(origins, np.ascontiguousarray(directions), *model, centers,
+               np.ascontiguousarray(heights, dtype=np.float64), _inverse(transform),
+               h_lo, h_hi, pad, t)  # fmt: skip
     else:
-        s = march(_pixel_path(coef, transform), heights, engine=engine)
-    t = t0.ravel() + s * (t1f.ravel() - t0.ravel())
-    p = origins[:, None, :] + t.reshape(shape)[..., None] * directions
+        t0, t1 = _to_unit(h_lo - pad, h_hi + pad, origins, directions)
+        t1f = np.where(np.isfinite(t1), t1, t0 + 1.0)
+        coef, t0, t1f = _path(origins, directions, t0, t1f, model, centers, h_lo, h_hi)
+        coef[~np.isfinite(t1)] = np.nan
+        coef = coef.reshape(-1, 3, 3)
+        if flat:
+            s = _quadratic_root(coef[:, 2, :], h_lo)
+        else:
+            s = march_numpy(_pixel_path(coef, transform), heights)
+        t = (t0.ravel() + s * (t1f.ravel() - t0.ravel())).reshape(shape)
+    p = origins[:, None, :] + t[..., None] * directions
     x, y, h = out_map.transform(p[..., 0].ravel(), p[..., 1].ravel(), p[..., 2].ravel())
     return tuple(np.reshape(v, shape) for v in (x, y, h))
+
+
+def _inverse(transform):
+    """The inverse of a rasterio-order affine ``transform``: (ia, ib, id, ie, c, f) with
+    column = ia (x − c) + ib (y − f), row = id (x − c) + ie (y − f)."""
+    a, b, c, d, e, f = transform
+    det = a * e - b * d
+    return np.array([e / det, -b / det, -d / det, a / det, c, f])
 
 
 def _quadratic_root(c, level):
