@@ -501,3 +501,60 @@ def test_the_demo_goes_from_the_sample_navigation_to_the_map(tmp_path):
     assert "--boresight" in words
     out = CliRunner().invoke(main, [*words[1:], "-q"])
     assert out.exit_code == 0, out.output
+
+
+def test_three_numbers_parameter_takes_text_lists_and_values():
+    from geoboresight.algorithms.spec import Numbers
+
+    p = Numbers(name="boresight", description="d", names=("ROLL", "PITCH", "HEADING"))
+    assert p.coerce("0.4 -0.3 0.5") == (0.4, -0.3, 0.5)
+    assert p.coerce("0.4,-0.3,0.5") == (0.4, -0.3, 0.5)
+    assert p.coerce([1, 2, 3]) == (1.0, 2.0, 3.0)
+    assert p.coerce(Boresight(1, -2, 3)) == (1.0, -2.0, 3.0)
+    for bad in ("1 2", [1, 2, 3, 4], "1 x 3", [1, float("nan"), 3], 5.0, [True, 1, 2]):
+        with pytest.raises(ParameterError, match="parameter 'boresight'"):
+            p.coerce(bad)
+
+
+def test_view_angles_are_written_beside_the_igm(scene, line_files):
+    import rasterio
+
+    from geoboresight.operations.direct_georef import direct_georeference_file
+
+    out = line_files["folder"] / "igm_angles.tif"
+    angles = line_files["folder"] / "angles.tif"
+    direct_georeference_file(
+        line_files["image"], scene["sbet"], output=str(out), sensor_model=line_files["model"],
+        line_times=line_files["times"], dem=line_files["dem"], view_angles_output=str(angles),
+    )  # fmt: skip
+    with rasterio.open(angles) as src:
+        zenith, azimuth = src.read(1), src.read(2)
+    # a 30° field of view with up to ~2° of wobble: zenith 0–17°, the edges near 15°
+    assert zenith.min() >= 0 and zenith.max() < 18.0
+    assert 12.0 < np.median(zenith[:, 0]) < 18.0 and 12.0 < np.median(zenith[:, -1]) < 18.0
+    # heading 63°: the left edge looks back up to the sensor from the south-east (azimuth
+    # ≈ 153°), the right edge from the north-west (≈ 333°)
+    assert (
+        abs(np.median(azimuth[:, 0]) - 153.0) < 10 and abs(np.median(azimuth[:, -1]) - 333.0) < 10
+    )
+
+
+def test_geoid_dem_without_its_grid_is_refused(scene, line_files, tmp_path):
+    from pyproj import CRS
+
+    from geoboresight.io.terrain import _to_ellipsoid
+    from geoboresight.operations.direct_georef import direct_georeference_file
+
+    try:  # with PROJ's EGM96 grid installed the conversion runs: nothing to refuse
+        _to_ellipsoid(np.zeros((1, 1)), (1, 0, 661000, 0, -1, 3451000), CRS(scene["dem"].crs),
+                      "EPSG:5773", "probe")  # fmt: skip
+        pytest.skip("PROJ has the EGM96 grid here")
+    except InputError:
+        pass
+    with pytest.raises(InputError, match="no geoid grid for EGM96"):
+        direct_georeference_file(
+            line_files["image"], scene["sbet"], output=str(tmp_path / "i.tif"),
+            sensor_model=line_files["model"], line_times=line_files["times"],
+            dem=line_files["dem"], dem_vertical_crs="EPSG:5773",
+        )  # fmt: skip
+    assert not os.path.exists(tmp_path / "i.tif")
