@@ -578,6 +578,7 @@ def _results(sensors) -> dict:
         prefix = "" if name == "VNIR" else "swir_"
         rep = cal.report()
         for key in ("roll_deg", "pitch_deg", "heading_deg", "time_offset_s", "rms_px", "rms_m"):
-            out[prefix + key] = rep[key]
+            if not (prefix and key == "time_offset_s"):  # one clock: the VNIR's
+                out[prefix + key] = rep[key]
         out[prefix + "tie_points_used"] = rep["tie_points_used"]
     return out
