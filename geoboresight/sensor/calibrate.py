@@ -173,6 +173,14 @@ def _check_geometry(pl: np.ndarray, what: str) -> None:
         )
 
 
+def _jacobian(fun: Callable, p: np.ndarray, step: np.ndarray) -> np.ndarray:
+    """Forward differences of ``fun`` in each parameter (columns)."""
+    f0 = fun(p)
+    return np.column_stack(
+        [(fun(p + np.eye(len(p))[k] * step[k]) - f0) / step[k] for k in range(len(p))]
+    )
+
+
 def _check_rank(jac: np.ndarray, names: tuple[str, ...], what: str) -> None:
     """Refuse a Jacobian whose (normalised) columns are nearly dependent, naming the
     parameters the weakest direction mixes."""
@@ -286,7 +294,7 @@ def calibrate_boresight(
     iterations = 0
     # The first solve starts from the initial angles, where the image derivatives (which
     # follow the slope under each ray) belong to other ground: no point is judged on it.
-    for round_ in range(5):
+    for round_ in range(6):
         sel = rejected == ""
         _check_geometry(pl[sel], what)
         jac_img = image_jacobians(pl[sel], lambda q, p=p: ground(p, q))
@@ -300,11 +308,7 @@ def calibrate_boresight(
             r = to_pixels(ground(q, pts) - target, jac_img).ravel()
             return np.where(np.isfinite(r), r, 1e3)  # a ray that leaves the DEM: far off
 
-        r0 = residual(p)
-        jac0 = np.column_stack(
-            [(residual(p + np.eye(len(p))[k] * step[k]) - r0) / step[k] for k in range(len(p))]
-        )
-        _check_rank(jac0, names, what)
+        _check_rank(_jacobian(residual, p, step), names, what)
         fit = least_squares(
             residual, p, loss=loss, f_scale=f_scale_px, x_scale=step, diff_step=None
         )
@@ -335,9 +339,7 @@ def calibrate_boresight(
         return to_pixels(ground(q, pl[sel]) - xy[sel], jac_img).ravel()
 
     r0 = residual_px(p)
-    jac = np.column_stack(
-        [(residual_px(p + np.eye(len(p))[k] * step[k]) - r0) / step[k] for k in range(len(p))]
-    )
+    jac = _jacobian(residual_px, p, step)
     dof = max(len(r0) - len(p), 1)
     try:
         cov = np.linalg.inv(jac.T @ jac) * float(np.sum(r0**2)) / dof
