@@ -558,3 +558,20 @@ def test_geoid_dem_without_its_grid_is_refused(scene, line_files, tmp_path):
             dem=line_files["dem"], dem_vertical_crs="EPSG:5773",
         )  # fmt: skip
     assert not os.path.exists(tmp_path / "i.tif")
+
+
+def test_sensor_model_is_binned_and_trimmed_as_the_header_says(tmp_path):
+    from geoboresight.io.navigation import write_sensor_model_csv
+    from geoboresight.operations.direct_georef import sensor_model_for
+
+    full = SensorModel.ideal(40, 20.0)
+    path = str(tmp_path / "m.csv")
+    write_sensor_model_csv(path, full)
+    # Specim's header: binning = {spectral, spatial}; x start in binned pixels (as APL)
+    m = sensor_model_for(path, None, 16, {"binning": "{2, 2}", "x start": "4"})
+    np.testing.assert_allclose(m.across_rad, full.binned(2).across_rad[4:])
+    assert sensor_model_for(path, None, 20, {}).n_pixels == 20  # binning 2 found
+    with pytest.raises(InputError, match="match no binning"):
+        sensor_model_for(path, None, 17, {})
+    with pytest.raises(ParameterError, match="one of them"):
+        sensor_model_for(path, 10.0, 17, {})
