@@ -283,7 +283,7 @@ def _placement(project, angles, time_offset):
     return placement
 
 
-def _ground_crs(reference, gcps, gcp_crs, dem):
+def _ground_crs(reference, gcps, gcp_crs):
     """The CRS the tie points' ground is solved in: the reference's, else the GCPs', else the
     DEM's; a geographic one is replaced by its UTM zone (residuals in metres)."""
     crs = None
@@ -508,7 +508,7 @@ def boresight_calibrate_file(
     if swir is not None:
         geometry = (swir_sensor_model, swir_fov, swir_line_times, swir_lever_arm, swir_boresight)
         s = _swir_sensor(swir, nav, navigation, v, geometry)
-    ref_crs = _ground_crs(reference, gcps, gcp_crs, dem)
+    ref_crs = _ground_crs(reference, gcps, gcp_crs)
     surface = _dem_window(v, dem, dem_vertical_crs, time_offset) if dem is not None else None
     if ref_crs is None:
         ref_crs = surface.crs
