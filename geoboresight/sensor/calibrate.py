@@ -40,6 +40,8 @@ F_SCALE_PX = 0.5
 REJECT_SIGMA = 3.72
 #: ...and never below this residual (pixels): matching noise alone reaches it.
 REJECT_FLOOR_PX = 0.5
+#: Solves at most (the first, then one after each rejection).
+ROUNDS = 6
 #: Step (pixels) of the finite differences of the forward model in the image.
 STEP_PX = 0.5
 #: Step of the finite differences in the parameters (degrees; seconds for the clock).
@@ -294,7 +296,7 @@ def calibrate_boresight(
     iterations = 0
     # The first solve starts from the initial angles, where the image derivatives (which
     # follow the slope under each ray) belong to other ground: no point is judged on it.
-    for round_ in range(6):
+    for round_ in range(ROUNDS):
         sel = rejected == ""
         _check_geometry(pl[sel], what)
         jac_img = image_jacobians(pl[sel], lambda q, p=p: ground(p, q))
@@ -321,8 +323,8 @@ def calibrate_boresight(
         out = length > limit
         if round_ == 0:
             continue
-        if not out.any():
-            break
+        if not out.any() or round_ == ROUNDS - 1:
+            break  # the last solve's points are the ones used
         rejected[np.flatnonzero(sel)[out]] = f"residual over {limit:.2f} px"
     sel = rejected == ""
     # Final residuals of every point with coordinates, at the solution.
