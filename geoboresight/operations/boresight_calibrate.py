@@ -487,7 +487,9 @@ def boresight_calibrate_file(
     loss : {"soft_l1", "huber", "linear", "cauchy"}
         Robust loss of the least squares.
     matching : TieMatching
-        The matcher's settings (as ``auto-georeference``).
+        The matcher's detector, RANSAC model, block lines, largest shift and seed (as
+        ``auto-georeference``); its acceptance test (``min_inliers``, ``max_rmse_px``) does
+        not apply: the tie points are judged by the solver (too few, rejected residuals).
     progress : Progress, optional
 
     Returns
