@@ -100,10 +100,21 @@ class Navigation:
         if not np.isfinite(times).all():
             raise ParameterError("the line times hold NaN or infinite values")
         self.check_covers(times)
-        lon = np.unwrap(self.lon_deg, period=360.0)
-        lat = np.interp(times, self.time, self.lat_deg)
-        lon = (np.interp(times, self.time, lon) + 180.0) % 360.0 - 180.0
-        height = np.interp(times, self.time, self.height)
-        rot = Slerp(self.time, self.rotations())(times)
+        # only the records around the requested times: a block of lines of a long line
+        # interpolates between a few hundred records, not the whole trajectory
+        i0 = max(int(np.searchsorted(self.time, times.min(), side="right")) - 2, 0)
+        i1 = min(int(np.searchsorted(self.time, times.max(), side="left")) + 2, self.time.size)
+        part = slice(i0, i1)
+        t = self.time[part]
+        lon = np.unwrap(self.lon_deg[part], period=360.0)
+        lat = np.interp(times, t, self.lat_deg[part])
+        lon = (np.interp(times, t, lon) + 180.0) % 360.0 - 180.0
+        height = np.interp(times, t, self.height[part])
+        angles = np.stack(
+            [self.heading_deg[part], self.pitch_deg[part], self.roll_deg[part]], axis=1
+        )
+        from scipy.spatial.transform import Rotation
+
+        rot = Slerp(t, Rotation.from_euler("ZYX", angles, degrees=True))(times)
         heading, pitch, roll = rot.as_euler("ZYX", degrees=True).T
         return Navigation(times, lat, lon, height, roll, pitch, heading % 360.0, source=self.source)
