@@ -117,7 +117,9 @@ def rays(positions, body_to_ecef, look, boresight=None, lever_arm=None):
     r = np.asarray(body_to_ecef, dtype=np.float64)
     origins = np.asarray(positions, dtype=np.float64) + r @ lever_arm.vector()
     sensor_to_ecef = r @ boresight.matrix()
-    directions = np.einsum("lij,pj->lpi", sensor_to_ecef, np.asarray(look, dtype=np.float64))
+    # (pixels, 3) @ (3, 3)ᵀ per line: one BLAS product per line
+    look = np.asarray(look, dtype=np.float64)
+    directions = np.matmul(look[None], np.transpose(sensor_to_ecef, (0, 2, 1)))
     return origins, directions
 
 
