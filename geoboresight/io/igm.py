@@ -10,7 +10,7 @@ import os
 import numpy as np
 
 from .grid import FLOAT_NODATA, Grid
-from .raster import create_raster, quiet_georef
+from .raster import create_raster, gdal_cache, quiet_georef
 from .write import atomic_output
 
 IGM_BANDS = ["x (easting)", "y (northing)", "height (ellipsoidal, m)"]
@@ -32,7 +32,7 @@ def block_writer(path, width, height, crs, *, bands, tags):
     if not is_envi(path):
         grid = Grid(width, height, crs, None)
         with create_raster(path, grid, count=count, dtype="float64", nodata=FLOAT_NODATA,
-                           tags=tags, band_names=bands) as dst:  # fmt: skip
+                           tags=tags, band_names=bands, overviews=False) as dst:  # fmt: skip
 
             def write(row0, arrays):
                 from rasterio.windows import Window
@@ -47,7 +47,14 @@ def block_writer(path, width, height, crs, *, bands, tags):
 
     profile = dict(driver="ENVI", width=width, height=height, count=count, dtype="float64",
                    interleave="bil", nodata=FLOAT_NODATA, crs=crs)  # fmt: skip
-    with atomic_output(path) as tmp, quiet_georef(), rasterio.open(tmp, "w", **profile) as dst:
+    # GDAL's block cache capped as for every writer: memory bounded by a block of lines
+    cache = rasterio.Env(**gdal_cache())
+    with (
+        atomic_output(path) as tmp,
+        quiet_georef(),
+        cache,
+        rasterio.open(tmp, "w", **profile) as dst,
+    ):
 
         def write(row0, arrays):
             data = np.where(np.isfinite(arrays), arrays, FLOAT_NODATA)
