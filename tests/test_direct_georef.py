@@ -486,9 +486,12 @@ def test_the_demo_goes_from_the_sample_navigation_to_the_map(tmp_path):
         pytest.skip("no sample flight")
     s = _Scene(SAMPLE, tmp_path, {})
     todo = _from_navigation(s)
+    # the ratio the demo maps is made earlier in the demo: here, from the sample's bands
+    execute(registry()["ratio"], {"vnir": s.v, "swir": s.s, "output": s.ratio})
     assert [n for n, _ in todo] == ["direct-georeference"] * 2 + ["geolocate"]
-    for name, values in todo[:2]:
+    for name, values in todo:
         execute(registry()[name], values)
+    assert (tmp_path / "boresight_ratio_from_navigation_map.tif").exists()
     with (
         rasterio.open(tmp_path / "vnir_igm.tif") as v,
         rasterio.open(tmp_path / "swir_igm.tif") as w,
@@ -576,3 +579,23 @@ def test_sensor_model_is_binned_and_trimmed_as_the_header_says(tmp_path):
         sensor_model_for(path, None, 17, {})
     with pytest.raises(ParameterError, match="one of them"):
         sensor_model_for(path, 10.0, 17, {})
+
+
+def test_a_constant_height_needs_no_dem(scene, line_files, tmp_path):
+    import rasterio
+
+    from geoboresight.operations.direct_georef import direct_georeference_file
+
+    out = str(tmp_path / "flat.tif")
+    direct_georeference_file(
+        line_files["image"], scene["sbet"], output=out, sensor_model=line_files["model"],
+        line_times=line_files["times"], height=340.0, crs="EPSG:32636",
+    )  # fmt: skip
+    with rasterio.open(out) as src:
+        h = src.read(3)
+    np.testing.assert_allclose(h, 340.0, atol=1e-4)
+    with pytest.raises(ParameterError, match="output CRS"):
+        direct_georeference_file(
+            line_files["image"], scene["sbet"], output=str(tmp_path / "x.tif"),
+            sensor_model=line_files["model"], line_times=line_files["times"], height=340.0,
+        )  # fmt: skip
