@@ -599,3 +599,20 @@ def test_a_constant_height_needs_no_dem(scene, line_files, tmp_path):
             line_files["image"], scene["sbet"], output=str(tmp_path / "x.tif"),
             sensor_model=line_files["model"], line_times=line_files["times"], height=340.0,
         )  # fmt: skip
+
+
+def test_hyspex_per_line_navigation_text(tmp_path):
+    from geoboresight.io.navigation import read_hyspex_nav
+
+    path = tmp_path / "line_nav.txt"
+    path.write_text(
+        "# line time lat lon height roll pitch heading\n"
+        "0 1000.00 31.1 34.7 1500.0 0.5 -0.2 63.0\n"
+        "1 1000.02 31.1001 34.7001 1500.1 0.6 -0.1 63.1\n"
+    )
+    nav, times = read_hyspex_nav(str(path))
+    assert times.tolist() == [1000.0, 1000.02] and nav.heading_deg[1] == pytest.approx(63.1)
+    assert read_navigation(str(path)).roll_deg.tolist() == [0.5, 0.6]
+    path.write_text("0 1000.0 31.1 34.7 1500.0 0.5 -0.2\n")
+    with pytest.raises(InputError, match="has 7 columns"):
+        read_hyspex_nav(str(path))
