@@ -63,6 +63,10 @@ KERNELS = {
     "attitude_jitter": "geoboresight.simulate.ortho",
     "simulate_scene": "geoboresight.simulate.scene",
     "radiance": "geoboresight.sensor.calibration",
+    "ground_points": "geoboresight.sensor.georeference",
+    "calibrate_boresight": "geoboresight.sensor.calibrate",
+    "tie_point_ground": "geoboresight.sensor.calibrate",
+    "transfer_tie_points": "geoboresight.georef.transfer",
 }
 
 
@@ -110,6 +114,8 @@ VALUES = {
     "SurfaceModel": "geoboresight.operations.shadow_map",
     "NirBand": "geoboresight.operations.shadow",
     "Calibration": "geoboresight.sensor.calibration",
+    "Boresight": "geoboresight.sensor.boresight",
+    "LeverArm": "geoboresight.sensor.boresight",
 }
 
 #: What a script needs beside the operations: readers, writers, the block loop, progress and
@@ -124,6 +130,11 @@ IO = {
     "reduce_windows": "geoboresight.io.windows",
     "Grid": "geoboresight.io.grid",
     "write_scene": "geoboresight.io.scene",
+    "Navigation": "geoboresight.sensor.navigation",
+    "SensorModel": "geoboresight.sensor.model",
+    "Surface": "geoboresight.sensor.georeference",
+    "read_navigation": "geoboresight.io.navigation",
+    "read_sensor_model": "geoboresight.io.navigation",
     "Progress": "geoboresight.progress",
     "GeoboresightError": "geoboresight.errors",
     "InputError": "geoboresight.errors",

@@ -55,6 +55,8 @@ def _help_for(p: Param) -> str:
         bits.append(f"band of --{p.raster.replace('_', '-')}")
     if p.kind == "multiraster":
         bits.append("repeat the option or separate paths with commas")
+    if p.kind == "numbers" and p.names:
+        bits.append(" ".join(p.names) + (f" ({p.unit})" if p.unit else ""))
     return text + (f" [{'; '.join(bits)}]" if bits else "")
 
 
@@ -83,6 +85,12 @@ def _option(p: Param) -> click.Option:
         kwargs["type"] = click.Choice(p.choices)
     elif p.kind in ("number", "wavelength"):
         kwargs["type"] = click.INT if p.integer else click.FLOAT
+    elif p.kind == "numbers":
+        # three values after one option, as rio's --bounds: negative values work as written
+        kwargs["type"] = click.FLOAT
+        kwargs["nargs"] = p.count
+        if p.names:
+            kwargs["metavar"] = " ".join(p.names)
     else:
         kwargs["type"] = _CLICK_TYPES.get(p.kind, click.STRING)
     if p.kind == "multiraster":

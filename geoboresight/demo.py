@@ -73,7 +73,13 @@ def steps(scene: Path, out: Path) -> list[tuple[str, dict]]:
     )
     s = _Scene(scene, out, truth)
     todo = [*_ratio_and_shadow(s), *_dem(s), *_anomaly(s)]
-    return [*todo, *_on_the_map(s, todo), *_radiance(s), ("report", _report(s))]
+    return [
+        *todo,
+        *_on_the_map(s, todo),
+        *_from_navigation(s),
+        *_radiance(s),
+        ("report", _report(s)),
+    ]
 
 
 class _Scene:
@@ -286,6 +292,44 @@ def _on_the_map(s: _Scene, todo: list[tuple[str, dict]]) -> list[tuple[str, dict
     ]
 
 
+def _from_navigation(s: _Scene) -> list[tuple[str, dict]]:
+    """With the aircraft's files (``flight/``: SBET, line times, sensor models, DEM and the
+    boresight angles of ``flight.json``), each sensor's IGM by direct georeferencing, and the
+    boresight ratio put on the map with the VNIR's."""
+    flight = s.scene / "flight"
+    if not (flight / "flight.json").is_file():
+        return []
+    known = json.loads((flight / "flight.json").read_text())
+    todo = []
+    for sensor, image in (("vnir", s.v), ("swir", s.s)):
+        todo.append(
+            (
+                "direct-georeference",
+                {
+                    "input": image,
+                    "navigation": str(flight / "flight.out"),
+                    "line_times": str(flight / "line_times.txt"),
+                    "sensor_model": str(flight / f"{sensor}_model.csv"),
+                    "boresight": tuple(known["boresight_deg"][sensor]),
+                    "lever_arm": tuple(known["lever_arm_m"][sensor]),
+                    "dem": str(flight / "dem.tif"),
+                    "output": s.o(f"{sensor}_igm.tif"),
+                },
+            )
+        )
+    todo.append(
+        (
+            "geolocate",
+            {
+                "input": s.ratio,
+                "igm": s.o("vnir_igm.tif"),
+                "output": s.o("boresight_ratio_from_navigation_map.tif"),
+            },
+        )
+    )
+    return todo
+
+
 def _report(s: _Scene) -> dict:
     report = {"vnir": s.v, "swir": s.s, **s.cloud_arg}
     if s.truth_file("truth_shadow_fraction.tif"):
@@ -309,6 +353,8 @@ def _command_line(name: str, values: dict) -> str:
         elif isinstance(val, list):
             for item in val:
                 parts += [f"--{k.replace('_', '-')}", str(item)]
+        elif isinstance(val, tuple):  # three numbers after one option (--boresight R P H)
+            parts += [f"--{k.replace('_', '-')}", *(f"{v:g}" for v in val)]
         else:
             parts += [f"--{k.replace('_', '-')}", str(val)]
     parts.append("--overwrite")

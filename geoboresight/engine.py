@@ -96,10 +96,10 @@ def describe_param(p) -> dict:
         "is_output": p.is_output,
         "aliases": list(p.aliases),
     }
-    for attr in ("minimum", "maximum", "integer", "unit", "raster", "extension"):
+    for attr in ("minimum", "maximum", "integer", "unit", "raster", "extension", "count"):
         if hasattr(p, attr):
             out[attr] = _plain(getattr(p, attr))
-    for attr in ("choices", "extensions"):
+    for attr in ("choices", "extensions", "names"):
         if hasattr(p, attr):
             out[attr] = list(getattr(p, attr))
     if getattr(p, "formats", ()):

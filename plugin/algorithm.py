@@ -156,6 +156,10 @@ def to_qgis_parameter(p: dict) -> QgsProcessingParameterDefinition:
         q = QgsProcessingParameterBoolean(name, desc, bool(default), optional)
     elif kind == "string":
         q = QgsProcessingParameterString(name, desc, default, False, optional)
+    elif kind == "numbers":
+        # "X Y Z" in one text field (spaces or commas); the engine checks the count
+        text = " ".join(f"{v:g}" for v in default) if default is not None else None
+        q = QgsProcessingParameterString(name, desc, text, False, optional)
     elif kind == "raster_out":
         q = QgsProcessingParameterRasterDestination(name, desc, default, optional, not optional)
     elif kind == "vector_out":
@@ -435,6 +439,9 @@ class EngineAlgorithm(QgsProcessingAlgorithm):
                 values[name] = self.parameterAsBool(parameters, name, context)
             elif kind == "string":
                 values[name] = self.parameterAsString(parameters, name, context)
+            elif kind == "numbers":
+                text = self.parameterAsString(parameters, name, context)
+                values[name] = text if text.strip() else None
             else:
                 values[name] = raw
         return values

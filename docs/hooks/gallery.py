@@ -230,4 +230,61 @@ panels(
         ],
         "image": "out/radiance_ratio.png",
     },
+    {
+        "figure": "Eq. 1–2",
+        "title": "From navigation to the map",
+        "caption": "Each sensor's IGM from the aircraft's files (SBET, line times, sensor "
+        "model, lever arm, boresight angles, DEM): the VNIR (blue) and SWIR (orange) "
+        "footprints of the sample's simulated flight on the DEM's shaded relief, every "
+        "20th line drawn; the two boresights (about a degree apart) put the two sensors' "
+        "pixels on different ground.",
+        "steps": [
+            (
+                "sh",
+                f"geoboresight direct-georeference -i {SCENE}/vnir.hdr "
+                f"--navigation {SCENE}/flight/flight.out "
+                f"--line-times {SCENE}/flight/line_times.txt "
+                f"--sensor-model {SCENE}/flight/vnir_model.csv "
+                "--boresight 0.42 -0.31 0.55 --lever-arm 0.35 -0.12 0.28 "
+                f"--dem {SCENE}/flight/dem.tif -o out/vnir_igm.tif",
+            ),
+            (
+                "sh",
+                f"geoboresight direct-georeference -i {SCENE}/swir.hdr "
+                f"--navigation {SCENE}/flight/flight.out "
+                f"--line-times {SCENE}/flight/line_times.txt "
+                f"--sensor-model {SCENE}/flight/swir_model.csv "
+                "--boresight -0.27 0.48 -0.36 --lever-arm 0.35 0.14 0.30 "
+                f"--dem {SCENE}/flight/dem.tif -o out/swir_igm.tif",
+            ),
+            (
+                "python",
+                f'''
+import numpy as np
+import rasterio
+from matplotlib.colors import LightSource
+from matplotlib.figure import Figure
+
+with rasterio.open("{SCENE}/flight/dem.tif") as dem:
+    z, b = dem.read(1), dem.bounds
+fig = Figure(figsize=(6.4, 5.2), layout="constrained", dpi=110)
+ax = fig.subplots()
+shade = LightSource(azdeg=315, altdeg=45).hillshade(z, vert_exag=2, dx=2, dy=2)
+ax.imshow(shade, cmap="gray", extent=(b.left, b.right, b.bottom, b.top))
+for name, colour in (("vnir", "tab:blue"), ("swir", "tab:orange")):
+    with rasterio.open(f"out/{{name}}_igm.tif") as igm:
+        x, y = igm.read(1), igm.read(2)
+    ax.plot(x[::20].T, y[::20].T, color=colour, lw=0.8)
+    ax.plot([], [], color=colour, label=name.upper())
+ax.set_xlim(x.min() - 60, x.max() + 60)
+ax.set_ylim(y.min() - 60, y.max() + 60)
+ax.set_xlabel("easting (m)")
+ax.set_ylabel("northing (m)")
+ax.legend(loc="upper left")
+fig.savefig("out/navigation.png")
+''',
+            ),
+        ],
+        "image": "out/navigation.png",
+    },
 ]

@@ -55,6 +55,8 @@ SPECS: dict[str, tuple[str, ...]] = {
     "simulate": ("simulate",),
     "georef": ("geolocate", "georeference", "reproject-to", "simulate-ortho"),
     "georef_auto": ("auto-georeference",),
+    "direct_georef": ("direct-georeference",),
+    "boresight_calibrate": ("boresight-calibrate",),
     "radiance": ("radiance",),
     "report": ("report",),
 }

@@ -182,6 +182,40 @@ class Number(Param):
 
 
 @dataclass(frozen=True, kw_only=True)
+class Numbers(Param):
+    """A fixed count of finite numbers (``count``, three by default: ``X Y Z``), as rio's
+    ``--bounds`` takes four: a list or tuple, or text with the numbers separated by spaces or
+    commas (``"0.4 -0.3 0.5"``); ``names`` name each one in messages and help."""
+
+    count: int = 3
+    names: tuple[str, ...] = ()
+    unit: str = ""
+    kind: ClassVar[str] = "numbers"
+
+    def coerce(self, value):
+        items = value.as_tuple() if hasattr(value, "as_tuple") else value
+        if isinstance(value, str):
+            items = [v for v in value.replace(",", " ").split() if v]
+        if _scalar(items) or not isinstance(items, list | tuple):
+            raise self._fail(f"expected {self.count} numbers, got {_short(value)}")
+        if len(items) != self.count:
+            what = " ".join(self.names) if self.names else f"{self.count} numbers"
+            raise self._fail(f"expected {self.count} numbers ({what}), got {_short(value)}")
+        out = []
+        for item in items:
+            if not _scalar(item) or isinstance(item, bool):
+                raise self._fail(f"expected numbers, got {_short(value)}")
+            try:
+                number = float(item)
+            except (TypeError, ValueError, OverflowError):
+                raise self._fail(f"expected numbers, got {_short(value)}") from None
+            if not math.isfinite(number):
+                raise self._fail(f"expected finite numbers, got {_short(value)}")
+            out.append(number)
+        return tuple(out)
+
+
+@dataclass(frozen=True, kw_only=True)
 class Wavelength(Number):
     """A wavelength in nanometres."""
 
@@ -485,7 +519,9 @@ class Algorithm:
         """:attr:`example` as a command line."""
         words = [program, self.name]
         for name, value in self.example.items():
-            words += [f"--{name.replace('_', '-')}", value]
+            if isinstance(value, list | tuple):  # a Numbers parameter: its values in a row
+                value = " ".join(f"{v:g}" for v in value)
+            words += [f"--{name.replace('_', '-')}", str(value)]
         return " ".join(words)
 
     def bind(self, values: Mapping[str, Any], given: Mapping[str, Any] | None = None) -> dict:

@@ -595,8 +595,11 @@ def create_raster(
     colormap: dict | None = None,
     category_names: dict[int, str] | None = None,
     overwrite: bool = True,
+    overviews: bool = True,
 ):
     """Open a new GeoTIFF on ``grid`` for block-by-block writing; atomic on success.
+    ``overviews=False`` leaves out the overviews (a raster of coordinates, which no viewer
+    draws and whose averages mean nothing).
 
     The profile is :meth:`Grid.profile`'s (tiled, compressed, predictor, nodata); raw sensor
     geometry stays raw. Tags, band names and a colour table are written once the caller's
@@ -637,7 +640,7 @@ def create_raster(
         # Overviews, so that a map viewer (QGIS) draws a whole flight line quickly. Built on
         # the closed file reopened: then GDAL reads, resamples and compresses the levels'
         # blocks in threads of its own (on the handle that wrote the file it does not).
-        factors = overview_factors(profile["width"], profile["height"])
+        factors = overview_factors(profile["width"], profile["height"]) if overviews else []
         if factors:
             # GDAL's threads compress the blocks, and a write error met there (a full disk)
             # reaches only stderr: the file is checked before it is reopened to add to it.

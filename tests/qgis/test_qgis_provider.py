@@ -43,6 +43,7 @@ EXPECTED_TYPE = {
     "enum": "enum",
     "bool": "boolean",
     "string": "string",
+    "numbers": "string",  # "X Y Z" in one text field
     "raster_out": "rasterDestination",
     "vector_out": "vectorDestination",
     "file_out": "fileDestination",
