@@ -11,6 +11,7 @@ import numpy as np
 import rasterio
 from rasterio.transform import Affine
 
+from ..io.navigation import write_line_times, write_sbet, write_sensor_model_csv
 from ..simulate.flight import (
     SAMPLE_FLIGHT,
     TRUE_BORESIGHT,
@@ -19,7 +20,6 @@ from ..simulate.flight import (
     relief_dem,
     sensor_models,
 )
-from ..io.navigation import write_line_times, write_sbet, write_sensor_model_csv
 
 
 def write_flight(folder, *, lines=192, samples=286, line_rate=40.0, nav_rate=100.0) -> dict:
