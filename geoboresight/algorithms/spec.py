@@ -342,7 +342,9 @@ class Group:
 
     ``value`` is a frozen dataclass whose fields include the members' names; its defaults are
     the members' defaults (checked at import). The operation takes the value under ``name``;
-    a Python caller passes either the value or nothing (the defaults).
+    a Python caller passes either the value or nothing (the defaults). With ``prefix``, every
+    member's name is the prefix and its field (``swir_sensor_model`` for the field
+    ``sensor_model``): one value for two sensors' parameters side by side.
     """
 
     name: str
@@ -351,15 +353,21 @@ class Group:
     #: The operation's default value, when it is not ``value()`` (e.g. dense matching's
     #: band means beside the offset's single bands).
     default: Any = None
+    #: What every member's name adds before its field's name ("": the field's name).
+    prefix: str = ""
 
     @property
     def initial(self) -> Any:
         return self.value() if self.default is None else self.default
 
+    def field(self, param: Param) -> str:
+        """The value's field a member sets: its name without the group's prefix."""
+        return param.name.removeprefix(self.prefix)
+
     def build(self, values: Mapping[str, Any], base: Any = None) -> Any:
         """The value from the members' validated values: ``base`` (a caller's own value, else
         the default) with those members replaced."""
-        fields = {p.name: values[p.name] for p in self.params if p.name in values}
+        fields = {self.field(p): values[p.name] for p in self.params if p.name in values}
         return dataclasses.replace(self.initial if base is None else base, **fields)
 
 
@@ -449,9 +457,9 @@ class Algorithm:
     def files_read(self) -> tuple[str, ...]:
         """The arguments naming files the operation reads: a parameter, or a group's member
         as ``"group.member"`` (``"surface.dsm"``)."""
-        member_of = {p.name: g.name for g in self.groups for p in g.params}
+        member_of = {p.name: f"{g.name}.{g.field(p)}" for g in self.groups for p in g.params}
         return tuple(
-            f"{member_of[p.name]}.{p.name}" if p.name in member_of else p.name
+            member_of.get(p.name, p.name)
             for p in self.inputs
             if p.kind in ("raster", "multiraster", "file")
         )
@@ -512,7 +520,7 @@ class Algorithm:
                 )
             given[g.name] = value
             for p in g.params:
-                flat[p.name] = getattr(value, p.name)
+                flat[p.name] = getattr(value, g.field(p))
         return flat, given
 
     def example_command(self, program: str = "geoboresight") -> str:
@@ -596,12 +604,12 @@ def _check_signature(alg: Algorithm) -> None:
         if default is inspect.Parameter.empty or default != g.initial:
             raise TypeError(f"{where}: group '{g.name}' must default to {g.initial!r}")
         for p in g.params:
-            if not hasattr(default, p.name):
+            if not p.name.startswith(g.prefix) or not hasattr(default, g.field(p)):
                 raise TypeError(f"{where}: {g.value.__name__} has no field '{p.name}'")
-            if not p.required and getattr(default, p.name) != p.default:
+            if not p.required and getattr(default, g.field(p)) != p.default:
                 raise TypeError(
                     f"{where}: '{p.name}' defaults to {p.default!r} in the spec but "
-                    f"{getattr(default, p.name)!r} in {g.value.__name__}"
+                    f"{getattr(default, g.field(p))!r} in {g.value.__name__}"
                 )
     if set(fn) != names:
         raise TypeError(
