@@ -113,9 +113,9 @@ VALUES = {
     "Detection": "geoboresight.operations.shadow_map",
     "SurfaceModel": "geoboresight.operations.shadow_map",
     "NirBand": "geoboresight.operations.shadow",
+    "SensorGeometry": "geoboresight.operations.direct_georef",
+    "Terrain": "geoboresight.operations.direct_georef",
     "Calibration": "geoboresight.sensor.calibration",
-    "Boresight": "geoboresight.sensor.boresight",
-    "LeverArm": "geoboresight.sensor.boresight",
 }
 
 #: What a script needs beside the operations: readers, writers, the block loop, progress and
@@ -133,6 +133,8 @@ IO = {
     "Navigation": "geoboresight.sensor.navigation",
     "SensorModel": "geoboresight.sensor.model",
     "Surface": "geoboresight.sensor.georeference",
+    "Boresight": "geoboresight.sensor.boresight",
+    "LeverArm": "geoboresight.sensor.boresight",
     "read_navigation": "geoboresight.io.navigation",
     "read_sensor_model": "geoboresight.io.navigation",
     "Progress": "geoboresight.progress",

@@ -26,6 +26,7 @@ from geoboresight.io.navigation import (
     write_navigation_csv,
     write_sbet,
 )
+from geoboresight.operations.direct_georef import SensorGeometry, Terrain
 from geoboresight.sensor.boresight import Boresight
 from geoboresight.sensor.georeference import Surface, ground_points, platform, trace
 from geoboresight.sensor.model import SensorModel
@@ -410,14 +411,15 @@ def test_cli_takes_three_numbers_with_negative_values(scene, line_files):
 def test_envi_igm_in_apl_layout_goes_to_geolocate(scene, line_files):
     import rasterio
 
+    from geoboresight import geolocate_file
     from geoboresight.operations.direct_georef import direct_georeference_file
-    from geoboresight.operations.georef import geolocate_file
 
     out = str(line_files["folder"] / "igm.bil")
     direct_georeference_file(
-        line_files["image"], scene["csv"], output=out, sensor_model=line_files["model"],
-        line_times=line_files["times"], boresight=TRUE_BORESIGHT["vnir"],
-        lever_arm=(0.35, -0.12, 0.28), dem=line_files["dem"],
+        line_files["image"], scene["csv"], output=out,
+        geometry=SensorGeometry(sensor_model=line_files["model"], line_times=line_files["times"],
+                                boresight=TRUE_BORESIGHT["vnir"], lever_arm=(0.35, -0.12, 0.28)),
+        terrain=Terrain(dem=line_files["dem"]),
     )  # fmt: skip
     with rasterio.open(out) as src:
         assert src.driver == "ENVI" and src.count == 3 and src.crs is not None
@@ -435,7 +437,9 @@ def test_dem_that_misses_the_swath_is_named_with_its_share(scene, line_files, tm
     with pytest.raises(InputError, match=r"DEM .* misses \d+\.\d% of the pixels"):
         direct_georeference_file(
             line_files["image"], scene["sbet"], output=str(tmp_path / "i.tif"),
-            sensor_model=line_files["model"], line_times=line_files["times"], dem=path,
+            geometry=SensorGeometry(sensor_model=line_files["model"],
+                                    line_times=line_files["times"]),
+            terrain=Terrain(dem=path),
         )  # fmt: skip
     assert not os.path.exists(tmp_path / "i.tif")
 
@@ -449,10 +453,13 @@ def test_dem_without_crs_or_in_feet_is_refused(scene, line_files, tmp_path):
     with rasterio.open(path, "w", driver="GTiff", width=4, height=4, count=1,
                        dtype="float32") as d:  # fmt: skip
         d.write(np.zeros((1, 4, 4), "float32"))
-    kw = dict(output=str(tmp_path / "i.tif"), sensor_model=line_files["model"],
-              line_times=line_files["times"])  # fmt: skip
+    kw = dict(output=str(tmp_path / "i.tif"),
+              geometry=SensorGeometry(sensor_model=line_files["model"],
+                                      line_times=line_files["times"]))  # fmt: skip
     with pytest.raises(InputError, match="carries no CRS"):
-        direct_georeference_file(line_files["image"], scene["sbet"], dem=path, **kw)
+        direct_georeference_file(
+            line_files["image"], scene["sbet"], terrain=Terrain(dem=path), **kw
+        )
     feet = str(tmp_path / "feet.tif")
     from rasterio.transform import from_origin
 
@@ -460,7 +467,9 @@ def test_dem_without_crs_or_in_feet_is_refused(scene, line_files, tmp_path):
                        crs="EPSG:2227", transform=from_origin(0, 0, 1, 1)) as d:  # fmt: skip
         d.write(np.zeros((1, 4, 4), "float32"))
     with pytest.raises(InputError, match="in feet"):
-        direct_georeference_file(line_files["image"], scene["sbet"], dem=feet, **kw)
+        direct_georeference_file(
+            line_files["image"], scene["sbet"], terrain=Terrain(dem=feet), **kw
+        )
 
 
 def test_header_start_time_and_fps_give_the_line_times(tmp_path):
@@ -528,8 +537,9 @@ def test_view_angles_are_written_beside_the_igm(scene, line_files):
     out = line_files["folder"] / "igm_angles.tif"
     angles = line_files["folder"] / "angles.tif"
     direct_georeference_file(
-        line_files["image"], scene["sbet"], output=str(out), sensor_model=line_files["model"],
-        line_times=line_files["times"], dem=line_files["dem"], view_angles_output=str(angles),
+        line_files["image"], scene["sbet"], output=str(out),
+        geometry=SensorGeometry(sensor_model=line_files["model"], line_times=line_files["times"]),
+        terrain=Terrain(dem=line_files["dem"]), view_angles_output=str(angles),
     )  # fmt: skip
     with rasterio.open(angles) as src:
         zenith, azimuth = src.read(1), src.read(2)
@@ -558,8 +568,9 @@ def test_geoid_dem_without_its_grid_is_refused(scene, line_files, tmp_path):
     with pytest.raises(InputError, match="no geoid grid for EGM96"):
         direct_georeference_file(
             line_files["image"], scene["sbet"], output=str(tmp_path / "i.tif"),
-            sensor_model=line_files["model"], line_times=line_files["times"],
-            dem=line_files["dem"], dem_vertical_crs="EPSG:5773",
+            geometry=SensorGeometry(sensor_model=line_files["model"],
+                                    line_times=line_files["times"]),
+            terrain=Terrain(dem=line_files["dem"], dem_vertical_crs="EPSG:5773"),
         )  # fmt: skip
     assert not os.path.exists(tmp_path / "i.tif")
 
@@ -587,8 +598,9 @@ def test_a_constant_height_needs_no_dem(scene, line_files, tmp_path):
 
     out = str(tmp_path / "flat.tif")
     direct_georeference_file(
-        line_files["image"], scene["sbet"], output=out, sensor_model=line_files["model"],
-        line_times=line_files["times"], height=340.0, crs="EPSG:32636",
+        line_files["image"], scene["sbet"], output=out,
+        geometry=SensorGeometry(sensor_model=line_files["model"], line_times=line_files["times"]),
+        terrain=Terrain(height=340.0), crs="EPSG:32636",
     )  # fmt: skip
     with rasterio.open(out) as src:
         h = src.read(3)
@@ -596,7 +608,9 @@ def test_a_constant_height_needs_no_dem(scene, line_files, tmp_path):
     with pytest.raises(ParameterError, match="output CRS"):
         direct_georeference_file(
             line_files["image"], scene["sbet"], output=str(tmp_path / "x.tif"),
-            sensor_model=line_files["model"], line_times=line_files["times"], height=340.0,
+            geometry=SensorGeometry(sensor_model=line_files["model"],
+                                    line_times=line_files["times"]),
+            terrain=Terrain(height=340.0),
         )  # fmt: skip
 
 

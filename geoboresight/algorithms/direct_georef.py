@@ -3,10 +3,84 @@
 from __future__ import annotations
 
 from ..io.products import FILE_FORMATS
-from ..operations.direct_georef import direct_georeference_file
-from .spec import Algorithm, FileIn, Number, Numbers, RasterIn, RasterOut, Result, Text
+from ..operations.direct_georef import SensorGeometry, Terrain, direct_georeference_file
+from .spec import Algorithm, FileIn, Group, Number, Numbers, RasterIn, RasterOut, Result, Text
 
 GROUP = "Georeferencing"
+
+#: The sensor's geometry (SensorGeometry): look directions, line times, lever arm, boresight.
+GEOMETRY = Group(
+    name="geometry",
+    value=SensorGeometry,
+    params=(
+        FileIn(
+            name="sensor_model",
+            label="Sensor model",
+            description="Pixel look directions: CSV, HySpex text or APL view vectors (or give fov)",
+            optional=True,
+        ),
+        Number(
+            name="fov",
+            label="Field of view",
+            description="Field of view of an ideal linear array, edge to edge (instead of a sensor model)",
+            optional=True,
+            minimum=0.01,
+            maximum=179.0,
+            unit="degrees",
+        ),
+        FileIn(
+            name="line_times",
+            label="Line times",
+            description="One GPS time per image line (default: the header's GPS start time and fps)",
+            optional=True,
+            extensions=("txt", "csv"),
+        ),
+        Numbers(
+            name="lever_arm",
+            label="Lever arm",
+            description="From the navigation point to the sensor, body frame (x forward, y right, z down)",
+            names=("X", "Y", "Z"),
+            unit="m",
+            optional=True,
+        ),
+        Numbers(
+            name="boresight",
+            label="Boresight angles",
+            description="Sensor to body rotation",
+            names=("ROLL", "PITCH", "HEADING"),
+            unit="degrees",
+            optional=True,
+        ),
+    ),
+)
+
+#: The surface the rays meet (Terrain): a DEM or a constant height.
+TERRAIN = Group(
+    name="terrain",
+    value=Terrain,
+    params=(
+        RasterIn(
+            name="dem",
+            label="DEM",
+            description="DEM in metres with its CRS (ellipsoidal heights, or give its vertical CRS)",
+            optional=True,
+        ),
+        Number(
+            name="height",
+            label="Constant height",
+            description="A constant ellipsoidal height instead of a DEM",
+            optional=True,
+            unit="m",
+        ),
+        Text(
+            name="dem_vertical_crs",
+            label="DEM vertical CRS",
+            description="The DEM's vertical CRS when its heights are above a geoid (e.g. EPSG:5773), converted to ellipsoidal through pyproj",
+            optional=True,
+            advanced=True,
+        ),
+    ),
+)
 
 DIRECT_GEOREFERENCE = Algorithm(
     name="direct-georeference",
@@ -63,44 +137,7 @@ DIRECT_GEOREFERENCE = Algorithm(
             description="SBET (.out), navigation CSV, Specim .nav or HySpex navigation text",
             extensions=("out", "sbet", "csv", "nav", "txt"),
         ),
-        FileIn(
-            name="sensor_model",
-            label="Sensor model",
-            description="Pixel look directions: CSV, HySpex text or APL view vectors (or give fov)",
-            optional=True,
-        ),
-        Number(
-            name="fov",
-            label="Field of view",
-            description="Field of view of an ideal linear array, edge to edge (instead of a sensor model)",
-            optional=True,
-            minimum=0.01,
-            maximum=179.0,
-            unit="degrees",
-        ),
-        FileIn(
-            name="line_times",
-            label="Line times",
-            description="One GPS time per image line (default: the header's GPS start time and fps)",
-            optional=True,
-            extensions=("txt", "csv"),
-        ),
-        Numbers(
-            name="lever_arm",
-            label="Lever arm",
-            description="From the navigation point to the sensor, body frame (x forward, y right, z down)",
-            names=("X", "Y", "Z"),
-            unit="m",
-            optional=True,
-        ),
-        Numbers(
-            name="boresight",
-            label="Boresight angles",
-            description="Sensor to body rotation",
-            names=("ROLL", "PITCH", "HEADING"),
-            unit="degrees",
-            optional=True,
-        ),
+        GEOMETRY,
         Number(
             name="time_offset",
             label="Time offset",
@@ -108,31 +145,12 @@ DIRECT_GEOREFERENCE = Algorithm(
             default=0.0,
             unit="s",
         ),
-        RasterIn(
-            name="dem",
-            label="DEM",
-            description="DEM in metres with its CRS (ellipsoidal heights, or give its vertical CRS)",
-            optional=True,
-        ),
-        Number(
-            name="height",
-            label="Constant height",
-            description="A constant ellipsoidal height instead of a DEM",
-            optional=True,
-            unit="m",
-        ),
+        TERRAIN,
         Text(
             name="crs",
             label="Output CRS",
             description="The IGM's CRS (default: the DEM's; required with a constant height)",
             optional=True,
-        ),
-        Text(
-            name="dem_vertical_crs",
-            label="DEM vertical CRS",
-            description="The DEM's vertical CRS when its heights are above a geoid (e.g. EPSG:5773), converted to ellipsoidal through pyproj",
-            optional=True,
-            advanced=True,
         ),
         RasterOut(
             name="output",

@@ -18,10 +18,13 @@ from ..io.navigation import line_times_for, sensor_model_for
 from ..io.terrain import dem_overview, read_surface
 from ..sensor.boresight import Boresight, LeverArm
 from ..sensor.georeference import ned_to_ecef, platform, rays, trace
+from ._geometry import SensorGeometry, Terrain
 
 #: Lines per block: memory stays bounded (about 0.4 kB per pixel of a block) whatever the
 #: line's length.
 BLOCK_LINES = 256
+
+__all__ = ["SensorGeometry", "Terrain", "direct_georeference_file", "view_angles"]
 
 
 def _as(kind, value, label):
@@ -97,16 +100,10 @@ def direct_georeference_file(
     navigation,
     *,
     output,
-    sensor_model=None,
-    fov=None,
-    line_times=None,
-    lever_arm: LeverArm | tuple | None = None,
-    boresight: Boresight | tuple | None = None,
+    geometry: SensorGeometry = SensorGeometry(),
     time_offset=0.0,
-    dem=None,
-    height=None,
+    terrain: Terrain = Terrain(),
     crs=None,
-    dem_vertical_crs=None,
     view_angles_output=None,
     progress=None,
 ) -> dict:
@@ -122,20 +119,16 @@ def direct_georeference_file(
     output : path
         The IGM: float64 easting, northing, ellipsoidal height (GeoTIFF; ENVI BIL in APL's
         layout for ``.bil``/``.img``), nodata where a ray misses.
-    sensor_model, fov
-        The pixels' look directions (a file), or an ideal array of ``fov`` degrees.
-    line_times : path, optional
-        One GPS time per image line.
-    lever_arm, boresight : three numbers or LeverArm / Boresight
-        Body-frame metres x y z; degrees roll pitch heading.
+    geometry : SensorGeometry
+        The sensor model (or ``fov``), line times, lever arm (three numbers or a
+        ``LeverArm``) and boresight (three numbers or a ``Boresight``).
     time_offset : float
         Seconds added to the line times: the navigation is sampled at ``time + offset``.
-    dem, height
-        The DEM (its CRS in metres), or a constant ellipsoidal height.
+    terrain : Terrain
+        The DEM (its CRS in metres; its vertical CRS when above a geoid), or a constant
+        ellipsoidal height.
     crs : str, optional
-        The IGM's CRS (default the DEM's; required with ``height``).
-    dem_vertical_crs : str, optional
-        The DEM's vertical CRS when its heights are above a geoid (e.g. ``EPSG:5773``).
+        The IGM's CRS (default the DEM's; required with a constant height).
     view_angles_output : path, optional
         View zenith and azimuth of every pixel (degrees).
 
@@ -152,17 +145,15 @@ def direct_georeference_file(
     """
     from ..io.georef import parse_crs
 
-    b = _as(Boresight, boresight, "boresight")
-    lever = _as(LeverArm, lever_arm, "lever_arm")
-    if (dem is None) == (height is None):
-        raise ParameterError(
-            "give a DEM or a constant height, one of them", params=("dem", "height")
-        )
+    b = _as(Boresight, geometry.boresight, "boresight")
+    lever = _as(LeverArm, geometry.lever_arm, "lever_arm")
+    terrain.check()
+    dem, height = terrain.dem, terrain.height
     width, lines = _image_size(input)
     keys = _header(input)
-    model = sensor_model_for(sensor_model, fov, width, keys)
+    model = sensor_model_for(geometry.sensor_model, geometry.fov, width, keys)
     nav = nio.read_navigation(navigation)
-    times = line_times_for(line_times, keys, lines, navigation, f"input {input}")
+    times = line_times_for(geometry.line_times, keys, lines, navigation, f"input {input}")
     nav.check_covers(times + time_offset, "the line times (with the time offset)")
     if dem is not None:
         low, high, bounds, dem_crs = dem_overview(dem)
@@ -201,7 +192,7 @@ def direct_georeference_file(
                 if dem is not None:
                     # only the DEM window this block sees: memory stays bounded by a block
                     box = _window(pos, r, edges, b, lever, low, high, dem_crs)
-                    surface = read_surface(dem, bounds=box, vertical_crs=dem_vertical_crs)
+                    surface = read_surface(dem, bounds=box, vertical_crs=terrain.dem_vertical_crs)
                 x, y, h = trace(
                     pos, r, look, b, lever, surface,
                     height=None if surface is not None else height, crs=out_crs,
