@@ -115,6 +115,8 @@ VALUES = {
     "NirBand": "geoboresight.operations.shadow",
     "SensorGeometry": "geoboresight.operations.direct_georef",
     "Terrain": "geoboresight.operations.direct_georef",
+    "TieSources": "geoboresight.operations.boresight_calibrate",
+    "BoresightFit": "geoboresight.operations.boresight_calibrate",
     "Calibration": "geoboresight.sensor.calibration",
 }
 

@@ -90,6 +90,8 @@ from .io.scene import write_scene as write_scene
 from .io.windows import Sample as Sample
 from .io.windows import map_windows as map_windows
 from .io.windows import reduce_windows as reduce_windows
+from .operations.boresight_calibrate import BoresightFit as BoresightFit
+from .operations.boresight_calibrate import TieSources as TieSources
 from .operations.direct_georef import SensorGeometry as SensorGeometry
 from .operations.direct_georef import Terrain as Terrain
 from .operations.shadow import NirBand as NirBand

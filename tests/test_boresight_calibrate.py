@@ -401,14 +401,13 @@ def test_operation_on_a_reference_for_both_sensors(flight_files, scene, tmp_path
     out = gb.boresight_calibrate_file(
         f["VNIR"],
         f["navigation"],
-        reference=f["reference"],
         swir=f["SWIR"],
-        line_times=f["line_times"],
-        fov=SENSORS["VNIR"][1],
-        lever_arm=SENSORS["VNIR"][2],
-        swir_fov=SENSORS["SWIR"][1],
-        swir_lever_arm=SENSORS["SWIR"][2],
-        dem=f["dem"],
+        ties=gb.TieSources(reference=f["reference"]),
+        geometry=gb.SensorGeometry(
+            line_times=f["line_times"], fov=SENSORS["VNIR"][1], lever_arm=SENSORS["VNIR"][2]
+        ),
+        swir_geometry=gb.SensorGeometry(fov=SENSORS["SWIR"][1], lever_arm=SENSORS["SWIR"][2]),
+        terrain=gb.Terrain(dem=f["dem"]),
         output=str(tmp_path / "boresight.json"),
         vectors=str(tmp_path / "residuals.gpkg"),
         plot=str(tmp_path / "residuals.png"),
@@ -466,12 +465,12 @@ def test_operation_on_gcps_finds_the_clock_offset(flight_files, scene, tmp_path)
     gb.boresight_calibrate_file(
         f["VNIR"],
         f["navigation"],
-        gcps=gcps,
-        line_times=f["line_times"],
-        fov=SENSORS["VNIR"][1],
-        lever_arm=SENSORS["VNIR"][2],
-        dem=f["dem"],
-        estimate_time_offset=True,
+        ties=gb.TieSources(gcps=gcps),
+        geometry=gb.SensorGeometry(
+            line_times=f["line_times"], fov=SENSORS["VNIR"][1], lever_arm=SENSORS["VNIR"][2]
+        ),
+        terrain=gb.Terrain(dem=f["dem"]),
+        fit=gb.BoresightFit(estimate_time_offset=True),
         output=str(tmp_path / "boresight.json"),
     )
     part = json.loads((tmp_path / "boresight.json").read_text())["vnir"]
@@ -491,10 +490,9 @@ def test_operation_refuses_too_few_gcps(flight_files, scene, tmp_path):
         gb.boresight_calibrate_file(
             f["VNIR"],
             f["navigation"],
-            gcps=gcps,
-            line_times=f["line_times"],
-            fov=SENSORS["VNIR"][1],
-            dem=f["dem"],
+            ties=gb.TieSources(gcps=gcps),
+            geometry=gb.SensorGeometry(line_times=f["line_times"], fov=SENSORS["VNIR"][1]),
+            terrain=gb.Terrain(dem=f["dem"]),
             output=str(tmp_path / "boresight.json"),
             vectors=str(tmp_path / "residuals.gpkg"),
         )
@@ -509,7 +507,11 @@ def test_operation_needs_tie_points(flight_files, tmp_path):
     f = flight_files
     with pytest.raises(ParameterError, match="give tie points"):
         gb.boresight_calibrate_file(
-            f["VNIR"], f["navigation"], fov=5.5, dem=f["dem"], output=str(tmp_path / "b.json")
+            f["VNIR"],
+            f["navigation"],
+            geometry=gb.SensorGeometry(fov=5.5),
+            terrain=gb.Terrain(dem=f["dem"]),
+            output=str(tmp_path / "b.json"),
         )
 
 

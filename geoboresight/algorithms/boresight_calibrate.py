@@ -10,9 +10,11 @@ from ..georef.tiepoints import (
     TieMatching,
 )
 from ..io.products import FILE_FORMATS
-from ..operations.boresight_calibrate import boresight_calibrate_file
+from ..operations.boresight_calibrate import BoresightFit, TieSources, boresight_calibrate_file
+from ..operations.direct_georef import SensorGeometry
 from ..sensor.calibrate import LOSSES
 from ._common import BAND_NM, seed
+from .direct_georef import TERRAIN
 from .spec import (
     Algorithm,
     Band,
@@ -32,10 +34,10 @@ from .spec import (
 GROUP = "Georeferencing"
 
 
-def _geometry(prefix: str, sensor: str, optional_times: str) -> tuple:
-    """A sensor's geometry, named as ``direct-georeference`` names it (``prefix`` for the
-    SWIR's)."""
-    return (
+def _geometry(prefix: str, sensor: str, optional_times: str) -> Group:
+    """A sensor's geometry (SensorGeometry), named as ``direct-georeference`` names it
+    (``prefix`` for the SWIR's: ``swir_geometry``, ``--swir-sensor-model``)."""
+    members = (
         FileIn(
             name=f"{prefix}sensor_model",
             label=f"{sensor} sensor model",
@@ -76,6 +78,7 @@ def _geometry(prefix: str, sensor: str, optional_times: str) -> tuple:
             advanced=True,
         ),
     )
+    return Group(name=f"{prefix}geometry", value=SensorGeometry, prefix=prefix, params=members)
 
 
 MATCHING = Group(
@@ -184,27 +187,55 @@ BORESIGHT_CALIBRATE = Algorithm(
             extensions=("out", "sbet", "csv", "nav", "txt"),
         ),
         RasterIn(
-            name="reference",
-            label="Reference orthophoto",
-            description="Orthophoto with its CRS, for automatic tie points",
-            optional=True,
-        ),
-        FileIn(
-            name="gcps",
-            label="GCP file",
-            description="GCPs on the VNIR image (CSV pixel,line,x,y or QGIS .points)",
-            extensions=("csv", "points", "txt"),
-            optional=True,
-        ),
-        RasterIn(
             name="swir",
             label="SWIR image",
             description="SWIR image on the same pixel grid: its angles too",
             formats=FILE_FORMATS,
             optional=True,
         ),
-        *_geometry("", "VNIR", "default: the header's GPS start time and fps"),
-        *_geometry("swir_", "SWIR", "default: its header's, else the VNIR's"),
+        Group(
+            name="ties",
+            value=TieSources,
+            params=(
+                RasterIn(
+                    name="reference",
+                    label="Reference orthophoto",
+                    description="Orthophoto with its CRS, for automatic tie points",
+                    optional=True,
+                ),
+                FileIn(
+                    name="gcps",
+                    label="GCP file",
+                    description="GCPs on the VNIR image (CSV pixel,line,x,y or QGIS .points)",
+                    extensions=("csv", "points", "txt"),
+                    optional=True,
+                ),
+                Text(
+                    name="gcp_crs",
+                    label="GCP CRS",
+                    description="CRS of the GCPs when their file names none (EPSG code, PROJ or WKT)",
+                    optional=True,
+                ),
+                Band(
+                    name="band",
+                    label="VNIR band",
+                    description="VNIR band matched to the orthophoto (a similar wavelength)",
+                    default=1,
+                    raster="vnir",
+                    wavelength="band_nm",
+                ),
+                BAND_NM,
+                Band(
+                    name="reference_band",
+                    label="Reference band",
+                    description="Orthophoto band matched",
+                    default=1,
+                    raster="reference",
+                ),
+            ),
+        ),
+        _geometry("", "VNIR", "default: the header's GPS start time and fps"),
+        _geometry("swir_", "SWIR", "default: its header's, else the VNIR's"),
         Number(
             name="time_offset",
             label="Time offset",
@@ -212,60 +243,25 @@ BORESIGHT_CALIBRATE = Algorithm(
             default=0.0,
             unit="s",
         ),
-        Flag(
-            name="estimate_time_offset",
-            label="Estimate the clock offset",
-            description="Also estimate the clock offset between the lines and the navigation",
-        ),
-        RasterIn(
-            name="dem",
-            label="DEM",
-            description="DEM in metres with its CRS (ellipsoidal heights, or give its vertical CRS)",
-            optional=True,
-        ),
-        Number(
-            name="height",
-            label="Constant height",
-            description="A constant ellipsoidal height instead of a DEM",
-            optional=True,
-            unit="m",
-        ),
-        Text(
-            name="dem_vertical_crs",
-            label="DEM vertical CRS",
-            description="The DEM's vertical CRS when its heights are above a geoid (e.g. EPSG:5773)",
-            optional=True,
-            advanced=True,
-        ),
-        Text(
-            name="gcp_crs",
-            label="GCP CRS",
-            description="CRS of the GCPs when their file names none (EPSG code, PROJ or WKT)",
-            optional=True,
-        ),
-        Band(
-            name="band",
-            label="VNIR band",
-            description="VNIR band matched to the orthophoto (a similar wavelength)",
-            default=1,
-            raster="vnir",
-            wavelength="band_nm",
-        ),
-        BAND_NM,
-        Band(
-            name="reference_band",
-            label="Reference band",
-            description="Orthophoto band matched",
-            default=1,
-            raster="reference",
-        ),
-        Enum(
-            name="loss",
-            label="Robust loss",
-            description="Loss of the least squares (SciPy): soft_l1 and huber down-weight outliers",
-            choices=LOSSES,
-            default="soft_l1",
-            advanced=True,
+        TERRAIN,
+        Group(
+            name="fit",
+            value=BoresightFit,
+            params=(
+                Flag(
+                    name="estimate_time_offset",
+                    label="Estimate the clock offset",
+                    description="Also estimate the clock offset between the lines and the navigation",
+                ),
+                Enum(
+                    name="loss",
+                    label="Robust loss",
+                    description="Loss of the least squares (SciPy): soft_l1 and huber down-weight outliers",
+                    choices=LOSSES,
+                    default="soft_l1",
+                    advanced=True,
+                ),
+            ),
         ),
         MATCHING,
         FileOut(

@@ -6,6 +6,7 @@ residual plot."""
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -27,6 +28,7 @@ from ..sensor.calibrate import (
     tie_point_ground,
 )
 from ..sensor.georeference import platform, trace
+from ._geometry import SensorGeometry, Terrain
 
 #: How each tie point's residual vector is drawn: from the tie point's ground to where the
 #: calibrated model puts its image position.
@@ -34,6 +36,30 @@ CONVENTION = (
     "residual = model minus tie point: image (pixel, line) and ground (x, y, metres); "
     "time_offset_s is added to the line times, as direct-georeference --time-offset takes it"
 )
+
+
+@dataclass(frozen=True)
+class TieSources:
+    """Where the tie points come from: a ``reference`` orthophoto with its CRS (automatic
+    tie points between its ``reference_band`` and the VNIR's ``band``, or the band nearest
+    ``band_nm``) and/or ``gcps`` on the VNIR image (CSV ``pixel,line,x,y`` or QGIS
+    ``.points``; ``gcp_crs`` when their file names no CRS)."""
+
+    reference: str | os.PathLike | None = None
+    gcps: str | os.PathLike | None = None
+    gcp_crs: str | None = None
+    band: int = 1
+    band_nm: float | None = None
+    reference_band: int = 1
+
+
+@dataclass(frozen=True)
+class BoresightFit:
+    """The least squares of the angles: its robust ``loss`` (SciPy's: ``soft_l1``,
+    ``huber``, ``linear``, ``cauchy``), and whether the clock offset is estimated too."""
+
+    estimate_time_offset: bool = False
+    loss: str = "soft_l1"
 
 
 def metric_crs(crs, x, y):
@@ -236,20 +262,18 @@ class _Sensor:
     """One sensor's geometry for the forward model: sensor model, line times, lever arm,
     starting boresight."""
 
-    def __init__(
-        self, path, nav, navigation, sensor_model, fov, line_times, lever_arm, start, times=None
-    ):
+    def __init__(self, path, nav, navigation, geometry: SensorGeometry, times=None):
         with open_raster(path, "input") as src:
             self.width, self.lines = src.width, src.height
         keys = envi_header(os.fspath(path)) or {}
-        self.model = sensor_model_for(sensor_model, fov, self.width, keys)
+        self.model = sensor_model_for(geometry.sensor_model, geometry.fov, self.width, keys)
         self.times = (
             times
             if times is not None
-            else line_times_for(line_times, keys, self.lines, navigation, f"image {path}")
+            else line_times_for(geometry.line_times, keys, self.lines, navigation, f"image {path}")
         )
-        self.lever = _three(LeverArm, lever_arm, "lever_arm")
-        self.start = _three(Boresight, start, "boresight")
+        self.lever = _three(LeverArm, geometry.lever_arm, "lever_arm")
+        self.start = _three(Boresight, geometry.boresight, "boresight")
         self.nav = nav
 
 
@@ -305,12 +329,15 @@ def _ground_crs(reference, gcps, gcp_crs):
 
 def _vnir_ties(sensor, project_ref, ref_crs, crs, image, valid, args):
     """The VNIR's tie points (image positions, ground in ``crs``, source labels)."""
-    reference, reference_band, gcps, gcp_crs, matching, time_offset, progress = args
+    ties, matching, time_offset, progress = args
+    reference, gcps, gcp_crs = ties.reference, ties.gcps, ties.gcp_crs
     pls, xys, sources, info = [], [], [], {}
     if reference:
         progress.update(0.1, "automatic tie points")
         placement = _placement(project_ref, sensor.start.as_tuple(), time_offset)
-        pl, xy, tie = reference_ties(image, valid, reference, reference_band, placement, matching)
+        pl, xy, tie = reference_ties(
+            image, valid, reference, ties.reference_band, placement, matching
+        )
         x, y = gio.transform_xy(xy[:, 0], xy[:, 1], ref_crs, crs)
         pls.append(pl)
         xys.append(np.column_stack([x, y]))
@@ -341,16 +368,15 @@ def _solve(name, sensor, surface, height, crs, pl, xy, *, time_offset, estimate,
     )
 
 
-def _swir_sensor(swir, nav, navigation, vnir: _Sensor, geometry) -> _Sensor:
+def _swir_sensor(swir, nav, navigation, vnir: _Sensor, geometry: SensorGeometry) -> _Sensor:
     """The SWIR's geometry; its line times are its own (a file or its header), else the
     VNIR's (a dual sensor's two images on one pixel grid are taken line by line together)."""
-    model, fov, times, lever, start = geometry
     try:
-        s = _Sensor(swir, nav, navigation, model, fov, times, lever, start)
+        s = _Sensor(swir, nav, navigation, geometry)
     except InputError:
-        if times:
+        if geometry.line_times:
             raise
-        s = _Sensor(swir, nav, navigation, model, fov, None, lever, start, times=vnir.times)
+        s = _Sensor(swir, nav, navigation, geometry, times=vnir.times)
     if (s.width, s.lines) != (vnir.width, vnir.lines):
         raise InputError(
             f"SWIR {swir} is {s.width} × {s.lines} but the VNIR is {vnir.width} × {vnir.lines} "
@@ -378,48 +404,28 @@ def _band(path, band, label):
     return np.ma.getdata(data).astype("float64"), ~np.ma.getmaskarray(data)
 
 
-def _check_choices(reference, gcps, dem, height) -> None:
-    if not reference and not gcps:
+def _check_choices(ties: TieSources) -> None:
+    if not ties.reference and not ties.gcps:
         raise ParameterError(
             "give tie points: a reference orthophoto, GCPs, or both",
             params=("reference", "gcps"),
-        )
-    if (dem is None) == (height is None):
-        raise ParameterError(
-            "give a DEM or a constant height, one of them", params=("dem", "height")
         )
 
 
 def boresight_calibrate_file(
     vnir,
     navigation,
-    reference=None,
-    gcps=None,
     swir=None,
     *,
+    ties: TieSources = TieSources(),
     output,
     vectors=None,
     plot=None,
-    sensor_model=None,
-    fov=None,
-    line_times=None,
-    lever_arm=None,
-    boresight=None,
-    swir_sensor_model=None,
-    swir_fov=None,
-    swir_line_times=None,
-    swir_lever_arm=None,
-    swir_boresight=None,
+    geometry: SensorGeometry = SensorGeometry(),
+    swir_geometry: SensorGeometry = SensorGeometry(),
     time_offset=0.0,
-    estimate_time_offset=False,
-    dem=None,
-    height=None,
-    dem_vertical_crs=None,
-    gcp_crs=None,
-    band=1,
-    band_nm=None,
-    reference_band=1,
-    loss="soft_l1",
+    terrain: Terrain = Terrain(),
+    fit: BoresightFit = BoresightFit(),
     matching=TieMatching(),
     progress=None,
 ) -> dict:
@@ -439,12 +445,13 @@ def boresight_calibrate_file(
         The VNIR image (raw geometry; its header's binning, ``x start`` and times).
     navigation : path
         SBET, navigation CSV, Specim ``.nav`` or HySpex navigation text.
-    reference : path, optional
-        Orthophoto with its CRS (automatic tie points).
-    gcps : path, optional
-        GCPs on the VNIR image: CSV ``pixel,line,x,y`` or QGIS ``.points`` (any CRS).
     swir : path, optional
         The SWIR image on the VNIR's pixel grid: its angles too.
+    ties : TieSources
+        A reference orthophoto with its CRS (automatic tie points; its band and the VNIR's
+        band, or the band nearest ``band_nm``, matched) and/or GCPs on the VNIR image (CSV
+        ``pixel,line,x,y`` or QGIS ``.points``, any CRS; ``gcp_crs`` when their file names
+        none).
     output : path
         JSON report: each sensor's angles with standard errors, the clock offset, the tie
         points used and rejected, residual RMS and p90 in pixels and metres.
@@ -452,24 +459,18 @@ def boresight_calibrate_file(
         Residual vectors (GeoPackage or GeoJSON).
     plot : path, optional
         Residual plot (PNG).
-    sensor_model, fov, line_times, lever_arm
-        The VNIR's geometry, as ``direct-georeference`` takes it.
-    boresight : three numbers, optional
-        The VNIR's starting angles (roll, pitch, heading, degrees).
-    swir_sensor_model, swir_fov, swir_line_times, swir_lever_arm, swir_boresight
+    geometry : SensorGeometry
+        The VNIR's geometry, as ``direct-georeference`` takes it; its ``boresight``, the
+        starting angles (roll, pitch, heading, degrees).
+    swir_geometry : SensorGeometry
         The SWIR's (its line times default to its header's, else the VNIR's).
     time_offset : float
         Seconds added to the line times (held, or the start when estimated).
-    estimate_time_offset : bool
-        Also estimate the clock offset (one for the line, shared by both sensors' runs).
-    dem, height, dem_vertical_crs
-        The DEM (or a constant ellipsoidal height), as ``direct-georeference`` takes them.
-    gcp_crs : str, optional
-        CRS of the GCPs when their file names none.
-    band, band_nm, reference_band
-        The VNIR band (or the band nearest ``band_nm``) and orthophoto band matched.
-    loss : {"soft_l1", "huber", "linear", "cauchy"}
-        Robust loss of the least squares.
+    terrain : Terrain
+        The DEM (or a constant ellipsoidal height), as ``direct-georeference`` takes it.
+    fit : BoresightFit
+        The robust loss of the least squares, and whether the clock offset is estimated
+        too (one for the line, shared by both sensors' runs).
     matching : TieMatching
         The matcher's detector, RANSAC model, block lines, largest shift and seed (as
         ``auto-georeference``); its acceptance test (``min_inliers``, ``max_rmse_px``) does
@@ -487,15 +488,20 @@ def boresight_calibrate_file(
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
     Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§2, Eq. 1–2).
     """
-    _check_choices(reference, gcps, dem, height)
+    _check_choices(ties)
+    terrain.check()
+    reference, height = ties.reference, terrain.height
     nav = nio.read_navigation(navigation)
-    v = _Sensor(vnir, nav, navigation, sensor_model, fov, line_times, lever_arm, boresight)
+    v = _Sensor(vnir, nav, navigation, geometry)
     nav.check_covers(v.times + time_offset, "the VNIR line times (with the time offset)")
     if swir is not None:
-        geometry = (swir_sensor_model, swir_fov, swir_line_times, swir_lever_arm, swir_boresight)
-        s = _swir_sensor(swir, nav, navigation, v, geometry)
-    ref_crs = _ground_crs(reference, gcps, gcp_crs)
-    surface = _dem_window(v, dem, dem_vertical_crs, time_offset) if dem is not None else None
+        s = _swir_sensor(swir, nav, navigation, v, swir_geometry)
+    ref_crs = _ground_crs(reference, ties.gcps, ties.gcp_crs)
+    surface = (
+        _dem_window(v, terrain.dem, terrain.dem_vertical_crs, time_offset)
+        if terrain.dem is not None
+        else None
+    )
     if ref_crs is None:
         ref_crs = surface.crs
     project_ref = tie_point_ground(
@@ -505,18 +511,12 @@ def boresight_calibrate_file(
         np.array([v.width / 2]), np.array([v.lines / 2])
     )
     crs = metric_crs(gio.parse_crs(str(ref_crs.to_wkt())), *centre)
-    image, valid = _band(vnir, band, "VNIR") if reference else (None, None)
+    image, valid = _band(vnir, ties.band, "VNIR") if reference else (None, None)
     pl, xy, source, info = _vnir_ties(
-        v,
-        project_ref,
-        ref_crs,
-        crs,
-        image,
-        valid,
-        (reference, reference_band, gcps, gcp_crs, matching, time_offset, progress),
+        v, project_ref, ref_crs, crs, image, valid, (ties, matching, time_offset, progress)
     )
     progress.update(0.5, "solving the VNIR's angles")
-    solve = {"time_offset": time_offset, "estimate": estimate_time_offset, "loss": loss}
+    solve = {"time_offset": time_offset, "estimate": fit.estimate_time_offset, "loss": fit.loss}
     sensors = {"VNIR": (_solve("VNIR", v, surface, height, crs, pl, xy, **solve), pl, xy, source)}
     if swir is not None:
         progress.update(0.7, "matching the VNIR and the SWIR")
