@@ -34,18 +34,15 @@ def dem_overview(path, *, rows: int = 512):
     """(low, high, bounds, crs) of the DEM at ``path``: its lowest and highest heights (read
     ``rows`` rows at a time), padded by one fiftieth of the range and a metre, and its
     bounds."""
-    import rasterio
     from rasterio.windows import Window
+
+    from .image import open_raster
 
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise InputError(f"DEM {path} does not exist: check the path")
-    try:
-        src = rasterio.open(path)
-    except rasterio.errors.RasterioIOError as exc:
-        raise InputError(f"DEM {path} cannot be read as a raster ({exc})") from None
     lo, hi = np.inf, -np.inf
-    with src:
+    with open_raster(path, "DEM") as src:
         crs = _check_crs(src.crs, path)
         for r0 in range(0, src.height, rows):
             win = Window(0, r0, src.width, min(rows, src.height - r0))
@@ -63,11 +60,12 @@ def read_surface(path, *, bounds=None, vertical_crs=None) -> Surface:
     """The DEM at ``path`` as a :class:`Surface` (float64, no data as NaN), only the window
     covering ``bounds`` (left, bottom, right, top in its CRS) plus two cells; heights above
     the geoid of ``vertical_crs`` (e.g. ``EPSG:5773``, EGM96) converted to ellipsoidal."""
-    import rasterio
     from rasterio.windows import Window, from_bounds
 
+    from .image import open_raster
+
     path = os.fspath(path)
-    with rasterio.open(path) as src:
+    with open_raster(path, "DEM") as src:
         crs = _check_crs(src.crs, path)
         if bounds is None:
             win = Window(0, 0, src.width, src.height)
