@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import json
 import os
 import subprocess
 import sys
@@ -88,7 +89,47 @@ def make_inputs(d: Path) -> Path:
         f"# CRS: {UTM36}\npixel,line,x,y\n"
         + "".join(f"{p},{q},{700000 + 2 * p},{3500000 - 2 * q}\n" for p, q in gcp)
     )
+    _flight(d)
     return d
+
+
+def _flight(d: Path) -> None:
+    """The sample flight's navigation and DEM, with line times and a sensor model for the
+    catalogue's image (its first lines; the model's middle pixels), for direct georeferencing
+    and boresight calibration."""
+    flight = Path(__file__).resolve().parents[1] / "sample_data" / "scene" / "flight"
+    (d / "flight.out").write_bytes((flight / "flight.out").read_bytes())
+    (d / "flight_dem.tif").write_bytes((flight / "dem.tif").read_bytes())
+    times = (flight / "line_times.txt").read_text().splitlines()[:ROWS]
+    (d / "line_times.txt").write_text("\n".join(times) + "\n")
+    header, *rows = (flight / "vnir_model.csv").read_text().splitlines()
+    first = (len(rows) - COLS) // 2
+    middle = [f"{i},{row.split(',', 1)[1]}" for i, row in enumerate(rows[first : first + COLS])]
+    (d / "vnir_model.csv").write_text("\n".join([header, *middle]) + "\n")
+    _flight_gcps(d, json.loads((flight / "flight.json").read_text()))
+
+
+def _flight_gcps(d: Path, known: dict) -> None:
+    """GCPs on the catalogue's image where the flight's true VNIR angles put its pixels."""
+    import rasterio
+
+    from geoboresight.io.navigation import read_navigation, read_sensor_model
+    from geoboresight.sensor.boresight import LeverArm
+    from geoboresight.sensor.calibrate import tie_point_ground
+    from geoboresight.sensor.georeference import Surface
+
+    with rasterio.open(d / "flight_dem.tif") as src:
+        dem = Surface(src.read(1).astype("float64"), src.transform, src.crs.to_wkt())
+    times = np.loadtxt(d / "line_times.txt")
+    model = read_sensor_model(str(d / "vnir_model.csv"))
+    lever = LeverArm(*known["lever_arm_m"]["vnir"])
+    project = tie_point_ground(read_navigation(str(d / "flight.out")), times, model, lever, dem)
+    pl = np.array([(p, q) for p in (2.5, 15.0, 27.5) for q in (3.5, 20.0, 36.5)])
+    xy = project(known["boresight_deg"]["vnir"], 0.0, pl)
+    (d / "flight_gcps.csv").write_text(
+        f"# CRS: {known['crs']}\npixel,line,x,y\n"
+        + "".join(f"{p},{q},{x:.4f},{y:.4f}\n" for (p, q), (x, y) in zip(pl, xy, strict=True))
+    )
 
 
 def _specim_capture(d: Path) -> None:

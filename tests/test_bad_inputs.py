@@ -53,9 +53,20 @@ FIXTURES = {
     "shadow_fraction.tif": "truth.tif",
     "capture.hdr": "specim_capture.hdr",
     "calibration.cal": "specim_calibration.cal",
+    "line_vnir.hdr": "v.img",
+    "line.out": "flight.out",
+    "line_times.txt": "line_times.txt",
+    "vnir_model.csv": "vnir_model.csv",
 }
 #: Where the catalogue's inputs differ from the example's for one operation.
-OVERRIDES = {("reproject-to", "reference"): "truth37.tif", ("geolocate", "igm_crs"): UTM36}
+OVERRIDES = {
+    ("reproject-to", "reference"): "truth37.tif",
+    ("geolocate", "igm_crs"): UTM36,
+    # the sample flight's DEM, under the flight (the catalogue's own DEM has no CRS)
+    ("direct-georeference", "dem"): "flight_dem.tif",
+    ("boresight-calibrate", "dem"): "flight_dem.tif",
+    ("boresight-calibrate", "gcps"): "flight_gcps.csv",
+}
 
 
 def _base(alg) -> dict[str, str]:
@@ -66,6 +77,8 @@ def _base(alg) -> dict[str, str]:
         p = alg.param(name)
         if p.is_output:
             base[name] = f"out.{p.extension}" if p.extension else "outdir"
+        elif isinstance(value, list | tuple):  # three numbers: words after one option
+            base[name] = " ".join(f"{v:g}" for v in value)
         else:
             base[name] = OVERRIDES.get((alg.name, name), FIXTURES.get(value, value))
     return base
@@ -102,7 +115,8 @@ def _argv(op: str, args: dict[str, str], d: Path, ro: Path | None, extra) -> lis
         p = alg.param(name)
         if p.kind in _FILE_KINDS or p.is_output:
             value = value if value.startswith("/") else str(d / value)
-        argv += ["--" + name.replace("_", "-"), value]
+        words = value.split() if p.kind == "numbers" else [value]
+        argv += ["--" + name.replace("_", "-"), *words]
     return argv + list(extra)
 
 
