@@ -80,9 +80,11 @@ import numpy as np
 intersect.march(np.zeros((1, 3, 3)), np.zeros((2, 2)))
 t_call = time.perf_counter()
 gb.direct_georeference_file(
-    "{f}/line.bil", "{f}/line.out", output="{f}/igm{ext}", sensor_model="{f}/model.csv",
-    line_times="{f}/times.txt", boresight=gb.Boresight(0.4, -0.3, 0.5),
-    lever_arm=gb.LeverArm(0.3, -0.1, 0.3), dem="{f}/dem.tif", overwrite=True)
+    "{f}/line.bil", "{f}/line.out", output="{f}/igm{ext}",
+    geometry=gb.SensorGeometry(sensor_model="{f}/model.csv", line_times="{f}/times.txt",
+                               boresight=gb.Boresight(0.4, -0.3, 0.5),
+                               lever_arm=gb.LeverArm(0.3, -0.1, 0.3)),
+    terrain=gb.Terrain(dem="{f}/dem.tif"), overwrite=True)
 extra["call_seconds"] = time.perf_counter() - t_call
 """
 
