@@ -173,7 +173,9 @@ def test_the_flagged_bands_are_those_the_true_noise_does_not_resolve(model, tmp_
     has = (cube != -9999.0).all(axis=0)  # the SWIR's edge beyond the offset has no data
     kept = shaded & has
     np.testing.assert_allclose(cube[~resolved][:, kept], x[~resolved][:, kept], atol=1e-3)
-    assert (cube[resolved][:, deep & has].mean() > x[resolved][:, deep & has].mean()) and resolved.any()
+    assert (
+        cube[resolved][:, deep & has].mean() > x[resolved][:, deep & has].mean()
+    ) and resolved.any()
     assert [t["resolved_in_shadow"] == "yes" for t in tags] == resolved.tolist()
     with rasterio.open(mask) as src:
         m = src.read(1)
