@@ -95,7 +95,9 @@ SECTIONS = (
         ("--dsm", "--set", "quick"),
         "`deshadow` with the truth fraction and with `shadow-map --dsm`'s, each without and "
         "with the surface model (the noisy DSM). Per material with ≥ 20 fully shadowed and "
-        "≥ 20 sunlit pixels: worst spectral angle / brightness error, against the material's "
+        "≥ 20 sunlit pixels: worst spectral angle / brightness error over the bands whose "
+        "signal in full shadow is at least 3 × its noise there (the others are flagged and left "
+        "as measured; the last column counts them, VNIR+SWIR), against the material's "
         "sunlit pixels and against each pixel's own sunlit signal (the scene simulated "
         'without cast shadows); "a perfect de-shadowing" is that sunlit twin checked '
         "against the sunlit pixels. Goal: every material within 5° and 10 %.",
