@@ -409,7 +409,15 @@ def fit_illumination(
     sky = (pv[0], pv[1]) if surface else None
     direct = pv[2] if surface else None
     keep = deshadow.KEEP_WITH_SURFACE if surface else deshadow.KEEP
-    k, n_pairs, spread = deshadow.illumination_ratio(a, b, sky_view=sky, keep=keep)
+    # The pairs that agree are chosen on the bands the noise resolves in shadow: the others
+    # would only add their noise to each pair's disagreement (and keep ratio 1 anyway).
+    cols = _resolved(pairs, np.zeros(len(wl)), min_snr)[2]
+    if cols.sum() < 2:
+        cols = np.ones(len(wl), bool)
+    k = np.ones(len(wl))
+    k[cols], n_pairs, spread = deshadow.illumination_ratio(
+        a[:, cols], b[:, cols], sky_view=sky, keep=keep
+    )
     c, c_err = np.zeros(len(wl)), np.full(len(wl), np.inf)
     c_line, e_line, dark_obj, n_one = c, c_err, np.full(len(wl), np.nan), 0
     if additive:
