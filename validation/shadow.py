@@ -398,7 +398,7 @@ def write_tif(path, array):
         dst.write(array.astype("float32"), 1)
 
 
-def spectra_check(cube_path, dark, f_truth, material, names, twin=None):
+def spectra_check(cube_path, dark, f_truth, material, names, twin=None, resolved=None):
     """Per material: the mean de-shadowed spectrum of fully shadowed pixels (truth fraction
     1, one pixel inside the shadow) against the mean spectrum of its sunlit pixels (truth 0,
     two pixels away from any shadow): spectral angle (°) and brightness ratio − 1 (over the
@@ -406,7 +406,8 @@ def spectra_check(cube_path, dark, f_truth, material, names, twin=None):
 
     ``twin`` (signal above the dark level, lit mask) from :func:`sunlit_twin`: the reference
     is instead each shadowed pixel's own sunlit signal (its twin's), on the same pixels; pass
-    the true dark levels then."""
+    the true dark levels then. ``resolved``: the bands de-shadowing resolves in shadow (the
+    others are flagged and left as measured, and not checked)."""
     with quiet_georef(), rasterio.open(cube_path) as src:
         raw = src.read().astype(np.float64)
         nodata = src.nodata
@@ -415,10 +416,10 @@ def spectra_check(cube_path, dark, f_truth, material, names, twin=None):
     has = np.isfinite(raw).all(axis=0)
     if nodata is not None:
         has &= (raw != nodata).all(axis=0)
-    return material_errors(x, has, f_truth, material, names, twin)
+    return material_errors(x, has, f_truth, material, names, twin, resolved)
 
 
-def material_errors(x, has, f_truth, material, names, twin=None):
+def material_errors(x, has, f_truth, material, names, twin=None, resolved=None):
     """:func:`spectra_check` on a signal cube ``x`` (bands, rows, cols) above the dark level."""
     full = ndimage.binary_erosion(f_truth >= 0.999) & has
     sun = ~ndimage.binary_dilation(f_truth > 0.0, iterations=2) & has
@@ -433,6 +434,8 @@ def material_errors(x, has, f_truth, material, names, twin=None):
         ma = x[:, a].mean(axis=1)
         mb = x[:, b].mean(axis=1) if twin is None else twin[0][:, a].mean(axis=1)
         use = mb >= 0.02 * mb.max()
+        if resolved is not None:
+            use &= np.asarray(resolved, bool)
         cos = np.dot(ma[use], mb[use]) / np.linalg.norm(ma[use]) / np.linalg.norm(mb[use])
         angle = float(np.degrees(np.arccos(np.clip(cos, -1, 1))))
         out[name] = (angle, float(ma[use].mean() / mb[use].mean() - 1), int(a.sum()))
@@ -550,6 +553,7 @@ def run_dsm_case(
     dark_true = true_dark(model, opts, folder)
     if dark_reference:
         write_dark_reference(folder, dark_true)
+    n_vnir = len(dark_true[0])
     dark_true = np.concatenate(dark_true)
     if deshadow:
         # The reference a perfect de-shadowing reaches: each shadowed pixel's own sunlit
@@ -583,12 +587,23 @@ def run_dsm_case(
             row[key] = row[key + "_own"] = {"error": str(e)}
             continue
         with open(j(f"ds_{key}.json")) as fh:
-            dark = [b["dark_level_dn"] for b in json.load(fh)["bands"]]
-        row[key] = spectra_check(out, dark, f, material, names)
-        row[key + "_own"] = spectra_check(out, dark_true, f, material, names, twin=twin)
+            bands = json.load(fh)["bands"]
+        dark = [b["dark_level_dn"] for b in bands]
+        ok = [b["resolved_in_shadow"] for b in bands]
+        row[key] = spectra_check(out, dark, f, material, names, resolved=ok)
+        row[key + "_own"] = spectra_check(
+            out, dark_true, f, material, names, twin=twin, resolved=ok
+        )
+        row[key + "_flagged"] = _flagged(bands, n_vnir)
         row[key + "_pairs"] = r["pairs_used"]
     row["seconds"] = time.perf_counter() - t0
     return row
+
+
+def _flagged(bands, n_vnir) -> str:
+    """The bands left as measured (unresolved in shadow), VNIR + SWIR, as ``"v+s"``."""
+    low = [not b["resolved_in_shadow"] for b in bands]
+    return f"{sum(low[:n_vnir])}+{sum(low[n_vnir:])}"
 
 
 def _worst(d):
@@ -611,8 +626,9 @@ def dsm_table(rows) -> str:
         "deshadow with the DSM, truth f | deshadow with the DSM, map f | "
         "with the DSM, map f, by material (SA / brightness) | against each pixel's own sunlit "
         "signal: truth f / map f / DSM truth f / DSM map f | a perfect de-shadowing, checked "
-        "against the sunlit pixels |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "against the sunlit pixels | bands left as measured, VNIR+SWIR: truth f / map f / DSM "
+        "truth f / DSM map f |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         t, m = _worst(r["truth"]), _worst(r["mapf"])
@@ -626,7 +642,9 @@ def dsm_table(rows) -> str:
             f"({r['shift'][0]:+.2f}, {r['shift'][1]:+.2f}) | {t[0]} / {t[1]} | {m[0]} / {m[1]} "
             f"| {td[0]} / {td[1]} | {md[0]} / {md[1]} | {md[2]} | "
             + " · ".join("{} / {}".format(*_worst(r.get(k + "_own", {}))[:2]) for k in DESHADOW)
-            + " | {} / {} |".format(*_worst(r.get("floor", {}))[:2])
+            + " | {} / {} | ".format(*_worst(r.get("floor", {}))[:2])
+            + " · ".join(r.get(k + "_flagged", "–") for k in DESHADOW)
+            + " |"
         )
     if any("floor" in r for r in rows):
         out += ["", goal_counts(rows)]

@@ -48,6 +48,11 @@ DESHADOW = Algorithm(
         Result(
             "bands_unchanged", "number", "Bands left as they are (no illumination ratio measured)"
         ),
+        Result(
+            "bands_unresolved",
+            "number",
+            "Bands left as measured: their signal in full shadow below 3 × its noise there",
+        ),
         Result("offset_along_px", "number", "Offset along track (pixels)"),
         Result("offset_across_px", "number", "Offset across track (pixels)"),
     ),
@@ -74,7 +79,10 @@ DESHADOW = Algorithm(
         "the correction scales the signal above the dark level, which is added back, so "
         "pixels out of shadow keep their values. Output: a float cube (VNIR bands then SWIR "
         "bands, wavelengths in the band descriptions and tags), the ratio of each band in the "
-        "tags and the optional JSON report. Validated on two scene models (docs/deshadow.md); "
+        "tags and the optional JSON report. A band whose signal in full shadow is below 3 × its "
+        "noise there (measured on neighbouring shadowed pixels) cannot be recovered: it is left "
+        "as measured, not amplified, and flagged in the band tags, the report and the optional "
+        "mask. Validated on two scene models (docs/deshadow.md); "
         "without a surface model one ratio per scene: shadow lit by sunlit walls or under "
         "little sky is under- or over-corrected."
     ),
@@ -107,6 +115,13 @@ DESHADOW = Algorithm(
         BLOCK_ROWS,
         RasterOut(
             name="output", label="De-shadowed", description="De-shadowed cube (float32, all bands)"
+        ),
+        RasterOut(
+            name="unresolved",
+            label="Bands left as measured",
+            description="Byte mask: 1 where a shadowed pixel holds bands left as measured (their "
+            "signal in full shadow below 3 × its noise, named in the band tags), 0 elsewhere",
+            optional=True,
         ),
         FileOut(
             name="report",

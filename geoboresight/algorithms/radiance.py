@@ -16,6 +16,7 @@ RADIANCE = Algorithm(
         Result("bands", "number", "Bands written"),
         Result("lines", "number", "Image lines written"),
         Result("valid_fraction", "number", "Fraction of values that are radiance (not nodata)"),
+        Result("units", "string", "Units of the radiance written"),
     ),
     display_name="Radiance from raw DN",
     group="Boresight ratio and statistics",

@@ -23,8 +23,9 @@ from ..io.bands import BoresightOffset
 from ..io.checks import check_fraction, check_fraction_nodata, no_valid_error
 from ..io.dual import DualLayout
 from ..sensor.dark import DarkLevels
-from ..shadow.deshadow import ADJACENCY_M, DISTANCES, POOR_SPREAD
+from ..shadow.deshadow import ADJACENCY_M, DISTANCES, MIN_SHADOW_SNR, POOR_SPREAD
 from ..shadow.deshadow_steps import (
+    NOISE_PIXELS,
     EdgePairs,
     deshadow_block,
     edge_pairs,
@@ -65,6 +66,7 @@ def deshadow_file(
     shadow,
     output,
     report=None,
+    unresolved=None,
     surface=SurfaceModel(),
     layout=DualLayout(),
     dark=DarkLevels(),
@@ -96,7 +98,16 @@ def deshadow_file(
         Float32 GeoTIFF, VNIR bands then SWIR bands, wavelengths in the band descriptions and
         tags.
     report : path, optional
-        JSON: the illumination ratio and factor at full shadow of each band, the pairs used.
+        JSON: the illumination ratio and factor at full shadow of each band, its signal and
+        noise in full shadow and whether they resolve it, the pairs used.
+    unresolved : path, optional
+        Byte mask on the image's grid: 1 where a shadowed pixel (fraction above 0) holds bands
+        left as measured because the noise does not resolve their signal in shadow, 0
+        elsewhere, 255 nodata. A band is resolved when its median signal in full shadow is at
+        least :data:`~geoboresight.shadow.deshadow.MIN_SHADOW_SNR` × its noise there
+        (neighbouring shadowed pixels' differences,
+        :func:`geoboresight.shadow.deshadow.shadow_noise`); the others keep ratio 1 and are
+        named in the band tags (``resolved_in_shadow``) and the report.
     surface : SurfaceModel
         A surface model on the image's grid and the sun (as ``shadow-map --dsm``): pairs are
         kept only down-sun or lateral of the shadow and between cells of about the same
@@ -186,10 +197,24 @@ def deshadow_file(
         # Pass 2: the de-shadowed cube, each instrument on its own grid.
         tags = _cube_tags(dual, shadow, surface, prior, wl, fit, levels, adjacency, along, across)
         n_corrected = _write_cube(
-            read, output, dual, tags, fit, levels, (along, across), adj_half, strips, progress
-        )
+            read, (output, unresolved), dual, tags, fit, levels, (along, across), adj_half,
+            strips, progress
+        )  # fmt: skip
+    result = _result(output, edges, fit, n_corrected, (along, across), warnings)
+    if report:
+        io.write_json(report, _report(result, wl, fit, levels))
+        result["report"] = report
+    if unresolved:
+        result["unresolved"] = unresolved
+    for w in warnings:
+        progress.info(f"warning: {w}")
+    return result
+
+
+def _result(output, edges, fit, n_corrected, offset, warnings) -> dict:
+    """The operation's result: the output, the pairs, the ratio's range, the bands left."""
     k = fit.ratio
-    result = {
+    return {
         "output": output,
         "pairs": int(edges.shaded.shape[0]),
         "pairs_used": fit.pairs_used,
@@ -198,16 +223,11 @@ def deshadow_file(
         "ratio_max": round(float(np.nanmax(k)), 4),
         "shadowed_pixels": n_corrected,
         "bands_unchanged": fit.unchanged,
-        "offset_along_px": round(along, 3),
-        "offset_across_px": round(across, 3),
+        "bands_unresolved": fit.unresolved,
+        "offset_along_px": round(offset[0], 3),
+        "offset_across_px": round(offset[1], 3),
         "warnings": warnings,
     }
-    if report:
-        io.write_json(report, _report(result, wl, fit, levels))
-        result["report"] = report
-    for w in warnings:
-        progress.info(f"warning: {w}")
-    return result
 
 
 def _gather_pairs(read, dual, levels, prior, offset, adj_half, strips, progress):
@@ -217,6 +237,7 @@ def _gather_pairs(read, dual, levels, prior, offset, adj_half, strips, progress)
     nv = len(dual.vnir.bands)
     lv = levels[:, None, None]
     share = pair_share((dual.height, dual.width))
+    quiet_share = pair_share((dual.height, dual.width), NOISE_PIXELS)
     adj_size = 2 * adj_half + 1 if adj_half else 0
 
     def pairs(x, x_ok, f, z, v, block):
@@ -234,6 +255,7 @@ def _gather_pairs(read, dual, levels, prior, offset, adj_half, strips, progress)
             offset=offset,
             surface_prior=prior,
             adjacency_size=adj_size,
+            quiet=picked_pixels(block.row0, f.shape, quiet_share),
         )
 
     shift_halo = math.ceil(abs(offset[0])) + 2
@@ -250,10 +272,12 @@ def _gather_pairs(read, dual, levels, prior, offset, adj_half, strips, progress)
     )
 
 
-def _write_cube(read, output, dual, tags, fit, levels, offset, adj_half, strips, progress):
+def _write_cube(read, outputs, dual, tags, fit, levels, offset, adj_half, strips, progress):
     """Pass 2: the de-shadowed cube written strip by strip
-    (:func:`geoboresight.shadow.deshadow_steps.deshadow_block`); the shadowed pixels
+    (:func:`geoboresight.shadow.deshadow_steps.deshadow_block`), and the mask of shadowed
+    pixels with bands left as measured when ``outputs`` names one; the shadowed pixels
     corrected."""
+    output, unresolved = outputs
     nv = len(dual.vnir.bands)
     wl = np.concatenate([dual.vnir.wavelengths, dual.swir.wavelengths]).astype(float)
     base = levels[:, None, None] + fit.additive[:, None, None]
@@ -270,13 +294,31 @@ def _write_cube(read, output, dual, tags, fit, levels, offset, adj_half, strips,
             "wavelength": f"{w:.2f}",
             "wavelength_units": "Nanometers",
             "illumination_ratio": f"{k:.4f}",
+            "resolved_in_shadow": "yes" if ok else "no",
+            "shadow_snr": f"{snr:.2f}" if np.isfinite(snr) else "unknown",
         }
-        for w, k in zip(wl, fit.ratio, strict=True)
+        for w, k, ok, snr in zip(wl, fit.ratio, _resolved(fit), _snr(fit), strict=True)
     ]
+    flagged = fit.unresolved > 0
     n_corrected = 0
-    with io.create_raster(
-        output, dual.grid, count=len(wl), tags=tags, band_names=names, band_tags=band_tags
-    ) as out:
+    with contextlib.ExitStack() as stack:
+        out = stack.enter_context(
+            io.create_raster(
+                output, dual.grid, count=len(wl), tags=tags, band_names=names, band_tags=band_tags
+            )
+        )
+        mask = None
+        if unresolved:
+            mask = stack.enter_context(
+                io.create_raster(
+                    unresolved,
+                    dual.grid,
+                    dtype="uint8",
+                    nodata=255,
+                    tags=_mask_tags(wl, fit),
+                    band_names=["shadowed pixel with bands left as measured"],
+                )
+            )
         for win, (cube, n) in io.map_windows(
             read,
             kernel,
@@ -286,8 +328,36 @@ def _write_cube(read, output, dual, tags, fit, levels, offset, adj_half, strips,
             **strips,
         ):
             out.write(np.where(np.isfinite(cube), cube, io.FLOAT_NODATA), window=win)
+            if mask is not None:
+                m = np.where(np.isfinite(cube[0]), (n & flagged).astype(np.uint8), 255)
+                mask.write(m.astype(np.uint8)[None], window=win)
             n_corrected += int(n.sum())
     return n_corrected
+
+
+def _resolved(fit) -> np.ndarray:
+    """Whether each band is de-shadowed (all of them when the noise was not measured)."""
+    return np.ones(fit.ratio.size, bool) if fit.resolved is None else fit.resolved
+
+
+def _snr(fit) -> np.ndarray:
+    """Each band's signal-to-noise ratio in full shadow (NaN unknown)."""
+    if fit.shadow_noise is None:
+        return np.full(fit.ratio.size, np.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return fit.shadow_signal / fit.shadow_noise
+
+
+def _mask_tags(wl, fit) -> dict:
+    """The tags of the mask of shadowed pixels with bands left as measured."""
+    low = ~_resolved(fit)
+    return {
+        "product": "1: shadowed pixel (fraction above 0) whose bands named in "
+        "unresolved_wavelength are left as measured (signal in full shadow below "
+        f"{MIN_SHADOW_SNR:g} × its noise); 0: every band de-shadowed or not shadowed; 255 nodata",
+        "unresolved_wavelength": "{" + ", ".join(f"{w:.2f}" for w in wl[low]) + "}",
+        "wavelength_units": "Nanometers",
+    }
 
 
 def _open_fraction(shadow, dual, stack):
@@ -371,6 +441,11 @@ def _log_fit(fit, edges, additive, adjacency, warnings, progress) -> None:
         )
     if fit.unchanged:
         progress.info(f"{fit.unchanged} band(s) left unchanged (no ratio above 1 measured)")
+    if fit.unresolved:
+        progress.info(
+            f"{fit.unresolved} band(s) left as measured: their signal in full shadow is below "
+            f"{MIN_SHADOW_SNR:g} × its noise there"
+        )
     progress.info(
         f"illumination ratio (sunlit / shadow) from {fit.pairs_used} of "
         f"{edges.shaded.shape[0]} pairs across shadow edges: {np.nanmin(k):.2f}–"
@@ -406,6 +481,8 @@ def _cube_tags(dual, shadow, surface, prior, wl, fit, levels, adjacency, along, 
         if adjacency
         else "none",
         "pairs_used": str(fit.pairs_used),
+        "unresolved_wavelength": "{" + ", ".join(f"{w:.2f}" for w in wl[~_resolved(fit)]) + "}",
+        "min_shadow_snr": f"{MIN_SHADOW_SNR:g}",
         "offset_along_px": f"{along:.3f}",
         "offset_across_px": f"{across:.3f}",
     }
@@ -427,8 +504,11 @@ def _report(result, wl, fit, levels) -> dict:
                 "additive_signal_line_error_dn": fin(el, np.isfinite(el)),
                 "dark_object_dn": fin(do, np.isfinite(do)),
                 "adjacency_share": float(et),
+                "shadow_signal_dn": fin(ss, np.isfinite(ss)),
+                "shadow_noise_dn": fin(sn, np.isfinite(sn)),
+                "resolved_in_shadow": bool(ok),
             }
-            for w, kk, lvl, cc, ce, cl, el, do, et in zip(
+            for w, kk, lvl, cc, ce, cl, el, do, et, ss, sn, ok in zip(
                 wl,
                 fit.ratio,
                 levels,
@@ -438,9 +518,16 @@ def _report(result, wl, fit, levels) -> dict:
                 fit.line_error,
                 fit.dark_object,
                 fit.adjacency_share,
+                _or_nan(fit.shadow_signal, wl.size),
+                _or_nan(fit.shadow_noise, wl.size),
+                _resolved(fit),
                 strict=True,
             )
         ],
         "formula": "L_sun = L / (1 - f * (1 - 1/k)), L = DN - dark level - additive "
         "signal (both added back)",
     }
+
+
+def _or_nan(x, n: int) -> np.ndarray:
+    return np.full(n, np.nan) if x is None else x

@@ -100,6 +100,17 @@ ADJACENCY_M = 15.0
 #: 0–1 (:func:`adjacency_ratio`), then refined.
 ADJACENCY_GRID = np.linspace(0.0, 1.0, 26)
 
+#: A band's shadowed signal is resolved when it is at least this many times its noise (σ) in
+#: the shadow: a 3σ detection, the signal told from zero at 99.9 % (one-sided, normal noise).
+#: Below it the sunlit signal cannot be recovered: the band is flagged and left as measured,
+#: since scaling it by the ratio would amplify noise and the dark level's error.
+MIN_SHADOW_SNR = 3.0
+#: Fewest pairs of neighbouring, fully shadowed pixels that measure a band's noise in shadow;
+#: with fewer, no band is flagged.
+MIN_NOISE_PIXELS = 30
+#: The median absolute deviation's factor to a normal distribution's standard deviation.
+MAD_TO_SIGMA = 1.4826
+
 _DIRECTIONS = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
 
 
@@ -711,3 +722,67 @@ def deshadow(
     out = (x * g).astype(np.float32)
     out[:, ~ok] = np.nan
     return out
+
+
+def shadow_noise(
+    level: np.ndarray, step: np.ndarray, min_pixels: int = MIN_NOISE_PIXELS
+) -> tuple[np.ndarray, np.ndarray]:
+    """The signal and the noise of each band in full shadow, from neighbouring shadowed pixels.
+
+    Two neighbours of one surface differ by their noise alone, ``Var(Δ) = 2σ²``, so the
+    noise is the robust spread of their differences, ``σ = 1.4826·median|Δ| / √2`` (texture
+    and the odd edge in the sample only raise it: a band is then flagged sooner, never
+    amplified). Measured in shadow, it is the noise at the shadow's own signal (photon noise
+    grows with the signal).
+
+    Parameters
+    ----------
+    level : array (pixels, bands)
+        The mean signal (above the dark level) of each pair of neighbours.
+    step : array (pixels, bands)
+        Their difference.
+    min_pixels : int
+        Fewest pairs; with fewer, the noise is NaN.
+
+    Returns
+    -------
+    (signal, noise) : arrays (bands,)
+        The median shadowed signal and σ; NaN where fewer than ``min_pixels`` pairs are finite.
+
+    References
+    ----------
+    Gao, B.-C. An operational method for estimating signal to noise ratios from data acquired
+    with imaging spectrometers. Remote Sens. Environ. 1993, 43, 23–33 (local differences).
+    Rousseeuw, P.J.; Croux, C. Alternatives to the median absolute deviation. J. Am. Stat.
+    Assoc. 1993, 88, 1273–1283 (the MAD's normal consistency factor).
+    """
+    lv = np.asarray(level, np.float64)
+    st = np.asarray(step, np.float64)
+    if lv.shape != st.shape or lv.ndim != 2:
+        raise InputError(f"levels of shape {lv.shape} for steps of shape {st.shape}")
+    n = np.isfinite(lv).sum(axis=0)
+    enough = n >= max(int(min_pixels), 1)
+    sig = np.full(lv.shape[1], np.nan)
+    noise = np.full(lv.shape[1], np.nan)
+    if enough.any():
+        # Columns with enough finite pairs: no all-NaN slice.
+        sig[enough] = np.nanmedian(lv[:, enough], axis=0)
+        mad = np.nanmedian(np.abs(st[:, enough]), axis=0)
+        noise[enough] = MAD_TO_SIGMA * mad / np.sqrt(2.0)
+    return sig, noise
+
+
+def resolved_bands(
+    signal: np.ndarray, noise: np.ndarray, min_snr: float = MIN_SHADOW_SNR
+) -> np.ndarray:
+    """Bands whose shadowed ``signal`` is at least ``min_snr`` × its ``noise``
+    (:func:`shadow_noise`); a band whose noise is unknown (NaN) counts as resolved (nothing
+    says otherwise), a band without noise (0) as resolved when its signal is above 0."""
+    s = np.asarray(signal, np.float64)
+    e = np.asarray(noise, np.float64)
+    if not min_snr > 0:
+        raise ParameterError(f"parameter 'min_snr': {min_snr} must be above 0")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        low = np.isfinite(e) & (np.nan_to_num(s, nan=-np.inf) < min_snr * e)
+        low |= np.isfinite(e) & (e == 0) & ~(s > 0)
+    return ~low

@@ -34,6 +34,9 @@ PAIR_PIXELS = 250_000
 PAIR_HASH = (73856093, 19349663)
 #: Buckets of that hash: the share is kept to a thousandth.
 PAIR_BUCKETS = 1000
+#: Pixels of a flight line looked at for the noise in shadow (:func:`shadow_steps`): the
+#: fully shadowed ones among them, a few thousand, give each band's noise to a few per cent.
+NOISE_PIXELS = 40_000
 
 
 def pair_share(shape: tuple[int, int], pixels: int = PAIR_PIXELS) -> int:
@@ -129,6 +132,10 @@ class EdgePairs(NamedTuple):
     dark_swir: np.ndarray  # (pixels, SWIR bands): the darkest SWIR pixels
     around_shaded: np.ndarray  # (pairs, bands or 0): sunlit surroundings of the shaded pixel
     around_sunlit: np.ndarray  # (pairs, bands or 0): and of the sunlit one
+    # (2, pixels, bands) of each instrument on its own grid: the mean signal and the
+    # difference of neighbouring fully shadowed pixels (:func:`shadow_steps`); None: none.
+    steps_vnir: np.ndarray | None = None
+    steps_swir: np.ndarray | None = None
 
     @classmethod
     def empty(cls, n_bands: int, n_vnir: int, adjacency: bool) -> EdgePairs:
@@ -143,6 +150,8 @@ class EdgePairs(NamedTuple):
             z(0, n_bands - n_vnir),
             z(0, n_sur),
             z(0, n_sur),
+            z(2, 0, n_vnir),
+            z(2, 0, n_bands - n_vnir),
         )
 
 
@@ -159,6 +168,7 @@ def edge_pairs(
     offset: tuple[float, float],
     surface_prior: SurfacePrior | None = None,
     adjacency_size: int = 0,
+    quiet: np.ndarray | None = None,
 ) -> EdgePairs:
     """The pairs of shadowed and sunlit pixels across the shadow edges of a block, on the
     VNIR grid, and each instrument's darkest pixels on its own grid.
@@ -191,6 +201,9 @@ def edge_pairs(
     adjacency_size : int
         Side (px) of the window of sunlit surroundings gathered for each pair
         (:func:`geoboresight.shadow.deshadow.surround_signal`); 0 = none.
+    quiet : bool array (lines, columns), optional
+        The share of the pixels looked at for the noise in shadow (:func:`shadow_steps`, on
+        each instrument's own grid, the block's own lines); None = none.
 
     Returns
     -------
@@ -202,6 +215,14 @@ def edge_pairs(
     ok = np.ones(fraction.shape, bool) if valid is None else np.asarray(valid, bool)
     dark_v = darkest_pixels(sig[:n_vnir], ok & own)
     dark_s = darkest_pixels(sig[n_vnir:], ok & own)
+    steps_v = steps_s = None
+    if quiet is not None:
+        # Each instrument's noise on its own grid, before the SWIR is resampled (which
+        # averages its noise down); the fraction moved onto the SWIR's grid.
+        look = own & np.asarray(quiet, bool)
+        steps_v = shadow_steps(sig[:n_vnir], fraction, ok, look)
+        fs = fraction_on_swir_grid(fraction, offset, np.isfinite(fraction))
+        steps_s = shadow_steps(sig[n_vnir:], fs, ok, look)
     # The SWIR bands onto the VNIR grid together (one mask): NaN where a tap is invalid.
     swir = sig[n_vnir:]
     s_ok = ok & np.isfinite(swir).all(axis=0)
@@ -236,7 +257,41 @@ def edge_pairs(
         dark_s,
         sur_a.astype(np.float32),
         sur_b.astype(np.float32),
+        steps_v,
+        steps_s,
     )
+
+
+def shadow_steps(
+    signal: np.ndarray, fraction: np.ndarray, valid: np.ndarray, look: np.ndarray
+) -> np.ndarray:
+    """Mean and difference of each fully shadowed pixel of ``look`` and its right-hand
+    neighbour, when that is fully shadowed too (fraction ≥
+    :data:`geoboresight.shadow.deshadow.FULL`, both valid and finite): the sample of
+    :func:`geoboresight.shadow.deshadow.shadow_noise`.
+
+    Parameters
+    ----------
+    signal : array (bands, lines, columns)
+        Signal above the dark level on the instrument's own grid.
+    fraction : array (lines, columns)
+        Shadow fraction on that grid (NaN unknown).
+    valid, look : bool arrays (lines, columns)
+        Valid pixels; the pixels looked at.
+
+    Returns
+    -------
+    float32 array (2, pixels, bands)
+        ``[0]`` the pair's mean signal, ``[1]`` the right one minus the left one.
+    """
+    with np.errstate(invalid="ignore"):
+        full = np.asarray(valid, bool) & (fraction >= deshadow.FULL)
+    full &= np.isfinite(signal).all(axis=0)
+    left = np.zeros(full.shape, bool)
+    left[:, :-1] = full[:, :-1] & full[:, 1:] & np.asarray(look, bool)[:, :-1]
+    r, c = np.nonzero(left)
+    a, b = signal[:, r, c].T, signal[:, r, c + 1].T
+    return np.stack([(a + b) / 2.0, b - a]).astype(np.float32)
 
 
 def _incidence(heights, surface_prior, n: int) -> np.ndarray:
@@ -265,7 +320,16 @@ def merge_edge_pairs(a: EdgePairs, b: EdgePairs, n_dark: int = deshadow.DARK_PIX
         keep_darkest(np.concatenate([a.dark_swir, b.dark_swir]), n_dark),
         np.concatenate([a.around_shaded, b.around_shaded]),
         np.concatenate([a.around_sunlit, b.around_sunlit]),
+        _join(a.steps_vnir, b.steps_vnir),
+        _join(a.steps_swir, b.steps_swir),
     )
+
+
+def _join(a, b):
+    """Two blocks' samples of :func:`shadow_steps` together (None: none gathered)."""
+    if a is None or b is None:
+        return b if a is None else a
+    return np.concatenate([a, b], axis=1)
 
 
 @dataclass(frozen=True)
@@ -284,6 +348,17 @@ class IlluminationFit:
     adjacency_share: np.ndarray  # η per band (0 without it)
     one_surface: int = 0  # pairs of one surface (with the additive signal)
     unchanged: int = 0  # bands left unchanged (no ratio above 1)
+    # Each band's median signal and noise (σ) in full shadow (:func:`shadow_noise`; NaN
+    # unknown), and whether the noise resolves the signal (:func:`resolved_bands`): a band
+    # it does not resolve keeps ratio 1, left as measured. None: not measured.
+    shadow_signal: np.ndarray | None = None
+    shadow_noise: np.ndarray | None = None
+    resolved: np.ndarray | None = None
+
+    @property
+    def unresolved(self) -> int:
+        """Bands the noise does not resolve in shadow, left as measured."""
+        return 0 if self.resolved is None else int((~self.resolved).sum())
 
 
 def fit_illumination(
@@ -293,6 +368,7 @@ def fit_illumination(
     surface: bool = False,
     additive: bool = False,
     adjacency: bool = False,
+    min_snr: float = deshadow.MIN_SHADOW_SNR,
 ) -> IlluminationFit:
     """The scene's sunlit-to-shadow illumination ratio of each band from the ``pairs``.
 
@@ -303,7 +379,10 @@ def fit_illumination(
     :func:`geoboresight.shadow.deshadow.combine_additive`), the ratio then measured above it.
     With ``adjacency``, the light of the sunlit surroundings fitted with the ratio
     (:func:`geoboresight.shadow.deshadow.adjacency_ratio`). A band whose pairs do not say the
-    sun brightens it (noise, absorption bands) is left as it is: ratio 1.
+    sun brightens it (noise, absorption bands) is left as it is: ratio 1; so is a band whose
+    signal in full shadow is below ``min_snr`` × its noise there (the pairs' noise samples,
+    :func:`shadow_steps`; :func:`geoboresight.shadow.deshadow.resolved_bands`): the data cannot
+    resolve its sunlit signal, and scaling it would amplify the noise.
 
     Parameters
     ----------
@@ -314,6 +393,8 @@ def fit_illumination(
     surface, additive, adjacency : bool
         A surface model gave the pairs' sky views and incidence; estimate the additive
         signal; the light of the surroundings.
+    min_snr : float
+        Smallest signal-to-noise ratio in full shadow of a band that is de-shadowed.
 
     Returns
     -------
@@ -328,7 +409,15 @@ def fit_illumination(
     sky = (pv[0], pv[1]) if surface else None
     direct = pv[2] if surface else None
     keep = deshadow.KEEP_WITH_SURFACE if surface else deshadow.KEEP
-    k, n_pairs, spread = deshadow.illumination_ratio(a, b, sky_view=sky, keep=keep)
+    # The pairs that agree are chosen on the bands the noise resolves in shadow: the others
+    # would only add their noise to each pair's disagreement (and keep ratio 1 anyway).
+    cols = _resolved(pairs, np.zeros(len(wl)), min_snr)[2]
+    if cols.sum() < 2:
+        cols = np.ones(len(wl), bool)
+    k = np.ones(len(wl))
+    k[cols], n_pairs, spread = deshadow.illumination_ratio(
+        a[:, cols], b[:, cols], sky_view=sky, keep=keep
+    )
     c, c_err = np.zeros(len(wl)), np.full(len(wl), np.inf)
     c_line, e_line, dark_obj, n_one = c, c_err, np.full(len(wl), np.nan), 0
     if additive:
@@ -360,8 +449,9 @@ def fit_illumination(
             a - c, b - c, around, sky_view=sky, direct=direct if additive else None
         )
     brightens = np.isfinite(k) & (k >= 1.0)
+    s_sig, s_noise, resolved = _resolved(pairs, c, min_snr)
     return IlluminationFit(
-        np.where(brightens, k, 1.0),
+        np.where(brightens & resolved, k, 1.0),
         n_pairs,
         spread,
         c,
@@ -373,7 +463,23 @@ def fit_illumination(
         eta,
         n_one,
         int((~brightens).sum()),
+        s_sig,
+        s_noise,
+        resolved if pairs.steps_vnir is not None else None,
     )
+
+
+def _resolved(pairs: EdgePairs, additive: np.ndarray, min_snr: float):
+    """(signal, noise, resolved) of each band in full shadow, the signal above the additive
+    signal; all resolved when the pairs carry no noise sample."""
+    n = additive.size
+    if pairs.steps_vnir is None or pairs.steps_swir is None:
+        return np.full(n, np.nan), np.full(n, np.nan), np.ones(n, bool)
+    sv, nv = deshadow.shadow_noise(pairs.steps_vnir[0], pairs.steps_vnir[1])
+    ss, ns = deshadow.shadow_noise(pairs.steps_swir[0], pairs.steps_swir[1])
+    sig = np.concatenate([sv, ss]) - additive
+    noise = np.concatenate([nv, ns])
+    return sig, noise, deshadow.resolved_bands(sig, noise, min_snr)
 
 
 def fraction_on_swir_grid(fraction: np.ndarray, offset: tuple[float, float], valid=None):
