@@ -440,7 +440,12 @@ class EngineAlgorithm(QgsProcessingAlgorithm):
             elif kind == "string":
                 values[name] = self.parameterAsString(parameters, name, context)
             elif kind == "numbers":
-                text = self.parameterAsString(parameters, name, context)
+                if isinstance(raw, list | tuple):
+                    # processing.run from Python (or a model) may give the numbers as a list,
+                    # which QGIS's text parameter would turn into an empty string
+                    text = " ".join(str(v) for v in raw)
+                else:
+                    text = self.parameterAsString(parameters, name, context)
                 values[name] = text if text.strip() else None
             else:
                 values[name] = raw

@@ -49,6 +49,26 @@ CASES: dict[str, dict] = {
         "input": lambda i: i.capture("capture.hdr"),
         "calibration": lambda i: i.capture("capture_cal.cal"),
     },
+    # The sample line with what its aircraft wrote (sample_data/scene/flight/): its navigation,
+    # line times, sensor model and DEM; the calibration on GCPs where the true angles put pixels.
+    "direct-georeference": {
+        "input": lambda i: i.flight("../vnir.hdr"),
+        "navigation": lambda i: i.flight("flight.out"),
+        "line_times": lambda i: i.flight("line_times.txt"),
+        "sensor_model": lambda i: i.flight("vnir_model.csv"),
+        "dem": lambda i: i.flight("dem.tif"),
+    },
+    "boresight-calibrate": {
+        "vnir": lambda i: i.flight("../vnir.hdr"),
+        "swir": None,
+        "reference": None,
+        "navigation": lambda i: i.flight("flight.out"),
+        "line_times": lambda i: i.flight("line_times.txt"),
+        "sensor_model": lambda i: i.flight("vnir_model.csv"),
+        "lever_arm": lambda i: i.flight_truth()["lever_arm_m"]["vnir"],
+        "dem": lambda i: i.flight("dem.tif"),
+        "gcps": lambda i: i.flight_gcps(),
+    },
     "report": {"svdd": False},  # the DEM section then says it needs the sensor geometry
     # Georeferencing: a jittered raw line with its true IGM and orthophoto (simulate-ortho).
     "simulate-ortho": {"lines": 48},
@@ -143,6 +163,46 @@ class Inputs:
 
         igm, _ = self._igm()
         return ",".join(f"{v:.3f}" for v in (true_corners(igm) + 5.0).ravel())
+
+    def flight(self, name: str) -> str:
+        """A file of the sample line's flight (``sample_data/scene/flight``)."""
+        here = os.path.dirname(os.path.abspath(__file__))
+        folder = os.path.join(here, os.pardir, os.pardir, "sample_data", "scene", "flight")
+        return os.path.normpath(os.path.join(folder, name))
+
+    def flight_truth(self) -> dict:
+        with open(self.flight("flight.json"), encoding="utf-8") as f:
+            return json.load(f)
+
+    def flight_gcps(self) -> str:
+        """GCPs on the sample's VNIR image where the flight's true angles put 12 of its pixels."""
+        path = os.path.join(self.work_dir, "flight_gcps.csv")
+        if os.path.exists(path):
+            return path
+        import numpy as np
+        import rasterio
+
+        from geoboresight.io.navigation import read_navigation, read_sensor_model
+        from geoboresight.sensor.boresight import LeverArm
+        from geoboresight.sensor.calibrate import tie_point_ground
+        from geoboresight.sensor.georeference import Surface
+
+        known = self.flight_truth()
+        with rasterio.open(self.flight("dem.tif")) as src:
+            dem = Surface(src.read(1).astype("float64"), src.transform, src.crs.to_wkt())
+        times = np.loadtxt(self.flight("line_times.txt"))
+        model = read_sensor_model(self.flight("vnir_model.csv"))
+        lever = LeverArm(*known["lever_arm_m"]["vnir"])
+        nav = read_navigation(self.flight("flight.out"))
+        project = tie_point_ground(nav, times, model, lever, dem)
+        pl = np.array([(p, q) for p in (20.5, 143.0, 265.5) for q in (10.5, 70.0, 120.0, 180.5)])
+        xy = project(known["boresight_deg"]["vnir"], 0.0, pl)
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(f"# CRS: {known['crs']}\npixel,line,x,y\n")
+            f.writelines(
+                f"{p},{q},{x:.4f},{y:.4f}\n" for (p, q), (x, y) in zip(pl, xy, strict=True)
+            )
+        return path
 
     def gcps(self) -> str:
         """A GCP CSV of 12 raw pixels with their true map coordinates from the IGM."""
