@@ -234,6 +234,7 @@ TASKS = (
             "io/navigation.py",
             "operations/georef",
             "operations/_glt.py",
+            "operations/_gcps.py",
             "operations/_geometry.py",
             "operations/direct_georef.py",
             "operations/boresight_calibrate.py",

@@ -28,6 +28,7 @@ from ..sensor.calibrate import (
     tie_point_ground,
 )
 from ..sensor.georeference import platform, trace
+from ._gcps import read_image_gcps
 from ._geometry import SensorGeometry, Terrain
 
 #: How each tie point's residual vector is drawn: from the tie point's ground to where the
@@ -72,19 +73,7 @@ def metric_crs(crs, x, y):
 def gcp_ties(gcps, gcp_crs, crs, width: int, height: int):
     """GCPs as tie points: image positions, ground in ``crs`` (transformed from the GCPs'
     CRS), enabled flags. A GCP outside the image is refused, naming it."""
-    from ..georef.transforms import outside_image
-
-    table = gio.read_gcps(gcps, crs=gcp_crs)
-    if table.crs is None:
-        raise InputError(
-            f"GCP file {gcps} names no CRS: add a '# CRS: EPSG:...' line or give --gcp-crs"
-        )
-    out = outside_image(table.pixel_line, width, height) & table.enabled
-    if out.any():
-        raise InputError(
-            f"GCP file {gcps}: GCP(s) {', '.join(str(i + 1) for i in np.flatnonzero(out))} lie "
-            f"outside the image ({width} × {height} pixels × lines): check their pixel and line"
-        )
+    table = read_image_gcps(gcps, gcp_crs, width, height)
     x, y = gio.transform_xy(table.xy[:, 0], table.xy[:, 1], table.crs, crs)
     return table.pixel_line, np.column_stack([x, y]), table.enabled
 

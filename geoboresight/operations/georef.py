@@ -16,12 +16,13 @@ import numpy as np
 from ..errors import InputError, ParameterError
 from ..georef.geoloc import clean_igm, corner_geoloc, glt_indices
 from ..georef.tiepoints import TieMatching, corrected, match_tie_points
-from ..georef.transforms import fit_transform, outside_image
+from ..georef.transforms import fit_transform
 from ..io import georef
 from ..io.grid import OutputGrid
 from ..io.image import open_raster
 from ..io.write import write_json
 from ..simulate.ortho import HEADING_DEG, JITTER_DEG, JITTER_LINES, ORTHO_CELL
+from ._gcps import read_image_gcps
 from ._glt import glt_for
 
 REFERENCES = """
@@ -206,21 +207,6 @@ def geolocate_file(
     }
 
 
-def _gcps_for(gcps: str, gcp_crs, width: int, height: int):
-    table = georef.read_gcps(gcps, crs=gcp_crs)
-    if table.crs is None:
-        raise InputError(
-            f"GCP file {gcps} names no CRS: add a '# CRS: EPSG:...' line or give --gcp-crs"
-        )
-    out = outside_image(table.pixel_line, width, height) & table.enabled
-    if out.any():
-        raise InputError(
-            f"GCP file {gcps}: GCP(s) {', '.join(str(i + 1) for i in np.flatnonzero(out))} lie "
-            f"outside the input ({width} × {height} pixels × lines): check their pixel and line"
-        )
-    return table
-
-
 @_docstring
 def georeference_file(
     input,
@@ -267,7 +253,7 @@ def georeference_file(
         ``output``, ``report``, the RMSE (map units and pixels) and the grid.
     """
     width, height = _product_size(input)
-    table = _gcps_for(gcps, gcp_crs, width, height)
+    table = read_image_gcps(gcps, gcp_crs, width, height)
     fit = fit_transform(
         table.pixel_line,
         table.xy,
@@ -318,7 +304,7 @@ def _placement(input, gcps, corners, gcp_crs, ref_crs, width, height):
     if bool(gcps) == bool(corners):
         raise ParameterError("give the rough placement as either --gcps or --corners (one of them)")
     if gcps:
-        table = _gcps_for(gcps, gcp_crs or ref_crs.to_wkt(), width, height)
+        table = read_image_gcps(gcps, gcp_crs or ref_crs.to_wkt(), width, height)
         pl, xy, ok, src_crs, label = (
             table.pixel_line,
             table.xy,
