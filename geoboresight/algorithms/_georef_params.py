@@ -1,8 +1,10 @@
 """The parameters the georeferencing specs share: the input, the output grid, the GCPs' CRS,
-the report and the IGM written beside a georeferenced raster."""
+the report, the IGM written beside a georeferenced raster, and the tie-point matcher's settings
+(``auto-georeference`` and ``boresight-calibrate``)."""
 
 from __future__ import annotations
 
+from ..georef.tiepoints import DETECTORS, MAX_SHIFT_PX, MODEL_BLOCK_LINES, MODELS
 from ..io.georef import RESAMPLINGS
 from ..io.grid import OutputGrid
 from ..io.products import FILE_FORMATS
@@ -66,4 +68,42 @@ IGM_OUTPUT = RasterOut(
     label="Fitted IGM",
     description="The fitted IGM (x, y of every raw pixel), to geolocate the line's other products",
     optional=True,
+)
+
+#: The tie-point matcher's settings (:class:`~geoboresight.georef.tiepoints.TieMatching`), the
+#: same on every operation that matches an image to a reference.
+DETECTOR = Enum(
+    name="detector",
+    label="Feature detector",
+    description="Feature detector (scikit-image)",
+    choices=DETECTORS,
+    default="sift",
+)
+WOBBLE_MODEL = Enum(
+    name="model",
+    label="Wobble model",
+    description="The model of the placement's error: affine per block of lines (blended) or thin-plate spline on the inliers",
+    choices=MODELS,
+    default="blocks",
+)
+MODEL_BLOCK = Number(
+    name="model_block_lines",
+    label="Lines per block",
+    description="Lines per block of the wobble model and of RANSAC (its resolution along the track)",
+    default=MODEL_BLOCK_LINES,
+    minimum=8,
+    maximum=10000,
+    integer=True,
+    advanced=True,
+    aliases=("block_lines",),
+)
+MAX_SHIFT = Number(
+    name="max_shift_px",
+    label="Largest shift",
+    description="Largest error of the rough placement (the image's pixels)",
+    default=MAX_SHIFT_PX,
+    minimum=1.0,
+    maximum=500.0,
+    unit="px",
+    advanced=True,
 )

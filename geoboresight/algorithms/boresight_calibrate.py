@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 from ..georef.tiepoints import (
-    DETECTORS,
-    MAX_SHIFT_PX,
-    MODEL_BLOCK_LINES,
-    MODELS,
     TieMatching,
 )
 from ..io.products import FILE_FORMATS
@@ -14,6 +12,7 @@ from ..operations.boresight_calibrate import BoresightFit, TieSources, boresight
 from ..operations.direct_georef import SensorGeometry
 from ..sensor.calibrate import LOSSES
 from ._common import BAND_NM, seed
+from ._georef_params import DETECTOR, MAX_SHIFT, MODEL_BLOCK, WOBBLE_MODEL
 from .direct_georef import TERRAIN
 from .spec import (
     Algorithm,
@@ -85,40 +84,10 @@ MATCHING = Group(
     name="matching",
     value=TieMatching,
     params=(
-        Enum(
-            name="detector",
-            label="Feature detector",
-            description="Feature detector (scikit-image)",
-            choices=DETECTORS,
-            default="sift",
-        ),
-        Enum(
-            name="model",
-            label="Wobble model",
-            description="RANSAC's and the matcher's model of the placement's error: affine per block of lines (blended) or thin-plate spline",
-            choices=MODELS,
-            default="blocks",
-            advanced=True,
-        ),
-        Number(
-            name="model_block_lines",
-            label="Lines per block",
-            description="Lines per block of RANSAC's model",
-            default=MODEL_BLOCK_LINES,
-            minimum=8,
-            maximum=10000,
-            integer=True,
-            advanced=True,
-        ),
-        Number(
-            name="max_shift_px",
-            label="Largest shift",
-            description="Largest error of the starting angles' placement (pixels)",
-            default=MAX_SHIFT_PX,
-            minimum=1.0,
-            maximum=500.0,
-            advanced=True,
-        ),
+        DETECTOR,
+        dataclasses.replace(WOBBLE_MODEL, advanced=True),
+        MODEL_BLOCK,
+        MAX_SHIFT,
         seed("Random seed (RANSAC's): the same seed gives the same tie points"),
     ),
 )

@@ -3,12 +3,8 @@
 from __future__ import annotations
 
 from ..georef.tiepoints import (
-    DETECTORS,
     MAX_RMSE_PX,
-    MAX_SHIFT_PX,
     MIN_INLIERS,
-    MODEL_BLOCK_LINES,
-    MODELS,
     TieMatching,
 )
 from ..operations.georef import (
@@ -16,17 +12,20 @@ from ..operations.georef import (
 )
 from ._common import BAND_NM, seed
 from ._georef_params import (
+    DETECTOR,
     GCP_CRS,
     GRID,
     GROUP,
     IGM_OUTPUT,
     INPUT,
+    MAX_SHIFT,
+    MODEL_BLOCK,
     REPORT,
+    WOBBLE_MODEL,
 )
 from .spec import (
     Algorithm,
     Band,
-    Enum,
     FileIn,
     Group,
     Number,
@@ -105,41 +104,10 @@ AUTO = Algorithm(
             name="matching",
             value=TieMatching,
             params=(
-                Enum(
-                    name="detector",
-                    label="Feature detector",
-                    description="Feature detector (scikit-image)",
-                    choices=DETECTORS,
-                    default="sift",
-                ),
-                Enum(
-                    name="model",
-                    label="Wobble model",
-                    description="Wobble model: affine per block of lines (blended) or thin-plate spline on the inliers",
-                    choices=MODELS,
-                    default="blocks",
-                ),
-                Number(
-                    name="model_block_lines",
-                    label="Lines per block",
-                    description="Lines per block of the wobble model and of RANSAC (its resolution along the track)",
-                    default=MODEL_BLOCK_LINES,
-                    minimum=8,
-                    maximum=10000,
-                    integer=True,
-                    advanced=True,
-                    aliases=("block_lines",),
-                ),
-                Number(
-                    name="max_shift_px",
-                    label="Largest shift",
-                    description="Largest error of the rough placement (product pixels)",
-                    default=MAX_SHIFT_PX,
-                    minimum=1.0,
-                    maximum=500.0,
-                    unit="px",
-                    advanced=True,
-                ),
+                DETECTOR,
+                WOBBLE_MODEL,
+                MODEL_BLOCK,
+                MAX_SHIFT,
                 Number(
                     name="min_inliers",
                     label="Minimum inliers",
