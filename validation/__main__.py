@@ -86,8 +86,8 @@ SECTIONS = (
         "shadow",
         ("--dsm", "--no-deshadow", "--set", "dsm-holdout"),
         None,
-        "Eight scenes drawn before the last change of the surface-model path and run only "
-        "with the method as it is.",
+        "24 scenes (15 of model 2, 9 of the simulator) the surface-model path was not "
+        "developed on, run only with the method as it is.",
     ),
     Section(
         "deshadow",

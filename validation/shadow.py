@@ -157,7 +157,7 @@ DRAWS = {
 SETS = {
     "holdout": ("map-a", "map-b", "map-c"),
     "dsm-seen": ("dsm-a", "dsm-b", "dsm-c", "dsm-d", "dsm-e", "dsm-f", "dsm-g"),
-    "dsm-holdout": ("dsm-h",),
+    "dsm-holdout": ("dsm-h", "deshadow-d", "deshadow-e"),
     "deshadow-seen": ("dsm-a", "deshadow-a", "deshadow-b", "deshadow-c"),
     "deshadow-holdout": ("deshadow-d", "deshadow-e"),
 }
