@@ -106,6 +106,8 @@ def test_a_dsm_from_another_source_scores_near_the_exact_one(model, opts, tmp_pa
     assert float(other[2]["DSM_HEIGHT_NOISE_M"]) == pytest.approx(0.3, rel=0.34)
     assert int(other[2]["DSM_EDGE_TOLERANCE_PX"]) == darkness.DSM_TOLERANCE + 1
     # Half a pixel off and smoothed, the cast edges still fall within the widened band: the
-    # F1 (every pixel, mixed edges included) stays within a few per cent of the exact DSM's.
-    assert other[0] >= 0.95 * exact[0]
+    # F1 (every pixel, mixed edges included) is the goal's 0.97 of the exact DSM's (these
+    # scenes give 0.974 and 0.986; with the registration's one-pixel band alone, 0.958 and
+    # 0.965).
+    assert other[0] >= 0.97 * exact[0]
     assert other[1] <= 0.05  # sunlit dark materials stay sunlit
