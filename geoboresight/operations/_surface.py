@@ -16,7 +16,7 @@ from ..io.checks import check_cell_size, check_heights, no_valid_error
 from ..io.georef import grid_place
 from ..shadow import illumination
 from ..shadow.prior import SurfacePrior, surface_prior
-from ..shadow.surface import surface_walls
+from ..shadow.surface import height_noise, second_differences, surface_walls
 from ._glt import glt_for
 
 
@@ -116,6 +116,18 @@ def open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> Op
         raise no_valid_error(surface.dsm, "surface model")
     check_heights(lo, hi, surface.dsm)
     kind = choose_surface(walls, pairs)
+    noise = height_noise(
+        io.reduce_windows(
+            io.band_reader(src, 1),
+            second_differences,
+            lambda a, b: a + b,
+            0,
+            message="surface model height noise",
+            height=dual.height,
+            width=dual.width,
+            block_rows=block_rows,
+        )
+    )
     relief = float(hi - lo)
     halo = illumination.halo_rows(relief, zen, az, matrix, (dual.height, dual.width))
     progress.info(
@@ -133,6 +145,7 @@ def open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> Op
         surface=kind,
         clearance=surface.clearance,
         shape=(dual.height, dual.width),
+        noise=noise,
     )
     return OpenedSurface(src, prior, halo, how)
 

@@ -472,6 +472,8 @@ def _map_tags(dual, cal, core, edge_pixels, surface: SurfaceModel, opened, prior
         dsm_surface=prior.surface,
         dsm_registration_rows=str(prior.shift[0]),
         dsm_registration_columns=str(prior.shift[1]),
+        dsm_height_noise_m=f"{prior.noise:.3f}",
+        dsm_edge_tolerance_px=str(prior.tolerance),
         method=prior_method(prior, registered=surface.register, edge_pixels=edge_pixels),
     )
     return tags

@@ -1123,10 +1123,11 @@ def shadow_fraction_block(
     unseen: np.ndarray | None = None,
     ray: tuple[float, float, int] | None = None,
     reach: float = 0.0,
+    tolerance: int = DSM_TOLERANCE,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(shadow fraction, darkness) of a block: steps 1–4 of :func:`shadow_map_block`; with
     ``prior`` (a surface model's cast-shadow fraction on the block; ``heights``,
-    ``clearance``, ``unseen``, ``ray`` and ``reach``, the surface model's) by
+    ``clearance``, ``unseen``, ``ray``, ``reach`` and ``tolerance``, the surface model's) by
     :func:`dsm_shadow_fraction` instead of :func:`shadow_fraction_estimate`."""
     from ..sensor.coregister import coregister
 
@@ -1158,6 +1159,7 @@ def shadow_fraction_block(
             ray=ray,
             core=calibration.core,
             reach=reach,
+            tolerance=tolerance,
         )
     else:
         f = shadow_fraction_estimate(

@@ -37,6 +37,7 @@ from .illumination import (
     sun_step,
     unseen_casters,
 )
+from .surface import edge_tolerance
 
 #: Share of the valid pixels in shadow above which the scene's sunlit mode is suspect: a
 #: shadow map calibrates itself on the sunlit ground, which must be the larger part.
@@ -62,8 +63,10 @@ class SurfacePrior:
     caster must rise this far above the sun line), ``top`` (m, the highest valid height),
     ``height`` (lines of the whole grid), ``ray`` ((Δrow, Δcol) per cell towards the sun, and
     the steps that clear the relief), ``reach`` (cells down-sun by which the clearance
-    shortens a shadow on level ground) and ``shift`` (rows, columns by which the cast shadow
-    is moved: the registration)."""
+    shortens a shadow on level ground), ``shift`` (rows, columns by which the cast shadow
+    is moved: the registration), ``noise`` (m, the heights' noise,
+    :func:`geoboresight.shadow.surface.height_noise`) and ``tolerance`` (px within which the
+    cast edges are taken, :func:`geoboresight.shadow.surface.edge_tolerance`)."""
 
     zenith: float
     azimuth: float
@@ -76,6 +79,8 @@ class SurfacePrior:
     ray: tuple = (0.0, 0.0, 0)
     reach: float = 0.0
     shift: tuple = (0.0, 0.0)
+    noise: float = 0.0
+    tolerance: int = darkness.DSM_TOLERANCE
 
 
 def surface_prior(
@@ -88,6 +93,7 @@ def surface_prior(
     surface: str,
     clearance: float,
     shape: tuple[int, int],
+    noise: float = 0.0,
 ) -> SurfacePrior:
     """The :class:`SurfacePrior` of a surface model: the ray towards the sun, one cell a
     step, the steps it takes to clear the relief, and the ``reach`` of the clearance.
@@ -114,6 +120,10 @@ def surface_prior(
         Height (m) a caster must rise above the sun line to cast shadow.
     shape : (int, int)
         Lines and columns of the whole grid.
+    noise : float
+        The heights' noise (m, :func:`geoboresight.shadow.surface.height_noise`): a DSM of
+        another source has its cast edges taken within one more pixel
+        (:func:`geoboresight.shadow.surface.edge_tolerance`).
 
     Returns
     -------
@@ -138,6 +148,8 @@ def surface_prior(
         height=shape[0],
         ray=(drow, dcol, steps),
         reach=float(clearance) / rise if rise > 0 else 0.0,
+        noise=float(noise),
+        tolerance=edge_tolerance(noise, darkness.DSM_TOLERANCE),
     )
 
 
@@ -295,13 +307,16 @@ def prior_halo(
     Returns
     -------
     (int, int)
-        Lines above and below: both halos, and towards the sun the sweep of the predicted
+        Lines above and below: both halos (the spectral one widened to the prior's
+        ``tolerance``), and towards the sun the sweep of the predicted
         shadow's far end, ``ceil(reach · |Δrow|) + 1`` lines
         (:func:`geoboresight.shadow.darkness.dsm_shadow_fraction`).
     """
     drow = surface_prior.ray[0]
     sweep = int(np.ceil(surface_prior.reach * abs(drow))) + 1
     up, down = (sweep, 0) if drow < 0 else (0, sweep)
+    # The spectral halo holds the registration's tolerance; a wider one needs the rest.
+    halo += max(0, surface_prior.tolerance - darkness.DSM_TOLERANCE)
     return halo + cast_halo[0] + up, halo + cast_halo[1] + down
 
 
@@ -319,6 +334,7 @@ def _model_fraction(blue, nir, swir, valid, heights, heights_valid, prior, unsee
         unseen=unseen,
         ray=p.ray,
         reach=p.reach,
+        tolerance=p.tolerance,
         **block,
     )
 
@@ -483,7 +499,8 @@ def prior_method(surface_prior: SurfacePrior, *, registered: bool, edge_pixels: 
     )
     return (
         f"surface model prior: cast shadow from the DSM and the sun (ray march, {p.surface} "
-        f"surface{moved}), refined by SWIR/NIR darkness within {darkness.DSM_TOLERANCE} px (lit "
+        f"surface{moved}), refined by SWIR/NIR darkness within {p.tolerance} px (height noise "
+        f"{p.noise:.2f} m; lit "
         f"above {darkness.log_fraction_text(darkness.LIT_DARKNESS)} of the sunlit mode, rim shadow at "
         f"or below {darkness.log_fraction_text(darkness.RIM_DARKNESS)} unless more than the clearance "
         f"({p.clearance:g} m) above the shadow: a caster's top; beyond it, down-sun of the "

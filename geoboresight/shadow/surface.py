@@ -92,3 +92,90 @@ def choose_surface(walls: int, pairs: int) -> str:
     (§3.1: the ground-truth shadow from a surface model of terrain and buildings).
     """
     return "blocks" if pairs and walls / pairs >= WALL_SHARE else "smooth"
+
+
+#: Edges (m) of the histogram of a DSM's second differences (:func:`second_differences`):
+#: 5 mm bins up to 2 m, the last bin open.
+NOISE_BINS = np.append(np.arange(0.0, 2.0 + 1e-9, 0.005), np.inf)
+#: Height noise (m) above which a DSM's edges are not the image's to the pixel: heights this
+#: noisy come from another source (another date, sensor or resolution), whose cast edges
+#: the map takes within one more pixel of registration (:func:`edge_tolerance`). Below it
+#: lie a survey's centimetre rounding and a simulated DSM's exact heights.
+NOISY_HEIGHTS_M = 0.1
+
+
+def second_differences(dsm: np.ndarray, valid: np.ndarray | None = None) -> np.ndarray:
+    """Counts of the DSM's absolute second differences along its lines,
+    ``|z[j-1] - 2 z[j] + z[j+1]|``, in the bins :data:`NOISE_BINS` (counts of strips add up:
+    no halo is needed).
+
+    Parameters
+    ----------
+    dsm : 2-D array
+        Heights (m).
+    valid : bool array, optional
+
+    Returns
+    -------
+    int64 array (len(NOISE_BINS) - 1,)
+    """
+    z = np.asarray(dsm, np.float64)
+    ok = np.isfinite(z) if valid is None else (np.asarray(valid, bool) & np.isfinite(z))
+    d2 = np.abs(z[:, :-2] - 2.0 * z[:, 1:-1] + z[:, 2:])
+    both = ok[:, :-2] & ok[:, 1:-1] & ok[:, 2:]
+    return np.histogram(d2[both], NOISE_BINS)[0].astype(np.int64)
+
+
+def height_noise(counts: np.ndarray) -> float:
+    """The DSM's height noise (m, a standard deviation) from :func:`second_differences`.
+
+    On flat roofs, level ground and smooth slopes the second difference is zero but for the
+    noise, whose standard deviation it multiplies by √6 (white noise); walls and crowns are
+    few, so the median absolute second difference, over 0.6745 and √6, is the noise
+    (Donoho & Johnstone's robust scale).
+
+    Parameters
+    ----------
+    counts : int array
+        :func:`second_differences`, summed over the DSM's strips.
+
+    Returns
+    -------
+    float
+        Metres; 0 when there are no three valid neighbours, or when most second differences
+        are below the first bin's 5 mm.
+
+    References
+    ----------
+    Donoho, D.L.; Johnstone, I.M. Ideal spatial adaptation by wavelet shrinkage.
+    Biometrika 1994, 81, 425–455 (the median absolute deviation over 0.6745).
+    """
+    c = np.asarray(counts, np.int64)
+    n = int(c.sum())
+    if n == 0:
+        return 0.0
+    k = int(np.searchsorted(np.cumsum(c), (n + 1) / 2))
+    if k == 0:
+        return 0.0
+    median = 0.5 * (NOISE_BINS[k] + NOISE_BINS[min(k + 1, len(NOISE_BINS) - 2)])
+    return float(median / 0.6745 / math.sqrt(6.0))
+
+
+def edge_tolerance(noise: float, tolerance: int) -> int:
+    """Pixels within which the shadow map takes a DSM's cast edges: ``tolerance`` (the
+    registration's) for heights less noisy than :data:`NOISY_HEIGHTS_M`, one more for a DSM of
+    another source.
+
+    Parameters
+    ----------
+    noise : float
+        :func:`height_noise` (m).
+    tolerance : int
+        The registration's tolerance (px,
+        :data:`geoboresight.shadow.darkness.DSM_TOLERANCE`).
+
+    Returns
+    -------
+    int
+    """
+    return int(tolerance) + (1 if noise > NOISY_HEIGHTS_M else 0)
