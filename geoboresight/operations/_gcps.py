@@ -1,12 +1,12 @@
-"""GCPs for an image: read (their CRS from the file or the user), every enabled one inside the
-image, for the operations that fit a geometry to them (``georeference``, ``auto-georeference``,
-``boresight-calibrate``)."""
+"""What the operations that fit a geometry to ground control share (``georeference``,
+``auto-georeference``, ``boresight-calibrate``): GCPs for an image (their CRS from the file or
+the user, every enabled one inside the image) and the check of a reference orthophoto."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, ParameterError
 from ..georef.transforms import outside_image
 from ..io.georef import read_gcps
 
@@ -29,4 +29,19 @@ def read_image_gcps(gcps: str, gcp_crs, width: int, height: int):
     return table
 
 
-__all__ = ["read_image_gcps"]
+def check_reference(ref, reference, reference_band: int) -> None:
+    """Refuse a reference orthophoto (``ref``, open; ``reference``, its name) without a CRS or
+    geotransform, or without band ``reference_band``."""
+    if ref.crs is None or ref.transform.is_identity:
+        raise InputError(
+            f"reference {reference} has no CRS or geotransform: give an orthophoto with its "
+            "CRS (e.g. a GeoTIFF)"
+        )
+    if not 1 <= reference_band <= ref.count:
+        raise ParameterError(
+            f"parameter 'reference_band': band {reference_band} does not exist in "
+            f"{reference}, which has {ref.count} band(s)"
+        )
+
+
+__all__ = ["check_reference", "read_image_gcps"]

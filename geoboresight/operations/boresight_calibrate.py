@@ -28,7 +28,7 @@ from ..sensor.calibrate import (
     tie_point_ground,
 )
 from ..sensor.georeference import platform, trace
-from ._gcps import read_image_gcps
+from ._gcps import check_reference, read_image_gcps
 from ._geometry import SensorGeometry, Terrain
 
 #: How each tie point's residual vector is drawn: from the tie point's ground to where the
@@ -81,16 +81,7 @@ def gcp_ties(gcps, gcp_crs, crs, width: int, height: int):
 def _reference_band(reference, reference_band, footprint_xy, pad):
     """The reference band around a footprint (its CRS's x, y), its validity and transform."""
     with open_raster(reference, "reference") as ref:
-        if ref.crs is None or ref.transform.is_identity:
-            raise InputError(
-                f"reference {reference} has no CRS or geotransform: give an orthophoto with its "
-                "CRS (e.g. a GeoTIFF)"
-            )
-        if not 1 <= reference_band <= ref.count:
-            raise ParameterError(
-                f"parameter 'reference_band': band {reference_band} does not exist in "
-                f"{reference}, which has {ref.count} band(s)"
-            )
+        check_reference(ref, reference, reference_band)
         x, y = footprint_xy
         pad = pad + 4 * max(abs(ref.transform.a), abs(ref.transform.e))
         bounds = (np.nanmin(x) - pad, np.nanmin(y) - pad, np.nanmax(x) + pad, np.nanmax(y) + pad)

@@ -22,7 +22,7 @@ from ..io.grid import OutputGrid
 from ..io.image import open_raster
 from ..io.write import write_json
 from ..simulate.ortho import HEADING_DEG, JITTER_DEG, JITTER_LINES, ORTHO_CELL
-from ._gcps import read_image_gcps
+from ._gcps import check_reference, read_image_gcps
 from ._glt import glt_for
 
 REFERENCES = """
@@ -324,16 +324,7 @@ def _placement(input, gcps, corners, gcp_crs, ref_crs, width, height):
 def _reference_window(reference, reference_band, placement, width, height, margin_px):
     """The reference band around the rough footprint (a large orthophoto is read in part)."""
     with open_raster(reference, "reference") as ref:
-        if ref.crs is None or ref.transform.is_identity:
-            raise InputError(
-                f"reference {reference} has no CRS or geotransform: give an orthophoto with its "
-                "CRS (e.g. a GeoTIFF)"
-            )
-        if not 1 <= reference_band <= ref.count:
-            raise ParameterError(
-                f"parameter 'reference_band': band {reference_band} does not exist in "
-                f"{reference}, which has {ref.count} band(s)"
-            )
+        check_reference(ref, reference, reference_band)
         t = np.linspace(0, 1, 33)
         edge_p = np.concatenate([t * width, np.full(33, width), t * width, np.zeros(33)])
         edge_l = np.concatenate([np.zeros(33), t * height, np.full(33, height), t * height])
