@@ -31,7 +31,7 @@ $(QVENV)/.installed: pyproject.toml
 	  $(PY) -m venv $(QVENV); \
 	fi
 	$(QVENV)/bin/pip install -q --upgrade pip
-	$(QVENV)/bin/pip install -q "numpy<2" "attrs>=24.1" -e ".[test]"
+	$(QVENV)/bin/pip install -q "numpy<2" "attrs>=24.1" -e ".[test,docs]"
 	@# Debian's matplotlib ships mpl_toolkits as a regular package, which shadows a pip
 	@# matplotlib's namespace package (no 3-D axes): then use Debian's matplotlib alone.
 	@$(QVENV)/bin/python -c "import matplotlib; matplotlib.use('Agg'); import matplotlib.pyplot as p; p.figure().add_subplot(projection='3d')" 2>/dev/null \
@@ -48,7 +48,8 @@ demo: $(VENV)/.installed
 # (.ci/run) adds test-qgis-rest, so that it runs the whole suite in both environments.
 test: test-main test-qgis dist-check docs
 
-test-main: $(VENV)/.installed
+# The docs extra too: the site's tests read pages through MkDocs' own Markdown extensions.
+test-main: $(VENV)/.docs
 	$(VENV)/bin/python -m pytest -m "not qgis" $(PYTEST_ARGS)
 
 test-qgis: $(QVENV)/.installed $(VENV)/.installed  # the QGIS tests run .venv/bin/geoboresight as the engine
