@@ -77,6 +77,16 @@ class TieMatching:
     max_rmse_px: float = MAX_RMSE_PX
     seed: int = 0
 
+    def matcher_options(self) -> dict:
+        """The keyword arguments :func:`match_tie_points` takes from these settings."""
+        return {
+            "detector": self.detector,
+            "model": self.model,
+            "model_block_lines": int(self.model_block_lines),
+            "max_shift_px": float(self.max_shift_px),
+            "seed": int(self.seed),
+        }
+
 
 @dataclass(frozen=True)
 class TiePoints:

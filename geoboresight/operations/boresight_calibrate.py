@@ -125,11 +125,7 @@ def reference_ties(image, valid, reference, reference_band, placement, matching:
         ref_transform=ref_tr,
         placement=placement,
         ref_valid=ref_ok,
-        detector=matching.detector,
-        model=matching.model,
-        model_block_lines=int(matching.model_block_lines),
-        max_shift_px=float(matching.max_shift_px),
-        seed=int(matching.seed),
+        **matching.matcher_options(),
     )
     pl = tie.pixel_line[tie.inlier]
     gx, gy = placement(tie.placed[tie.inlier, 0], tie.placed[tie.inlier, 1])

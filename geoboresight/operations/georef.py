@@ -443,11 +443,7 @@ def auto_georeference_file(
         ref_transform=ref_tr,
         placement=placement,
         ref_valid=ref_ok,
-        detector=m.detector,
-        model=m.model,
-        model_block_lines=int(m.model_block_lines),
-        max_shift_px=float(m.max_shift_px),
-        seed=int(m.seed),
+        **m.matcher_options(),
     )
     progress.info(
         f"{tie.matches} matches, {tie.inliers} inliers, cross-validated RMSE {tie.rmse_px:.2f} px"
