@@ -1,4 +1,4 @@
-"""shadow.darkness.shadow_map_block: the shadow map's per-pixel pipeline on a block of lines; read
+"""shadow.blocks.shadow_map_block: the shadow map's per-pixel pipeline on a block of lines; read
 in strips with shadow_map_halo lines around, it gives what the whole image gives."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from geoboresight.io.windows import map_windows
-from geoboresight.shadow import darkness
+from geoboresight.shadow import blocks, darkness
 from geoboresight.shadow.classes import MASK_SHADOW, NODATA_CLASS, default_table
 
 
@@ -39,7 +39,7 @@ def test_strips_with_the_halo_equal_the_whole_image(edge_pixels):
         offset=(1.0, 0.0),
     )
     kw = dict(calibration=cal, dark_levels=(100.0, 100.0, 100.0), edge_pixels=edge_pixels)
-    c, m = darkness.shadow_map_block(blue, nir, swir, valid, **kw)
+    c, m = blocks.shadow_map_block(blue, nir, swir, valid, **kw)
     assert (m[25:30, 14:20] == MASK_SHADOW).all() and (m[3:10, :-1] == 0).all()
     assert (c[:, -1] == NODATA_CLASS).all() and set(np.unique(c)) > {0, NODATA_CLASS}
     stack = np.concatenate([blue, nir, swir])
@@ -48,9 +48,9 @@ def test_strips_with_the_halo_equal_the_whole_image(edge_pixels):
         return stack[:, r0:r1], valid[r0:r1]
 
     def kernel(x, ok):
-        return darkness.shadow_map_block(x[:3], x[3:7], x[7:], ok, **kw)
+        return blocks.shadow_map_block(x[:3], x[3:7], x[7:], ok, **kw)
 
-    halo = darkness.shadow_map_halo(cal, edge_pixels)
+    halo = blocks.shadow_map_halo(cal, edge_pixels)
     got_c, got_m = np.zeros_like(c), np.zeros_like(m)
     for win, (cc, mm) in map_windows(
         read, kernel, height=60, width=40, block_rows=7, halo=(halo, halo)

@@ -21,6 +21,7 @@ from geoboresight.errors import InputError, ParameterError
 from geoboresight.shadow import darkness
 from geoboresight.shadow import deshadow as ds
 from geoboresight.shadow import illumination as ill
+from geoboresight.shadow.prior import dsm_shadow_fraction, prior_agreement, prior_registration
 from validation.scene_model2 import simulate2, write_scene2
 
 SUN = dict(sun_zenith=40.0, sun_azimuth=180.0)  # from the south: shadows fall north (up)
@@ -45,7 +46,7 @@ def _town():
 def test_the_dsm_prior_flags_cast_shadow_and_not_a_black_roof():
     z, prior, d, shade, roof = _town()
     assert shade.sum() > 50  # 6 m · tan 40° ≈ 5 px of shadow north of the building
-    f = darkness.dsm_shadow_fraction(d, prior)
+    f = dsm_shadow_fraction(d, prior)
     # A black roof outside any cast shadow is not shadow; only its row next to its own
     # shadow (within the registration tolerance) may be taken.
     from scipy import ndimage
@@ -68,13 +69,13 @@ def test_the_prior_is_refined_within_a_pixel_and_lit_predictions_dropped():
     d2 = d.copy()
     d2[top - 1, 12:20] = math.log(1 / 10)
     d2[top - 3, 12:20] = math.log(1 / 10)
-    f = darkness.dsm_shadow_fraction(d2, prior)
+    f = dsm_shadow_fraction(d2, prior)
     assert (f[top - 1, 12:20] >= 0.5).all()
     assert (f[top - 3, 12:20] == 0).all()
     # Predicted shadow that is bright (the model is of another date) is not shadow.
     d3 = d.copy()
     d3[shade] = -0.2
-    assert (darkness.dsm_shadow_fraction(d3, prior)[shade] < 0.5).all()
+    assert (dsm_shadow_fraction(d3, prior)[shade] < 0.5).all()
 
 
 @pytest.mark.parametrize("longer", [False, True])
@@ -97,7 +98,7 @@ def test_a_dark_road_running_past_the_rim_is_not_rim_shadow(longer):
     rho[road] = 0.25
     d = np.log(rho * (1 - frac + 0.1 * frac))
     assert (d[top - 1, 14:18] <= darkness.RIM_DARKNESS).all()  # dark enough for the rim rule
-    f = darkness.dsm_shadow_fraction(d, prior, heights=z, clearance=1.0)
+    f = dsm_shadow_fraction(d, prior, heights=z, clearance=1.0)
     mask = f >= 0.5
     truth = frac >= 0.5
     assert (mask[top - 1, 14:18] == truth[top - 1, 14:18]).all()  # the road beside the shadow
@@ -114,11 +115,11 @@ def test_the_top_of_a_caster_beside_its_shadow_is_not_rim_shadow():
     # the caster's top (3 m above the shadow's ground), lit by the sun.
     beside = roof & ndimage.binary_dilation(shade, iterations=darkness.DSM_TOLERANCE)
     assert beside.sum() >= 10
-    without = darkness.dsm_shadow_fraction(d, prior)
+    without = dsm_shadow_fraction(d, prior)
     # Without the heights the roof beyond that row, lit and as dark, already says the row is
     # not shaded (its fraction against it as the sunlit end); the heights also say so.
     assert (without[beside] >= 0.5).mean() <= 0.5
-    f = darkness.dsm_shadow_fraction(d, prior, heights=z, clearance=1.0)
+    f = dsm_shadow_fraction(d, prior, heights=z, clearance=1.0)
     # Not rim shadow any more; it is still unmixed against its neighbourhood, where its own
     # dark roof is the sunlit reference (fraction ~0), except within the unmixing window
     # (half of EDGE_WINDOW + 1 = 3 px) of the roof's ends, where the bright ground is.
@@ -134,10 +135,10 @@ def test_the_top_of_a_caster_beside_its_shadow_is_not_rim_shadow():
     top = np.nonzero(shade.any(axis=1))[0].min()
     d2 = d.copy()
     d2[top - 1, 12:20] = math.log(1 / 10)
-    f2 = darkness.dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0)
+    f2 = dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0)
     assert (f2[top - 1, 12:20] >= 0.5).all()
     with pytest.raises(InputError, match="parameter 'heights'"):
-        darkness.dsm_shadow_fraction(d, prior, heights=z[:-1], clearance=1.0)
+        dsm_shadow_fraction(d, prior, heights=z[:-1], clearance=1.0)
 
 
 def test_shadow_cast_from_beyond_the_surface_model_is_left_to_the_spectra():
@@ -157,17 +158,17 @@ def test_shadow_cast_from_beyond_the_surface_model_is_left_to_the_spectra():
     drow, dcol, rise = ill.sun_step(SUN["sun_zenith"], SUN["sun_azimuth"], m, 1.0)
     ray = (drow, dcol, ill.march_steps(float(z.max()), rise, z.shape, drow, dcol))
     assert (round(drow), round(dcol)) == (1, 0)  # towards the sun: south, down the rows
-    f_no = darkness.dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0)
-    f = darkness.dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0, unseen=unseen, ray=ray)
+    f_no = dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0)
+    f = dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0, unseen=unseen, ray=ray)
     assert (f_no[57:, 5:25] == 0).all()
     assert (f[58:, 7:23] >= 0.5).all()
     assert (f[56:58, 35:50] == 0).all()
     # Without the way to the edge checked, the patch is taken.
-    f_any = darkness.dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0, unseen=unseen)
+    f_any = dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0, unseen=unseen)
     assert (f_any[56:58, 37:48] >= 0.5).all()
     assert np.array_equal(f[:50], f_no[:50])  # the black roof stays out
     with pytest.raises(InputError, match="parameter 'unseen'"):
-        darkness.dsm_shadow_fraction(d, prior, unseen=unseen[:-1])
+        dsm_shadow_fraction(d, prior, unseen=unseen[:-1])
 
 
 def _shortened(zenith):
@@ -198,9 +199,9 @@ def test_the_far_end_a_clearance_shortens_is_found_and_only_along_the_ray(zenith
     assert reach == pytest.approx(math.tan(math.radians(zenith)))
     lost = truth & ~(prior >= 0.5)
     assert lost.sum() >= 2 * 20  # two rows of the far end (the building is 20 px wide)
-    without = darkness.dsm_shadow_fraction(d, prior, heights=z, clearance=1.0, ray=ray)
+    without = dsm_shadow_fraction(d, prior, heights=z, clearance=1.0, ray=ray)
     assert ((without >= 0.5) != truth).sum() >= 15  # the failure: a row beyond the tolerance
-    f = darkness.dsm_shadow_fraction(d, prior, heights=z, clearance=1.0, ray=ray, reach=reach)
+    f = dsm_shadow_fraction(d, prior, heights=z, clearance=1.0, ray=ray, reach=reach)
     assert ((f >= 0.5) == truth).all()
     # A shadow really as short as predicted (the two rows lit ground) with black material (an
     # eighth of the sunlit mode) on the farther row, within the reach; and beside the shadow,
@@ -213,14 +214,14 @@ def test_the_far_end_a_clearance_shortens_is_found_and_only_along_the_ray(zenith
     d2[far + 1, :] = math.log(lit_ground)
     d2[far, 12:28] = math.log(1 / 8)
     d2[far + 2 : far + 5, 32:35] = math.log(1 / 8)  # east of the shadow, two columns off it
-    f2 = darkness.dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0, ray=ray, reach=reach)
+    f2 = dsm_shadow_fraction(d2, prior, heights=z, clearance=1.0, ray=ray, reach=reach)
     assert (f2[far, 12:28] == 0).all()
     assert (f2[far + 2 : far + 5, 32:35] == 0).all()
     assert ((f2 >= 0.5) == (prior >= 0.5)).all()
     # Without the ray, no sweep: the reach needs the sun's direction.
     assert np.array_equal(
-        darkness.dsm_shadow_fraction(d, prior, heights=z, clearance=1.0, reach=reach),
-        darkness.dsm_shadow_fraction(d, prior, heights=z, clearance=1.0),
+        dsm_shadow_fraction(d, prior, heights=z, clearance=1.0, reach=reach),
+        dsm_shadow_fraction(d, prior, heights=z, clearance=1.0),
     )
 
 
@@ -237,7 +238,7 @@ def test_a_predicted_edge_pixel_keeps_its_unmixed_fraction(truth):
     d = np.log(rho * (1 - frac + sky * frac))
     prior = np.where(frac > 0, 0.75, 0.0)  # the model: shaded, with a sub-pixel edge
     prior[21:30] = 1.0
-    f = darkness.dsm_shadow_fraction(d, prior)
+    f = dsm_shadow_fraction(d, prior)
     assert (d[20, 10:30] < darkness.LIT_DARKNESS).all()  # not spectrally lit
     assert ((f[20, 12:28] >= 0.5) == (truth >= 0.5)).all()
     assert (f[22:30, 10:30] >= 0.5).all()
@@ -256,7 +257,7 @@ def test_prior_agreement_finds_the_shift():
     z, prior, d, shade, roof = _town()
     d2 = np.full(d.shape, -0.1)
     d2[np.roll(shade, (2, -1), axis=(0, 1))] = math.log(1 / 10)
-    a = darkness.prior_agreement(d2, prior)
+    a = prior_agreement(d2, prior)
     assert (a["dsm_shift_rows"], a["dsm_shift_columns"]) == (2, -1)
     assert a["dsm_iou_at_shift"] > 0.95 > a["dsm_iou"]
 
@@ -272,7 +273,7 @@ def test_a_cell_the_model_shades_in_part_is_shadow_when_as_dark_as_core_shadow()
     d[10, 10] = math.log(1 / 10)  # as dark as core shadow (ln 1/6 or below)
     d[10, 30] = math.log(1 / 4)  # rim-dark only
     d[30, 10] = math.log(1 / 10)  # black roof: the model shades nothing there
-    f = darkness.dsm_shadow_fraction(d, prior)
+    f = dsm_shadow_fraction(d, prior)
     assert f[10, 10] >= 0.5
     assert f[10, 30] == 0.0
     assert f[30, 10] == 0.0
@@ -309,7 +310,7 @@ def test_prior_registration_finds_a_half_pixel_shift(sub):
     evidence = 1.5 * truth + rng.normal(0, 0.15, truth.shape)
     evidence[60:70, 10:20] += 1.5  # a black roof in the sun
     sub_cells = ill.sub_cell_shadow(z, **SUN, cell_size=1.0)
-    r = darkness.prior_registration(evidence, sub_cells, ill.SUPERSAMPLE)
+    r = prior_registration(evidence, sub_cells, ill.SUPERSAMPLE)
     assert (r["dsm_registration_rows"], r["dsm_registration_columns"]) == (
         sub[0] / 2,
         sub[1] / 2,
@@ -319,7 +320,7 @@ def test_prior_registration_finds_a_half_pixel_shift(sub):
     # Within its bound: a shift of 1.5 cells is reported at the 1-cell limit, not beyond.
     far = np.roll(fine, (3, 0), axis=(0, 1))
     ev = ill.cast_shadow(far, **SUN, cell_size=0.5).reshape(80, 2, 80, 2).mean(axis=(1, 3))
-    r = darkness.prior_registration(ev, sub_cells, ill.SUPERSAMPLE, max_shift=1)
+    r = prior_registration(ev, sub_cells, ill.SUPERSAMPLE, max_shift=1)
     assert r["dsm_registration_rows"] == 1.0
 
 

@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from geoboresight.shadow import darkness
+from geoboresight.shadow import blocks, darkness
 from geoboresight.shadow import deshadow_steps as dst
 from geoboresight.shadow import illumination as ill
 from geoboresight.shadow import prior as sp
@@ -154,11 +154,13 @@ def test_the_block_with_the_model_finds_its_shadow_and_falls_back_where_it_has_n
     blue, nir, swir, block = _calibrated_block()
     z, z_ok = _block(), np.ones((40, 30), bool)
     z_ok[:, :5] = False  # beyond the model's extent
-    b = sp.prior_map_block(blue, nir, swir, z, heights_valid=z_ok, surface_prior=_prior(), **block)
+    b = blocks.prior_map_block(
+        blue, nir, swir, z, heights_valid=z_ok, surface_prior=_prior(), **block
+    )
     assert (b.fraction[16:24, 11:19] >= 0.5).all()  # predicted and dark
     assert (b.fraction[:10, 5:] == 0).all()  # lit and not predicted
     assert b.holes[:, :5].all() and not b.holes[:, 5:].any()
-    spectral, _ = darkness.shadow_fraction_block(blue, nir, swir, None, **block)
+    spectral, _ = blocks.shadow_fraction_block(blue, nir, swir, None, **block)
     np.testing.assert_array_equal(b.fraction[:, :5], spectral[:, :5])
     assert b.deep.any() and not b.lit.any()  # the predicted shadow is dark
 
@@ -166,7 +168,7 @@ def test_the_block_with_the_model_finds_its_shadow_and_falls_back_where_it_has_n
 def test_registration_off_keeps_the_cast_and_measures_the_agreement():
     blue, nir, swir, block = _calibrated_block()
     z, z_ok = _block(), np.ones((40, 30), bool)
-    p, agree = sp.register_prior(
+    p, agree = blocks.register_prior(
         blue, nir, swir, z, heights_valid=z_ok, surface_prior=_prior(), register=False, **block
     )
     assert p.shift == (0.0, 0.0)

@@ -38,7 +38,7 @@ class SurfaceModel:
     exact, as ``sun-shadow``); ``register``: first move the cast shadow by the sub-pixel
     shift, within :data:`geoboresight.shadow.darkness.DSM_TOLERANCE` pixels, that best matches the
     image's NIR darkness, where the image's parts agree on it
-    (:func:`geoboresight.shadow.darkness.prior_registration`; False = the prediction where the DSM
+    (:func:`geoboresight.shadow.prior.prior_registration`; False = the prediction where the DSM
     puts it).
 
     Examples

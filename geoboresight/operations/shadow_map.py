@@ -4,10 +4,10 @@ four shadow-fraction classes out, calibrated to the scene (:mod:`geoboresight.sh
 Read → kernel steps → write. A random sample calibrates the map (dark levels, sunlit modes,
 sunlit ratio, the scaled class table: :func:`geoboresight.shadow.darkness.calibrate_shadow_map`)
 and a central block of lines gives the boresight offset; with a surface model, the same
-block registers its cast shadow onto the image (:func:`geoboresight.shadow.prior.register_prior`).
+block registers its cast shadow onto the image (:func:`geoboresight.shadow.blocks.register_prior`).
 Then the map is written strip by strip, each strip's fraction by
-:func:`geoboresight.shadow.darkness.shadow_fraction_block`, or with the surface model by
-:func:`geoboresight.shadow.prior.prior_map_block`. What this shares with other operations
+:func:`geoboresight.shadow.blocks.shadow_fraction_block`, or with the surface model by
+:func:`geoboresight.shadow.blocks.prior_map_block`. What this shares with other operations
 is in :mod:`geoboresight.operations._dark` (dark levels), :mod:`geoboresight.operations._offset`
 (the offset) and :mod:`geoboresight.operations._surface` (the surface model, the sun).
 """
@@ -27,6 +27,12 @@ from ..io.checks import no_valid_error
 from ..io.dual import BandChoice, DualLayout
 from ..io.windows import Sample
 from ..sensor.dark import DarkLevels
+from ..shadow.blocks import (
+    prior_map_block,
+    register_prior,
+    shadow_fraction_block,
+    shadow_map_halo,
+)
 from ..shadow.classes import MASK_SHADOW, NO_SHADOW, NODATA_CLASS, fraction_text
 from ..shadow.darkness import (
     BLUE_NM,
@@ -38,8 +44,6 @@ from ..shadow.darkness import (
     calibrate_shadow_map,
     check_sample,
     shadow_classes,
-    shadow_fraction_block,
-    shadow_map_halo,
     shadow_mask,
     signal,
 )
@@ -48,9 +52,7 @@ from ..shadow.prior import (
     MOSTLY_SHADOW,
     SHIFT_IOU_GAIN,
     prior_halo,
-    prior_map_block,
     prior_method,
-    register_prior,
     spectral_method,
 )
 from ._dark import DARK_BANDS, instrument_dark_level, saturation_value, spread_bands
@@ -160,7 +162,7 @@ def shadow_map_file(
         ``sun_azimuth``; ``cell_size`` for a DSM without a geotransform): the cast shadow it
         predicts is the prior, the spectra refine its edges and fraction, and no pixel away
         from it is shadow, except where a caster beyond the model's edge could shade it
-        (:func:`geoboresight.shadow.darkness.dsm_shadow_fraction`). How far the
+        (:func:`geoboresight.shadow.prior.dsm_shadow_fraction`). How far the
         model and the image disagree is reported (best shift, share of predicted shadow that
         is spectrally lit). Default: none (spectral evidence only).
     detection : Detection
@@ -402,7 +404,7 @@ def _map_reader(v_src, s_src, mb: _MapBands, opened):
 
 def _register(read, dual, mb: _MapBands, prior, register: bool, block: dict):
     """The surface model registered onto the image on the central block of lines (as the
-    boresight offset): :func:`geoboresight.shadow.prior.register_prior`."""
+    boresight offset): :func:`geoboresight.shadow.blocks.register_prior`."""
     r0, r1 = central_rows(dual.height)
     values, valid, z, z_ok, _ = read(r0, r1)
     return register_prior(
