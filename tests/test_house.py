@@ -322,6 +322,26 @@ def test_every_module_stands_on_a_floor_and_no_arrow_runs_back_up():
     assert not up, "\n".join(up)
 
 
+def test_the_shadow_maps_kernels_stand_in_three_rooms_one_way():
+    """The shadow map's kernels: the spectral steps (shadow/darkness.py) below the surface
+    prior (shadow/prior.py: the DSM's cast, its refinement, registration and agreement) below
+    the block kernels that run both (shadow/blocks.py); none imports one above it, and every
+    step of the surface prior is in its one module."""
+    graph = _import_graph()
+    darkness, prior, blocks = (f"geoboresight.shadow.{m}" for m in ("darkness", "prior", "blocks"))
+    assert not {prior, blocks} & graph[darkness], graph[darkness]
+    assert blocks not in graph[prior] and {darkness, prior} <= graph[blocks]
+    from geoboresight.shadow import blocks as b
+    from geoboresight.shadow import darkness as d
+    from geoboresight.shadow import prior as p
+
+    for name in ("surface_prior", "dsm_shadow_fraction", "prior_registration", "prior_agreement"):
+        assert getattr(p, name).__module__ == prior, name
+        assert not hasattr(d, name), name
+    for name in ("shadow_map_block", "shadow_fraction_block", "prior_map_block", "register_prior"):
+        assert getattr(b, name).__module__ == blocks, name
+
+
 def test_io_imports_no_kernel_package():
     graph = _import_graph()
     for module, deps in graph.items():
