@@ -224,7 +224,7 @@ def _image(path: str, label: str, user: str | None, sensor: str, calibration=Non
                 "raw Specim capture or a HySpex file in DN, and this is "
                 + (f"a {product.kind} product" if product else "not one")
             )
-        image, plan = radiance_image(path, calibration, f"{sensor.lower()}_calibration")
+        image, plan = radiance_image(product, calibration, f"{sensor.lower()}_calibration")
         images = (image,)
         product = dataclasses.replace(product, notes=product.notes + (_calibration_note(plan),))
     if images is None:

@@ -8,7 +8,6 @@ values (:func:`radiometry`).
 from __future__ import annotations
 
 import os
-import struct
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -73,7 +72,7 @@ def radiance_plan(
     what does not fit: another product, no calibration, another sensor or binning, bands
     without a calibration band, no integration time, a dark file at another tint.
     """
-    from .products import hyspex, specim
+    from .products import recognise
 
     path = os.fspath(path)
     if not os.path.exists(path):
@@ -83,17 +82,21 @@ def radiance_plan(
             f"parameter 'smear': {smear!r} is not one of {', '.join(SMEAR_CHOICES)}",
             params=("smear",),
         )
-    if hyspex.read(path) is not None:
+    return _plan(recognise(path), path, calibration, smear, param)
+
+
+def _plan(product, path: str, calibration, smear: str, param: str) -> RadiancePlan:
+    """:func:`radiance_plan` of the product recognised at ``path`` (None: not one)."""
+    kind = product.kind if product is not None else None
+    if kind == "HySpex":
         if calibration is not None:
             raise ParameterError(
                 f"parameter '{param}': {path} is a HySpex file, which carries its own "
                 "calibration: leave 'calibration' empty",
                 params=(param,),
             )
-        return _hyspex_plan(path)
-    found = specim.capture(path)
-    product = specim.read(path) if found is not None else None
-    if product is None:
+        return _hyspex_plan(product)
+    if kind != "Specim raw ENVI":
         raise InputError(
             f"input {path}: radiance is made from a raw Specim capture (ENVI with its Specim "
             "header: autodarkstartline, sensorid, tint) or a HySpex .hyspex file; this is "
@@ -108,23 +111,20 @@ def radiance_plan(
     cal = calibration
     if not isinstance(cal, Calibration):
         cal = read_calibration(cal, "calibration")
-    return _specim_plan(path, found, product, cal, smear, param)
+    return _specim_plan(product, cal, smear, param)
 
 
-def _specim_plan(path, found, product, cal: Calibration, smear: str, param: str) -> RadiancePlan:
+def _specim_plan(product, cal: Calibration, smear: str, param: str) -> RadiancePlan:
     from ..sensor.calibration import (
         FRAME_TRANSFER_MS,
         bin_gain,
         binned_wavelengths,
         match_bands,
     )
-    from .raster import open_raster
 
-    hdr, keys, cube = found
+    path, capture, image = product.path, product.capture, product.images[0]
+    hdr, keys, cube, lines = capture.header, capture.keys, capture.layout, capture.lines
     where = f"Specim header {hdr}"
-    image = product.images[0]
-    with open_raster(image.source, f"Specim capture {path}") as src:
-        lines = src.height
     wl = np.asarray(image.wavelengths, float)
     sensorid = keys.get("sensorid", "").strip()
     binning = binning_of(keys, where)
@@ -149,7 +149,7 @@ def _specim_plan(path, found, product, cal: Calibration, smear: str, param: str)
             params=(param,),
         )
     tint, tint_note = capture_tints(keys, where, cube.bands)
-    dark, dark_note = _specim_dark(path, hdr, keys, cube, lines, image, tint)
+    dark, dark_note = _specim_dark(product, tint)
     bad = None
     if cal.bad:
         bad = np.zeros((cube.bands, cube.samples), bool)
@@ -196,8 +196,10 @@ def _specim_plan(path, found, product, cal: Calibration, smear: str, param: str)
     )
 
 
-def _specim_dark(path, hdr, keys, cube, lines, image, tint) -> tuple[np.ndarray, str]:
+def _specim_dark(product, tint) -> tuple[np.ndarray, str]:
     """The capture's dark level (bands, samples) and where it came from."""
+    path, image = product.path, product.images[0]
+    cube, lines, ref_hdr = product.capture.layout, product.capture.lines, product.capture.dark_file
     if image.dark is None:
         raise InputError(
             f"Specim capture {path} has no dark frames ('autodarkstartline') and no DARKREF "
@@ -207,8 +209,6 @@ def _specim_dark(path, hdr, keys, cube, lines, image, tint) -> tuple[np.ndarray,
         dark = refined_dark(cube, lines, cube.lines)
         dark[~np.isfinite(np.asarray(image.dark))] = np.nan  # the frame counter's cells
         return dark, f"dark frames, lines {lines}-{cube.lines - 1}, 3-sigma mean (APL)"
-    folder, base = os.path.split(hdr)
-    ref_hdr = os.path.join(folder, "DARKREF_" + os.path.splitext(base)[0] + ".hdr")
     ref = envi_header(ref_hdr[:-4]) or {}
     ref_tint, _ = capture_tints(ref, f"dark reference {ref_hdr}", cube.bands)
     if not np.allclose(ref_tint, tint, rtol=1e-6):
@@ -224,23 +224,10 @@ def _tints(t: np.ndarray) -> str:
     return "/".join(f"{v:g}" for v in dict.fromkeys(np.asarray(t).tolist()))
 
 
-def _hyspex_plan(path: str) -> RadiancePlan:
-    from .products.hyspex import (
-        FRAMES_AT,
-        HDR_SIZE_AT,
-        PIXEL,
-        SPATIAL_SIZE_AT,
-        SPECTRAL_SIZE_AT,
-    )
-
+def _hyspex_plan(product) -> RadiancePlan:
+    path, cube = product.path, product.capture.layout
+    bands, lines = cube.bands, product.capture.lines
     cal, bg, sat, order = hyspex_calibration(path)
-    with open(path, "rb") as f:
-        fixed = f.read(FRAMES_AT + 4)
-    hdr_size = struct.unpack_from("<i", fixed, HDR_SIZE_AT)[0]
-    bands = struct.unpack_from("<I", fixed, SPECTRAL_SIZE_AT)[0]
-    samples = struct.unpack_from("<I", fixed, SPATIAL_SIZE_AT)[0]
-    lines = struct.unpack_from("<I", fixed, FRAMES_AT)[0]
-    cube = RawCube(os.path.abspath(path), lines, bands, samples, hdr_size, PIXEL, "bil")
     tags = {
         "product": "radiance (HyPro: L = (DN - background) * h c / (RE QE SF tint A omega "
         "dlambda lambda))",
@@ -279,23 +266,28 @@ def _stamp(path) -> tuple:
     return (os.path.realpath(path), st.st_size, st.st_mtime_ns)
 
 
-def radiance_image(path, calibration, param: str = "calibration"):
-    """The image of the raw capture at ``path`` as radiance, read by GDAL with no file written
-    in between: a :class:`~geoboresight.io.products.SensorImage` whose ``source`` is a VRT of
+def radiance_image(product, calibration, param: str = "calibration"):
+    """The image of a raw capture as radiance, read by GDAL with no file written in between:
+    a :class:`~geoboresight.io.products.SensorImage` whose ``source`` is a VRT of
     ``L = (DN − dark) · gain / tint`` per band (GDAL's ``sum`` and ``mul`` pixel functions
     over the capture's own bytes and one line of coefficients per band); returns
     ``(SensorImage, RadiancePlan)``. NaN where a pixel is
     saturated, a bad cell or the frame counter; ``units`` radiance, ``dark`` 0.
 
-    ``calibration`` is the Specim calibration (a path or :class:`Calibration`), or, for a
-    HySpex file, the file itself (its own calibration); ``param`` names it in messages. The Eagle's frame-transfer smear is
+    ``product`` is the capture as :func:`~geoboresight.io.products.recognise` found it (its
+    files are not looked for again), or its path. ``calibration`` is the Specim calibration
+    (a path or :class:`Calibration`), or, for a HySpex file, the file itself (its own
+    calibration); ``param`` names it in messages. The Eagle's frame-transfer smear is
     left out here (each band would need every band before it): ``radiance`` applies it.
     """
-    from .products import hyspex, recognise
+    from .products import Product, recognise
 
-    path = os.fspath(path)
-    own = hyspex.read(path) is not None
-    if own:
+    if not isinstance(product, Product):
+        path = os.fspath(product)
+        product = recognise(path)
+    else:
+        path = product.path
+    if product is not None and product.kind == "HySpex":
         given = calibration.source if isinstance(calibration, Calibration) else calibration
         if given is not None and os.path.realpath(os.fspath(given)) != os.path.realpath(path):
             raise ParameterError(
@@ -315,9 +307,8 @@ def radiance_image(path, calibration, param: str = "calibration"):
         if calibration is not None and not isinstance(calibration, Calibration):
             if not os.path.exists(os.fspath(calibration)):
                 raise InputError(f"calibration {calibration} does not exist: check the path")
-        plan = radiance_plan(path, calibration, "off", param)
-        image = recognise(path).images[0]
-        found = _ON_THE_FLY[key] = _radiance_vrt(plan, image)
+        plan = _plan(product, path, calibration, "off", param)
+        found = _ON_THE_FLY[key] = _radiance_vrt(plan, product.images[0])
     return found
 
 

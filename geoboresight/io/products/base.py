@@ -47,6 +47,24 @@ class Geolocation:
     source: str = ""  # e.g. "PRISMA Latitude_VNIR/Longitude_VNIR"
 
 
+@dataclass(frozen=True, eq=False)
+class Capture:
+    """Where a raw capture's DN come from, as its reader found them: what turns them into
+    radiance reads this, never the user's path again.
+
+    ``header`` is the file whose keys describe the capture (a Specim ENVI header, or the
+    ``.hyspex`` file itself), ``keys`` its ENVI keys (None for HySpex), ``layout`` the byte
+    layout of the whole data file (a Specim capture's dark lines included), ``lines`` its image
+    lines and ``dark_file`` the dark reference beside it (a Specim ``DARKREF_`` header), or None.
+    """
+
+    header: str
+    keys: dict | None
+    layout: object  # a :class:`._raw.RawCube`
+    lines: int
+    dark_file: str | None = None
+
+
 @dataclass(frozen=True)
 class Product:
     """A recognised sensor product: what ``open_dual`` and ``geoboresight info`` report."""
@@ -58,6 +76,8 @@ class Product:
     notes: tuple[str, ...] = field(default=())
     #: Why a product that can carry geolocation carries none here (as ``info`` states it), or "".
     geolocation_problem: str = ""
+    #: The raw capture behind the image (Specim raw ENVI, HySpex), or None.
+    capture: Capture | None = None
 
     def image(self, name: str) -> SensorImage | None:
         for im in self.images:
@@ -85,4 +105,4 @@ def read_once(container: str, extra, read) -> Product | None:
     return _READ[key]
 
 
-__all__ = ["Geolocation", "Product", "SensorImage", "read_once"]
+__all__ = ["Capture", "Geolocation", "Product", "SensorImage", "read_once"]

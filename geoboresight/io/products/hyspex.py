@@ -65,7 +65,7 @@ import numpy as np
 from ...errors import InputError
 from ..wavelengths import unit_scale
 from ._raw import RawCube, raw_vrt
-from .base import Product, SensorImage
+from .base import Capture, Product, SensorImage
 from .specim import image_name
 
 KIND = "HySpex"
@@ -161,7 +161,9 @@ def _read(path: str, abspath: str, size: int, mtime_ns: int) -> Product:
         dark=dark,
         dark_source=dark_source,
     )
-    return Product(KIND, path, (image,), notes=tuple(notes))
+    return Product(
+        KIND, path, (image,), notes=tuple(notes), capture=Capture(path, None, cube, lines)
+    )
 
 
 def _background(block: bytes, bands: int, samples: int, notes: list) -> tuple:

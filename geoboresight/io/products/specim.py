@@ -44,7 +44,7 @@ from ..envi import ENVI_DTYPES, data_for_header, envi_header
 from ..raster import open_raster
 from ..wavelengths import good_bands, parse_list, read_wavelengths, unit_scale
 from ._raw import RawCube, raw_vrt
-from .base import Product, SensorImage
+from .base import Capture, Product, SensorImage
 
 KIND = "Specim raw ENVI"
 #: Header keys Specim's acquisition software writes (any one marks a Specim header).
@@ -248,6 +248,7 @@ def _read(path: str, hdr: str, data: str, stamps: tuple) -> Product | None:
     notes: list[str] = []
     dark = None
     dark_source = ""
+    dark_file = None
     lines = cube.lines
     if "autodarkstartline" in keys:
         start = _int(keys, "autodarkstartline", hdr)
@@ -273,9 +274,9 @@ def _read(path: str, hdr: str, data: str, stamps: tuple) -> Product | None:
         counter = has_frame_counter(cube, cube.lines)
         ref = _darkref(hdr, cube)
         if ref is not None:
-            dark, ref_hdr = ref
+            dark, dark_file = ref
             dark_source = "DARKREF file"
-            notes.append(f"dark reference: mean of {ref_hdr}")
+            notes.append(f"dark reference: mean of {dark_file}")
         elif not counter:
             return None  # nothing a plain GDAL read misses
     masked = None
@@ -305,7 +306,8 @@ def _read(path: str, hdr: str, data: str, stamps: tuple) -> Product | None:
         dark=dark,
         dark_source=dark_source,
     )
-    return Product(KIND, path, (image,), notes=tuple(notes))
+    raw = Capture(hdr, keys, cube, lines, dark_file)
+    return Product(KIND, path, (image,), notes=tuple(notes), capture=raw)
 
 
 __all__ = ["KIND", "capture", "first_dark_line", "has_frame_counter", "image_name", "read"]
