@@ -1,19 +1,37 @@
-"""A map raster read at the raw pixels of a flight line: a surface model on the image's grid.
+"""A surface model on the image's grid: :func:`surface_on_image_grid`, the one way an
+operation that casts shadows opens its DSM.
 
-``shadow-map --dsm`` casts shadows on the image's own grid. A DSM is usually on a map grid; with
-the line's IGM (each raw pixel's map coordinates) it is read at every raw pixel, bilinearly,
-as GDAL's ``gdallocationinfo -r bilinear`` or GRASS's ``r.what -i`` would read it, and the
-raw grid's local geometry (metres per column and per line, rotation) is the affine fit of the
-IGM, in which the sun's azimuth from north is then read.
+``shadow-map --dsm`` casts shadows on the image's own grid. A DSM on that grid is opened as it
+is, checked against the image's grid, with the metres of its steps and its place. A DSM is
+usually on a map grid; with the line's IGM (each raw pixel's map coordinates) it is read at
+every raw pixel, bilinearly, as GDAL's ``gdallocationinfo -r bilinear`` or GRASS's ``r.what
+-i`` would read it, and the raw grid's local geometry (metres per column and per line,
+rotation) is the affine fit of the IGM, in which the sun's azimuth from north is then read.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy import ndimage
 
-from ..errors import InputError
-from .georef import Coordinates, crs_units, output_crs, transform_xy, utm_crs
+from ..errors import InputError, ParameterError
+from .checks import check_cell_size
+from .georef import (
+    Coordinates,
+    centre_lonlat,
+    crs_name,
+    crs_units,
+    grid_place,
+    metric_matrix,
+    output_crs,
+    transform_xy,
+    utm_crs,
+)
+from .grid import Grid
+from .image import open_raster
+from .raster import scratch_raster
 
 #: Raw lines read (and written) at a time.
 BLOCK_LINES = 256
@@ -111,3 +129,105 @@ def surface_on_raw_grid(src, coords: Coordinates, dst, progress=None) -> int:
         if progress is not None:
             progress.update(r1 / height, "surface model onto the image's grid")
     return covered
+
+
+@dataclass(frozen=True)
+class SurfaceOnGrid:
+    """A surface model opened on an image's grid: its raster (``src``, open until the
+    caller's stack closes), the 2 × 2 matrix taking a step of (Δcolumn, Δline) to (Δeast,
+    Δnorth) in metres (None when neither the DSM nor the image has a geotransform: the cell
+    size given says it) and the place of the grid (lon, lat, CRS) for the sun, or None."""
+
+    src: object
+    matrix: np.ndarray | None
+    place: tuple | None
+
+
+def surface_on_image_grid(
+    dsm,
+    grid: Grid,
+    stack,
+    *,
+    image: str,
+    coords=None,
+    geolocation: str = "",
+    cell_size=None,
+    progress=None,
+) -> SurfaceOnGrid:
+    """The surface model ``dsm`` on the image's ``grid`` (``image`` names the image).
+
+    Without ``coords`` the DSM is on the image's grid: of its size and, when both have one,
+    its geotransform and CRS; ``cell_size`` (m) is then checked against a geotransform, and
+    needed without one. With ``coords`` (the line's :class:`Coordinates`, from its IGM or GLT,
+    which ``geolocation`` names, e.g. "IGM igm.tif") the DSM on its map grid is read at every raw pixel into a
+    temporary raster on the image's grid, which ``stack`` removes.
+    """
+    if coords is not None:
+        return _through_geolocation(dsm, grid, stack, coords, geolocation, progress)
+    src = open_dsm(dsm, stack)
+    if (src.height, src.width) != (grid.height, grid.width):
+        raise InputError(
+            f"surface model {dsm} has {src.height} × {src.width} cells but the "
+            f"image {grid.height} × {grid.width} pixels: give a DSM on the image's grid, or "
+            "the line's IGM ('igm') to read a DSM on a map grid at the image's pixels"
+        )
+    own = Grid.of(src)
+    # Of the image's size but on another map grid (shifted, rotated, south-up, another
+    # CRS): its cells are not the image's pixels.
+    grid.require_same(own, image, f"surface model {dsm}")
+    for placed, label in ((own, f"surface model {dsm}"), (grid, image)):
+        if placed.transform is not None:
+            matrix = metric_matrix(placed, label)
+            check_cell_size(cell_size, matrix, label)
+            return SurfaceOnGrid(src, matrix, grid_place(placed))
+    if cell_size:
+        return SurfaceOnGrid(src, None, None)
+    raise ParameterError(
+        f"surface model {dsm} and the image have no geotransform: give "
+        "'cell_size' (the DSM's cell size in metres)"
+    )
+
+
+def _through_geolocation(dsm, grid: Grid, stack, coords, geolocation, progress) -> SurfaceOnGrid:
+    """The DSM (on a map grid) read at every raw pixel of ``coords``: a temporary raster on
+    the image's grid, the raw grid's metric matrix, and the line's place for the sun."""
+    import tempfile
+
+    matrix, crs, rms = raw_grid_matrix(coords)
+    src = open_dsm(dsm, stack)
+    folder = stack.enter_context(tempfile.TemporaryDirectory(prefix="geoboresight-dsm-"))
+    path = f"{folder}/dsm_raw.tif"
+    with scratch_raster(path, grid.width, grid.height) as dst:
+        covered = surface_on_raw_grid(src, coords, dst, progress.sub(0.0, 0.05))
+    if covered == 0:
+        raise InputError(
+            f"surface model {dsm} does not cover the flight line: none of the "
+            f"{geolocation}'s pixels fall on it (check both files' CRS)"
+        )
+    share = covered / float(grid.height * grid.width)
+    cell = float(np.sqrt(abs(np.linalg.det(matrix))))
+    progress.info(
+        f"surface model {dsm} read at the raw pixels through the {geolocation}: "
+        f"{100 * share:.1f} % covered; raw grid {cell:.2f} m pixels, affine within "
+        f"{rms:.2f} m RMS ({crs_name(crs)})"
+    )
+    if rms > cell:
+        progress.info(
+            f"warning: the flight line departs from an affine grid by {rms:.1f} m RMS (more "
+            "than a pixel): its shadows are cast on the line's mean geometry"
+        )
+    lon, lat = centre_lonlat(coords.x, coords.y, coords.crs)
+    raw = stack.enter_context(open_raster(path, "surface model"))
+    return SurfaceOnGrid(raw, matrix, (lon, lat, crs))
+
+
+def open_dsm(path, stack):
+    """The surface model opened; refused when it has more than one band: its first band would
+    be used without a word (a DSM and a DTM in one file, or an image given for the DSM)."""
+    src = stack.enter_context(open_raster(path, "surface model"))
+    if src.count != 1:
+        raise InputError(
+            f"surface model {path} has {src.count} bands: give a single-band DSM (heights in "
+            f"metres), e.g. its band 1 with gdal_translate -b 1 {path} dsm.tif"
+        )
+    return src

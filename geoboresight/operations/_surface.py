@@ -12,8 +12,8 @@ import numpy as np
 from .. import io
 from ..errors import InputError, ParameterError
 from ..io import georef
-from ..io.checks import check_cell_size, check_heights, no_valid_error
-from ..io.georef import grid_place
+from ..io.checks import check_heights, no_valid_error
+from ..io.sample import surface_on_image_grid
 from ..shadow import illumination
 from ..shadow.prior import SurfacePrior, surface_prior
 from ..shadow.surface import height_noise, second_differences, surface_walls
@@ -89,15 +89,31 @@ def open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> Op
     # known, or refused (missing, or given twice), before any reading.
     angles = surface.sun_zenith is not None or surface.sun_azimuth is not None
     sun = _sun(surface, None) if surface.acquisition_time is None or angles else None
+    coords, geolocation = None, ""
     if surface.igm or surface.glt:
         if surface.cell_size:
             raise ParameterError(
                 "parameter 'cell_size' is for a surface model without a geotransform: with the "
                 "line's IGM or GLT the pixels' size comes from it; leave 'cell_size' empty"
             )
-        src, matrix, place = _surface_via_geolocation(surface, dual, stack, progress)
-    else:
-        src, matrix, place = _surface_on_image_grid(surface, dual, stack)
+        coords, geolocation = _line_coordinates(surface, dual)
+    elif surface.igm_crs:
+        raise ParameterError(
+            "parameter 'igm_crs' is the CRS of the line's IGM or GLT: give 'igm' or 'glt' "
+            "too, or leave it empty"
+        )
+    on_grid = surface_on_image_grid(
+        surface.dsm,
+        dual.grid,
+        stack,
+        image=f"image {dual.vnir.path}",
+        coords=coords,
+        geolocation=geolocation,
+        cell_size=surface.cell_size,
+        progress=progress,
+    )
+    src, place = on_grid.src, on_grid.place
+    matrix = illumination.grid_matrix(on_grid.matrix, surface.cell_size)
     zen, az, how = sun or _sun(surface, place)
     if zen >= 90.0:
         raise ParameterError(
@@ -233,13 +249,8 @@ def _sun(surface: SurfaceModel, place) -> tuple[float, float, str]:
     )
 
 
-def _surface_via_geolocation(surface: SurfaceModel, dual, stack, progress):
-    """The DSM (on a map grid) read at every raw pixel through the line's IGM or GLT: a
-    temporary raster on the image's grid, the raw grid's geometry, and the place for the sun."""
-    import tempfile
-
-    from ..io.sample import raw_grid_matrix, surface_on_raw_grid
-
+def _line_coordinates(surface: SurfaceModel, dual):
+    """Each raw pixel's map coordinates from the line's IGM or GLT, and what names them."""
     if surface.igm and surface.glt:
         raise ParameterError(
             "parameters 'igm' and 'glt': give the line's geolocation once, its IGM or its GLT"
@@ -268,52 +279,14 @@ def _surface_via_geolocation(surface: SurfaceModel, dual, stack, progress):
                 f"{dual.width} image: give the GLT of this flight line"
             )
         coords = georef.Coordinates(x, y, glt.grid.crs, surface.glt, f"GLT {surface.glt}")
-    else:
-        coords = georef.coordinates_for(dual.vnir.path, igm=surface.igm, crs=surface.igm_crs)
-    source = f"GLT {surface.glt}" if surface.glt else f"IGM {surface.igm}"
+        return coords, f"GLT {surface.glt}"
+    coords = georef.coordinates_for(dual.vnir.path, igm=surface.igm, crs=surface.igm_crs)
     if coords.x.shape != (dual.height, dual.width):
         raise InputError(
             f"IGM {surface.igm} has {coords.x.shape[0]} × {coords.x.shape[1]} pixels but the "
             f"image {dual.height} × {dual.width}: give the IGM of this flight line"
         )
-    matrix, crs, rms = raw_grid_matrix(coords)
-    src = _open_dsm(surface.dsm, stack)
-    folder = stack.enter_context(tempfile.TemporaryDirectory(prefix="geoboresight-dsm-"))
-    path = f"{folder}/dsm_raw.tif"
-    with io.scratch_raster(path, dual.width, dual.height) as dst:
-        covered = surface_on_raw_grid(src, coords, dst, progress.sub(0.0, 0.05))
-    if covered == 0:
-        raise InputError(
-            f"surface model {surface.dsm} does not cover the flight line: none of the "
-            f"{source}'s pixels fall on it (check both files' CRS)"
-        )
-    share = covered / float(dual.height * dual.width)
-    cell = float(np.sqrt(abs(np.linalg.det(matrix))))
-    progress.info(
-        f"surface model {surface.dsm} read at the raw pixels through the {source}: "
-        f"{100 * share:.1f} % covered; raw grid {cell:.2f} m pixels, affine within "
-        f"{rms:.2f} m RMS ({georef.crs_name(crs)})"
-    )
-    if rms > cell:
-        progress.info(
-            f"warning: the flight line departs from an affine grid by {rms:.1f} m RMS (more "
-            "than a pixel): its shadows are cast on the line's mean geometry"
-        )
-    lon, lat = georef.centre_lonlat(coords.x, coords.y, coords.crs)
-    raw = stack.enter_context(io.open_raster(path, "surface model"))
-    return raw, matrix, (lon, lat, crs)
-
-
-def _open_dsm(path, stack):
-    """The surface model opened; refused when it has more than one band: its first band would
-    be used without a word (a DSM and a DTM in one file, or an image given for the DSM)."""
-    src = stack.enter_context(io.open_raster(path, "surface model"))
-    if src.count != 1:
-        raise InputError(
-            f"surface model {path} has {src.count} bands: give a single-band DSM (heights in "
-            f"metres), e.g. its band 1 with gdal_translate -b 1 {path} dsm.tif"
-        )
-    return src
+    return coords, f"IGM {surface.igm}"
 
 
 def _refuse_without_dsm(surface: SurfaceModel) -> None:
@@ -335,41 +308,3 @@ def _refuse_without_dsm(surface: SurfaceModel) -> None:
             f"parameter{'s' if len(extra) > 1 else ''} {', '.join(repr(n) for n in extra)} "
             "only used with a surface model: give 'dsm' too, or leave them empty"
         )
-
-
-def _surface_on_image_grid(surface: SurfaceModel, dual, stack):
-    """The DSM on the image's grid: (raster, the grid's metric matrix, the place for the sun)."""
-    if surface.igm_crs:
-        raise ParameterError(
-            "parameter 'igm_crs' is the CRS of the line's IGM or GLT: give 'igm' or 'glt' "
-            "too, or leave it empty"
-        )
-    src = _open_dsm(surface.dsm, stack)
-    if (src.height, src.width) != (dual.height, dual.width):
-        raise InputError(
-            f"surface model {surface.dsm} has {src.height} × {src.width} cells but the "
-            f"image {dual.height} × {dual.width} pixels: give a DSM on the image's grid, or "
-            "the line's IGM ('igm') to read a DSM on a map grid at the image's pixels"
-        )
-    grid = io.Grid.of(src)
-    # Of the image's size but on another map grid (shifted, rotated, south-up, another
-    # CRS): its cells are not the image's pixels.
-    dual.grid.require_same(grid, f"image {dual.vnir.path}", f"surface model {surface.dsm}")
-    if grid.transform is not None:
-        matrix = illumination.grid_matrix(
-            georef.metric_matrix(grid, f"surface model {surface.dsm}")
-        )
-        check_cell_size(surface.cell_size, matrix, f"surface model {surface.dsm}")
-        return src, matrix, grid_place(grid)
-    if dual.grid.transform is not None:
-        matrix = illumination.grid_matrix(
-            georef.metric_matrix(dual.grid, f"image {dual.vnir.path}")
-        )
-        check_cell_size(surface.cell_size, matrix, f"image {dual.vnir.path}")
-        return src, matrix, grid_place(dual.grid)
-    if surface.cell_size:
-        return src, illumination.grid_matrix(None, surface.cell_size), None
-    raise ParameterError(
-        f"surface model {surface.dsm} and the image have no geotransform: give "
-        "'cell_size' (the DSM's cell size in metres)"
-    )
