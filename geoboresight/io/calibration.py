@@ -301,6 +301,37 @@ def refined_dark(cube: RawCube, first: int, stop: int) -> np.ndarray:
         return np.where(count > 0, total / np.maximum(count, 1), mean)
 
 
+def capture_dark(product, tint) -> tuple[np.ndarray, str]:
+    """The dark level (bands, samples) the radiance of a Specim capture (a recognised
+    :class:`~geoboresight.io.products.Product`) subtracts, and where it came from: its dark
+    frames, refined (:func:`refined_dark`), or its DARKREF file, taken at the capture's
+    integration times ``tint`` (ms per band)."""
+    path, image = product.path, product.images[0]
+    cube, lines, ref_hdr = product.capture.layout, product.capture.lines, product.capture.dark_file
+    if image.dark is None:
+        raise InputError(
+            f"Specim capture {path} has no dark frames ('autodarkstartline') and no DARKREF "
+            "file beside it: radiance needs the dark level"
+        )
+    if image.dark_source == "frames":
+        dark = refined_dark(cube, lines, cube.lines)
+        dark[~np.isfinite(np.asarray(image.dark))] = np.nan  # the frame counter's cells
+        return dark, f"dark frames, lines {lines}-{cube.lines - 1}, 3-sigma mean (APL)"
+    ref = envi_header(ref_hdr[:-4]) or {}
+    ref_tint, _ = capture_tints(ref, f"dark reference {ref_hdr}", cube.bands)
+    if not np.allclose(ref_tint, tint, rtol=1e-6):
+        raise InputError(
+            f"dark reference {ref_hdr} was taken at {_tints(ref_tint)} ms but {path} at "
+            f"{_tints(tint)} ms: a dark file must have the capture's integration time (APL "
+            "refuses to scale it)"
+        )
+    return np.asarray(image.dark, float), f"{image.dark_source} {ref_hdr} (mean)"
+
+
+def _tints(t: np.ndarray) -> str:
+    return "/".join(f"{v:g}" for v in dict.fromkeys(np.asarray(t).tolist()))
+
+
 def require_match(
     cal: Calibration,
     sensorid: str,

@@ -16,15 +16,14 @@ from ..errors import InputError, ParameterError
 from ..sensor.calibration import Calibration
 from .calibration import (
     binning_of,
+    capture_dark,
     capture_tints,
     hyspex_calibration,
     read_calibration,
-    refined_dark,
     require_match,
     saturation_of,
     sensor_family,
 )
-from .envi import envi_header
 from .products._raw import RawCube
 
 
@@ -149,7 +148,7 @@ def _specim_plan(product, cal: Calibration, smear: str, param: str) -> RadianceP
             params=(param,),
         )
     tint, tint_note = capture_tints(keys, where, cube.bands)
-    dark, dark_note = _specim_dark(product, tint)
+    dark, dark_note = capture_dark(product, tint)
     bad = None
     if cal.bad:
         bad = np.zeros((cube.bands, cube.samples), bool)
@@ -194,34 +193,6 @@ def _specim_plan(product, cal: Calibration, smear: str, param: str) -> RadianceP
         fsc,
         tags,
     )
-
-
-def _specim_dark(product, tint) -> tuple[np.ndarray, str]:
-    """The capture's dark level (bands, samples) and where it came from."""
-    path, image = product.path, product.images[0]
-    cube, lines, ref_hdr = product.capture.layout, product.capture.lines, product.capture.dark_file
-    if image.dark is None:
-        raise InputError(
-            f"Specim capture {path} has no dark frames ('autodarkstartline') and no DARKREF "
-            "file beside it: radiance needs the dark level"
-        )
-    if image.dark_source == "frames":
-        dark = refined_dark(cube, lines, cube.lines)
-        dark[~np.isfinite(np.asarray(image.dark))] = np.nan  # the frame counter's cells
-        return dark, f"dark frames, lines {lines}-{cube.lines - 1}, 3-sigma mean (APL)"
-    ref = envi_header(ref_hdr[:-4]) or {}
-    ref_tint, _ = capture_tints(ref, f"dark reference {ref_hdr}", cube.bands)
-    if not np.allclose(ref_tint, tint, rtol=1e-6):
-        raise InputError(
-            f"dark reference {ref_hdr} was taken at {_tints(ref_tint)} ms but {path} at "
-            f"{_tints(tint)} ms: a dark file must have the capture's integration time (APL "
-            "refuses to scale it)"
-        )
-    return np.asarray(image.dark, float), f"{image.dark_source} {ref_hdr} (mean)"
-
-
-def _tints(t: np.ndarray) -> str:
-    return "/".join(f"{v:g}" for v in dict.fromkeys(np.asarray(t).tolist()))
 
 
 def _hyspex_plan(product) -> RadiancePlan:
