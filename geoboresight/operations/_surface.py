@@ -10,14 +10,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import io
-from ..errors import InputError, ParameterError
+from ..errors import ParameterError
 from ..io import georef
 from ..io.checks import check_heights, no_valid_error
 from ..io.sample import surface_on_image_grid
 from ..shadow import illumination
 from ..shadow.prior import SurfacePrior, surface_prior
 from ..shadow.surface import height_noise, second_differences, surface_walls
-from ._glt import glt_for
+from ._glt import line_coordinates
 
 
 @dataclass(frozen=True)
@@ -96,7 +96,9 @@ def open_surface(surface: SurfaceModel, dual, block_rows, stack, progress) -> Op
                 "parameter 'cell_size' is for a surface model without a geotransform: with the "
                 "line's IGM or GLT the pixels' size comes from it; leave 'cell_size' empty"
             )
-        coords, geolocation = _line_coordinates(surface, dual)
+        coords, geolocation = line_coordinates(
+            dual, igm=surface.igm, glt=surface.glt, crs=surface.igm_crs
+        )
     elif surface.igm_crs:
         raise ParameterError(
             "parameter 'igm_crs' is the CRS of the line's IGM or GLT: give 'igm' or 'glt' "
@@ -247,46 +249,6 @@ def _sun(surface: SurfaceModel, place) -> tuple[float, float, str]:
     return sun_angles(
         surface.sun_zenith, surface.sun_azimuth, surface.acquisition_time, place, needed_by="dsm"
     )
-
-
-def _line_coordinates(surface: SurfaceModel, dual):
-    """Each raw pixel's map coordinates from the line's IGM or GLT, and what names them."""
-    if surface.igm and surface.glt:
-        raise ParameterError(
-            "parameters 'igm' and 'glt': give the line's geolocation once, its IGM or its GLT"
-        )
-    if surface.glt:
-        from ..georef.geoloc import glt_coordinates
-
-        glt = glt_for(
-            surface.glt,
-            f"image {dual.vnir.path}",
-            width=dual.width,
-            height=dual.height,
-            crs=surface.igm_crs,
-        )
-        x, y = glt_coordinates(
-            glt.sample,
-            glt.line,
-            glt.valid,
-            glt.grid.transform,
-            width=dual.width,
-            height=dual.height,
-        )
-        if not np.isfinite(x).any():
-            raise InputError(
-                f"GLT {surface.glt} shows fewer than 3 pixels of the {dual.height} × "
-                f"{dual.width} image: give the GLT of this flight line"
-            )
-        coords = georef.Coordinates(x, y, glt.grid.crs, surface.glt, f"GLT {surface.glt}")
-        return coords, f"GLT {surface.glt}"
-    coords = georef.coordinates_for(dual.vnir.path, igm=surface.igm, crs=surface.igm_crs)
-    if coords.x.shape != (dual.height, dual.width):
-        raise InputError(
-            f"IGM {surface.igm} has {coords.x.shape[0]} × {coords.x.shape[1]} pixels but the "
-            f"image {dual.height} × {dual.width}: give the IGM of this flight line"
-        )
-    return coords, f"IGM {surface.igm}"
 
 
 def _refuse_without_dsm(surface: SurfaceModel) -> None:
