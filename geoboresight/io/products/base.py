@@ -48,7 +48,7 @@ class Geolocation:
 
 
 @dataclass(frozen=True, eq=False)
-class Capture:
+class RawCapture:
     """Where a raw capture's DN come from, as its reader found them: what turns them into
     radiance reads this, never the user's path again.
 
@@ -77,7 +77,7 @@ class Product:
     #: Why a product that can carry geolocation carries none here (as ``info`` states it), or "".
     geolocation_problem: str = ""
     #: The raw capture behind the image (Specim raw ENVI, HySpex), or None.
-    capture: Capture | None = None
+    capture: RawCapture | None = None
 
     def image(self, name: str) -> SensorImage | None:
         for im in self.images:
@@ -105,4 +105,4 @@ def read_once(container: str, extra, read) -> Product | None:
     return _READ[key]
 
 
-__all__ = ["Capture", "Geolocation", "Product", "SensorImage", "read_once"]
+__all__ = ["Geolocation", "Product", "RawCapture", "SensorImage", "read_once"]

@@ -65,7 +65,7 @@ import numpy as np
 from ...errors import InputError
 from ..wavelengths import unit_scale
 from ._raw import RawCube, raw_vrt
-from .base import Capture, Product, SensorImage
+from .base import Product, RawCapture, SensorImage
 from .specim import image_name
 
 KIND = "HySpex"
@@ -162,7 +162,7 @@ def _read(path: str, abspath: str, size: int, mtime_ns: int) -> Product:
         dark_source=dark_source,
     )
     return Product(
-        KIND, path, (image,), notes=tuple(notes), capture=Capture(path, None, cube, lines)
+        KIND, path, (image,), notes=tuple(notes), capture=RawCapture(path, None, cube, lines)
     )
 
 

@@ -44,7 +44,7 @@ from ..envi import ENVI_DTYPES, data_for_header, envi_header
 from ..raster import open_raster
 from ..wavelengths import good_bands, parse_list, read_wavelengths, unit_scale
 from ._raw import RawCube, raw_vrt
-from .base import Capture, Product, SensorImage
+from .base import Product, RawCapture, SensorImage
 
 KIND = "Specim raw ENVI"
 #: Header keys Specim's acquisition software writes (any one marks a Specim header).
@@ -306,7 +306,7 @@ def _read(path: str, hdr: str, data: str, stamps: tuple) -> Product | None:
         dark=dark,
         dark_source=dark_source,
     )
-    raw = Capture(hdr, keys, cube, lines, dark_file)
+    raw = RawCapture(hdr, keys, cube, lines, dark_file)
     return Product(KIND, path, (image,), notes=tuple(notes), capture=raw)
 
 
