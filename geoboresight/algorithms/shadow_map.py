@@ -12,6 +12,7 @@ from ..operations.shadow_map import (
     SurfaceModel,
     shadow_map_file,
 )
+from ..shadow.context import SKY_BLUE
 from ..shadow.darkness import CORE_DARKNESS, EDGE_PIXELS
 from ._common import (
     BLOCK_ROWS,
@@ -68,6 +69,14 @@ DETECTION = Group(
             maximum=10,
             integer=True,
             advanced=True,
+        ),
+        Number(
+            name="sky_blue",
+            label="Sunlit blue limit",
+            description="Without a surface model: a pixel dark in the NIR and SWIR whose blue is at least this (natural log of its blue over the scene's sunlit blue; default 0, as bright) is a sunlit dark material, not shadow; higher flags more shadow and more dark materials",
+            default=SKY_BLUE,
+            minimum=-3.0,
+            maximum=3.0,
         ),
     ),
 )

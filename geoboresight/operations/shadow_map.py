@@ -28,6 +28,8 @@ from ..io.dual import BandChoice, DualLayout
 from ..io.windows import Sample
 from ..sensor.dark import DarkLevels
 from ..shadow.classes import MASK_SHADOW, NO_SHADOW, NODATA_CLASS, fraction_text
+from ..shadow.context import HALO as SKY_HALO
+from ..shadow.context import SKY_BLUE, check_limit
 from ..shadow.darkness import (
     BLUE_NM,
     CORE_DARKNESS,
@@ -107,6 +109,7 @@ class Detection:
 
     core_darkness: float = CORE_DARKNESS
     edge_pixels: int = EDGE_PIXELS
+    sky_blue: float = SKY_BLUE
 
 
 def shadow_map_file(
@@ -206,6 +209,7 @@ def shadow_map_file(
     if int(edge_pixels) != edge_pixels or edge_pixels < 0:
         raise ParameterError(f"parameter 'edge_pixels': {edge_pixels!r} must be a whole number ≥ 0")
     edge_pixels = int(edge_pixels)
+    sky_blue = check_limit(detection.sky_blue)
     base_table = class_table(classes)
     dual = io.as_dual(vnir, swir, layout)
     mb = _map_bands(dual, bands, progress)
@@ -227,8 +231,10 @@ def shadow_map_file(
             prior, agreement = _register(read, dual, mb, opened.prior, surface.register, block)
         tags = _map_tags(dual, cal, core_darkness, edge_pixels, surface, opened, prior)
         halo = shadow_map_halo(cal, edge_pixels)
-        halo = (halo, halo) if prior is None else prior_halo(prior, halo, opened.halo)
-        kernel = _map_kernel(mb, cal.table, block, prior)
+        halo = (halo + SKY_HALO,) * 2 if prior is None else prior_halo(prior, halo, opened.halo)
+        if prior is None:
+            tags["sky_blue"] = str(sky_blue)
+        kernel = _map_kernel(mb, cal.table, block, prior, sky_blue)
         paths = (output, mask, fraction)
         counts, n = _write_map(
             stack, read, kernel, dual, tags, cal.table, paths, halo, strips, progress
@@ -247,6 +253,14 @@ def shadow_map_file(
     for w in warnings:
         progress.info(f"warning: {w}")
     paths = {"output": output, "mask": mask, "fraction": fraction}
+    if n["dark"]:
+        agreement = {**agreement, "dark_pixels": n["dark"]}
+        agreement["dark_declined_share"] = round(n["declined"] / n["dark"], 4)
+        progress.info(
+            f"{100 * n['declined'] / n['dark']:.1f} % of the {n['dark']} pixels dark enough "
+            "for core shadow left sunlit (water, and dark materials whose blue is sunlit: "
+            f"sky_blue {sky_blue:g})"
+        )
     return _map_result(paths, cal, counts, n["shadow"], agreement, warnings)
 
 
@@ -417,15 +431,20 @@ def _register(read, dual, mb: _MapBands, prior, register: bool, block: dict):
     )
 
 
-def _map_kernel(mb: _MapBands, table, block: dict, prior):
+def _map_kernel(mb: _MapBands, table, block: dict, prior, sky_blue: float):
     """The kernel of a strip: (classes, mask, fraction, and with a surface model the
     predicted shadow away from its edges, its part spectrally lit, the unseen pixels and the
-    model's holes)."""
+    model's holes; without one the pixels dark enough for core shadow and those of them the
+    map leaves sunlit: water and sunlit dark materials)."""
 
     def kernel(values, valid, z=None, z_ok=None, r0=0):
         if z is None:
-            f, _ = shadow_fraction_block(*mb.split(values), valid, **block)
-            return shadow_classes(f, table), shadow_mask(f), f, None, None, None, None
+            f, d = shadow_fraction_block(*mb.split(values), valid, sky_blue=sky_blue, **block)
+            with np.errstate(invalid="ignore"):
+                dark = d <= block["calibration"].core
+                declined = dark & ~(f >= 0.5)
+            c, m = shadow_classes(f, table), shadow_mask(f)
+            return c, m, f, None, None, None, None, dark, declined
         b = prior_map_block(
             *mb.split(values), z, valid, heights_valid=z_ok, surface_prior=prior, row0=r0, **block
         )
@@ -438,6 +457,8 @@ def _map_kernel(mb: _MapBands, table, block: dict, prior):
             b.lit,
             b.unseen,
             b.holes,
+            None,
+            None,
         )
 
     return kernel
@@ -506,8 +527,8 @@ def _write_map(stack, read, kernel, dual, tags, table, paths, halo, strips, prog
             )
         )
     counts = np.zeros(256, np.int64)
-    n = dict.fromkeys(("shadow", "deep", "lit", "unseen", "holes"), 0)
-    for win, (c, m, f, *agree) in io.map_windows(
+    n = dict.fromkeys(("shadow", "deep", "lit", "unseen", "holes", "dark", "declined"), 0)
+    for win, (c, m, f, *agree, dark, declined) in io.map_windows(
         read, kernel, halo=halo, progress=progress.sub(0.3, 1.0), message="shadow map", **strips
     ):
         dst.write(c, 1, window=win)
@@ -522,7 +543,23 @@ def _write_map(stack, read, kernel, dual, tags, table, paths, halo, strips, prog
         if agree[0] is not None:
             for key, a in zip(("deep", "lit", "unseen", "holes"), agree, strict=True):
                 n[key] += int(a.sum())
+        if dark is not None:
+            n["dark"] += int(dark.sum())
+            n["declined"] += int(declined.sum())
+    if n["dark"]:
+        for d in (dst, mdst, fdst):
+            if d is not None:
+                d.update_tags(**_declined_tags(n))
     return counts, n
+
+
+def _declined_tags(n: dict) -> dict:
+    """The share of the pixels dark enough for core shadow that the map left sunlit (tags
+    named as :func:`geoboresight.io.raster.base_tags` names the others)."""
+    return {
+        "DARK_PIXELS": str(n["dark"]),
+        "DARK_DECLINED_SHARE": f"{n['declined'] / n['dark']:.4f}",
+    }
 
 
 def _surface_summary(agreement, prior, n, n_valid, register, warnings, progress) -> None:

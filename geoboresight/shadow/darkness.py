@@ -48,6 +48,7 @@ import numpy as np
 from ..errors import InputError, ParameterError
 from ..sensor.dark import DarkLevel
 from .classes import MASK_NODATA, MASK_NOT_SHADOW, MASK_SHADOW, NO_SHADOW, NODATA_CLASS, ClassTable
+from .context import sunlit_blue_level, sunlit_dark
 
 #: Darkest share of the pixels taken as the dark object of an instrument.
 DARK_FRACTION = 5e-4
@@ -300,6 +301,7 @@ class SceneCalibration:
     offset_across: float = 0.0
     core: float = CORE_DARKNESS
     n_sample: int = 0
+    blue_level: float = math.nan  # log of the sunlit blue signal (context.sunlit_blue_level)
 
     def as_dict(self) -> dict:
         return {
@@ -318,6 +320,9 @@ class SceneCalibration:
             "offset_along_px": round(self.offset_along, 3),
             "offset_across_px": round(self.offset_across, 3),
             "sample_pixels": self.n_sample,
+            "sunlit_blue_signal_dn": round(math.exp(self.blue_level), 3)
+            if math.isfinite(self.blue_level)
+            else None,
         }
 
 
@@ -405,6 +410,7 @@ def calibrate_shadow_map(
         offset_across=float(offset[1]),
         core=float(core),
         n_sample=int(ok.sum()),
+        blue_level=sunlit_blue_level(b, ok & (d > core)),
     )
 
 
@@ -1108,6 +1114,20 @@ def shadow_map_block(
     return shadow_classes(f, calibration.table), shadow_mask(f)
 
 
+def block_signals(blue, nir, swir, valid, calibration: SceneCalibration, dark_levels):
+    """Steps 1–2 of :func:`shadow_map_block`: the (blue, NIR, SWIR) signals of a block, the
+    SWIR resampled onto the VNIR grid, and the pixels valid in all three."""
+    from ..sensor.coregister import coregister
+
+    blue_level, nir_level, swir_level = dark_levels
+    b = signal(blue, blue_level)
+    n = signal(nir, nir_level)
+    s = signal(swir, swir_level)
+    ok = np.ones(n.shape, bool) if valid is None else np.asarray(valid, bool)
+    s, s_ok = coregister(s, calibration.offset_along, calibration.offset_across, ok, order=1)
+    return b, n, s, ok & s_ok
+
+
 def shadow_fraction_block(
     blue: np.ndarray,
     nir: np.ndarray,
@@ -1124,26 +1144,16 @@ def shadow_fraction_block(
     ray: tuple[float, float, int] | None = None,
     reach: float = 0.0,
     tolerance: int = DSM_TOLERANCE,
+    sky_blue: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(shadow fraction, darkness) of a block: steps 1–4 of :func:`shadow_map_block`; with
     ``prior`` (a surface model's cast-shadow fraction on the block; ``heights``,
     ``clearance``, ``unseen``, ``ray``, ``reach`` and ``tolerance``, the surface model's) by
-    :func:`dsm_shadow_fraction` instead of :func:`shadow_fraction_estimate`."""
-    from ..sensor.coregister import coregister
-
-    blue_level, nir_level, swir_level = dark_levels
-    b = signal(blue, blue_level)
-    n = signal(nir, nir_level)
-    s = signal(swir, swir_level)
-    ok = np.ones(n.shape, bool) if valid is None else np.asarray(valid, bool)
-    s, s_ok = coregister(
-        s,
-        calibration.offset_along,
-        calibration.offset_across,
-        ok,
-        order=1,
-    )
-    good = ok & s_ok
+    :func:`dsm_shadow_fraction` instead of :func:`shadow_fraction_estimate`. Without
+    ``prior``, ``sky_blue`` (a limit) also keeps the dark pixels whose blue is sunlit out of
+    the core (:func:`geoboresight.shadow.context.sunlit_dark`; needs
+    :data:`~geoboresight.shadow.context.HALO` more lines of halo)."""
+    b, n, s, good = block_signals(blue, nir, swir, valid, calibration, dark_levels)
     d = darkness(n, s, calibration, good)
     water = too_blue(b, n, calibration.blue_limit)
     if prior is not None:
@@ -1162,6 +1172,15 @@ def shadow_fraction_block(
             tolerance=tolerance,
         )
     else:
+        if sky_blue is not None:
+            water = water | sunlit_dark(
+                b,
+                d,
+                good,
+                core=calibration.core,
+                blue_level=calibration.blue_level,
+                limit=sky_blue,
+            )
         f = shadow_fraction_estimate(
             d, good, core=calibration.core, edge_pixels=edge_pixels, water=water
         )
