@@ -94,7 +94,10 @@ class Detection:
     """The spectral shadow test: core shadow at or below ``core_darkness`` (natural log of the
     SWIR signal over its sunlit mode; with a surface model, whose prior replaces it, only for
     the edges a pixel this dark is at least half shaded, and near the model's sunward edge)
-    and partial shadow looked for ``edge_pixels`` around it.
+    and partial shadow looked for ``edge_pixels`` around it. Without a surface model a dark
+    pixel whose blue is at least ``exp(sky_blue)`` times the scene's sunlit blue is a sunlit
+    dark material, not shadow (:func:`geoboresight.shadow.context.sunlit_dark`; lower flags
+    fewer dark materials and misses more shadow on blue-bright ground).
 
     Examples
     --------
@@ -170,7 +173,9 @@ def shadow_map_file(
         ``core_darkness``: core shadow where the SWIR signal over its sunlit mode is at or
         below this (natural log, default ln 1/6; with a surface model only at the prior's
         edges and near the model's sunward edge);
-        ``edge_pixels``: partial shadow is looked for this many pixels around it.
+        ``edge_pixels``: partial shadow is looked for this many pixels around it;
+        ``sky_blue``: without a surface model, a pixel that dark whose blue is at least this
+        (natural log over the scene's sunlit blue, default 0) is a sunlit dark material.
     calibration : MapCalibration
         The random sample that calibrates the map (``sample_size``, default 200,000;
         ``seed``) and the boresight offset of the SWIR relative to the VNIR (px,
@@ -184,7 +189,9 @@ def shadow_map_file(
     dict
         ``output`` (and ``mask``), the calibration (dark levels and their source, sunlit
         signals, sunlit ratio, class scale, offset), the class boundaries used, pixels per
-        class, shadow pixels and ``warnings``.
+        class, shadow pixels, without a surface model ``dark_pixels`` (dark enough for core
+        shadow) and ``dark_declined_share`` (their share left sunlit: water, sunlit dark
+        materials; also in the products' tags), and ``warnings``.
 
     References
     ----------
@@ -202,7 +209,7 @@ def shadow_map_file(
     ...     output="out/classes.tif", mask="out/mask.tif", fraction="out/fraction.tif",
     ... )
     >>> result["shadow_share"], result["offset_along_px"]
-    (0.1894, 0.87)
+    (0.1891, 0.87)
     """
     core_darkness = detection.core_darkness
     edge_pixels = detection.edge_pixels
