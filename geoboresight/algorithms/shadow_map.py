@@ -73,7 +73,7 @@ DETECTION = Group(
         Number(
             name="sky_blue",
             label="Sunlit blue limit",
-            description="Without a surface model: a pixel dark in the NIR and SWIR whose blue is at least this (natural log of its blue over the scene's sunlit blue; default 0, as bright) is a sunlit dark material, not shadow; higher flags more shadow and more dark materials",
+            description="Without a surface model: a pixel dark in the NIR and SWIR whose blue is at least this (natural log of its blue over the scene's sunlit blue; default −0.3, three quarters) and whose blue/NIR is a flat dark material's is a sunlit dark material, not shadow; higher flags more shadow and more dark materials",
             default=SKY_BLUE,
             minimum=-3.0,
             maximum=3.0,
@@ -264,12 +264,13 @@ SHADOW_MAP = Algorithm(
         "in the SWIR: core shadow is where the SWIR signal is at most a sixth of the scene's "
         "sunlit mode ('core darkness', ln 1/6), which sunlit dark roofs and roads stay above; "
         "pixels bluer than skylight makes a shadow (clear water) are left out;\n"
-        "• without a surface model, a dark pixel whose blue (over its dark neighbours) is as "
-        "bright as the scene's sunlit blue is a dark material in the sun (parking lots, dark "
-        "roofs), since the sky leaves a shadow only a fifth to a half of the sunlit blue "
-        "('sunlit blue limit': ln of the pixel's blue over the sunlit blue from which it is "
-        "in the sun, 0 by default; lower flags fewer dark materials and misses more shadow "
-        "on blue-bright ground);\n"
+        "• without a surface model, a dark pixel whose blue (over its dark neighbours) keeps "
+        "three quarters of the scene's sunlit blue, with the flat blue/NIR balance of a dark "
+        "material (2.5 × the sunlit scene's), is a dark material in the sun (parking lots, "
+        "dark roofs, roads), since the sky leaves a shadow a fifth to a half of the sunlit "
+        "blue ('sunlit blue limit': ln of the pixel's blue over the sunlit blue from which it "
+        "can be in the sun, −0.3 by default; lower flags fewer dark materials and misses more "
+        "shadow on blue-bright ground);\n"
         "• the SWIR is first shifted by the boresight offset (measured, or given) so that "
         "shadow edges line up with the VNIR;\n"
         "• around the core, each pixel's shadow fraction is unmixed between its sunlit and "

@@ -95,9 +95,10 @@ class Detection:
     SWIR signal over its sunlit mode; with a surface model, whose prior replaces it, only for
     the edges a pixel this dark is at least half shaded, and near the model's sunward edge)
     and partial shadow looked for ``edge_pixels`` around it. Without a surface model a dark
-    pixel whose blue is at least ``exp(sky_blue)`` times the scene's sunlit blue is a sunlit
-    dark material, not shadow (:func:`geoboresight.shadow.context.sunlit_dark`; lower flags
-    fewer dark materials and misses more shadow on blue-bright ground).
+    pixel whose blue is at least ``exp(sky_blue)`` times the scene's sunlit blue, with a flat
+    dark material's blue/NIR, is a sunlit dark material, not shadow
+    (:func:`geoboresight.shadow.context.sunlit_dark`; lower flags fewer dark materials and
+    misses more shadow on blue-bright ground).
 
     Examples
     --------
@@ -175,7 +176,8 @@ def shadow_map_file(
         edges and near the model's sunward edge);
         ``edge_pixels``: partial shadow is looked for this many pixels around it;
         ``sky_blue``: without a surface model, a pixel that dark whose blue is at least this
-        (natural log over the scene's sunlit blue, default 0) is a sunlit dark material.
+        (natural log over the scene's sunlit blue, default −0.3) and whose blue/NIR is a flat
+        dark material's is a sunlit dark material.
     calibration : MapCalibration
         The random sample that calibrates the map (``sample_size``, default 200,000;
         ``seed``) and the boresight offset of the SWIR relative to the VNIR (px,
@@ -209,7 +211,7 @@ def shadow_map_file(
     ...     output="out/classes.tif", mask="out/mask.tif", fraction="out/fraction.tif",
     ... )
     >>> result["shadow_share"], result["offset_along_px"]
-    (0.1891, 0.87)
+    (0.1873, 0.87)
     """
     core_darkness = detection.core_darkness
     edge_pixels = detection.edge_pixels

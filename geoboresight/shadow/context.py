@@ -12,13 +12,21 @@ there. The blue separates them:
   material's reflectance is flat: its blue is about that of the scene's sunlit ground. In the
   sun a dark material keeps its blue while its near infrared and SWIR are dark.
 
-So a pixel dark enough for core shadow whose blue signal is at least the scene's sunlit blue
-level times ``exp(limit)`` (:data:`SKY_BLUE`: at least the sunlit blue) is a sunlit dark
-material, not shadow (:func:`sunlit_dark`). The blue is averaged over the pixel's dark
-neighbours (:data:`BLUE_WINDOW`), so that noise in a dim blue band does not decide alone. The
-limit trades shadow recall against dark false alarms: lower flags fewer dark materials and
-misses more shadow on blue-reflecting surfaces (a shadow on bright soil can keep the blue of
-the scene's sunlit grass).
+So a pixel dark enough for core shadow is a sunlit dark material, not shadow
+(:func:`sunlit_dark`), when
+
+1. its blue signal is at least ``exp(limit)`` times the scene's sunlit blue level
+   (:data:`SKY_BLUE`: three quarters of it), and
+2. its blue/NIR balance is at least ``exp(BLUE_NIR_RISE)`` (about 2.5) times the median of
+   the scene's sunlit pixels: the flat spectrum of a dark material against NIR-bright
+   vegetation and soil. A shadow raises its ground's balance by the sky's blue/NIR (about 2
+   under a bright hazy or low-sun sky, up to 5 under a clear one), so a shadow on ground like
+   the scene's, whose blue a bright sky keeps near the sunlit level, stays shadow.
+
+Both are averaged over the pixel's dark neighbours (:data:`BLUE_WINDOW`), so that noise in
+a dim blue band does not decide alone. The limit trades shadow recall against dark false
+alarms: lower flags fewer dark materials and misses more shadow on blue-bright ground. A
+material dark in the blue too (char) stays shadow-like: only geometry tells it apart.
 
 References
 ----------
@@ -38,8 +46,10 @@ import numpy as np
 from ..errors import ParameterError
 
 #: Default limit (natural log of the blue signal over the scene's sunlit blue level) at or
-#: above which a pixel dark in the near infrared and SWIR is a sunlit dark material.
-SKY_BLUE = 0.0
+#: above which a pixel dark in the near infrared and SWIR can be a sunlit dark material.
+SKY_BLUE = -0.3
+#: Least rise of ln(blue / NIR) over the scene's sunlit ground's for a sunlit dark material.
+BLUE_NIR_RISE = 0.9
 #: Side of the neighbourhood whose dark pixels' blue signals are averaged.
 BLUE_WINDOW = 3
 #: Lines of halo the test needs above and below a strip.
@@ -48,14 +58,17 @@ HALO = BLUE_WINDOW // 2
 MIN_SIGNAL = 0.5
 
 
-def sunlit_blue_level(blue: np.ndarray, lit: np.ndarray) -> float:
-    """The scene's sunlit blue level: the median of ``ln(blue)`` over the ``lit`` pixels (not
-    dark enough for core shadow); NaN when there are none."""
-    b = np.asarray(blue, np.float64)[np.asarray(lit, bool)]
-    b = b[np.isfinite(b)]
-    if b.size == 0:
-        return math.nan
-    return float(np.median(np.log(np.maximum(b, MIN_SIGNAL))))
+def sunlit_blue_levels(blue: np.ndarray, nir: np.ndarray, lit: np.ndarray) -> tuple:
+    """The scene's sunlit levels: the medians of ``ln(blue)`` and of ``ln(blue / NIR)`` over
+    the ``lit`` pixels (not dark enough for core shadow); NaN when there are none."""
+    lit = np.asarray(lit, bool)
+    b = np.asarray(blue, np.float64)[lit]
+    n = np.asarray(nir, np.float64)[lit]
+    ok = np.isfinite(b) & np.isfinite(n)
+    if not ok.any():
+        return math.nan, math.nan
+    lb = np.log(np.maximum(b[ok], MIN_SIGNAL))
+    return float(np.median(lb)), float(np.median(lb - np.log(np.maximum(n[ok], MIN_SIGNAL))))
 
 
 def check_limit(limit: float) -> float:
@@ -74,32 +87,35 @@ def check_limit(limit: float) -> float:
 
 def sunlit_dark(
     blue: np.ndarray,
+    nir: np.ndarray,
     dark: np.ndarray,
     valid: np.ndarray | None = None,
     *,
     core: float,
-    blue_level: float,
+    levels: tuple,
     limit: float = SKY_BLUE,
 ) -> np.ndarray:
     """Pixels dark enough for core shadow whose blue says they are in the sun.
 
     Parameters
     ----------
-    blue : array (lines, columns)
-        Blue signal (DN above the dark level).
+    blue, nir : arrays (lines, columns)
+        Blue and NIR signals (DN above the dark level).
     dark : array (lines, columns)
         The darkness of the near infrared and SWIR
         (:func:`geoboresight.shadow.darkness.darkness`): core shadow at or below ``core``.
     valid : bool array, optional
     core : float
         Core-shadow darkness (natural log, < 0).
-    blue_level : float
-        The scene's sunlit blue level (:func:`sunlit_blue_level`, natural log); NaN: no test.
+    levels : (float, float)
+        The scene's sunlit levels of ``ln(blue)`` and ``ln(blue / NIR)``
+        (:func:`sunlit_blue_levels`); NaN: no test.
     limit : float
         A dark pixel whose blue, averaged over the dark pixels of its :data:`BLUE_WINDOW`
         neighbourhood, is at least ``exp(limit)`` times the sunlit blue (default
-        :data:`SKY_BLUE`) is a sunlit dark material. A strip needs :data:`HALO` lines of
-        halo.
+        :data:`SKY_BLUE`), and whose blue/NIR (averaged so) is at least
+        ``exp(BLUE_NIR_RISE)`` times the sunlit ground's, is a sunlit dark material. A strip
+        needs :data:`HALO` lines of halo.
 
     Returns
     -------
@@ -112,16 +128,18 @@ def sunlit_dark(
     """
     limit = check_limit(limit)
     d = np.asarray(dark, np.float64)
-    ok = np.isfinite(d) & np.isfinite(blue)
+    ok = np.isfinite(d) & np.isfinite(blue) & np.isfinite(nir)
     if valid is not None:
         ok &= np.asarray(valid, bool)
     with np.errstate(invalid="ignore"):
         candidate = ok & (d <= core)
-    if not math.isfinite(blue_level) or not candidate.any():
+    blue_level, balance = levels
+    if not (math.isfinite(blue_level) and math.isfinite(balance)) or not candidate.any():
         return np.zeros(d.shape, bool)
     own = np.log(np.maximum(_mean(blue, candidate, BLUE_WINDOW), MIN_SIGNAL))
+    own_nir = np.log(np.maximum(_mean(nir, candidate, BLUE_WINDOW), MIN_SIGNAL))
     with np.errstate(invalid="ignore"):
-        sunlit = own - blue_level >= limit
+        sunlit = (own - blue_level >= limit) & (own - own_nir - balance >= BLUE_NIR_RISE)
     return candidate & sunlit
 
 

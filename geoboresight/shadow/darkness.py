@@ -48,7 +48,7 @@ import numpy as np
 from ..errors import InputError, ParameterError
 from ..sensor.dark import DarkLevel
 from .classes import MASK_NODATA, MASK_NOT_SHADOW, MASK_SHADOW, NO_SHADOW, NODATA_CLASS, ClassTable
-from .context import sunlit_blue_level, sunlit_dark
+from .context import sunlit_blue_levels, sunlit_dark
 
 #: Darkest share of the pixels taken as the dark object of an instrument.
 DARK_FRACTION = 5e-4
@@ -301,7 +301,8 @@ class SceneCalibration:
     offset_across: float = 0.0
     core: float = CORE_DARKNESS
     n_sample: int = 0
-    blue_level: float = math.nan  # log of the sunlit blue signal (context.sunlit_blue_level)
+    blue_level: float = math.nan  # log of the sunlit blue signal (context.sunlit_blue_levels)
+    blue_nir_level: float = math.nan  # log of the sunlit ground's blue / NIR
 
     def as_dict(self) -> dict:
         return {
@@ -398,6 +399,7 @@ def calibrate_shadow_map(
     if sunlit.sum() >= 10:
         bn = np.log(np.maximum(b[sunlit], MIN_SIGNAL) / nir[sunlit])
         limit = float(np.percentile(bn, 90)) + math.log(WATER_FACTOR)
+    levels = sunlit_blue_levels(b, nir, ok & (d > core))
     return SceneCalibration(
         vnir_dark=vnir_dark,
         swir_dark=swir_dark,
@@ -410,7 +412,8 @@ def calibrate_shadow_map(
         offset_across=float(offset[1]),
         core=float(core),
         n_sample=int(ok.sum()),
-        blue_level=sunlit_blue_level(b, ok & (d > core)),
+        blue_level=levels[0],
+        blue_nir_level=levels[1],
     )
 
 
@@ -1114,20 +1117,6 @@ def shadow_map_block(
     return shadow_classes(f, calibration.table), shadow_mask(f)
 
 
-def block_signals(blue, nir, swir, valid, calibration: SceneCalibration, dark_levels):
-    """Steps 1–2 of :func:`shadow_map_block`: the (blue, NIR, SWIR) signals of a block, the
-    SWIR resampled onto the VNIR grid, and the pixels valid in all three."""
-    from ..sensor.coregister import coregister
-
-    blue_level, nir_level, swir_level = dark_levels
-    b = signal(blue, blue_level)
-    n = signal(nir, nir_level)
-    s = signal(swir, swir_level)
-    ok = np.ones(n.shape, bool) if valid is None else np.asarray(valid, bool)
-    s, s_ok = coregister(s, calibration.offset_along, calibration.offset_across, ok, order=1)
-    return b, n, s, ok & s_ok
-
-
 def shadow_fraction_block(
     blue: np.ndarray,
     nir: np.ndarray,
@@ -1153,7 +1142,21 @@ def shadow_fraction_block(
     ``prior``, ``sky_blue`` (a limit) also keeps the dark pixels whose blue is sunlit out of
     the core (:func:`geoboresight.shadow.context.sunlit_dark`; needs
     :data:`~geoboresight.shadow.context.HALO` more lines of halo)."""
-    b, n, s, good = block_signals(blue, nir, swir, valid, calibration, dark_levels)
+    from ..sensor.coregister import coregister
+
+    blue_level, nir_level, swir_level = dark_levels
+    b = signal(blue, blue_level)
+    n = signal(nir, nir_level)
+    s = signal(swir, swir_level)
+    ok = np.ones(n.shape, bool) if valid is None else np.asarray(valid, bool)
+    s, s_ok = coregister(
+        s,
+        calibration.offset_along,
+        calibration.offset_across,
+        ok,
+        order=1,
+    )
+    good = ok & s_ok
     d = darkness(n, s, calibration, good)
     water = too_blue(b, n, calibration.blue_limit)
     if prior is not None:
@@ -1173,13 +1176,9 @@ def shadow_fraction_block(
         )
     else:
         if sky_blue is not None:
+            levels = (calibration.blue_level, calibration.blue_nir_level)
             water = water | sunlit_dark(
-                b,
-                d,
-                good,
-                core=calibration.core,
-                blue_level=calibration.blue_level,
-                limit=sky_blue,
+                b, n, d, good, core=calibration.core, levels=levels, limit=sky_blue
             )
         f = shadow_fraction_estimate(
             d, good, core=calibration.core, edge_pixels=edge_pixels, water=water
