@@ -262,15 +262,21 @@ def shadow_map_file(
     for w in warnings:
         progress.info(f"warning: {w}")
     paths = {"output": output, "mask": mask, "fraction": fraction}
-    if n["dark"]:
-        agreement = {**agreement, "dark_pixels": n["dark"]}
-        agreement["dark_declined_share"] = round(n["declined"] / n["dark"], 4)
-        progress.info(
-            f"{100 * n['declined'] / n['dark']:.1f} % of the {n['dark']} pixels dark enough "
-            "for core shadow left sunlit (water, and dark materials whose blue is sunlit: "
-            f"sky_blue {sky_blue:g})"
-        )
+    agreement = {**agreement, **_declined_summary(n, sky_blue, progress)}
     return _map_result(paths, cal, counts, n["shadow"], agreement, warnings)
+
+
+def _declined_summary(n: dict, sky_blue: float, progress) -> dict:
+    """Without a surface model: the pixels dark enough for core shadow and their share left
+    sunlit (water, sunlit dark materials), in the result and the log."""
+    if not n["dark"]:
+        return {}
+    share = n["declined"] / n["dark"]
+    progress.info(
+        f"{100 * share:.1f} % of the {n['dark']} pixels dark enough for core shadow left "
+        f"sunlit (water, and dark materials whose blue is sunlit: sky_blue {sky_blue:g})"
+    )
+    return {"dark_pixels": n["dark"], "dark_declined_share": round(share, 4)}
 
 
 def _map_result(paths, cal, counts, n_shadow, agreement, warnings) -> dict:
