@@ -184,3 +184,21 @@ def test_the_knob_from_the_command_line(scene, tmp_path):
     )
     assert r.exit_code != 0 and "--sky-blue" in r.output and "Traceback" not in r.output
     assert not os.path.exists(tmp_path / "x.tif")
+
+
+def test_strips_give_the_whole_images_map(scene, tmp_path):
+    # The test reads its 3 × 3 neighbourhood across strip borders: the halo covers it.
+    model, folder, *_ = scene
+    if model != 2:
+        pytest.skip("one scene is enough for the strips")
+    j = lambda n: os.path.join(folder, n)  # noqa: E731
+    fractions = []
+    for rows in (256, 16):
+        out = str(tmp_path / f"f{rows}.tif")
+        shadow_map_file(
+            j("vnir.hdr"), j("swir.hdr"), output=out + ".c.tif", fraction=out, block_rows=rows
+        )
+        fractions.append(read(out)[0])
+    # Equal to float32 rounding (the neighbourhood means sum in another order near a border).
+    np.testing.assert_allclose(fractions[0], fractions[1], rtol=0, atol=1e-6)
+    assert ((fractions[0] >= 0.5) == (fractions[1] >= 0.5)).all()
