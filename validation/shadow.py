@@ -151,8 +151,6 @@ DRAWS = {
     "dsm-h": (62679417, range(75, 80), (43, 44, 45)),
     "nodsm-a": (1818535745, range(80, 85), (46, 47, 48)),
     "nodsm-b": (477085513, range(85, 90), (49, 50, 51)),
-    "nodsm-c": (443833749, range(90, 95), (52, 53, 54)),
-    "nodsm-d": (602096161, range(95, 100), (55, 56, 57)),
 }
 #: The scene sets (``--set``). ``dev``: the development scenes, on which the parameters are
 #: set; ``quick``: four of them. A hold-out set is run only after the method it scores is
@@ -165,7 +163,6 @@ SETS = {
     "deshadow-seen": ("dsm-a", "deshadow-a", "deshadow-b", "deshadow-c"),
     "deshadow-holdout": ("deshadow-d", "deshadow-e"),
     "nodsm-holdout": ("nodsm-a", "nodsm-b"),
-    "nodsm-sun-holdout": ("nodsm-c", "nodsm-d"),
 }
 
 
