@@ -149,6 +149,8 @@ DRAWS = {
     "dsm-g": (328270496, range(65, 70), (37, 38, 39)),
     "deshadow-e": (342945452, range(70, 75), (40, 41, 42)),
     "dsm-h": (62679417, range(75, 80), (43, 44, 45)),
+    "nodsm-a": (1818535745, range(80, 85), (46, 47, 48)),
+    "nodsm-b": (477085513, range(85, 90), (49, 50, 51)),
 }
 #: The scene sets (``--set``). ``dev``: the development scenes, on which the parameters are
 #: set; ``quick``: four of them. A hold-out set is run only after the method it scores is
@@ -160,6 +162,7 @@ SETS = {
     "dsm-holdout": ("dsm-h", "deshadow-d", "deshadow-e"),
     "deshadow-seen": ("dsm-a", "deshadow-a", "deshadow-b", "deshadow-c"),
     "deshadow-holdout": ("deshadow-d", "deshadow-e"),
+    "nodsm-holdout": ("nodsm-a", "nodsm-b"),
 }
 
 

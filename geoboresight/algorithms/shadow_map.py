@@ -12,6 +12,7 @@ from ..operations.shadow_map import (
     SurfaceModel,
     shadow_map_file,
 )
+from ..shadow.context import SKY_BLUE
 from ..shadow.darkness import CORE_DARKNESS, EDGE_PIXELS
 from ._common import (
     BLOCK_ROWS,
@@ -68,6 +69,14 @@ DETECTION = Group(
             maximum=10,
             integer=True,
             advanced=True,
+        ),
+        Number(
+            name="sky_blue",
+            label="Sunlit blue limit",
+            description="Without a surface model: a pixel dark in the NIR and SWIR whose blue is at least this (natural log of its blue over the scene's sunlit blue; default −0.3, three quarters) and whose blue/NIR is a flat dark material's is a sunlit dark material, not shadow; higher flags more shadow and more dark materials",
+            default=SKY_BLUE,
+            minimum=-3.0,
+            maximum=3.0,
         ),
     ),
 )
@@ -255,13 +264,21 @@ SHADOW_MAP = Algorithm(
         "in the SWIR: core shadow is where the SWIR signal is at most a sixth of the scene's "
         "sunlit mode ('core darkness', ln 1/6), which sunlit dark roofs and roads stay above; "
         "pixels bluer than skylight makes a shadow (clear water) are left out;\n"
+        "• without a surface model, a dark pixel whose blue (over its dark neighbours) keeps "
+        "three quarters of the scene's sunlit blue, with the flat blue/NIR balance of a dark "
+        "material (2.5 × the sunlit scene's), is a dark material in the sun (parking lots, "
+        "dark roofs, roads), since the sky leaves a shadow a fifth to a half of the sunlit "
+        "blue ('sunlit blue limit': ln of the pixel's blue over the sunlit blue from which it "
+        "can be in the sun, −0.3 by default; lower flags fewer dark materials and misses more "
+        "shadow on blue-bright ground);\n"
         "• the SWIR is first shifted by the boresight offset (measured, or given) so that "
         "shadow edges line up with the VNIR;\n"
         "• around the core, each pixel's shadow fraction is unmixed between its sunlit and "
         "shadowed neighbours, giving the 20–50 and 50–80 % classes along edges.\n\n"
         "What it did is in the log, the result and the output's tags: dark levels and their "
         "source, the sunlit signals, the offset, the sunlit boresight ratio and the ratio "
-        "bounds Table 2 would have on this scene, and warnings.\n\n"
+        "bounds Table 2 would have on this scene, the share of the pixels dark enough for "
+        "core shadow it left sunlit (water, dark materials), and warnings.\n\n"
         "With a surface model (DSM on the image's grid) and the sun's zenith and azimuth at "
         "acquisition, the cast shadow the DSM predicts is the prior: the spectra refine its "
         "edges (within a pixel) and fraction, a predicted shadow that is spectrally lit is "
@@ -272,8 +289,8 @@ SHADOW_MAP = Algorithm(
         "the DSM and the image disagree (best shift, share of predicted shadow spectrally lit) "
         "is reported. Validated on two independent "
         "scene models (docs/shadow.md): it still misses shadow under strong skylight (hazy "
-        "air, high sun zenith) and in narrow courtyards lit by sunlit walls, and takes black "
-        "roofs, and asphalt in scenes of very bright soil, for shadow."
+        "air, high sun zenith) and in narrow courtyards lit by sunlit walls, and, without a "
+        "surface model, takes materials dark in the blue too (char) for shadow."
     ),
     params=(
         *DUAL_PARAMS,

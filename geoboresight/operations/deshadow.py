@@ -155,7 +155,7 @@ def deshadow_file(
     >>> v, s = "sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr"
     >>> _ = gb.shadow_map_file(v, s, output="out/classes.tif", fraction="out/fraction.tif")
     >>> gb.deshadow_file(v, s, shadow="out/fraction.tif", output="out/deshadowed.tif")["pairs_used"]
-    161
+    166
     """
     dual = io.as_dual(vnir, swir, layout)
     wl = np.concatenate([dual.vnir.wavelengths, dual.swir.wavelengths]).astype(float)

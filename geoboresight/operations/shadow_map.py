@@ -34,6 +34,8 @@ from ..shadow.blocks import (
     shadow_map_halo,
 )
 from ..shadow.classes import MASK_SHADOW, NO_SHADOW, NODATA_CLASS, fraction_text
+from ..shadow.context import HALO as SKY_HALO
+from ..shadow.context import SKY_BLUE, check_limit
 from ..shadow.darkness import (
     BLUE_NM,
     CORE_DARKNESS,
@@ -94,7 +96,11 @@ class Detection:
     """The spectral shadow test: core shadow at or below ``core_darkness`` (natural log of the
     SWIR signal over its sunlit mode; with a surface model, whose prior replaces it, only for
     the edges a pixel this dark is at least half shaded, and near the model's sunward edge)
-    and partial shadow looked for ``edge_pixels`` around it.
+    and partial shadow looked for ``edge_pixels`` around it. Without a surface model a dark
+    pixel whose blue is at least ``exp(sky_blue)`` times the scene's sunlit blue, with a flat
+    dark material's blue/NIR, is a sunlit dark material, not shadow
+    (:func:`geoboresight.shadow.context.sunlit_dark`; lower flags fewer dark materials and
+    misses more shadow on blue-bright ground).
 
     Examples
     --------
@@ -109,6 +115,7 @@ class Detection:
 
     core_darkness: float = CORE_DARKNESS
     edge_pixels: int = EDGE_PIXELS
+    sky_blue: float = SKY_BLUE
 
 
 def shadow_map_file(
@@ -169,7 +176,10 @@ def shadow_map_file(
         ``core_darkness``: core shadow where the SWIR signal over its sunlit mode is at or
         below this (natural log, default ln 1/6; with a surface model only at the prior's
         edges and near the model's sunward edge);
-        ``edge_pixels``: partial shadow is looked for this many pixels around it.
+        ``edge_pixels``: partial shadow is looked for this many pixels around it;
+        ``sky_blue``: without a surface model, a pixel that dark whose blue is at least this
+        (natural log over the scene's sunlit blue, default −0.3) and whose blue/NIR is a flat
+        dark material's is a sunlit dark material.
     calibration : MapCalibration
         The random sample that calibrates the map (``sample_size``, default 200,000;
         ``seed``) and the boresight offset of the SWIR relative to the VNIR (px,
@@ -183,7 +193,9 @@ def shadow_map_file(
     dict
         ``output`` (and ``mask``), the calibration (dark levels and their source, sunlit
         signals, sunlit ratio, class scale, offset), the class boundaries used, pixels per
-        class, shadow pixels and ``warnings``.
+        class, shadow pixels, without a surface model ``dark_pixels`` (dark enough for core
+        shadow) and ``dark_declined_share`` (their share left sunlit: water, sunlit dark
+        materials; also in the products' tags), and ``warnings``.
 
     References
     ----------
@@ -201,13 +213,14 @@ def shadow_map_file(
     ...     output="out/classes.tif", mask="out/mask.tif", fraction="out/fraction.tif",
     ... )
     >>> result["shadow_share"], result["offset_along_px"]
-    (0.1894, 0.87)
+    (0.1873, 0.87)
     """
     core_darkness = detection.core_darkness
     edge_pixels = detection.edge_pixels
     if int(edge_pixels) != edge_pixels or edge_pixels < 0:
         raise ParameterError(f"parameter 'edge_pixels': {edge_pixels!r} must be a whole number ≥ 0")
     edge_pixels = int(edge_pixels)
+    sky_blue = check_limit(detection.sky_blue)
     base_table = class_table(classes)
     dual = io.as_dual(vnir, swir, layout)
     mb = _map_bands(dual, bands, progress)
@@ -229,8 +242,10 @@ def shadow_map_file(
             prior, agreement = _register(read, dual, mb, opened.prior, surface.register, block)
         tags = _map_tags(dual, cal, core_darkness, edge_pixels, surface, opened, prior)
         halo = shadow_map_halo(cal, edge_pixels)
-        halo = (halo, halo) if prior is None else prior_halo(prior, halo, opened.halo)
-        kernel = _map_kernel(mb, cal.table, block, prior)
+        halo = (halo + SKY_HALO,) * 2 if prior is None else prior_halo(prior, halo, opened.halo)
+        if prior is None:
+            tags["sky_blue"] = str(sky_blue)
+        kernel = _map_kernel(mb, cal.table, block, prior, sky_blue)
         paths = (output, mask, fraction)
         counts, n = _write_map(
             stack, read, kernel, dual, tags, cal.table, paths, halo, strips, progress
@@ -249,7 +264,21 @@ def shadow_map_file(
     for w in warnings:
         progress.info(f"warning: {w}")
     paths = {"output": output, "mask": mask, "fraction": fraction}
+    agreement = {**agreement, **_declined_summary(n, sky_blue, progress)}
     return _map_result(paths, cal, counts, n["shadow"], agreement, warnings)
+
+
+def _declined_summary(n: dict, sky_blue: float, progress) -> dict:
+    """Without a surface model: the pixels dark enough for core shadow and their share left
+    sunlit (water, sunlit dark materials), in the result and the log."""
+    if not n["dark"]:
+        return {}
+    share = n["declined"] / n["dark"]
+    progress.info(
+        f"{100 * share:.1f} % of the {n['dark']} pixels dark enough for core shadow left "
+        f"sunlit (water, and dark materials whose blue is sunlit: sky_blue {sky_blue:g})"
+    )
+    return {"dark_pixels": n["dark"], "dark_declined_share": round(share, 4)}
 
 
 def _map_result(paths, cal, counts, n_shadow, agreement, warnings) -> dict:
@@ -419,15 +448,20 @@ def _register(read, dual, mb: _MapBands, prior, register: bool, block: dict):
     )
 
 
-def _map_kernel(mb: _MapBands, table, block: dict, prior):
+def _map_kernel(mb: _MapBands, table, block: dict, prior, sky_blue: float):
     """The kernel of a strip: (classes, mask, fraction, and with a surface model the
     predicted shadow away from its edges, its part spectrally lit, the unseen pixels and the
-    model's holes)."""
+    model's holes; without one the pixels dark enough for core shadow and those of them the
+    map leaves sunlit: water and sunlit dark materials)."""
 
     def kernel(values, valid, z=None, z_ok=None, r0=0):
         if z is None:
-            f, _ = shadow_fraction_block(*mb.split(values), valid, **block)
-            return shadow_classes(f, table), shadow_mask(f), f, None, None, None, None
+            f, d = shadow_fraction_block(*mb.split(values), valid, sky_blue=sky_blue, **block)
+            with np.errstate(invalid="ignore"):
+                dark = d <= block["calibration"].core
+                declined = dark & ~(f >= 0.5)
+            c, m = shadow_classes(f, table), shadow_mask(f)
+            return c, m, f, None, None, None, None, dark, declined
         b = prior_map_block(
             *mb.split(values), z, valid, heights_valid=z_ok, surface_prior=prior, row0=r0, **block
         )
@@ -440,6 +474,8 @@ def _map_kernel(mb: _MapBands, table, block: dict, prior):
             b.lit,
             b.unseen,
             b.holes,
+            None,
+            None,
         )
 
     return kernel
@@ -508,8 +544,8 @@ def _write_map(stack, read, kernel, dual, tags, table, paths, halo, strips, prog
             )
         )
     counts = np.zeros(256, np.int64)
-    n = dict.fromkeys(("shadow", "deep", "lit", "unseen", "holes"), 0)
-    for win, (c, m, f, *agree) in io.map_windows(
+    n = dict.fromkeys(("shadow", "deep", "lit", "unseen", "holes", "dark", "declined"), 0)
+    for win, (c, m, f, *agree, dark, declined) in io.map_windows(
         read, kernel, halo=halo, progress=progress.sub(0.3, 1.0), message="shadow map", **strips
     ):
         dst.write(c, 1, window=win)
@@ -524,7 +560,23 @@ def _write_map(stack, read, kernel, dual, tags, table, paths, halo, strips, prog
         if agree[0] is not None:
             for key, a in zip(("deep", "lit", "unseen", "holes"), agree, strict=True):
                 n[key] += int(a.sum())
+        if dark is not None:
+            n["dark"] += int(dark.sum())
+            n["declined"] += int(declined.sum())
+    if n["dark"]:
+        for d in (dst, mdst, fdst):
+            if d is not None:
+                d.update_tags(**_declined_tags(n))
     return counts, n
+
+
+def _declined_tags(n: dict) -> dict:
+    """The share of the pixels dark enough for core shadow that the map left sunlit (tags
+    named as :func:`geoboresight.io.raster.base_tags` names the others)."""
+    return {
+        "DARK_PIXELS": str(n["dark"]),
+        "DARK_DECLINED_SHARE": f"{n['declined'] / n['dark']:.4f}",
+    }
 
 
 def _surface_summary(agreement, prior, n, n_valid, register, warnings, progress) -> None:

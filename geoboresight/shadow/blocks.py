@@ -20,6 +20,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .context import sunlit_dark
 from .darkness import (
     DSM_TOLERANCE,
     EDGE_PIXELS,
@@ -170,11 +171,15 @@ def shadow_fraction_block(
     ray: tuple[float, float, int] | None = None,
     reach: float = 0.0,
     tolerance: int = DSM_TOLERANCE,
+    sky_blue: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(shadow fraction, darkness) of a block: steps 1–4 of :func:`shadow_map_block`; with
     ``prior`` (a surface model's cast-shadow fraction on the block; ``heights``,
     ``clearance``, ``unseen``, ``ray``, ``reach`` and ``tolerance``, the surface model's) by
-    :func:`dsm_shadow_fraction` instead of :func:`shadow_fraction_estimate`."""
+    :func:`dsm_shadow_fraction` instead of :func:`shadow_fraction_estimate`. Without
+    ``prior``, ``sky_blue`` (a limit) also keeps the dark pixels whose blue is sunlit out of
+    the core (:func:`geoboresight.shadow.context.sunlit_dark`; needs
+    :data:`~geoboresight.shadow.context.HALO` more lines of halo)."""
     from ..sensor.coregister import coregister
 
     blue_level, nir_level, swir_level = dark_levels
@@ -208,6 +213,11 @@ def shadow_fraction_block(
             tolerance=tolerance,
         )
     else:
+        if sky_blue is not None:
+            levels = (calibration.blue_level, calibration.blue_nir_level)
+            water = water | sunlit_dark(
+                b, n, d, good, core=calibration.core, levels=levels, limit=sky_blue
+            )
         f = shadow_fraction_estimate(
             d, good, core=calibration.core, edge_pixels=edge_pixels, water=water
         )

@@ -48,6 +48,7 @@ import numpy as np
 from ..errors import InputError, ParameterError
 from ..sensor.dark import DarkLevel
 from .classes import MASK_NODATA, MASK_NOT_SHADOW, MASK_SHADOW, NO_SHADOW, NODATA_CLASS, ClassTable
+from .context import sunlit_blue_levels
 
 #: Darkest share of the pixels taken as the dark object of an instrument.
 DARK_FRACTION = 5e-4
@@ -301,6 +302,8 @@ class SceneCalibration:
     offset_across: float = 0.0
     core: float = CORE_DARKNESS
     n_sample: int = 0
+    blue_level: float = math.nan  # log of the sunlit blue signal (context.sunlit_blue_levels)
+    blue_nir_level: float = math.nan  # log of the sunlit ground's blue / NIR
 
     def as_dict(self) -> dict:
         return {
@@ -319,6 +322,9 @@ class SceneCalibration:
             "offset_along_px": round(self.offset_along, 3),
             "offset_across_px": round(self.offset_across, 3),
             "sample_pixels": self.n_sample,
+            "sunlit_blue_signal_dn": round(math.exp(self.blue_level), 3)
+            if math.isfinite(self.blue_level)
+            else None,
         }
 
 
@@ -394,6 +400,7 @@ def calibrate_shadow_map(
     if sunlit.sum() >= 10:
         bn = np.log(np.maximum(b[sunlit], MIN_SIGNAL) / nir[sunlit])
         limit = float(np.percentile(bn, 90)) + math.log(WATER_FACTOR)
+    levels = sunlit_blue_levels(b, nir, ok & (d > core))
     return SceneCalibration(
         vnir_dark=vnir_dark,
         swir_dark=swir_dark,
@@ -406,6 +413,8 @@ def calibrate_shadow_map(
         offset_across=float(offset[1]),
         core=float(core),
         n_sample=int(ok.sum()),
+        blue_level=levels[0],
+        blue_nir_level=levels[1],
     )
 
 
