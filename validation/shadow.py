@@ -149,6 +149,8 @@ DRAWS = {
     "dsm-g": (328270496, range(65, 70), (37, 38, 39)),
     "deshadow-e": (342945452, range(70, 75), (40, 41, 42)),
     "dsm-h": (62679417, range(75, 80), (43, 44, 45)),
+    "deshadow-region-a": (1037402248, range(180, 185), (146, 147, 148)),
+    "deshadow-region-b": (158251716, range(185, 190), (149, 150, 151)),
 }
 #: The scene sets (``--set``). ``dev``: the development scenes, on which the parameters are
 #: set; ``quick``: four of them. A hold-out set is run only after the method it scores is
@@ -160,6 +162,7 @@ SETS = {
     "dsm-holdout": ("dsm-h", "deshadow-d", "deshadow-e"),
     "deshadow-seen": ("dsm-a", "deshadow-a", "deshadow-b", "deshadow-c"),
     "deshadow-holdout": ("deshadow-d", "deshadow-e"),
+    "deshadow-region-holdout": ("deshadow-region-a", "deshadow-region-b"),
 }
 
 
@@ -502,6 +505,7 @@ def run_dsm_case(
     additive=False,
     adjacency=False,
     dark_reference=False,
+    scene_ratio=False,
 ):
     """The surface-model prior and de-shadowing on one scene (see the module's doc);
     ``deshadow`` False leaves the de-shadow columns empty (the shadow map only);
@@ -597,6 +601,7 @@ def run_dsm_case(
                     surface=surf,
                     additive=additive,
                     adjacency=adjacency and surf.dsm is not None,
+                    scene_ratio=scene_ratio,
                 )
         except Exception as e:  # reported, not hidden
             row[key] = row[key + "_own"] = {"error": str(e)}
@@ -824,6 +829,12 @@ def report(argv=None) -> str:
         help="with --dsm: write each band's true dark level into the scenes' ENVI headers (as "
         "a sensor's dark frames give it) before de-shadowing",
     )
+    ap.add_argument(
+        "--scene-ratio",
+        action="store_true",
+        help="with --dsm: one illumination ratio for the whole scene (scene_ratio=True), not "
+        "each neighbourhood's own",
+    )
     ap.add_argument("--out", help="keep the scenes and products in this (new) folder")
     ap.add_argument("--markdown", help="also write the table to this file")
     args = ap.parse_args(argv)
@@ -849,6 +860,7 @@ def report(argv=None) -> str:
                     additive=args.additive,
                     dark_reference=args.dark_reference,
                     adjacency=args.adjacency,
+                    scene_ratio=args.scene_ratio,
                 )
                 rows.append(r)
                 print(

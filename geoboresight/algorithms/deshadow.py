@@ -53,6 +53,9 @@ DESHADOW = Algorithm(
             "number",
             "Bands left as measured: their signal in full shadow below 3 × its noise there",
         ),
+        Result(
+            "regions", "number", "Tiles of 16 px de-shadowed with their neighbourhood's own ratio"
+        ),
         Result("offset_along_px", "number", "Offset along track (pixels)"),
         Result("offset_across_px", "number", "Offset across track (pixels)"),
     ),
@@ -111,6 +114,13 @@ DESHADOW = Algorithm(
             "reflect into the part of its sky they hide, 1 − its sky-view factor; their share "
             "fitted per band on the pairs), so each pixel gets its own ratio; needs the surface "
             "model (not the default: see docs/deshadow.md)",
+        ),
+        Flag(
+            name="scene_ratio",
+            label="One ratio for the scene",
+            description="One illumination ratio for the whole scene, instead of each "
+            "neighbourhood's own from the edges of its shadows (the scene's where a "
+            "neighbourhood has too few; not with the adjacency light)",
         ),
         BLOCK_ROWS,
         RasterOut(

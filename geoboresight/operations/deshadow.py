@@ -35,6 +35,7 @@ from ..shadow.deshadow_steps import (
     picked_pixels,
 )
 from ..shadow.illumination import SKY_RADIUS_M, sky_view_factor
+from ..shadow.region import TILE as REGION_TILE
 from ._dark import DARK_BANDS, band_dark_levels, spread_bands
 from ._offset import boresight_offset
 from ._surface import SurfaceModel, open_surface
@@ -73,6 +74,7 @@ def deshadow_file(
     offset=BoresightOffset(),
     additive=False,
     adjacency=False,
+    scene_ratio=False,
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
 ) -> dict:
@@ -136,6 +138,12 @@ def deshadow_file(
         within :data:`~geoboresight.shadow.deshadow.ADJACENCY_M`), its share fitted per band
         (:func:`geoboresight.shadow.deshadow.adjacency_ratio`): each pixel gets its own ratio.
         Needs the surface model (V). Off by default (docs/deshadow.md).
+    scene_ratio : bool
+        One ratio for the whole scene. By default each neighbourhood of shadows (48 px) has
+        its own: the scene's ``k − 1`` scaled by what the pairs across its own shadows' edges
+        say (:mod:`geoboresight.shadow.region`: a shadow that sees less sky, or gets more
+        light from its surroundings, than the scene's average), the scene's ratio where it
+        has too few pairs; not with ``adjacency``, which gives each pixel its own already.
     block_rows : int
     progress : Progress, optional
 
@@ -191,7 +199,13 @@ def deshadow_file(
             read, dual, levels, prior, (along, across), adj_half, strips, progress
         )
         fit = fit_illumination(
-            edges, wl, surface=prior is not None, additive=additive, adjacency=adjacency
+            edges,
+            wl,
+            surface=prior is not None,
+            additive=additive,
+            adjacency=adjacency,
+            shape=(dual.height, dual.width),
+            regions=not scene_ratio,
         )
         _log_fit(fit, edges, additive, adjacency, warnings, progress)
         # Pass 2: the de-shadowed cube, each instrument on its own grid.
@@ -224,6 +238,7 @@ def _result(output, edges, fit, n_corrected, offset, warnings) -> dict:
         "shadowed_pixels": n_corrected,
         "bands_unchanged": fit.unchanged,
         "bands_unresolved": fit.unresolved,
+        "regions": fit.regions,
         "offset_along_px": round(offset[0], 3),
         "offset_across_px": round(offset[1], 3),
         "warnings": warnings,
@@ -256,6 +271,7 @@ def _gather_pairs(read, dual, levels, prior, offset, adj_half, strips, progress)
             surface_prior=prior,
             adjacency_size=adj_size,
             quiet=picked_pixels(block.row0, f.shape, quiet_share),
+            row0=block.row0,
         )
 
     shift_halo = math.ceil(abs(offset[0])) + 2
@@ -283,10 +299,12 @@ def _write_cube(read, outputs, dual, tags, fit, levels, offset, adj_half, strips
     base = levels[:, None, None] + fit.additive[:, None, None]
     adj_size = 2 * adj_half + 1 if adj_half else 0
 
-    def kernel(x, x_ok, f, z, v):
-        return deshadow_block(
-            x, f, v, x_ok, base=base, fit=fit, n_vnir=nv, offset=offset, adjacency_size=adj_size
-        )
+    def kernel(x, x_ok, f, z, v, block):
+        cube, n = deshadow_block(
+            x, f, v, x_ok, base=base, fit=fit, n_vnir=nv, offset=offset,
+            adjacency_size=adj_size, row0=block.row0,
+        )  # fmt: skip
+        return cube[:, block.inner], n[block.inner]
 
     names = [f"{'VNIR' if i < nv else 'SWIR'} {w:.1f} nm" for i, w in enumerate(wl)]
     band_tags = [
@@ -325,6 +343,7 @@ def _write_cube(read, outputs, dual, tags, fit, levels, offset, adj_half, strips
             halo=(math.ceil(abs(offset[0])) + 2 + adj_half,) * 2,
             progress=progress.sub(0.4, 1.0),
             message="de-shadowing",
+            pass_block=True,
             **strips,
         ):
             out.write(np.where(np.isfinite(cube), cube, io.FLOAT_NODATA), window=win)
@@ -451,6 +470,17 @@ def _log_fit(fit, edges, additive, adjacency, warnings, progress) -> None:
         f"{edges.shaded.shape[0]} pairs across shadow edges: {np.nanmin(k):.2f}–"
         f"{np.nanmax(k):.2f} over the bands (spread {fit.spread:.3f} in log)"
     )
+    if fit.regions:
+        progress.info(
+            f"{fit.regions} neighbourhood(s) of {REGION_TILE} px with their own ratio (scale of "
+            f"k − 1 {np.nanmin(fit.region_scale):.2f}–{np.nanmax(fit.region_scale):.2f}), the "
+            "scene's elsewhere"
+        )
+    if fit.edge_pairs:
+        warnings.append(
+            "the shadows are too narrow to hold a pixel inside them: the illumination ratio is "
+            "measured on their edge pixels, which mix in sunlit light (it may be too low)"
+        )
     if fit.spread > POOR_SPREAD:
         warnings.append(
             f"the pairs across shadow edges agree poorly (median RMS log difference "
@@ -474,6 +504,10 @@ def _cube_tags(dual, shadow, surface, prior, wl, fit, levels, adjacency, along, 
         "wavelength": "{" + ", ".join(f"{w:.2f}" for w in wl) + "}",
         "wavelength_units": "Nanometers",
         "illumination_ratio": ",".join(f"{v:.4f}" for v in fit.ratio),
+        "region_ratio": f"the scene's k − 1 scaled per {REGION_TILE} px tile by its "
+        f"neighbourhood's shadow edges in {fit.regions} tile(s)"
+        if fit.region_scale is not None
+        else "none (one ratio for the scene)",
         "dark_level_dn": ",".join(f"{v:.2f}" for v in levels),
         "additive_signal_dn": ",".join(f"{v:.2f}" for v in fit.additive),
         "adjacency": "(1 − V)·η·k·S̄/S_ref added to V, S̄ the mean sunlit signal within "
@@ -507,6 +541,7 @@ def _report(result, wl, fit, levels) -> dict:
                 "shadow_signal_dn": fin(ss, np.isfinite(ss)),
                 "shadow_noise_dn": fin(sn, np.isfinite(sn)),
                 "resolved_in_shadow": bool(ok),
+                "corrected": bool(ok and kk > 1.0),
             }
             for w, kk, lvl, cc, ce, cl, el, do, et, ss, sn, ok in zip(
                 wl,
@@ -524,6 +559,8 @@ def _report(result, wl, fit, levels) -> dict:
                 strict=True,
             )
         ],
+        "corrected_nm": _ranges(wl, _resolved(fit) & (fit.ratio > 1.0)),
+        "left_as_measured_nm": _ranges(wl, ~(_resolved(fit) & (fit.ratio > 1.0))),
         "formula": "L_sun = L / (1 - f * (1 - 1/k)), L = DN - dark level - additive "
         "signal (both added back)",
     }
@@ -531,3 +568,15 @@ def _report(result, wl, fit, levels) -> dict:
 
 def _or_nan(x, n: int) -> np.ndarray:
     return np.full(n, np.nan) if x is None else x
+
+
+def _ranges(wl, on) -> list[list[float]]:
+    """The runs of consecutive bands where ``on`` as [first, last] wavelengths (nm)."""
+    out, start = [], None
+    for i, flag in enumerate([*on, False]):
+        if flag and start is None:
+            start = i
+        elif not flag and start is not None:
+            out.append([round(float(wl[start]), 2), round(float(wl[i - 1]), 2)])
+            start = None
+    return out
