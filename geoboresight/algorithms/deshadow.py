@@ -54,7 +54,7 @@ DESHADOW = Algorithm(
             "Bands left as measured: their signal in full shadow below 3 × its noise there",
         ),
         Result(
-            "regions", "number", "Tiles of 16 px de-shadowed with their neighbourhood's own ratio"
+            "regions", "number", "Tiles of 32 px de-shadowed with their neighbourhood's own ratio"
         ),
         Result("offset_along_px", "number", "Offset along track (pixels)"),
         Result("offset_across_px", "number", "Offset across track (pixels)"),

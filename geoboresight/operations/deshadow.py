@@ -139,7 +139,7 @@ def deshadow_file(
         (:func:`geoboresight.shadow.deshadow.adjacency_ratio`): each pixel gets its own ratio.
         Needs the surface model (V). Off by default (docs/deshadow.md).
     scene_ratio : bool
-        One ratio for the whole scene. By default each neighbourhood of shadows (48 px) has
+        One ratio for the whole scene. By default each neighbourhood of shadows (96 px) has
         its own: the scene's ``k − 1`` scaled by what the pairs across its own shadows' edges
         say (:mod:`geoboresight.shadow.region`: a shadow that sees less sky, or gets more
         light from its surroundings, than the scene's average), the scene's ratio where it
