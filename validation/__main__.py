@@ -123,6 +123,24 @@ SECTIONS = (
         "The same columns on 16 hold-out scenes.",
     ),
     Section(
+        "deshadow-region-holdout",
+        "De-shadowing, each neighbourhood's own ratio: hold-out scenes",
+        "shadow",
+        ("--dsm", "--set", "deshadow-region-holdout"),
+        None,
+        "The same columns on 16 other hold-out scenes, drawn before the ratio of each "
+        "neighbourhood (the default) was set and run only after it.",
+    ),
+    Section(
+        "deshadow-region-holdout-scene",
+        "De-shadowing, one ratio for the scene: the same hold-out scenes",
+        "shadow",
+        ("--dsm", "--set", "deshadow-region-holdout", "--scene-ratio"),
+        None,
+        "The same scenes with `deshadow(scene_ratio=True)`: one ratio per band for the whole "
+        "scene, as before each neighbourhood got its own.",
+    ),
+    Section(
         "dem",
         "Relative DEM and boresight offset (band means, the default)",
         "dem",
@@ -241,6 +259,9 @@ and three of the simulator):
   3σ detection fixed before any scene was run) was developed on the development scenes
   and two small test scenes (simulator urban seed 2, model 2 seed 3), the hold-out set run
   only after it;
+- `deshadow-region-holdout`: 16 scenes for de-shadowing with each neighbourhood's own
+  ratio (`shadow/region.py`), drawn before that method was developed on the development
+  scenes, and run, with it and with one ratio for the scene, only once it was fixed;
 - the relief test: 8 hold-out scenes (model 2 with 8–40 m of relief, 0–35 trees, sun
   25–55°; simulator mixed and dunes) besides the 8 it was designed on;
 - the anomaly detectors: four hold-out seeds per scene model besides the development seed.
