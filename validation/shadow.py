@@ -505,7 +505,7 @@ def run_dsm_case(
     additive=False,
     adjacency=False,
     dark_reference=False,
-    scene_ratio=False,
+    regions=False,
 ):
     """The surface-model prior and de-shadowing on one scene (see the module's doc);
     ``deshadow`` False leaves the de-shadow columns empty (the shadow map only);
@@ -601,7 +601,7 @@ def run_dsm_case(
                     surface=surf,
                     additive=additive,
                     adjacency=adjacency and surf.dsm is not None,
-                    scene_ratio=scene_ratio,
+                    regions=regions,
                 )
         except Exception as e:  # reported, not hidden
             row[key] = row[key + "_own"] = {"error": str(e)}
@@ -830,10 +830,10 @@ def report(argv=None) -> str:
         "a sensor's dark frames give it) before de-shadowing",
     )
     ap.add_argument(
-        "--scene-ratio",
+        "--regions",
         action="store_true",
-        help="with --dsm: one illumination ratio for the whole scene (scene_ratio=True), not "
-        "each neighbourhood's own",
+        help="with --dsm: each neighbourhood's own illumination ratio (regions=True), not one "
+        "for the whole scene",
     )
     ap.add_argument("--out", help="keep the scenes and products in this (new) folder")
     ap.add_argument("--markdown", help="also write the table to this file")
@@ -860,7 +860,7 @@ def report(argv=None) -> str:
                     additive=args.additive,
                     dark_reference=args.dark_reference,
                     adjacency=args.adjacency,
-                    scene_ratio=args.scene_ratio,
+                    regions=args.regions,
                 )
                 rows.append(r)
                 print(

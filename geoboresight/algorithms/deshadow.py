@@ -116,11 +116,11 @@ DESHADOW = Algorithm(
             "model (not the default: see docs/deshadow.md)",
         ),
         Flag(
-            name="scene_ratio",
-            label="One ratio for the scene",
-            description="One illumination ratio for the whole scene, instead of each "
-            "neighbourhood's own from the edges of its shadows (the scene's where a "
-            "neighbourhood has too few; not with the adjacency light)",
+            name="regions",
+            label="Each neighbourhood's own ratio",
+            description="Each neighbourhood of shadows (96 px) gets its own illumination "
+            "ratio from the edges of its shadows, the scene's where it has too few (not with "
+            "the adjacency light; not the default: see docs/deshadow.md)",
         ),
         BLOCK_ROWS,
         RasterOut(

@@ -74,7 +74,7 @@ def deshadow_file(
     offset=BoresightOffset(),
     additive=False,
     adjacency=False,
-    scene_ratio=False,
+    regions=False,
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
 ) -> dict:
@@ -138,12 +138,13 @@ def deshadow_file(
         within :data:`~geoboresight.shadow.deshadow.ADJACENCY_M`), its share fitted per band
         (:func:`geoboresight.shadow.deshadow.adjacency_ratio`): each pixel gets its own ratio.
         Needs the surface model (V). Off by default (docs/deshadow.md).
-    scene_ratio : bool
-        One ratio for the whole scene. By default each neighbourhood of shadows (96 px) has
-        its own: the scene's ``k − 1`` scaled by what the pairs across its own shadows' edges
-        say (:mod:`geoboresight.shadow.region`: a shadow that sees less sky, or gets more
-        light from its surroundings, than the scene's average), the scene's ratio where it
-        has too few pairs; not with ``adjacency``, which gives each pixel its own already.
+    regions : bool
+        Each neighbourhood of shadows (96 px) gets its own ratio: the scene's ``k − 1`` scaled
+        by what the pairs across its own shadows' edges say (:mod:`geoboresight.shadow.region`:
+        a shadow that sees less sky, or gets more light from its surroundings, than the
+        scene's average), the scene's ratio where it has too few pairs; not with
+        ``adjacency``, which gives each pixel its own already. Off by default: it helps the
+        simulator's scenes, not model 2's (docs/deshadow.md).
     block_rows : int
     progress : Progress, optional
 
@@ -205,7 +206,7 @@ def deshadow_file(
             additive=additive,
             adjacency=adjacency,
             shape=(dual.height, dual.width),
-            regions=not scene_ratio,
+            regions=regions,
         )
         _log_fit(fit, edges, additive, adjacency, warnings, progress)
         # Pass 2: the de-shadowed cube, each instrument on its own grid.
