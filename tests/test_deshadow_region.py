@@ -221,3 +221,26 @@ def test_each_neighbourhood_s_ratio_beats_the_scene_s_where_shadows_see_less_sky
     # the median of a few dozen noisy pairs).
     assert scene < -0.2
     assert abs(local) < 0.5 * abs(scene)
+
+
+def test_each_neighbourhood_s_ratio_is_the_same_read_in_strips(tmp_path):
+    sc = simulate_scene("urban", lines=96, seed=2, sun_zenith=45.0)
+    folder = str(tmp_path / "scene")
+    write_scene(sc, folder)
+    cubes, results = [], []
+    for rows in (4096, 24):
+        out = str(tmp_path / f"d{rows}.tif")
+        results.append(
+            deshadow_file(
+                f"{folder}/vnir.hdr",
+                f"{folder}/swir.hdr",
+                shadow=f"{folder}/truth_shadow_fraction.tif",
+                output=out,
+                regions=True,
+                block_rows=rows,
+            )
+        )
+        with rasterio.open(out) as src:
+            cubes.append(src.read())
+    assert results[0]["regions"] == results[1]["regions"] > 0
+    np.testing.assert_allclose(cubes[1], cubes[0], rtol=1e-5)
