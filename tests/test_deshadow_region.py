@@ -13,7 +13,7 @@ import pytest
 import rasterio
 from scipy import ndimage
 
-from geoboresight import deshadow_file
+from geoboresight import LightModel, deshadow_file
 from geoboresight.io.scene import write_scene
 from geoboresight.shadow import deshadow as ds
 from geoboresight.shadow import deshadow_steps as dst
@@ -214,7 +214,7 @@ def test_each_neighbourhood_s_ratio_beats_the_scene_s_where_shadows_see_less_sky
     folder = str(tmp_path / "scene")
     f, own = _scene_with_less_sky(model, folder)
     scene, _, n = _brightness_errors(folder, tmp_path, f, own)
-    local, r, _ = _brightness_errors(folder, tmp_path, f, own, regions=True)
+    local, r, _ = _brightness_errors(folder, tmp_path, f, own, light=LightModel(regions=True))
     assert n >= 100 and r["regions"] > 0
     # One ratio for the scene under-corrects the half that sees less sky (by 31 % on the
     # simulator); its neighbourhoods' own ratios take most of that away (8 %: their scale is
@@ -236,7 +236,7 @@ def test_each_neighbourhood_s_ratio_is_the_same_read_in_strips(tmp_path):
                 f"{folder}/swir.hdr",
                 shadow=f"{folder}/truth_shadow_fraction.tif",
                 output=out,
-                regions=True,
+                light=LightModel(regions=True),
                 block_rows=rows,
             )
         )

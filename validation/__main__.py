@@ -110,7 +110,7 @@ SECTIONS = (
         "shadow",
         ("--dsm", "--set", "dev", "--additive", "--adjacency"),
         None,
-        "The same scenes and columns with `deshadow(additive=True, adjacency=True)` (the "
+        "The same scenes and columns with `deshadow(light=LightModel(additive=True, adjacency=True))` (the "
         "surroundings' light only where the surface model is given); both are options, not "
         "the default.",
     ),
@@ -128,7 +128,7 @@ SECTIONS = (
         "shadow",
         ("--dsm", "--set", "deshadow-region-holdout", "--regions"),
         None,
-        "The same columns on 16 other hold-out scenes with `deshadow(regions=True)`, each "
+        "The same columns on 16 other hold-out scenes with `deshadow(light=LightModel(regions=True))`, each "
         "neighbourhood's own ratio; the scenes drawn before that option was developed and run "
         "only once it was fixed.",
     ),

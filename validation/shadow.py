@@ -43,9 +43,9 @@ what it gives the twin itself, a perfect de-shadowing. With the de-shadow column
 simulator's scenes are made with ``sky_obstruction`` (walls and crowns hide sky, as model 2's
 do; without it its street canyons see the whole sky). ``--no-deshadow`` leaves the de-shadow
 columns empty (and the simulator's scenes without sky obstruction, as the shadow map's other runs have them); ``--additive`` de-shadows with the
-additive signal estimated from the pairs (``deshadow_file(additive=True)``); ``--adjacency``
+additive signal estimated from the pairs (``deshadow_file(light=LightModel(additive=True))``); ``--adjacency``
 adds the light of the sunlit surroundings to the columns with the surface model
-(``deshadow_file(adjacency=True)``). ``--dark-reference`` writes
+(``deshadow_file(light=LightModel(adjacency=True))``). ``--dark-reference`` writes
 each band's true dark level into the ENVI headers before de-shadowing, as a sensor product's
 dark frames give it (model 2's dark levels differ from band to band by 3 %).
 
@@ -71,6 +71,7 @@ import rasterio
 from scipy import ndimage
 
 from geoboresight import (
+    LightModel,
     SurfaceModel,
     dark_pixel_shadow_file,
     deshadow_file,
@@ -599,9 +600,11 @@ def run_dsm_case(
                     output=out,
                     report=j(f"ds_{key}.json"),
                     surface=surf,
-                    additive=additive,
-                    adjacency=adjacency and surf.dsm is not None,
-                    regions=regions,
+                    light=LightModel(
+                        additive=additive,
+                        adjacency=adjacency and surf.dsm is not None,
+                        regions=regions,
+                    ),
                 )
         except Exception as e:  # reported, not hidden
             row[key] = row[key + "_own"] = {"error": str(e)}
@@ -832,7 +835,7 @@ def report(argv=None) -> str:
     ap.add_argument(
         "--regions",
         action="store_true",
-        help="with --dsm: each neighbourhood's own illumination ratio (regions=True), not one "
+        help="with --dsm: each neighbourhood's own illumination ratio (LightModel(regions=True)), not one "
         "for the whole scene",
     )
     ap.add_argument("--out", help="keep the scenes and products in this (new) folder")

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -44,6 +45,26 @@ from ._surface import SurfaceModel, open_surface
 DARK_SAMPLE = 100_000
 
 
+@dataclass(frozen=True)
+class LightModel:
+    """What de-shadowing models of the light beyond one ratio per band, all off by default
+    (docs/deshadow.md): ``additive``, each band's additive signal (path radiance, a dark level
+    that differs from band to band); ``adjacency``, the light of the sunlit surroundings (with
+    a surface model); ``regions``, each neighbourhood's own ratio from the edges of its
+    shadows (not with ``adjacency``).
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.LightModel(regions=True)
+    LightModel(additive=False, adjacency=False, regions=True)
+    """
+
+    additive: bool = False
+    adjacency: bool = False
+    regions: bool = False
+
+
 def _sky_view(read_z, prior, r0, r1, height):
     """(heights, sky-view factor) of lines r0–r1: the factor from the DSM read
     :data:`~geoboresight.shadow.illumination.SKY_RADIUS_M` beyond them (its horizon search)."""
@@ -72,9 +93,7 @@ def deshadow_file(
     layout=DualLayout(),
     dark=DarkLevels(),
     offset=BoresightOffset(),
-    additive=False,
-    adjacency=False,
-    regions=False,
+    light=LightModel(),
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
 ) -> dict:
@@ -122,29 +141,26 @@ def deshadow_file(
         ``shadow-map`` does); 0 for radiance.
     offset : BoresightOffset
         Boresight offset of the SWIR (px); both None = measured.
-    additive : bool
-        Also estimate each band's additive signal (path radiance, and what is left of a dark
-        level that differs from band to band when one level per instrument is subtracted):
-        the intercept of the line of the pairs of one surface
+    light : LightModel
+        ``light.additive``: also estimate each band's additive signal (path radiance, and
+        what is left of a dark level that differs from band to band when one level per
+        instrument is subtracted): the intercept of the line of the pairs of one surface
         (:func:`geoboresight.shadow.deshadow.same_surface`,
         :func:`geoboresight.shadow.deshadow.additive_signal`; with a surface model each sunlit
         side's slope, cos i, enters it), combined band by band with the dark object (an upper
         bound, :func:`geoboresight.shadow.deshadow.combine_additive`) by their estimated
         errors; the ratio is then measured, and the signal scaled, above it (it is added
-        back). Off by default: it helps only where pairs of one surface are found
-        (docs/deshadow.md).
-    adjacency : bool
-        Also light each pixel by its sunlit surroundings (ATCOR-4's ``(1 − V)·ρ̄·E_global``,
-        within :data:`~geoboresight.shadow.deshadow.ADJACENCY_M`), its share fitted per band
-        (:func:`geoboresight.shadow.deshadow.adjacency_ratio`): each pixel gets its own ratio.
-        Needs the surface model (V). Off by default (docs/deshadow.md).
-    regions : bool
-        Each neighbourhood of shadows (96 px) gets its own ratio: the scene's ``k − 1`` scaled
-        by what the pairs across its own shadows' edges say (:mod:`geoboresight.shadow.region`:
-        a shadow that sees less sky, or gets more light from its surroundings, than the
-        scene's average), the scene's ratio where it has too few pairs; not with
-        ``adjacency``, which gives each pixel its own already. Off by default: it helps the
-        simulator's scenes, not model 2's (docs/deshadow.md).
+        back). It helps only where pairs of one surface are found.
+        ``light.adjacency``: also light each pixel by its sunlit surroundings (ATCOR-4's
+        ``(1 − V)·ρ̄·E_global``, within :data:`~geoboresight.shadow.deshadow.ADJACENCY_M`),
+        its share fitted per band (:func:`geoboresight.shadow.deshadow.adjacency_ratio`): each
+        pixel gets its own ratio. Needs the surface model (V).
+        ``light.regions``: each neighbourhood of shadows (96 px) gets its own ratio, the
+        scene's ``k − 1`` scaled by what the pairs across its own shadows' edges say
+        (:mod:`geoboresight.shadow.region`: a shadow that sees less sky, or gets more light
+        from its surroundings, than the scene's average), the scene's ratio where it has too
+        few pairs; not with ``adjacency``, which gives each pixel its own already. It helps
+        the simulator's scenes, not model 2's. All three off by default (docs/deshadow.md).
     block_rows : int
     progress : Progress, optional
 
@@ -166,6 +182,7 @@ def deshadow_file(
     >>> gb.deshadow_file(v, s, shadow="out/fraction.tif", output="out/deshadowed.tif")["pairs_used"]
     161
     """
+    additive, adjacency = light.additive, light.adjacency
     dual = io.as_dual(vnir, swir, layout)
     wl = np.concatenate([dual.vnir.wavelengths, dual.swir.wavelengths]).astype(float)
     strips = {"height": dual.height, "width": dual.width, "block_rows": block_rows}
@@ -206,7 +223,7 @@ def deshadow_file(
             additive=additive,
             adjacency=adjacency,
             shape=(dual.height, dual.width),
-            regions=regions,
+            regions=light.regions,
         )
         _log_fit(fit, edges, additive, adjacency, warnings, progress)
         # Pass 2: the de-shadowed cube, each instrument on its own grid.
