@@ -48,10 +48,27 @@ DARK_SAMPLE = 100_000
 @dataclass(frozen=True)
 class LightModel:
     """What de-shadowing models of the light beyond one ratio per band, all off by default
-    (docs/deshadow.md): ``additive``, each band's additive signal (path radiance, a dark level
-    that differs from band to band); ``adjacency``, the light of the sunlit surroundings (with
-    a surface model); ``regions``, each neighbourhood's own ratio from the edges of its
-    shadows (not with ``adjacency``).
+    (docs/deshadow.md).
+
+    ``additive``: also estimate each band's additive signal (path radiance, and
+    what is left of a dark level that differs from band to band when one level per
+    instrument is subtracted): the intercept of the line of the pairs of one surface
+    (:func:`geoboresight.shadow.deshadow.same_surface`,
+    :func:`geoboresight.shadow.deshadow.additive_signal`; with a surface model each sunlit
+    side's slope, cos i, enters it), combined band by band with the dark object (an upper
+    bound, :func:`geoboresight.shadow.deshadow.combine_additive`) by their estimated
+    errors; the ratio is then measured, and the signal scaled, above it (it is added
+    back). It helps only where pairs of one surface are found.
+    ``adjacency``: also light each pixel by its sunlit surroundings (ATCOR-4's
+    ``(1 − V)·ρ̄·E_global``, within :data:`~geoboresight.shadow.deshadow.ADJACENCY_M`),
+    its share fitted per band (:func:`geoboresight.shadow.deshadow.adjacency_ratio`): each
+    pixel gets its own ratio. Needs the surface model (V).
+    ``regions``: each neighbourhood of shadows (96 px) gets its own ratio, the
+    scene's ``k − 1`` scaled by what the pairs across its own shadows' edges say
+    (:mod:`geoboresight.shadow.region`: a shadow that sees less sky, or gets more light
+    from its surroundings, than the scene's average), the scene's ratio where it has too
+    few pairs; not with ``adjacency``, which gives each pixel its own already. It helps
+    the simulator's scenes, not model 2's.
 
     Examples
     --------
@@ -142,25 +159,8 @@ def deshadow_file(
     offset : BoresightOffset
         Boresight offset of the SWIR (px); both None = measured.
     light : LightModel
-        ``light.additive``: also estimate each band's additive signal (path radiance, and
-        what is left of a dark level that differs from band to band when one level per
-        instrument is subtracted): the intercept of the line of the pairs of one surface
-        (:func:`geoboresight.shadow.deshadow.same_surface`,
-        :func:`geoboresight.shadow.deshadow.additive_signal`; with a surface model each sunlit
-        side's slope, cos i, enters it), combined band by band with the dark object (an upper
-        bound, :func:`geoboresight.shadow.deshadow.combine_additive`) by their estimated
-        errors; the ratio is then measured, and the signal scaled, above it (it is added
-        back). It helps only where pairs of one surface are found.
-        ``light.adjacency``: also light each pixel by its sunlit surroundings (ATCOR-4's
-        ``(1 − V)·ρ̄·E_global``, within :data:`~geoboresight.shadow.deshadow.ADJACENCY_M`),
-        its share fitted per band (:func:`geoboresight.shadow.deshadow.adjacency_ratio`): each
-        pixel gets its own ratio. Needs the surface model (V).
-        ``light.regions``: each neighbourhood of shadows (96 px) gets its own ratio, the
-        scene's ``k − 1`` scaled by what the pairs across its own shadows' edges say
-        (:mod:`geoboresight.shadow.region`: a shadow that sees less sky, or gets more light
-        from its surroundings, than the scene's average), the scene's ratio where it has too
-        few pairs; not with ``adjacency``, which gives each pixel its own already. It helps
-        the simulator's scenes, not model 2's. All three off by default (docs/deshadow.md).
+        The additive signal, the light of the sunlit surroundings, each neighbourhood's own
+        ratio: all off by default (:class:`LightModel`).
     block_rows : int
     progress : Progress, optional
 
