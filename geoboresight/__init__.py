@@ -112,6 +112,7 @@ VALUES = {
     "MapCalibration": "geoboresight.operations.shadow_map",
     "Detection": "geoboresight.operations.shadow_map",
     "SurfaceModel": "geoboresight.operations.shadow_map",
+    "LightModel": "geoboresight.operations.deshadow",
     "NirBand": "geoboresight.operations.shadow",
     "SensorGeometry": "geoboresight.operations.direct_georef",
     "Terrain": "geoboresight.operations.direct_georef",

@@ -92,6 +92,7 @@ from .io.windows import map_windows as map_windows
 from .io.windows import reduce_windows as reduce_windows
 from .operations.boresight_calibrate import BoresightFit as BoresightFit
 from .operations.boresight_calibrate import TieSources as TieSources
+from .operations.deshadow import LightModel as LightModel
 from .operations.direct_georef import SensorGeometry as SensorGeometry
 from .operations.direct_georef import Terrain as Terrain
 from .operations.shadow import NirBand as NirBand

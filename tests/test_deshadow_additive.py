@@ -17,7 +17,7 @@ import pytest
 import rasterio
 from synth import write_gtiff  # noqa: E402
 
-from geoboresight import deshadow_file
+from geoboresight import LightModel, deshadow_file
 from geoboresight.shadow import deshadow as ds
 from validation.scene_model2 import simulate2, write_scene2
 
@@ -186,7 +186,7 @@ def test_deshadow_subtracts_the_headers_per_band_dark_levels(scene, tmp_path):
 
 def test_deshadow_file_with_the_additive_signal_scales_only_the_signal_above_it(scene, tmp_path):
     sc, folder = scene
-    f, out, bands = _deshadow_truth_fraction(sc, folder, tmp_path, additive=True)
+    f, out, bands = _deshadow_truth_fraction(sc, folder, tmp_path, light=LightModel(additive=True))
     d = np.array([b["dark_level_dn"] for b in bands])
     c = np.array([b["additive_signal_dn"] for b in bands])
     k = np.array([b["illumination_ratio"] for b in bands])
@@ -341,7 +341,7 @@ def test_additive_signal_on_relief_against_model_2s_truth(tmp_path):
         output=str(tmp_path / "o.tif"),
         report=rep,
         surface=SurfaceModel(str(tmp_path / "z.tif"), 45.0, 150.0, 1.0),
-        additive=True,
+        light=LightModel(additive=True),
     )
     with open(rep) as fh:
         bands = json.load(fh)["bands"]

@@ -16,7 +16,7 @@ import pytest
 import rasterio
 from synth import write_gtiff  # noqa: E402
 
-from geoboresight import deshadow_file
+from geoboresight import LightModel, deshadow_file
 from geoboresight.errors import ParameterError
 from geoboresight.shadow import deshadow as ds
 from validation.scene_model2 import simulate2, write_scene2
@@ -145,12 +145,12 @@ def test_deshadow_file_measures_model_2s_adjacency_light(tmp_path):
     whole image's cube (the window's halo)."""
     strong = _model2(tmp_path, "strong", 0.8)
     none = _model2(tmp_path, "none", 0.0)
-    eta_strong = _run(strong, str(tmp_path / "s.tif"), adjacency=True)
-    eta_none = _run(none, str(tmp_path / "n.tif"), adjacency=True)
+    eta_strong = _run(strong, str(tmp_path / "s.tif"), light=LightModel(adjacency=True))
+    eta_none = _run(none, str(tmp_path / "n.tif"), light=LightModel(adjacency=True))
     vnir = slice(0, 101)  # model 2's VNIR bands, where shadow has signal
     assert np.median(eta_strong[vnir]) > np.median(eta_none[vnir]) + 0.05
     assert np.median(eta_none[vnir]) < 0.1
-    _run(strong, str(tmp_path / "s16.tif"), adjacency=True, block_rows=16)
+    _run(strong, str(tmp_path / "s16.tif"), light=LightModel(adjacency=True), block_rows=16)
     with rasterio.open(str(tmp_path / "s.tif")) as a, rasterio.open(str(tmp_path / "s16.tif")) as b:
         np.testing.assert_allclose(a.read(), b.read(), rtol=1e-5, atol=1e-3)
 
@@ -163,5 +163,5 @@ def test_adjacency_needs_a_surface_model(tmp_path):
             os.path.join(folder, "swir.hdr"),
             shadow=os.path.join(folder, "f.tif"),
             output=str(tmp_path / "o.tif"),
-            adjacency=True,
+            light=LightModel(adjacency=True),
         )

@@ -43,9 +43,9 @@ what it gives the twin itself, a perfect de-shadowing. With the de-shadow column
 simulator's scenes are made with ``sky_obstruction`` (walls and crowns hide sky, as model 2's
 do; without it its street canyons see the whole sky). ``--no-deshadow`` leaves the de-shadow
 columns empty (and the simulator's scenes without sky obstruction, as the shadow map's other runs have them); ``--additive`` de-shadows with the
-additive signal estimated from the pairs (``deshadow_file(additive=True)``); ``--adjacency``
+additive signal estimated from the pairs (``deshadow_file(light=LightModel(additive=True))``); ``--adjacency``
 adds the light of the sunlit surroundings to the columns with the surface model
-(``deshadow_file(adjacency=True)``). ``--dark-reference`` writes
+(``deshadow_file(light=LightModel(adjacency=True))``). ``--dark-reference`` writes
 each band's true dark level into the ENVI headers before de-shadowing, as a sensor product's
 dark frames give it (model 2's dark levels differ from band to band by 3 %).
 
@@ -71,6 +71,7 @@ import rasterio
 from scipy import ndimage
 
 from geoboresight import (
+    LightModel,
     SurfaceModel,
     dark_pixel_shadow_file,
     deshadow_file,
@@ -151,6 +152,8 @@ DRAWS = {
     "dsm-h": (62679417, range(75, 80), (43, 44, 45)),
     "nodsm-a": (1818535745, range(80, 85), (46, 47, 48)),
     "nodsm-b": (477085513, range(85, 90), (49, 50, 51)),
+    "deshadow-region-a": (1037402248, range(180, 185), (146, 147, 148)),
+    "deshadow-region-b": (158251716, range(185, 190), (149, 150, 151)),
 }
 #: The scene sets (``--set``). ``dev``: the development scenes, on which the parameters are
 #: set; ``quick``: four of them. A hold-out set is run only after the method it scores is
@@ -163,6 +166,7 @@ SETS = {
     "deshadow-seen": ("dsm-a", "deshadow-a", "deshadow-b", "deshadow-c"),
     "deshadow-holdout": ("deshadow-d", "deshadow-e"),
     "nodsm-holdout": ("nodsm-a", "nodsm-b"),
+    "deshadow-region-holdout": ("deshadow-region-a", "deshadow-region-b"),
 }
 
 
@@ -505,6 +509,7 @@ def run_dsm_case(
     additive=False,
     adjacency=False,
     dark_reference=False,
+    regions=False,
 ):
     """The surface-model prior and de-shadowing on one scene (see the module's doc);
     ``deshadow`` False leaves the de-shadow columns empty (the shadow map only);
@@ -598,8 +603,11 @@ def run_dsm_case(
                     output=out,
                     report=j(f"ds_{key}.json"),
                     surface=surf,
-                    additive=additive,
-                    adjacency=adjacency and surf.dsm is not None,
+                    light=LightModel(
+                        additive=additive,
+                        adjacency=adjacency and surf.dsm is not None,
+                        regions=regions,
+                    ),
                 )
         except Exception as e:  # reported, not hidden
             row[key] = row[key + "_own"] = {"error": str(e)}
@@ -827,6 +835,12 @@ def report(argv=None) -> str:
         help="with --dsm: write each band's true dark level into the scenes' ENVI headers (as "
         "a sensor's dark frames give it) before de-shadowing",
     )
+    ap.add_argument(
+        "--regions",
+        action="store_true",
+        help="with --dsm: each neighbourhood's own illumination ratio (LightModel(regions=True)), not one "
+        "for the whole scene",
+    )
     ap.add_argument("--out", help="keep the scenes and products in this (new) folder")
     ap.add_argument("--markdown", help="also write the table to this file")
     args = ap.parse_args(argv)
@@ -852,6 +866,7 @@ def report(argv=None) -> str:
                     additive=args.additive,
                     dark_reference=args.dark_reference,
                     adjacency=args.adjacency,
+                    regions=args.regions,
                 )
                 rows.append(r)
                 print(

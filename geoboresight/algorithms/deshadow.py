@@ -6,10 +6,10 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from ..operations.deshadow import deshadow_file
+from ..operations.deshadow import LightModel, deshadow_file
 from ._common import BLOCK_ROWS, DUAL_PARAMS, OFFSET
 from .shadow_map import DARK, GROUP, SURFACE
-from .spec import Algorithm, FileOut, Flag, RasterIn, RasterOut, Result
+from .spec import Algorithm, FileOut, Flag, Group, RasterIn, RasterOut, Result
 
 #: The shadow map's surface model and sun (SurfaceModel), described for de-shadowing: the same
 #: members (a DSM on a map grid through the line's IGM, the sun from the acquisition time),
@@ -27,6 +27,37 @@ SURFACE_DESHADOW = replace(
         replace(p, description=_DESCRIPTIONS[p.name]) if p.name in _DESCRIPTIONS else p
         for p in SURFACE.params
         if p.name != "register"
+    ),
+)
+
+#: What de-shadowing models of the light beyond one ratio per band (LightModel).
+LIGHT = Group(
+    name="light",
+    value=LightModel,
+    params=(
+        Flag(
+            name="additive",
+            label="Additive signal",
+            description="Also estimate each band's additive signal (path radiance, a dark level "
+            "that differs from band to band) from the intercept of the pairs' line (with the "
+            "surface model's slopes) and the dark object, and scale only the signal above it "
+            "(not the default: see docs/deshadow.md)",
+        ),
+        Flag(
+            name="adjacency",
+            label="Adjacency light",
+            description="Also light each pixel by its sunlit surroundings (the light they "
+            "reflect into the part of its sky they hide, 1 − its sky-view factor; their share "
+            "fitted per band on the pairs), so each pixel gets its own ratio; needs the surface "
+            "model (not the default: see docs/deshadow.md)",
+        ),
+        Flag(
+            name="regions",
+            label="Each neighbourhood's own ratio",
+            description="Each neighbourhood of shadows (96 px) gets its own illumination "
+            "ratio from the edges of its shadows, the scene's where it has too few (not with "
+            "the adjacency light; not the default: see docs/deshadow.md)",
+        ),
     ),
 )
 
@@ -52,6 +83,9 @@ DESHADOW = Algorithm(
             "bands_unresolved",
             "number",
             "Bands left as measured: their signal in full shadow below 3 × its noise there",
+        ),
+        Result(
+            "regions", "number", "Tiles of 32 px de-shadowed with their neighbourhood's own ratio"
         ),
         Result("offset_along_px", "number", "Offset along track (pixels)"),
         Result("offset_across_px", "number", "Offset across track (pixels)"),
@@ -96,22 +130,7 @@ DESHADOW = Algorithm(
         SURFACE_DESHADOW,
         DARK,
         OFFSET,
-        Flag(
-            name="additive",
-            label="Additive signal",
-            description="Also estimate each band's additive signal (path radiance, a dark level "
-            "that differs from band to band) from the intercept of the pairs' line (with the "
-            "surface model's slopes) and the dark object, and scale only the signal above it "
-            "(not the default: see docs/deshadow.md)",
-        ),
-        Flag(
-            name="adjacency",
-            label="Adjacency light",
-            description="Also light each pixel by its sunlit surroundings (the light they "
-            "reflect into the part of its sky they hide, 1 − its sky-view factor; their share "
-            "fitted per band on the pairs), so each pixel gets its own ratio; needs the surface "
-            "model (not the default: see docs/deshadow.md)",
-        ),
+        LIGHT,
         BLOCK_ROWS,
         RasterOut(
             name="output", label="De-shadowed", description="De-shadowed cube (float32, all bands)"

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -35,12 +36,50 @@ from ..shadow.deshadow_steps import (
     picked_pixels,
 )
 from ..shadow.illumination import SKY_RADIUS_M, sky_view_factor
+from ..shadow.region import TILE as REGION_TILE
 from ._dark import DARK_BANDS, band_dark_levels, spread_bands
 from ._offset import boresight_offset
 from ._surface import SurfaceModel, open_surface
 
 #: Pixels sampled for the dark level estimate.
 DARK_SAMPLE = 100_000
+
+
+@dataclass(frozen=True)
+class LightModel:
+    """What de-shadowing models of the light beyond one ratio per band, all off by default
+    (docs/deshadow.md).
+
+    ``additive``: also estimate each band's additive signal (path radiance, and
+    what is left of a dark level that differs from band to band when one level per
+    instrument is subtracted): the intercept of the line of the pairs of one surface
+    (:func:`geoboresight.shadow.deshadow.same_surface`,
+    :func:`geoboresight.shadow.deshadow.additive_signal`; with a surface model each sunlit
+    side's slope, cos i, enters it), combined band by band with the dark object (an upper
+    bound, :func:`geoboresight.shadow.deshadow.combine_additive`) by their estimated
+    errors; the ratio is then measured, and the signal scaled, above it (it is added
+    back). It helps only where pairs of one surface are found.
+    ``adjacency``: also light each pixel by its sunlit surroundings (ATCOR-4's
+    ``(1 − V)·ρ̄·E_global``, within :data:`~geoboresight.shadow.deshadow.ADJACENCY_M`),
+    its share fitted per band (:func:`geoboresight.shadow.deshadow.adjacency_ratio`): each
+    pixel gets its own ratio. Needs the surface model (V).
+    ``regions``: each neighbourhood of shadows (96 px) gets its own ratio, the
+    scene's ``k − 1`` scaled by what the pairs across its own shadows' edges say
+    (:mod:`geoboresight.shadow.region`: a shadow that sees less sky, or gets more light
+    from its surroundings, than the scene's average), the scene's ratio where it has too
+    few pairs; not with ``adjacency``, which gives each pixel its own already. It helps
+    the simulator's scenes, not model 2's.
+
+    Examples
+    --------
+    >>> import geoboresight as gb
+    >>> gb.LightModel(regions=True)
+    LightModel(additive=False, adjacency=False, regions=True)
+    """
+
+    additive: bool = False
+    adjacency: bool = False
+    regions: bool = False
 
 
 def _sky_view(read_z, prior, r0, r1, height):
@@ -71,8 +110,7 @@ def deshadow_file(
     layout=DualLayout(),
     dark=DarkLevels(),
     offset=BoresightOffset(),
-    additive=False,
-    adjacency=False,
+    light=LightModel(),
     block_rows=io.DEFAULT_BLOCK_ROWS,
     progress=None,
 ) -> dict:
@@ -120,22 +158,9 @@ def deshadow_file(
         ``shadow-map`` does); 0 for radiance.
     offset : BoresightOffset
         Boresight offset of the SWIR (px); both None = measured.
-    additive : bool
-        Also estimate each band's additive signal (path radiance, and what is left of a dark
-        level that differs from band to band when one level per instrument is subtracted):
-        the intercept of the line of the pairs of one surface
-        (:func:`geoboresight.shadow.deshadow.same_surface`,
-        :func:`geoboresight.shadow.deshadow.additive_signal`; with a surface model each sunlit
-        side's slope, cos i, enters it), combined band by band with the dark object (an upper
-        bound, :func:`geoboresight.shadow.deshadow.combine_additive`) by their estimated
-        errors; the ratio is then measured, and the signal scaled, above it (it is added
-        back). Off by default: it helps only where pairs of one surface are found
-        (docs/deshadow.md).
-    adjacency : bool
-        Also light each pixel by its sunlit surroundings (ATCOR-4's ``(1 − V)·ρ̄·E_global``,
-        within :data:`~geoboresight.shadow.deshadow.ADJACENCY_M`), its share fitted per band
-        (:func:`geoboresight.shadow.deshadow.adjacency_ratio`): each pixel gets its own ratio.
-        Needs the surface model (V). Off by default (docs/deshadow.md).
+    light : LightModel
+        The additive signal, the light of the sunlit surroundings, each neighbourhood's own
+        ratio: all off by default (:class:`LightModel`).
     block_rows : int
     progress : Progress, optional
 
@@ -157,6 +182,7 @@ def deshadow_file(
     >>> gb.deshadow_file(v, s, shadow="out/fraction.tif", output="out/deshadowed.tif")["pairs_used"]
     166
     """
+    additive, adjacency = light.additive, light.adjacency
     dual = io.as_dual(vnir, swir, layout)
     wl = np.concatenate([dual.vnir.wavelengths, dual.swir.wavelengths]).astype(float)
     strips = {"height": dual.height, "width": dual.width, "block_rows": block_rows}
@@ -191,7 +217,13 @@ def deshadow_file(
             read, dual, levels, prior, (along, across), adj_half, strips, progress
         )
         fit = fit_illumination(
-            edges, wl, surface=prior is not None, additive=additive, adjacency=adjacency
+            edges,
+            wl,
+            surface=prior is not None,
+            additive=additive,
+            adjacency=adjacency,
+            shape=(dual.height, dual.width),
+            regions=light.regions,
         )
         _log_fit(fit, edges, additive, adjacency, warnings, progress)
         # Pass 2: the de-shadowed cube, each instrument on its own grid.
@@ -224,6 +256,7 @@ def _result(output, edges, fit, n_corrected, offset, warnings) -> dict:
         "shadowed_pixels": n_corrected,
         "bands_unchanged": fit.unchanged,
         "bands_unresolved": fit.unresolved,
+        "regions": fit.regions,
         "offset_along_px": round(offset[0], 3),
         "offset_across_px": round(offset[1], 3),
         "warnings": warnings,
@@ -256,6 +289,7 @@ def _gather_pairs(read, dual, levels, prior, offset, adj_half, strips, progress)
             surface_prior=prior,
             adjacency_size=adj_size,
             quiet=picked_pixels(block.row0, f.shape, quiet_share),
+            row0=block.row0,
         )
 
     shift_halo = math.ceil(abs(offset[0])) + 2
@@ -283,10 +317,12 @@ def _write_cube(read, outputs, dual, tags, fit, levels, offset, adj_half, strips
     base = levels[:, None, None] + fit.additive[:, None, None]
     adj_size = 2 * adj_half + 1 if adj_half else 0
 
-    def kernel(x, x_ok, f, z, v):
-        return deshadow_block(
-            x, f, v, x_ok, base=base, fit=fit, n_vnir=nv, offset=offset, adjacency_size=adj_size
-        )
+    def kernel(x, x_ok, f, z, v, block):
+        cube, n = deshadow_block(
+            x, f, v, x_ok, base=base, fit=fit, n_vnir=nv, offset=offset,
+            adjacency_size=adj_size, row0=block.row0,
+        )  # fmt: skip
+        return cube[:, block.inner], n[block.inner]
 
     names = [f"{'VNIR' if i < nv else 'SWIR'} {w:.1f} nm" for i, w in enumerate(wl)]
     band_tags = [
@@ -325,6 +361,7 @@ def _write_cube(read, outputs, dual, tags, fit, levels, offset, adj_half, strips
             halo=(math.ceil(abs(offset[0])) + 2 + adj_half,) * 2,
             progress=progress.sub(0.4, 1.0),
             message="de-shadowing",
+            pass_block=True,
             **strips,
         ):
             out.write(np.where(np.isfinite(cube), cube, io.FLOAT_NODATA), window=win)
@@ -451,6 +488,17 @@ def _log_fit(fit, edges, additive, adjacency, warnings, progress) -> None:
         f"{edges.shaded.shape[0]} pairs across shadow edges: {np.nanmin(k):.2f}–"
         f"{np.nanmax(k):.2f} over the bands (spread {fit.spread:.3f} in log)"
     )
+    if fit.regions:
+        progress.info(
+            f"{fit.regions} neighbourhood(s) of {REGION_TILE} px with their own ratio (scale of "
+            f"k − 1 {np.nanmin(fit.region_scale):.2f}–{np.nanmax(fit.region_scale):.2f}), the "
+            "scene's elsewhere"
+        )
+    if fit.edge_pairs:
+        warnings.append(
+            "the shadows are too narrow to hold a pixel inside them: the illumination ratio is "
+            "measured on their edge pixels, which mix in sunlit light (it may be too low)"
+        )
     if fit.spread > POOR_SPREAD:
         warnings.append(
             f"the pairs across shadow edges agree poorly (median RMS log difference "
@@ -474,6 +522,10 @@ def _cube_tags(dual, shadow, surface, prior, wl, fit, levels, adjacency, along, 
         "wavelength": "{" + ", ".join(f"{w:.2f}" for w in wl) + "}",
         "wavelength_units": "Nanometers",
         "illumination_ratio": ",".join(f"{v:.4f}" for v in fit.ratio),
+        "region_ratio": f"the scene's k − 1 scaled per {REGION_TILE} px tile by its "
+        f"neighbourhood's shadow edges in {fit.regions} tile(s)"
+        if fit.region_scale is not None
+        else "none (one ratio for the scene)",
         "dark_level_dn": ",".join(f"{v:.2f}" for v in levels),
         "additive_signal_dn": ",".join(f"{v:.2f}" for v in fit.additive),
         "adjacency": "(1 − V)·η·k·S̄/S_ref added to V, S̄ the mean sunlit signal within "
@@ -507,6 +559,7 @@ def _report(result, wl, fit, levels) -> dict:
                 "shadow_signal_dn": fin(ss, np.isfinite(ss)),
                 "shadow_noise_dn": fin(sn, np.isfinite(sn)),
                 "resolved_in_shadow": bool(ok),
+                "corrected": bool(ok and kk > 1.0),
             }
             for w, kk, lvl, cc, ce, cl, el, do, et, ss, sn, ok in zip(
                 wl,
@@ -524,6 +577,8 @@ def _report(result, wl, fit, levels) -> dict:
                 strict=True,
             )
         ],
+        "corrected_nm": _ranges(wl, _resolved(fit) & (fit.ratio > 1.0)),
+        "left_as_measured_nm": _ranges(wl, ~(_resolved(fit) & (fit.ratio > 1.0))),
         "formula": "L_sun = L / (1 - f * (1 - 1/k)), L = DN - dark level - additive "
         "signal (both added back)",
     }
@@ -531,3 +586,15 @@ def _report(result, wl, fit, levels) -> dict:
 
 def _or_nan(x, n: int) -> np.ndarray:
     return np.full(n, np.nan) if x is None else x
+
+
+def _ranges(wl, on) -> list[list[float]]:
+    """The runs of consecutive bands where ``on`` as [first, last] wavelengths (nm)."""
+    out, start = [], None
+    for i, flag in enumerate([*on, False]):
+        if flag and start is None:
+            start = i
+        elif not flag and start is not None:
+            out.append([round(float(wl[start]), 2), round(float(wl[i - 1]), 2)])
+            start = None
+    return out

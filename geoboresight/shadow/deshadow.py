@@ -125,6 +125,7 @@ def pair_indices(
     toward_sun: tuple[float, float] | None = None,
     heights: np.ndarray | None = None,
     same_height: float = SAME_HEIGHT_M,
+    inset: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Flat indices (shaded, sunlit) of the pixel pairs across shadow edges: a pixel with
     ``fraction ≥ full`` and one with ``fraction ≤ lit`` ``d`` pixels away in one of the 8
@@ -134,7 +135,8 @@ def pair_indices(
     lies within :data:`UP_SUN_DEG` of it is dropped (up-sun of a shadow is its caster: a roof
     or wall, not the shadowed surface). ``heights`` (rows × cols, m): a pair whose two heights
     differ by more than ``same_height`` is dropped (ground next to a roof). ``own`` as
-    :func:`shadow_pairs`.
+    :func:`shadow_pairs`. ``inset`` False: the shaded pixel may be on its shadow's edge (a
+    shadow one or two pixels wide has no pixel inside it).
     """
     f = np.asarray(fraction, np.float64)
     ok = np.isfinite(f)
@@ -147,7 +149,8 @@ def pair_indices(
     # sensor's blur, a fraction a pixel off), and in the SWIR, where the sunlit signal is
     # 10–30 times the shadowed one, a tenth of sunlit light doubles a shadowed signal.
     ring = np.ones((3, 3), bool)
-    shade = ndimage.binary_erosion(shade, ring, border_value=1) & shade
+    if inset:
+        shade = ndimage.binary_erosion(shade, ring, border_value=1) & shade
     sun = ndimage.binary_erosion(sun, ring, border_value=1) & sun
     if own is not None:
         shade &= np.asarray(own, bool)
@@ -666,6 +669,7 @@ def deshadow(
     ratio: np.ndarray,
     sky_view: np.ndarray | None = None,
     adjacency: np.ndarray | None = None,
+    scale: np.ndarray | None = None,
 ) -> np.ndarray:
     """The sunlit signal of each pixel: ``L / (1 − f·(1 − 1/k))`` per band (float32; NaN
     where invalid; unchanged where ``f`` is 0).
@@ -692,6 +696,9 @@ def deshadow(
         The light the sunlit surroundings reflect into each pixel, in units of the open sky's
         (:func:`adjacency_ratio`: ``scale·(1 − V)·S̄``; NaN = none): added to V in both the
         shadowed and the sunlit illumination, so each pixel gets its own ratio.
+    scale : array (rows, cols), optional
+        Each pixel's scale of ``k − 1`` (its region's own ratio,
+        :func:`geoboresight.shadow.region.pixel_scale`): ``R = s·(k − 1)``.
     """
     x = np.asarray(cube, np.float64)
     k = np.asarray(ratio, np.float64).reshape(-1)
@@ -717,6 +724,8 @@ def deshadow(
             raise InputError(f"adjacency term of shape {extra.shape} for a {x.shape} cube")
         v = v + np.clip(np.nan_to_num(extra, nan=0.0), 0.0, None)
     r = (k - 1.0)[:, None, None]
+    if scale is not None:
+        r = r * np.asarray(scale, np.float64)[None]
     ff = np.where(ok, f, 0.0)[None]
     g = (r + v) / (r * (1.0 - ff) + v)
     out = (x * g).astype(np.float32)

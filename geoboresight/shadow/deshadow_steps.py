@@ -20,7 +20,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import deshadow
+from . import deshadow, region
 from .illumination import plane_incidence, sun_step
 from .prior import SurfacePrior
 
@@ -136,6 +136,12 @@ class EdgePairs(NamedTuple):
     # difference of neighbouring fully shadowed pixels (:func:`shadow_steps`); None: none.
     steps_vnir: np.ndarray | None = None
     steps_swir: np.ndarray | None = None
+    # (2, pairs) int: the shaded pixel's line and column in the flight line, for each
+    # region's own ratio (:mod:`geoboresight.shadow.region`); None: not gathered.
+    where: np.ndarray | None = None
+    # (pairs,) bool: the shaded pixel is a pixel inside its shadow (not on its edge); the
+    # edge's pairs measure the ratio only where a scene has too few of the others.
+    inset: np.ndarray | None = None
 
     @classmethod
     def empty(cls, n_bands: int, n_vnir: int, adjacency: bool) -> EdgePairs:
@@ -152,6 +158,8 @@ class EdgePairs(NamedTuple):
             z(0, n_sur),
             z(2, 0, n_vnir),
             z(2, 0, n_bands - n_vnir),
+            np.zeros((2, 0), np.int64),
+            np.zeros(0, bool),
         )
 
 
@@ -169,6 +177,7 @@ def edge_pairs(
     surface_prior: SurfacePrior | None = None,
     adjacency_size: int = 0,
     quiet: np.ndarray | None = None,
+    row0: int = 0,
 ) -> EdgePairs:
     """The pairs of shadowed and sunlit pixels across the shadow edges of a block, on the
     VNIR grid, and each instrument's darkest pixels on its own grid.
@@ -204,10 +213,14 @@ def edge_pairs(
     quiet : bool array (lines, columns), optional
         The share of the pixels looked at for the noise in shadow (:func:`shadow_steps`, on
         each instrument's own grid, the block's own lines); None = none.
+    row0 : int
+        The block's first line in the flight line (the pairs' positions, ``where``).
 
     Returns
     -------
     EdgePairs
+        With the pairs whose shaded pixel is on its shadow's edge too (``inset`` False), for
+        a scene whose shadows are too narrow to hold a pixel inside them.
     """
     from ..sensor.coregister import coregister_stack
 
@@ -232,13 +245,15 @@ def edge_pairs(
     if surface_prior is not None:
         p = surface_prior
         toward_sun = sun_step(p.zenith, p.azimuth, p.matrix)[:2]
-    ia, ib = deshadow.pair_indices(
-        fraction,
-        ok & np.isfinite(sig).all(axis=0),
-        own=own & picked,
-        toward_sun=toward_sun,
-        heights=heights,
-    )
+    look = dict(own=own & picked, toward_sun=toward_sun, heights=heights)
+    usable = ok & np.isfinite(sig).all(axis=0)
+    ia, ib = deshadow.pair_indices(fraction, usable, **look)
+    # The pairs from the shadows' edge pixels, after the inset ones (kept apart: they mix in
+    # sunlit light, and are used only when a scene has too few inset pairs).
+    ea, eb = deshadow.pair_indices(fraction, usable, inset=False, **look)
+    edge = ~np.isin(ea * fraction.size + eb, ia * fraction.size + ib)
+    inset = np.concatenate([np.ones(ia.size, bool), np.zeros(int(edge.sum()), bool)])
+    ia, ib = np.concatenate([ia, ea[edge]]), np.concatenate([ib, eb[edge]])
     flat = sig.reshape(sig.shape[0], -1)
     sky = np.ones(fraction.size) if sky_view is None else sky_view.reshape(-1)
     cos_i = _incidence(heights, surface_prior, fraction.size)
@@ -259,6 +274,8 @@ def edge_pairs(
         sur_b.astype(np.float32),
         steps_v,
         steps_s,
+        np.stack(np.divmod(ia, fraction.shape[1])) + np.array([[row0], [0]]),
+        inset,
     )
 
 
@@ -322,14 +339,17 @@ def merge_edge_pairs(a: EdgePairs, b: EdgePairs, n_dark: int = deshadow.DARK_PIX
         np.concatenate([a.around_sunlit, b.around_sunlit]),
         _join(a.steps_vnir, b.steps_vnir),
         _join(a.steps_swir, b.steps_swir),
+        _join(a.where, b.where),
+        _join(a.inset, b.inset, axis=0),
     )
 
 
-def _join(a, b):
-    """Two blocks' samples of :func:`shadow_steps` together (None: none gathered)."""
+def _join(a, b, axis=1):
+    """Two blocks' samples of :func:`shadow_steps` (or pair positions) together (None: none
+    gathered)."""
     if a is None or b is None:
         return b if a is None else a
-    return np.concatenate([a, b], axis=1)
+    return np.concatenate([a, b], axis=axis)
 
 
 @dataclass(frozen=True)
@@ -354,6 +374,17 @@ class IlluminationFit:
     shadow_signal: np.ndarray | None = None
     shadow_noise: np.ndarray | None = None
     resolved: np.ndarray | None = None
+    # Each tile's scale of ``k − 1`` from its own shadows' edges
+    # (:func:`geoboresight.shadow.region.region_scale`; NaN: the scene's ratio); None: one
+    # ratio for the scene.
+    region_scale: np.ndarray | None = None
+    # The pairs include the shadows' edge pixels: the scene has too few pixels inside them.
+    edge_pairs: bool = False
+
+    @property
+    def regions(self) -> int:
+        """Tiles of :data:`geoboresight.shadow.region.TILE` px with their own ratio."""
+        return 0 if self.region_scale is None else int(np.isfinite(self.region_scale).sum())
 
     @property
     def unresolved(self) -> int:
@@ -369,6 +400,8 @@ def fit_illumination(
     additive: bool = False,
     adjacency: bool = False,
     min_snr: float = deshadow.MIN_SHADOW_SNR,
+    shape: tuple[int, int] | None = None,
+    regions: bool = True,
 ) -> IlluminationFit:
     """The scene's sunlit-to-shadow illumination ratio of each band from the ``pairs``.
 
@@ -395,6 +428,11 @@ def fit_illumination(
         signal; the light of the surroundings.
     min_snr : float
         Smallest signal-to-noise ratio in full shadow of a band that is de-shadowed.
+    shape : (int, int), optional
+        Lines and columns of the flight line: with ``regions`` (and without ``adjacency``),
+        each neighbourhood's scale of ``k − 1`` from the pairs of its own shadows
+        (:mod:`geoboresight.shadow.region`), the scene's ratio where it has too few.
+    regions : bool
 
     Returns
     -------
@@ -404,6 +442,7 @@ def fit_illumination(
     ----------
     Richter, R.; Müller, A. Int. J. Remote Sens. 2005, 26, 3137–3148 (de-shadowing).
     """
+    pairs, edge_only = _inset_pairs(pairs)
     a, b, pv = pairs.shaded, pairs.sunlit, pairs.views
     wl = np.asarray(wavelengths, float)
     sky = (pv[0], pv[1]) if surface else None
@@ -450,8 +489,16 @@ def fit_illumination(
         )
     brightens = np.isfinite(k) & (k >= 1.0)
     s_sig, s_noise, resolved = _resolved(pairs, c, min_snr)
+    k = np.where(brightens & resolved, k, 1.0)
+    grid = None
+    if regions and shape is not None and pairs.where is not None and not adjacency:
+        ratios = region.open_ratios(a - c, b - c, sky_view=sky, direct=direct if additive else None)
+        s, rms = region.pair_scales(ratios, k, resolved)
+        with np.errstate(invalid="ignore"):
+            one = rms <= region.SAME_SURFACE_RMS
+        grid = region.region_scale(pairs.where[0], pairs.where[1], s, shape, one)[0]
     return IlluminationFit(
-        np.where(brightens & resolved, k, 1.0),
+        k,
         n_pairs,
         spread,
         c,
@@ -466,7 +513,28 @@ def fit_illumination(
         s_sig,
         s_noise,
         resolved if pairs.steps_vnir is not None else None,
+        grid,
+        edge_only,
     )
+
+
+def _inset_pairs(pairs: EdgePairs) -> tuple[EdgePairs, bool]:
+    """The pairs whose shaded pixel is inside its shadow when there are enough of them
+    (:data:`geoboresight.shadow.deshadow.MIN_PAIRS`), else all of them (and True)."""
+    if pairs.inset is None:
+        return pairs, False
+    m = np.asarray(pairs.inset, bool)
+    if m.sum() < deshadow.MIN_PAIRS and m.size > m.sum():
+        return pairs, True
+    return pairs._replace(
+        shaded=pairs.shaded[m],
+        sunlit=pairs.sunlit[m],
+        views=pairs.views[:, m],
+        around_shaded=pairs.around_shaded[m],
+        around_sunlit=pairs.around_sunlit[m],
+        where=None if pairs.where is None else pairs.where[:, m],
+        inset=m[m],
+    ), False
 
 
 def _resolved(pairs: EdgePairs, additive: np.ndarray, min_snr: float):
@@ -527,12 +595,15 @@ def deshadow_block(
     n_vnir: int,
     offset: tuple[float, float],
     adjacency_size: int = 0,
+    row0: int = 0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The de-shadowed block: each instrument on its own grid (the fraction and the sky view
     moved onto the SWIR's by the boresight ``offset``), each band's signal above ``base``
     (its dark level and additive signal, added back) scaled by
     :func:`geoboresight.shadow.deshadow.deshadow` with ``fit``'s ratio (and the light of the
-    sunlit surroundings within ``adjacency_size`` px when it was fitted).
+    sunlit surroundings within ``adjacency_size`` px when it was fitted); with ``fit``'s
+    region scales, each pixel's own ratio (:func:`geoboresight.shadow.region.pixel_scale`,
+    ``row0`` the block's first line in the flight line).
 
     Returns
     -------
@@ -548,10 +619,19 @@ def deshadow_block(
     sv, ss = cube[:n_vnir] - bv, cube[n_vnir:] - bs
     av = _surroundings(sv, fraction, ok, sky_view, scale[:n_vnir], adjacency_size)
     as_ = _surroundings(ss, fs, ok, vs, scale[n_vnir:], adjacency_size)
+    # The scale varies over tens of pixels: the VNIR grid's serves the SWIR's.
+    px = None
+    if fit.region_scale is not None:
+        px = region.pixel_scale(fit.region_scale, row0, fraction.shape)
     out_v = (
-        deshadow.deshadow(sv, fraction, ok, ratio=k[:n_vnir], sky_view=sky_view, adjacency=av) + bv
+        deshadow.deshadow(
+            sv, fraction, ok, ratio=k[:n_vnir], sky_view=sky_view, adjacency=av, scale=px
+        )
+        + bv
     )
-    out_s = deshadow.deshadow(ss, fs, ok, ratio=k[n_vnir:], sky_view=vs, adjacency=as_) + bs
+    out_s = (
+        deshadow.deshadow(ss, fs, ok, ratio=k[n_vnir:], sky_view=vs, adjacency=as_, scale=px) + bs
+    )
     with np.errstate(invalid="ignore"):
         shaded = ok & (fraction > 0)
     return np.concatenate([out_v, out_s]), shaded
