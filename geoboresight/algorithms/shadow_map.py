@@ -184,6 +184,13 @@ SHADOW_MAP = Algorithm(
         Result("offset_along_px", "number", "Offset along track (pixels)"),
         Result("offset_across_px", "number", "Offset across track (pixels)"),
         Result("sample_pixels", "number", "Pixels sampled"),
+        Result("sunlit_blue_signal_dn", "number", "Sunlit blue signal above dark (DN)"),
+        Result("dark_pixels", "number", "Pixels dark enough for core shadow (without a DSM)"),
+        Result(
+            "dark_declined_share",
+            "number",
+            "Share of those dark pixels left sunlit (water, sunlit dark materials)",
+        ),
         Result(
             "table2_ratio_bounds_on_scene",
             "string",
