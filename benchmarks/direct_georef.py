@@ -70,7 +70,7 @@ def write_scene(folder, lines):
 
 
 OPERATION = """
-# {{ext}}: the IGM as GeoTIFF (deflate, overviews: the project's one GeoTIFF profile) or ENVI
+# {{ext}}: the IGM as GeoTIFF (lossless ZSTD where GDAL has it, else deflate) or ENVI BIL
 import time
 import geoboresight as gb
 from geoboresight.operations import direct_georef

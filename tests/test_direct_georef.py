@@ -629,3 +629,22 @@ def test_hyspex_per_line_navigation_text(tmp_path):
     path.write_text("0 1000.0 31.1 34.7 1500.0 0.5 -0.2\n")
     with pytest.raises(InputError, match="has 7 columns"):
         read_hyspex_nav(str(path))
+
+
+def test_igm_geotiff_is_lossless_float64(tmp_path):
+    """The IGM's compression (ZSTD where GDAL has it, else deflate) gives back every bit."""
+    import rasterio
+
+    from geoboresight.io.igm import IGM_BANDS, block_writer, fast_compression
+
+    rng = np.random.default_rng(5)
+    data = 650000.0 + rng.normal(scale=300.0, size=(3, 300, 70)).cumsum(axis=2)
+    data[:, 7, 3] = np.nan
+    out = str(tmp_path / "igm.tif")
+    with block_writer(out, 70, 300, "EPSG:32636", bands=IGM_BANDS, tags={}) as write:
+        write(0, data[:, :256])
+        write(256, data[:, 256:])
+    with rasterio.open(out) as src:
+        back = src.read()
+        assert src.compression.name == fast_compression().get("compress", "deflate")
+    np.testing.assert_array_equal(np.where(np.isnan(data), -9999.0, data), back)

@@ -5,6 +5,7 @@ layout (three bands X, Y, Z; the CRS in the header; raw geometry, no map info)."
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 
 import numpy as np
@@ -15,6 +16,26 @@ from .write import atomic_output
 
 IGM_BANDS = ["x (easting)", "y (northing)", "height (ellipsoidal, m)"]
 ANGLE_BANDS = ["view zenith (degrees)", "view azimuth (degrees, clockwise from north)"]
+
+
+@functools.lru_cache(maxsize=1)
+def fast_compression() -> dict:
+    """Lossless creation options for a float64 IGM: ZSTD at its fastest level with the
+    floating-point predictor where this GDAL has ZSTD (about half deflate's time, the same
+    size), else the profile's deflate."""
+    from rasterio.io import MemoryFile
+
+    options = {"compress": "zstd", "zstd_level": 1, "predictor": 3}
+    try:
+        with MemoryFile() as mem, quiet_georef():
+            with mem.open(driver="GTiff", width=1, height=1, count=1, dtype="float64",
+                          **options) as dst:  # fmt: skip
+                dst.write(np.zeros((1, 1, 1)))
+            with mem.open() as src:
+                ok = src.compression is not None and src.compression.name == "zstd"
+    except Exception:  # noqa: BLE001 - a GDAL without ZSTD: deflate
+        ok = False
+    return options if ok else {}
 
 
 def is_envi(path) -> bool:
@@ -32,7 +53,8 @@ def block_writer(path, width, height, crs, *, bands, tags):
     if not is_envi(path):
         grid = Grid(width, height, crs, None)
         with create_raster(path, grid, count=count, dtype="float64", nodata=FLOAT_NODATA,
-                           tags=tags, band_names=bands, overviews=False) as dst:  # fmt: skip
+                           tags=tags, band_names=bands, overviews=False,
+                           compression=fast_compression()) as dst:  # fmt: skip
 
             def write(row0, arrays):
                 from rasterio.windows import Window

@@ -596,10 +596,12 @@ def create_raster(
     category_names: dict[int, str] | None = None,
     overwrite: bool = True,
     overviews: bool = True,
+    compression: dict | None = None,
 ):
     """Open a new GeoTIFF on ``grid`` for block-by-block writing; atomic on success.
     ``overviews=False`` leaves out the overviews (a raster of coordinates, which no viewer
-    draws and whose averages mean nothing).
+    draws and whose averages mean nothing); ``compression`` (creation options) replaces the
+    profile's compression (a user's options still win).
 
     The profile is :meth:`Grid.profile`'s (tiled, compressed, predictor, nodata); raw sensor
     geometry stays raw. Tags, band names and a colour table are written once the caller's
@@ -614,6 +616,8 @@ def create_raster(
         grid = raw_local_grid(grid, raw_gsd)
         tags = {**(tags or {}), "raw_geometry_gsd_m": f"{raw_gsd:g}"}
     profile = grid.profile(count=count, dtype=dtype, nodata=nodata, **extra)
+    if compression:
+        profile = {k: v for k, v in profile.items() if k != "zlevel"} | compression
     if options and not cog:
         # The user's NAME=VALUE replace ours of the same name (rasterio's keys are lower case).
         profile = {k: v for k, v in profile.items() if k.upper() not in options} | options

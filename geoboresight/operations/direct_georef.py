@@ -57,13 +57,20 @@ def _edges(model):
 
 
 def _footprint(pos, r, look, b, lever, low, high, crs):
-    """Map x, y of the rays of ``look`` on the constant heights ``low`` and ``high``."""
-    xs, ys = [], []
-    for h in (low, high):
-        x, y, _ = trace(pos, r, look, b, lever, None, height=h, crs=crs)
-        xs.append(x)
-        ys.append(y)
-    return np.concatenate(xs), np.concatenate(ys)
+    """Map x, y where the rays of ``look`` cross the heights ``low`` and ``high`` (NaN: a ray
+    that misses): the crossings of the ellipsoids inflated by those heights (within a few
+    centimetres of them at a DEM's heights), converted by one pyproj transform."""
+    from ..sensor.georeference import ECEF, transformer
+    from ..sensor.intersect import crossings
+
+    origins, d = rays(pos, r, look, b, lever)
+    t_high, t_low = crossings(low, high, origins, d)
+    t = np.stack([t_low, np.where(np.isfinite(t_low), t_high, np.nan)])
+    p = origins[None, :, None, :] + t[..., None] * d[None]
+    x, y, _ = transformer(ECEF, crs).transform(
+        p[..., 0].ravel(), p[..., 1].ravel(), p[..., 2].ravel()
+    )
+    return np.asarray(x), np.asarray(y)
 
 
 def _coverage(nav, times, look, b, lever, offset, low, high, bounds, crs):

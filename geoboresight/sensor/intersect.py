@@ -53,6 +53,13 @@ def _to_unit(h_lo, h_hi, origins, directions):
     return t_hi, t_lo
 
 
+def crossings(h_lo, h_hi, origins, directions):
+    """Ray parameters (metres along the unit ``directions`` (lines, pixels, 3) from
+    ``origins`` (lines, 3)) where each ray enters the ellipsoid inflated by ``h_hi`` (0: the
+    origin is inside it) and the one inflated by ``h_lo`` (NaN: the ray misses it)."""
+    return _to_unit(h_lo, h_hi, np.asarray(origins, float), np.asarray(directions, float))
+
+
 def _stencil(delta):
     """The 19 offsets (19, 3) of a second-order central-difference stencil of step ``delta``."""
     e = np.eye(3)
