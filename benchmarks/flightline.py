@@ -13,7 +13,8 @@
    after another as a user (or ``report``) would, sharing one cache folder (the boresight
    offset is measured by the first operation that needs it): ``ratio``, ``stats``, ``shadow-classes``,
    ``shadow-cluster``, ``boresight-offset``, ``relative-dem``, ``rx``, ``svdd``,
-   ``boresight-indicator``, then ``report --products``. Wall time and peak RSS come from
+   ``boresight-indicator``; then, outside their sum, ``--also`` (default ``shadow-map`` and
+   ``deshadow`` on its fraction), then ``report --products``. Wall time and peak RSS come from
    ``os.wait4`` (the child's ``ru_maxrss``; the children are started by ``posix_spawn``/
    ``vfork``, so they do not inherit this process's peak, which stays small anyway).
 3. **Memory in line length**: the same (or the ``--memory-ops``) operations on lines of
@@ -200,6 +201,10 @@ def commands(line: str, out: str) -> dict[str, list[str]]:
             "--output",
             o("indicator.tif"),
         ],
+        "shadow-map": ["shadow-map", "--vnir", v, "--swir", s, "--output", o("shadow.tif")]
+        + ["--fraction", o("shadow_fraction.tif")],
+        "deshadow": ["deshadow", "--vnir", v, "--swir", s, "--shadow", o("shadow_fraction.tif")]
+        + ["--output", o("deshadowed.tif")],
         "report": ["report", "--vnir", v, "--swir", s, *geo]
         + ["--output", o("report.html"), "--products", o("products")],
     }
@@ -407,6 +412,12 @@ def main(argv=None) -> int:
         default=",".join(NINE),
         help="operations of the memory table (comma-separated; default the nine)",
     )
+    ap.add_argument(
+        "--also",
+        default="shadow-map,deshadow",
+        help="operations timed on the line after the nine, outside their sum (comma-separated;"
+        " empty: none)",
+    )
     ap.add_argument("--tile", type=int, default=500, help="lines of the simulated scene")
     ap.add_argument("--seed", type=int, default=4)
     ap.add_argument("--workdir", default=tempfile.gettempdir())
@@ -423,6 +434,9 @@ def main(argv=None) -> int:
         memory_lines = [int(x) for x in args.memory_lines.split(",") if x.strip()]
     except ValueError:
         ap.error(f"--memory-lines: line counts separated by commas, got {args.memory_lines!r}")
+    unknown = sorted({o for o in args.also.split(",") if o} - set(commands("", "")))
+    if unknown:
+        ap.error(f"--also: not an operation of this script: {', '.join(unknown)}")
     if any(n < 1 for n in [args.lines, *memory_lines]):
         ap.error("--lines and --memory-lines: at least 1 line (an empty --memory-lines skips)")
     if not os.path.isdir(args.workdir or tempfile.gettempdir()):
@@ -508,6 +522,11 @@ def main(argv=None) -> int:
                 "cold": cold,
                 "coregistered": coregistered,
             }
+        also = [o for o in args.also.split(",") if o]
+        if also:
+            extra = run_ops(line, also, os.path.join(work, "out"), log)
+            rows += [row(op, r) for op, r in extra.items()]
+            figures["also"] = extra
         if not args.no_report:
             rep = run_ops(line, ["report"], os.path.join(work, "out"), log)["report"]
             rows.append(row("`report --products`", rep))
