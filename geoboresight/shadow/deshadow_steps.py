@@ -144,7 +144,8 @@ class EdgePairs(NamedTuple):
     inset: np.ndarray | None = None
     # Pairs from the shadows' edge pixels counted, not kept: a block (or blocks merged)
     # with enough inset pairs (:data:`geoboresight.shadow.deshadow.MIN_PAIRS`) already
-    # rules them out of the fit, and their spectra would grow each merge by tens of times.
+    # rules them out of the fit, and their spectra (often tens of times the inset pairs')
+    # would be copied at every merge and held to the end.
     skipped: int = 0
 
     @property
@@ -229,7 +230,9 @@ def edge_pairs(
     -------
     EdgePairs
         With the pairs whose shaded pixel is on its shadow's edge too (``inset`` False), for
-        a scene whose shadows are too narrow to hold a pixel inside them.
+        a scene whose shadows are too narrow to hold a pixel inside them; when the block
+        holds :data:`~geoboresight.shadow.deshadow.MIN_PAIRS` inset pairs, these are only
+        counted (``skipped``): the fit will not use them.
     """
     from ..sensor.coregister import coregister_stack
 
