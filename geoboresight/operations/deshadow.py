@@ -248,7 +248,7 @@ def _result(output, edges, fit, n_corrected, offset, warnings) -> dict:
     k = fit.ratio
     return {
         "output": output,
-        "pairs": edges.count,
+        "pairs": int(edges.shaded.shape[0]),  # the candidates the fit chose from
         "pairs_used": fit.pairs_used,
         "pair_spread": round(fit.spread, 4),
         "ratio_min": round(float(np.nanmin(k)), 4),
@@ -485,7 +485,7 @@ def _log_fit(fit, edges, additive, adjacency, warnings, progress) -> None:
         )
     progress.info(
         f"illumination ratio (sunlit / shadow) from {fit.pairs_used} of "
-        f"{edges.count} pairs across shadow edges: {np.nanmin(k):.2f}–"
+        f"{edges.shaded.shape[0]} pairs across shadow edges: {np.nanmin(k):.2f}–"
         f"{np.nanmax(k):.2f} over the bands (spread {fit.spread:.3f} in log)"
     )
     if fit.regions:
