@@ -95,9 +95,19 @@ def test_narrow_shadows_measure_the_ratio_on_their_edge_pixels():
     # With a pixel inside the shadows, the edge pixels are not used.
     f[5:35, 10:16] = 1.0
     signal = rho * np.where(f >= 0.9, 1.0 / k_true[:, None, None], 1.0)
-    pairs = dst.edge_pairs(signal, f, None, None, offset=(0.0, 0.0), **kw)
-    assert 0 < pairs.inset.sum() < pairs.inset.size
-    assert not dst.fit_illumination(pairs, np.array([500.0, 1600.0])).edge_pairs
+    wide = dst.edge_pairs(signal, f, None, None, offset=(0.0, 0.0), **kw)
+    assert not dst.fit_illumination(wide, np.array([500.0, 1600.0])).edge_pairs
+    # They are counted, not kept: this block's inset pairs alone rule them out of the fit.
+    assert wide.inset.all() and wide.inset.sum() >= ds.MIN_PAIRS and wide.skipped > 0
+    # Merged with the narrow shadows' block (either first), whose edge pairs the merge
+    # drops: the fit is the wide block's alone, every pair counted.
+    wl = np.array([500.0, 1600.0])
+    for merged in (dst.merge_edge_pairs(pairs, wide), dst.merge_edge_pairs(wide, pairs)):
+        assert merged.inset.all() and merged.shaded.shape[0] == wide.shaded.shape[0]
+        assert merged.count == pairs.count + wide.count
+        one, both = dst.fit_illumination(wide, wl), dst.fit_illumination(merged, wl)
+        np.testing.assert_array_equal(both.ratio, one.ratio)
+        assert both.pairs_used == one.pairs_used and not both.edge_pairs
 
 
 def test_a_scene_of_narrow_shadows_is_deshadowed_with_a_warning(tmp_path):

@@ -248,7 +248,7 @@ def _result(output, edges, fit, n_corrected, offset, warnings) -> dict:
     k = fit.ratio
     return {
         "output": output,
-        "pairs": int(edges.shaded.shape[0]),
+        "pairs": int(edges.shaded.shape[0]),  # the candidates the fit chose from
         "pairs_used": fit.pairs_used,
         "pair_spread": round(fit.spread, 4),
         "ratio_min": round(float(np.nanmin(k)), 4),

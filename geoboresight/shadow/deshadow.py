@@ -148,10 +148,9 @@ def pair_indices(
     # One pixel inside each side: an edge pixel mixes in light from the other side (the
     # sensor's blur, a fraction a pixel off), and in the SWIR, where the sunlit signal is
     # 10–30 times the shadowed one, a tenth of sunlit light doubles a shadowed signal.
-    ring = np.ones((3, 3), bool)
     if inset:
-        shade = ndimage.binary_erosion(shade, ring, border_value=1) & shade
-    sun = ndimage.binary_erosion(sun, ring, border_value=1) & sun
+        shade = _inside(shade)
+    sun = _inside(sun)
     if own is not None:
         shade &= np.asarray(own, bool)
     directions = _DIRECTIONS
@@ -182,6 +181,29 @@ def pair_indices(
     a = np.concatenate(a_idx) if a_idx else np.zeros(0, int)
     b = np.concatenate(b_idx) if b_idx else np.zeros(0, int)
     return a, b
+
+
+def inside_shadow(
+    fraction: np.ndarray, valid: np.ndarray | None = None, *, full: float = FULL
+) -> np.ndarray:
+    """The fully shadowed pixels (``fraction ≥ full``, valid) at least a pixel inside their
+    shadow: the shaded pixels of :func:`pair_indices` with ``inset`` (bool, rows × cols).
+
+    Its pairs with ``inset`` False whose shaded pixel is one of these are its pairs with
+    ``inset`` True, in the same order.
+    """
+    f = np.asarray(fraction, np.float64)
+    ok = np.isfinite(f)
+    if valid is not None:
+        ok &= np.asarray(valid, bool)
+    with np.errstate(invalid="ignore"):
+        return _inside(ok & (f >= full))
+
+
+def _inside(mask: np.ndarray) -> np.ndarray:
+    """The pixels of ``mask`` whose 8 neighbours are in it too (the image's border counts as
+    in it)."""
+    return ndimage.binary_erosion(mask, np.ones((3, 3), bool), border_value=1) & mask
 
 
 def shadow_pairs(

@@ -142,6 +142,16 @@ class EdgePairs(NamedTuple):
     # (pairs,) bool: the shaded pixel is a pixel inside its shadow (not on its edge); the
     # edge's pairs measure the ratio only where a scene has too few of the others.
     inset: np.ndarray | None = None
+    # Pairs from the shadows' edge pixels counted, not kept: a block (or blocks merged)
+    # with enough inset pairs (:data:`geoboresight.shadow.deshadow.MIN_PAIRS`) already
+    # rules them out of the fit, and their spectra (often tens of times the inset pairs')
+    # would be copied at every merge and held to the end.
+    skipped: int = 0
+
+    @property
+    def count(self) -> int:
+        """The pairs found across the shadow edges, the edge pixels' skipped ones included."""
+        return int(self.shaded.shape[0]) + self.skipped
 
     @classmethod
     def empty(cls, n_bands: int, n_vnir: int, adjacency: bool) -> EdgePairs:
@@ -220,7 +230,9 @@ def edge_pairs(
     -------
     EdgePairs
         With the pairs whose shaded pixel is on its shadow's edge too (``inset`` False), for
-        a scene whose shadows are too narrow to hold a pixel inside them.
+        a scene whose shadows are too narrow to hold a pixel inside them; when the block
+        holds :data:`~geoboresight.shadow.deshadow.MIN_PAIRS` inset pairs, these are only
+        counted (``skipped``): the fit will not use them.
     """
     from ..sensor.coregister import coregister_stack
 
@@ -247,13 +259,18 @@ def edge_pairs(
         toward_sun = sun_step(p.zenith, p.azimuth, p.matrix)[:2]
     look = dict(own=own & picked, toward_sun=toward_sun, heights=heights)
     usable = ok & np.isfinite(sig).all(axis=0)
-    ia, ib = deshadow.pair_indices(fraction, usable, **look)
-    # The pairs from the shadows' edge pixels, after the inset ones (kept apart: they mix in
-    # sunlit light, and are used only when a scene has too few inset pairs).
+    # Every pair, then the inset ones (shaded pixel inside its shadow) first and those from
+    # the shadows' edge pixels after them (kept apart: they mix in sunlit light, and are used
+    # only when a scene has too few inset pairs, so only counted when this block has enough).
     ea, eb = deshadow.pair_indices(fraction, usable, inset=False, **look)
-    edge = ~np.isin(ea * fraction.size + eb, ia * fraction.size + ib)
-    inset = np.concatenate([np.ones(ia.size, bool), np.zeros(int(edge.sum()), bool)])
-    ia, ib = np.concatenate([ia, ea[edge]]), np.concatenate([ib, eb[edge]])
+    inside = deshadow.inside_shadow(fraction, usable).reshape(-1)[ea]
+    n_inset = int(inside.sum())
+    ia, ib = ea[inside], eb[inside]
+    skipped = ea.size - n_inset
+    if n_inset < deshadow.MIN_PAIRS:
+        ia, ib = np.concatenate([ia, ea[~inside]]), np.concatenate([ib, eb[~inside]])
+        skipped = 0
+    inset = np.arange(ia.size) < n_inset
     flat = sig.reshape(sig.shape[0], -1)
     sky = np.ones(fraction.size) if sky_view is None else sky_view.reshape(-1)
     cos_i = _incidence(heights, surface_prior, fraction.size)
@@ -276,6 +293,7 @@ def edge_pairs(
         steps_s,
         np.stack(np.divmod(ia, fraction.shape[1])) + np.array([[row0], [0]]),
         inset,
+        skipped,
     )
 
 
@@ -329,6 +347,7 @@ def merge_edge_pairs(a: EdgePairs, b: EdgePairs, n_dark: int = deshadow.DARK_PIX
     """The pairs of two blocks together (``a``'s first) and the ``n_dark`` darkest pixels of
     both instruments (:func:`keep_darkest`): the merge of
     :func:`geoboresight.io.windows.reduce_windows` over :func:`edge_pairs`."""
+    a, b = _inset_only(a, b), _inset_only(b, a)
     return EdgePairs(
         np.concatenate([a.shaded, b.shaded]),
         np.concatenate([a.sunlit, b.sunlit]),
@@ -341,7 +360,21 @@ def merge_edge_pairs(a: EdgePairs, b: EdgePairs, n_dark: int = deshadow.DARK_PIX
         _join(a.steps_swir, b.steps_swir),
         _join(a.where, b.where),
         _join(a.inset, b.inset, axis=0),
+        a.skipped + b.skipped,
     )
+
+
+def _inset_only(pairs: EdgePairs, other: EdgePairs) -> EdgePairs:
+    """``pairs`` without its edge pixels' pairs (counted in ``skipped``) once it and ``other``
+    together hold :data:`geoboresight.shadow.deshadow.MIN_PAIRS` inset pairs: the fit
+    (:func:`fit_illumination`) then uses only the inset ones, whatever the other blocks hold."""
+    m = pairs.inset
+    if m is None or m.all():
+        return pairs
+    n_other = 0 if other.inset is None else int(other.inset.sum())
+    if int(m.sum()) + n_other < deshadow.MIN_PAIRS:
+        return pairs
+    return _subset(pairs, m)._replace(skipped=pairs.skipped + int(m.size - m.sum()))
 
 
 def _join(a, b, axis=1):
@@ -526,6 +559,11 @@ def _inset_pairs(pairs: EdgePairs) -> tuple[EdgePairs, bool]:
     m = np.asarray(pairs.inset, bool)
     if m.sum() < deshadow.MIN_PAIRS and m.size > m.sum():
         return pairs, True
+    return _subset(pairs, m), False
+
+
+def _subset(pairs: EdgePairs, m: np.ndarray) -> EdgePairs:
+    """The pairs where ``m`` (bool, one per pair)."""
     return pairs._replace(
         shaded=pairs.shaded[m],
         sunlit=pairs.sunlit[m],
@@ -534,7 +572,7 @@ def _inset_pairs(pairs: EdgePairs) -> tuple[EdgePairs, bool]:
         around_sunlit=pairs.around_sunlit[m],
         where=None if pairs.where is None else pairs.where[:, m],
         inset=m[m],
-    ), False
+    )
 
 
 def _resolved(pairs: EdgePairs, additive: np.ndarray, min_snr: float):
