@@ -156,7 +156,7 @@ def _coefficients(o, d, t0, t1, f0, g, hess, q, coef):
 @numba.njit(cache=CACHE, nogil=True, parallel=True)
 def trace_rays(origins, directions, f0, g, hess, centers, z, inv, h_lo, h_hi, pad, out_t):
     """Each ray's first-hit parameter ``t`` (NaN: none): the steps of the NumPy pipeline
-    (``_to_unit``, ``_path``, ``_pixel_path``, ``march_numpy``) fused per ray."""
+    (``crossings``, ``_path``, ``_pixel_path``, ``march_numpy``) fused per ray."""
     ia, ib, id_, ie, c, f_ = inv[0], inv[1], inv[2], inv[3], inv[4], inv[5]
     # lines in parallel (Numba's threads); each line its own scratch arrays
     for li in numba.prange(directions.shape[0]):

@@ -26,10 +26,10 @@ _A = 6378137.0
 _B = 6356752.314245179
 
 
-def _to_unit(h_lo, h_hi, origins, directions):
-    """Ray parameters (metres along the unit direction) where each ray crosses the inflated
-    ellipsoids of heights ``h_hi`` (entry) and ``h_lo`` (exit); NaN exit for a ray that
-    misses."""
+def crossings(h_lo, h_hi, origins, directions):
+    """Ray parameters (metres along the unit ``directions`` (lines, pixels, 3) from
+    ``origins`` (lines, 3)) where each ray enters the ellipsoid inflated by ``h_hi`` (0: the
+    origin is inside it) and the one inflated by ``h_lo`` (NaN: the ray misses it)."""
     o = origins[:, None, :]
     d = directions
 
@@ -51,13 +51,6 @@ def _to_unit(h_lo, h_hi, origins, directions):
     t_hi = np.maximum(t_hi, 0.0)
     t_lo = np.where(t_lo > t_hi, t_lo, np.nan)
     return t_hi, t_lo
-
-
-def crossings(h_lo, h_hi, origins, directions):
-    """Ray parameters (metres along the unit ``directions`` (lines, pixels, 3) from
-    ``origins`` (lines, 3)) where each ray enters the ellipsoid inflated by ``h_hi`` (0: the
-    origin is inside it) and the one inflated by ``h_lo`` (NaN: the ray misses it)."""
-    return _to_unit(h_lo, h_hi, np.asarray(origins, float), np.asarray(directions, float))
 
 
 def _stencil(delta):
@@ -121,7 +114,7 @@ def _line_models(origins, directions, lo, hi, to_map):
     ends."""
     n = directions.shape[1]
     idx = np.unique(np.r_[np.arange(0, n, 8), n - 1])
-    t0, t1 = _to_unit(lo, hi, origins, directions[:, idx])
+    t0, t1 = crossings(lo, hi, origins, directions[:, idx])
     ok = np.isfinite(t1)
     mid = np.nan_to_num(0.5 * (t0 + t1))
     pts = origins[:, None, :] + mid[..., None] * directions[:, idx]
@@ -339,7 +332,7 @@ def intersect(origins, directions, heights, transform, to_map, out_map, *, engin
                np.ascontiguousarray(heights, dtype=np.float64), _inverse(transform),
                h_lo, h_hi, pad, t)  # fmt: skip
     else:
-        t0, t1 = _to_unit(h_lo - pad, h_hi + pad, origins, directions)
+        t0, t1 = crossings(h_lo - pad, h_hi + pad, origins, directions)
         t1f = np.where(np.isfinite(t1), t1, t0 + 1.0)
         coef, t0, t1f = _path(origins, directions, t0, t1f, model, centers, h_lo, h_hi)
         coef[~np.isfinite(t1)] = np.nan
