@@ -154,6 +154,8 @@ DRAWS = {
     "nodsm-b": (477085513, range(85, 90), (49, 50, 51)),
     "deshadow-region-a": (1037402248, range(180, 185), (146, 147, 148)),
     "deshadow-region-b": (158251716, range(185, 190), (149, 150, 151)),
+    "nodsm-e": (918135055, range(210, 215), (166, 167, 168)),
+    "nodsm-f": (407053608, range(215, 220), (169, 170, 171)),
 }
 #: The scene sets (``--set``). ``dev``: the development scenes, on which the parameters are
 #: set; ``quick``: four of them. A hold-out set is run only after the method it scores is
@@ -167,6 +169,7 @@ SETS = {
     "deshadow-holdout": ("deshadow-d", "deshadow-e"),
     "nodsm-holdout": ("nodsm-a", "nodsm-b"),
     "deshadow-region-holdout": ("deshadow-region-a", "deshadow-region-b"),
+    "nodsm-swir-holdout": ("nodsm-e", "nodsm-f"),
 }
 
 
