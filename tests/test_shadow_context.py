@@ -1,11 +1,15 @@
 """The sky-light test of dark pixels (shadow.context): a pixel dark in the near infrared and
 SWIR whose blue keeps most of the scene's sunlit blue, with the flat blue/NIR balance of a dark
-material, is a sunlit dark material, not shadow.
+material, or whose long SWIR (2.0–2.3 µm) is not darker than its SWIR against the sunlit
+ground (the sky's tilt, which a shadow has and a sunlit dark material has not), is a sunlit
+dark material, not shadow.
 
-Independent truth: blue levels put into synthetic arrays, and the shadow fraction and
-materials of both scene models (the project's simulator and ``validation/scene_model2.py``,
-which shares no code with it), each scored against its own truth with the test on and
-effectively off (a limit of e³ times the sunlit blue, which no dark pixel reaches).
+Independent truth: blue and SWIR levels put into synthetic arrays, and the shadow fraction
+and materials of both scene models (the project's simulator and
+``validation/scene_model2.py``, which shares no code with it), each scored against its own
+truth with the test on and effectively off (a limit of e³ times the sunlit blue, which no
+dark pixel reaches), and with the long SWIR and without it (the same scene's SWIR cut at
+1.9 µm).
 """
 
 from __future__ import annotations
@@ -22,7 +26,16 @@ from geoboresight import Detection, shadow_map_file
 from geoboresight.cli import main
 from geoboresight.errors import ParameterError
 from geoboresight.io import quiet_georef
-from geoboresight.shadow.context import BLUE_NIR_RISE, sunlit_blue_levels, sunlit_dark
+from geoboresight.io.raster import write_envi
+from geoboresight.shadow.context import (
+    BLUE_NIR_RISE,
+    SWIR_TILT,
+    TILT_BLUE_MARGIN,
+    sunlit_blue_levels,
+    sunlit_dark,
+    sunlit_tilt_level,
+    swir_tilt,
+)
 from validation.shadow import make_scene
 
 CORE = math.log(1 / 6)
@@ -99,6 +112,51 @@ def test_no_sunlit_blue_no_test_and_bad_limits_refused():
             sunlit_dark(blue, nir, dark, core=CORE, levels=(0.0, 0.0), limit=bad)
 
 
+def _tilted_patches():
+    """Lit ground (blue 100, NIR 400, SWIR 300, long SWIR 150: vegetation and soil, darker at
+    2.2 than at 1.65 µm) with three patches dark in NIR and SWIR (a tenth of the ground's),
+    each with a blue of 0.65 × the sunlit blue (below test 1's limit, above test 3's): a
+    shadow (the sky's share a third lower at 2.2 than at 1.65 µm: long SWIR 0.6 × the
+    ground's tilt), a flat dark roof (long SWIR = its SWIR × the irradiance's ratio, the
+    ground's reflectance ratio being 0.6) and, at blue 0.3 × sunlit, char (flat too)."""
+    shape = (30, 60)
+    blue, nir = np.full(shape, 100.0), np.full(shape, 400.0)
+    swir, long = np.full(shape, 300.0), np.full(shape, 150.0)
+    dark = np.zeros(shape)
+    for c0, b, tilt in ((5, 65.0, 0.6), (25, 65.0, 1 / 0.6), (45, 30.0, 1 / 0.6)):
+        sl = (slice(5, 15), slice(c0, c0 + 10))
+        dark[sl] = math.log(0.1)
+        blue[sl], nir[sl], swir[sl] = b, b, 30.0
+        long[sl] = 15.0 * tilt
+    return blue, nir, swir, long, dark
+
+
+def test_the_long_swirs_tilt_declines_a_dark_roof_and_keeps_the_shadow():
+    blue, nir, swir, long, dark = _tilted_patches()
+    lit = dark > CORE
+    tilt = sunlit_tilt_level(swir, long, lit)
+    assert tilt == pytest.approx(math.log(0.5))
+    t = swir_tilt(swir, long, ~lit, tilt)
+    assert t[7:13, 7:13] == pytest.approx(math.log(0.6))  # the sky's tilt: −0.51
+    assert t[7:13, 27:33] == pytest.approx(-math.log(0.6))  # a flat material's: +0.51
+    assert math.log(0.6) < SWIR_TILT < 0
+    levels = (*sunlit_blue_levels(blue, nir, lit), tilt)
+    without = sunlit_dark(blue, nir, dark, core=CORE, levels=levels[:2])
+    out = sunlit_dark(blue, nir, dark, core=CORE, levels=levels, swir=swir, long_swir=long)
+    # Without the long SWIR the blue (0.65 × sunlit, below e^−0.3) declines neither patch.
+    assert not without.any()
+    assert not out[5:15, 5:15].any()  # the shadow stays a candidate
+    assert out[5:15, 25:35].all()  # the sunlit dark roof is declined
+    # Char (blue 0.3 × sunlit) is below test 3's blue limit: only geometry tells it apart.
+    assert math.log(0.3) < -0.3 - TILT_BLUE_MARGIN < math.log(0.65)
+    assert not out[5:15, 45:55].any()
+    # A NaN tilt level (no long-SWIR bands lit) turns the tilt test off.
+    nan_levels = (*levels[:2], math.nan)
+    assert not sunlit_dark(
+        blue, nir, dark, core=CORE, levels=nan_levels, swir=swir, long_swir=long
+    ).any()
+
+
 # --------------------------------------------------------------- both scene models' truth
 
 M2 = dict(seed=2, sun_zenith=25.0, vnir_dark=60.0, swir_dark=400.0, vnir_gain=0.5, swir_gain=0.5)
@@ -148,8 +206,71 @@ def test_dark_materials_stay_sunlit_and_shadow_recall_holds(scene, tmp_path):
     else:
         # The simulator's dark materials already stay above the core darkness. The test's
         # cost is here: at 60° the bright sky keeps shadows on concrete near the sunlit
-        # blue, and their flat balance is a dark material's (recall 0.96 → 0.92).
-        assert r >= 0.94 * r_off and f1 >= f1_off - 0.03
+        # blue, and their flat balance is a dark material's; shadows on asphalt are as
+        # flat in the SWIR as a sunlit material (recall 0.96 → 0.90).
+        assert r >= 0.92 * r_off and f1 >= f1_off - 0.04
+
+
+#: A model-2 scene whose dark roofs and parking keep 0.7–0.9 of the sunlit blue (so the blue
+#: test alone leaves a fifth of them flagged) under a clear sky at 46°.
+M2_ROOFS = dict(
+    seed=81,
+    sun_zenith=45.73,
+    sun_azimuth=280.42,
+    aot500=0.07,
+    relief_m=9.11,
+    vnir_dark=331.07,
+    swir_dark=875.53,
+    vnir_gain=0.78,
+    swir_gain=0.93,
+    adjacency=0.35,
+    buildings=9,
+    trees=15,
+    offset_px=(0.33, -0.3),
+)
+
+
+def _short_swir(folder, out):
+    """The scene's SWIR cut at 1.9 µm (a SWIR instrument without the 2.0–2.3 µm window)."""
+    with quiet_georef(), rasterio.open(os.path.join(folder, "swir.img")) as src:
+        wl = [float(w) for w in src.tags(ns="ENVI")["wavelength"].strip("{}").split(",")]
+        keep = [i + 1 for i, w in enumerate(wl) if w < 1900]
+        cube = src.read(keep)
+    write_envi(out, cube, [wl[i - 1] for i in keep], interleave="bsq")
+    return out[: -len(".img")] + ".hdr"
+
+
+@pytest.mark.parametrize("model, opts", [(2, M2_ROOFS), (1, SIM)], ids=["model2", "simulator"])
+def test_the_long_swir_leaves_dark_roofs_sunlit(model, opts, tmp_path):
+    folder = str(tmp_path / "scene")
+    material, names, dark_ids, *_ = make_scene(model, opts, 128, folder)
+    with quiet_georef(), rasterio.open(os.path.join(folder, "truth_shadow_fraction.tif")) as s:
+        f = s.read(1).astype(float)
+    sunlit_dark_px, truth = np.isin(material, dark_ids) & (f < 0.1), f >= 0.5
+    short = _short_swir(folder, str(tmp_path / "short.img"))
+    v = os.path.join(folder, "vnir.hdr")
+    runs = {}
+    for name, swir in (("long", os.path.join(folder, "swir.hdr")), ("short", short)):
+        out = str(tmp_path / f"{name}.tif")
+        res = shadow_map_file(v, swir, output=out, mask=out + ".mask.tif")
+        m = read(out + ".mask.tif")[0]
+        ok = m != 255
+        shadow = (m == 1) & ok
+        tp = (shadow & truth).sum()
+        f1 = 2 * tp / (2 * tp + (shadow & ~truth).sum() + (~shadow & truth & ok).sum())
+        runs[name] = (shadow[sunlit_dark_px & ok].mean(), f1, res)
+    (fa, f1, res), (fa_short, f1_short, res_short) = runs["long"], runs["short"]
+    assert res["sunlit_swir_tilt"] is not None and res_short["sunlit_swir_tilt"] is None
+    if model == 2:
+        # The blue test alone leaves 18 % of the dark roofs and parking flagged; with the
+        # long SWIR's tilt, 2 %, and F1 against the truth goes from 0.73 to 0.9.
+        assert fa_short >= 0.12 and fa <= 0.05
+        assert f1 >= f1_short + 0.1
+    else:
+        # The simulator's dark materials stay above the core darkness; at 60° its shadows on
+        # asphalt are as flat in the SWIR as a sunlit material: the cost is there, small.
+        assert fa <= fa_short + 0.01
+        assert f1 >= f1_short - 0.02
 
 
 def test_the_knob_from_the_command_line(scene, tmp_path):

@@ -20,7 +20,7 @@ from rasterio.crs import CRS
 from rasterio.transform import from_origin
 from synth import write_gtiff  # noqa: E402
 
-from geoboresight import Detection, SurfaceModel, shadow_map_file
+from geoboresight import SurfaceModel, shadow_map_file
 from geoboresight.errors import InputError, ParameterError
 from geoboresight.io.georef import true_north_bearing, write_igm
 from geoboresight.io.sample import raw_grid_matrix, sample_bilinear
@@ -425,8 +425,8 @@ def test_pixels_without_a_surface_model_height_are_judged_by_the_spectra(tmp_pat
     """A surface model covering part of the line (or with nodata holes) left every pixel it
     does not cover 'no shadow': the prior's 'nothing away from the predicted shadow' dropped
     them all. There the map is now the spectral map's, exactly (independent run without a
-    surface model: its calibration does not depend on the surface model), without the sunlit
-    blue test, which the surface-model path does not apply."""
+    surface model: its calibration does not depend on the surface model), with its test of
+    sunlit dark materials (blue and the long SWIR's tilt)."""
     folder = str(tmp_path / "scene")
     sc = simulate2(rows=96, cols=128, seed=1, sun_zenith=45.0, buildings=12, trees=4)
     write_scene2(sc, folder)
@@ -438,10 +438,7 @@ def test_pixels_without_a_surface_model_height_are_judged_by_the_spectra(tmp_pat
     z[:, :half] = np.nan  # the surface model covers the right half of the line only
     part = write_gtiff(str(tmp_path / "part.tif"), z[None], nodata=float("nan"))
     spectral, with_part = tmp_path / "f0.tif", tmp_path / "f1.tif"
-    no_blue_test = Detection(sky_blue=3.0)  # the highest limit: no dark pixel's blue reaches it
-    shadow_map_file(
-        v, s, output=str(tmp_path / "c0.tif"), fraction=str(spectral), detection=no_blue_test
-    )
+    shadow_map_file(v, s, output=str(tmp_path / "c0.tif"), fraction=str(spectral))
     r = shadow_map_file(
         v,
         s,

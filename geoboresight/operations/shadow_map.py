@@ -24,6 +24,7 @@ from .. import io
 from ..errors import ParameterError
 from ..io.bands import BoresightOffset, band_range
 from ..io.checks import no_valid_error
+from ..io.dark import dark_level_of
 from ..io.dual import BandChoice, DualLayout
 from ..io.windows import Sample
 from ..sensor.dark import DarkLevels
@@ -35,7 +36,7 @@ from ..shadow.blocks import (
 )
 from ..shadow.classes import MASK_SHADOW, NO_SHADOW, NODATA_CLASS, fraction_text
 from ..shadow.context import HALO as SKY_HALO
-from ..shadow.context import SKY_BLUE, check_limit
+from ..shadow.context import LONG_SWIR_NM, SKY_BLUE, check_limit
 from ..shadow.darkness import (
     BLUE_NM,
     CORE_DARKNESS,
@@ -45,6 +46,7 @@ from ..shadow.darkness import (
     SWIR_NM,
     calibrate_shadow_map,
     check_sample,
+    dark_level,
     shadow_classes,
     shadow_mask,
     signal,
@@ -98,9 +100,12 @@ class Detection:
     the edges a pixel this dark is at least half shaded, and near the model's sunward edge)
     and partial shadow looked for ``edge_pixels`` around it. Without a surface model a dark
     pixel whose blue is at least ``exp(sky_blue)`` times the scene's sunlit blue, with a flat
-    dark material's blue/NIR, is a sunlit dark material, not shadow
+    dark material's blue/NIR, is a sunlit dark material, not shadow; so is one whose blue is
+    at least ``exp(sky_blue − 0.4)`` times it and whose SWIR is not darker at 2.0–2.3 µm than
+    at 1.55–1.75 µm against the sunlit ground, as the sky leaves a shadow
     (:func:`geoboresight.shadow.context.sunlit_dark`; lower flags fewer dark materials and
-    misses more shadow on blue-bright ground).
+    misses more shadow on blue-bright ground). With a surface model the test applies where
+    the spectral estimate holds (pixels without a height, and near the model's sunward edge).
 
     Examples
     --------
@@ -179,7 +184,9 @@ def shadow_map_file(
         ``edge_pixels``: partial shadow is looked for this many pixels around it;
         ``sky_blue``: without a surface model, a pixel that dark whose blue is at least this
         (natural log over the scene's sunlit blue, default −0.3) and whose blue/NIR is a flat
-        dark material's is a sunlit dark material.
+        dark material's, or whose blue is at least ``sky_blue − 0.4`` and whose long SWIR
+        (2.0–2.3 µm) is not darker than its SWIR against the sunlit ground, is a sunlit dark
+        material.
     calibration : MapCalibration
         The random sample that calibrates the map (``sample_size``, default 200,000;
         ``seed``) and the boresight offset of the SWIR relative to the VNIR (px,
@@ -213,7 +220,7 @@ def shadow_map_file(
     ...     output="out/classes.tif", mask="out/mask.tif", fraction="out/fraction.tif",
     ... )
     >>> result["shadow_share"], result["offset_along_px"]
-    (0.1873, 0.87)
+    (0.1857, 0.87)
     """
     core_darkness = detection.core_darkness
     edge_pixels = detection.edge_pixels
@@ -241,10 +248,9 @@ def shadow_map_file(
         if opened is not None:
             prior, agreement = _register(read, dual, mb, opened.prior, surface.register, block)
         tags = _map_tags(dual, cal, core_darkness, edge_pixels, surface, opened, prior)
-        halo = shadow_map_halo(cal, edge_pixels)
-        halo = (halo + SKY_HALO,) * 2 if prior is None else prior_halo(prior, halo, opened.halo)
-        if prior is None:
-            tags["sky_blue"] = str(sky_blue)
+        halo = shadow_map_halo(cal, edge_pixels) + SKY_HALO
+        halo = (halo,) * 2 if prior is None else prior_halo(prior, halo, opened.halo)
+        tags["sky_blue"] = str(sky_blue)
         kernel = _map_kernel(mb, cal.table, block, prior, sky_blue)
         paths = (output, mask, fraction)
         counts, n = _write_map(
@@ -312,11 +318,16 @@ class _MapBands(NamedTuple):
     swir: list
     vnir_dark: list
     swir_dark: list
+    long_swir: list  # the long-SWIR bands of the tilt test; empty when the SWIR stops short
 
     def split(self, values):
         """(blue, nir, swir) of a block read by :func:`_map_reader`."""
         at_nir, at_swir = len(self.blue), len(self.blue) + len(self.nir)
         return values[:at_nir], values[at_nir:at_swir], values[at_swir : at_swir + len(self.swir)]
+
+    def long(self, values):
+        """The long-SWIR bands of a block read by :func:`_map_reader` (None without them)."""
+        return values[len(values) - len(self.long_swir) :] if self.long_swir else None
 
 
 def _map_bands(dual, bands: BandChoice, progress) -> _MapBands:
@@ -329,12 +340,19 @@ def _map_bands(dual, bands: BandChoice, progress) -> _MapBands:
         set(spread_bands(dual.vnir.bands, DARK_BANDS) + blue_b + nir_b + [rb.vnir_band])
     )
     s_dark_b = sorted(set(spread_bands(dual.swir.bands, DARK_BANDS) + swir_b + [rb.swir_band]))
+    lo, hi = LONG_SWIR_NM
+    long_b = [b for b in dual.swir.bands if lo <= dual.swir.wavelength_of(b) <= hi]
+    if len(long_b) < 3:
+        long_b = []
+        progress.info(
+            f"the SWIR has no bands at {lo:g}–{hi:g} nm: the sunlit dark materials' tilt test is off"
+        )
     progress.info(
         f"signals: blue bands {blue_b[0]}–{blue_b[-1]}, NIR bands {nir_b[0]}–{nir_b[-1]} of "
         f"{dual.vnir.path}, SWIR bands "
         f"{swir_b[0]}–{swir_b[-1]} of {dual.swir.path}; ratio {rb.swir_nm:.1f}/{rb.vnir_nm:.1f} nm"
     )
-    return _MapBands(rb, blue_b, nir_b, swir_b, v_dark_b, s_dark_b)
+    return _MapBands(rb, blue_b, nir_b, swir_b, v_dark_b, s_dark_b, long_b)
 
 
 def _checked_sample(vnir, dual, sources, mb: _MapBands, sample, strips, warnings, progress):
@@ -342,7 +360,9 @@ def _checked_sample(vnir, dual, sources, mb: _MapBands, sample, strips, warnings
     left out (else "no shadow" would be reported): (VNIR values, SWIR values, usable)."""
     v_src, s_src = sources
     pixels, ok = io.sample_windows(
-        io.bands_reader([(v_src, b) for b in mb.vnir_dark] + [(s_src, b) for b in mb.swir_dark]),
+        io.bands_reader(
+            [(v_src, b) for b in mb.vnir_dark] + [(s_src, b) for b in mb.swir_dark + mb.long_swir]
+        ),
         size=sample.sample_size,
         seed=sample.seed,
         progress=progress.sub(0, 0.3),
@@ -350,7 +370,8 @@ def _checked_sample(vnir, dual, sources, mb: _MapBands, sample, strips, warnings
     )
     if not ok.any():
         raise no_valid_error(vnir, "VNIR/SWIR image")
-    vs, ss = pixels[: len(mb.vnir_dark)], pixels[len(mb.vnir_dark) :]
+    at_long = len(mb.vnir_dark) + len(mb.swir_dark)
+    vs, ss, ls = pixels[: len(mb.vnir_dark)], pixels[len(mb.vnir_dark) : at_long], pixels[at_long:]
     checks = {}
     for sensor, values, src in ((dual.vnir, vs, v_src), (dual.swir, ss, s_src)):
         label = f"{sensor.name} {sensor.path}"
@@ -363,7 +384,7 @@ def _checked_sample(vnir, dual, sources, mb: _MapBands, sample, strips, warnings
                 "pixels are saturated and were left out of the calibration"
             )
             progress.info(warnings[-1])
-    return vs, ss, ok & checks["VNIR"].usable & checks["SWIR"].usable
+    return vs, ss, ok & checks["VNIR"].usable & checks["SWIR"].usable, ls
 
 
 def _calibrate(vnir, dual, sources, mb, how, strips, warnings, progress):
@@ -372,7 +393,9 @@ def _calibrate(vnir, dual, sources, mb, how, strips, warnings, progress):
     dark levels given, the sample and offset, the class table, the core darkness."""
     dark, calibration, table, core = how
     v_src, s_src = sources
-    vs, ss, ok = _checked_sample(vnir, dual, sources, mb, calibration, strips, warnings, progress)
+    vs, ss, ok, ls = _checked_sample(
+        vnir, dual, sources, mb, calibration, strips, warnings, progress
+    )
     v_dark = instrument_dark_level(dual.vnir, v_src, mb.vnir_dark, dark.vnir_dark, vs, ok, progress)
     s_dark = instrument_dark_level(dual.swir, s_src, mb.swir_dark, dark.swir_dark, ss, ok, progress)
     for sensor, values, level in ((dual.vnir, vs, v_dark), (dual.swir, ss, s_dark)):
@@ -386,6 +409,10 @@ def _calibrate(vnir, dual, sources, mb, how, strips, warnings, progress):
     blue_s = signal(vs[[v_at(b) for b in mb.blue]], levels[0])
     nir_s = signal(vs[[v_at(b) for b in mb.nir]], levels[1])
     swir_s = signal(ss[[s_at(b) for b in mb.swir]], levels[2])
+    long_s = None
+    if mb.long_swir:
+        levels = (*levels, _long_dark(dual.swir, s_src, mb.long_swir, dark.swir_dark, ls, ok))
+        long_s = signal(ls, levels[3])
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio_s = ss[s_at(mb.ratio.swir_band)] / vs[v_at(mb.ratio.vnir_band)]
     along, across, _ = boresight_offset(
@@ -402,12 +429,24 @@ def _calibrate(vnir, dual, sources, mb, how, strips, warnings, progress):
         table=table,
         offset=(along, across),
         core=core,
+        long_swir=long_s,
     )
     progress.info(
         f"sunlit ratio {cal.ratio_mode:.3f}: Table 2's ratio bounds on this scene would be × "
         f"{cal.ratio_mode / PAPER_SUNLIT_RATIO:.3f}: {cal.table.describe()}"
     )
     return cal, levels
+
+
+def _long_dark(sensor, src, bands, given, sample, valid) -> np.ndarray:
+    """The dark level of each long-SWIR band: given, the product's or the header's, else the
+    dark object of those bands alone, band by band (a shadow's long SWIR holds a few DN, so
+    the one level of the instrument's dimmest band would tilt it)."""
+    level = dark_level_of(sensor, bands, src.tags(ns="ENVI"), src.count, given)
+    if level is None:
+        level = dark_level(sample, valid)
+        return np.asarray(level.band_levels, float)
+    return np.broadcast_to(np.asarray(level.for_bands(bands, bands), float), (len(bands),))
 
 
 def _map_reader(v_src, s_src, mb: _MapBands, opened):
@@ -418,6 +457,7 @@ def _map_reader(v_src, s_src, mb: _MapBands, opened):
         + [(v_src, b) for b in mb.nir]
         + [(s_src, b) for b in mb.swir]
         + [(v_src, mb.ratio.vnir_band), (s_src, mb.ratio.swir_band)]
+        + [(s_src, b) for b in mb.long_swir]
     )
     if opened is None:
         return read_image
@@ -456,14 +496,24 @@ def _map_kernel(mb: _MapBands, table, block: dict, prior, sky_blue: float):
 
     def kernel(values, valid, z=None, z_ok=None, r0=0):
         if z is None:
-            f, d = shadow_fraction_block(*mb.split(values), valid, sky_blue=sky_blue, **block)
+            f, d = shadow_fraction_block(
+                *mb.split(values), valid, sky_blue=sky_blue, long_swir=mb.long(values), **block
+            )
             with np.errstate(invalid="ignore"):
                 dark = d <= block["calibration"].core
                 declined = dark & ~(f >= 0.5)
             c, m = shadow_classes(f, table), shadow_mask(f)
             return c, m, f, None, None, None, None, dark, declined
         b = prior_map_block(
-            *mb.split(values), z, valid, heights_valid=z_ok, surface_prior=prior, row0=r0, **block
+            *mb.split(values),
+            z,
+            valid,
+            heights_valid=z_ok,
+            surface_prior=prior,
+            row0=r0,
+            sky_blue=sky_blue,
+            long_swir=mb.long(values),
+            **block,
         )
         f = b.fraction
         return (

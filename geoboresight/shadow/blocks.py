@@ -78,6 +78,8 @@ def shadow_map_block(
     unseen: np.ndarray | None = None,
     ray: tuple[float, float, int] | None = None,
     reach: float = 0.0,
+    sky_blue: float | None = None,
+    long_swir: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Shadow classes and shadow mask of a block of lines: the shadow map's per-pixel pipeline.
 
@@ -151,6 +153,8 @@ def shadow_map_block(
         unseen=unseen,
         ray=ray,
         reach=reach,
+        sky_blue=sky_blue,
+        long_swir=long_swir,
     )
     return shadow_classes(f, calibration.table), shadow_mask(f)
 
@@ -172,32 +176,42 @@ def shadow_fraction_block(
     reach: float = 0.0,
     tolerance: int = DSM_TOLERANCE,
     sky_blue: float | None = None,
+    long_swir: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(shadow fraction, darkness) of a block: steps 1–4 of :func:`shadow_map_block`; with
     ``prior`` (a surface model's cast-shadow fraction on the block; ``heights``,
     ``clearance``, ``unseen``, ``ray``, ``reach`` and ``tolerance``, the surface model's) by
     :func:`dsm_shadow_fraction` instead of :func:`shadow_fraction_estimate`. Without
-    ``prior``, ``sky_blue`` (a limit) also keeps the dark pixels whose blue is sunlit out of
-    the core (:func:`geoboresight.shadow.context.sunlit_dark`; needs
-    :data:`~geoboresight.shadow.context.HALO` more lines of halo)."""
+    ``prior``, ``sky_blue`` (a limit) also keeps the dark pixels whose blue or long SWIR is
+    sunlit out of the core (:func:`geoboresight.shadow.context.sunlit_dark`; needs
+    :data:`~geoboresight.shadow.context.HALO` more lines of halo); with ``prior`` it does so
+    where the spectral estimate holds (``unseen``). ``long_swir``: the DN of the long-SWIR
+    bands (SWIR grid), whose dark level is ``dark_levels``' fourth entry."""
     from ..sensor.coregister import coregister
 
-    blue_level, nir_level, swir_level = dark_levels
+    blue_level, nir_level, swir_level, *long_level = dark_levels
     b = signal(blue, blue_level)
     n = signal(nir, nir_level)
     s = signal(swir, swir_level)
     ok = np.ones(n.shape, bool) if valid is None else np.asarray(valid, bool)
-    s, s_ok = coregister(
-        s,
-        calibration.offset_along,
-        calibration.offset_across,
-        ok,
-        order=1,
-    )
+    shift = (calibration.offset_along, calibration.offset_across)
+    s, s_ok = coregister(s, *shift, ok, order=1)
     good = ok & s_ok
+    g = None
+    if long_swir is not None and long_level:
+        g, _ = coregister(signal(long_swir, long_level[0]), *shift, ok, order=1)
     d = darkness(n, s, calibration, good)
     water = too_blue(b, n, calibration.blue_limit)
+    sunlit = None
+    if sky_blue is not None:
+        levels = (calibration.blue_level, calibration.blue_nir_level, calibration.tilt_level)
+        sunlit = sunlit_dark(
+            b, n, d, good, core=calibration.core, levels=levels, limit=sky_blue, swir=s, long_swir=g
+        )
     if prior is not None:
+        if sunlit is not None and unseen is not None:
+            # Near the model's sunward edge the spectral estimate holds: so does its test.
+            water = water | (sunlit & np.asarray(unseen, bool))
         f = dsm_shadow_fraction(
             d,
             prior,
@@ -213,11 +227,8 @@ def shadow_fraction_block(
             tolerance=tolerance,
         )
     else:
-        if sky_blue is not None:
-            levels = (calibration.blue_level, calibration.blue_nir_level)
-            water = water | sunlit_dark(
-                b, n, d, good, core=calibration.core, levels=levels, limit=sky_blue
-            )
+        if sunlit is not None:
+            water = water | sunlit
         f = shadow_fraction_estimate(
             d, good, core=calibration.core, edge_pixels=edge_pixels, water=water
         )
@@ -266,6 +277,8 @@ def prior_map_block(
     edge_pixels: int,
     surface_prior: SurfacePrior,
     row0: int = 0,
+    sky_blue: float | None = None,
+    long_swir: np.ndarray | None = None,
 ) -> PriorBlock:
     """The shadow fraction of a block of lines with a surface model, and how the model and
     the image agree on it.
@@ -291,6 +304,10 @@ def prior_map_block(
     surface_prior : SurfacePrior
     row0 : int
         The block's first line in the grid.
+    sky_blue, long_swir
+        The spectral test of sunlit dark materials where the spectral estimate holds (the
+        ``holes`` and the ``unseen`` pixels), as
+        :func:`geoboresight.shadow.blocks.shadow_map_block` takes them.
 
     Returns
     -------
@@ -304,6 +321,7 @@ def prior_map_block(
 
     ok = np.ones(np.shape(heights), bool) if valid is None else np.asarray(valid, bool)
     kw = dict(calibration=calibration, dark_levels=dark_levels, edge_pixels=edge_pixels)
+    test = dict(sky_blue=sky_blue, long_swir=long_swir)
     prior = prior_fraction(heights, heights_valid, surface_prior=surface_prior)
     unseen = unseen_pixels(heights, heights_valid, surface_prior=surface_prior, row0=row0)
     f, d = _model_fraction(
@@ -317,10 +335,11 @@ def prior_map_block(
         unseen,
         surface_prior,
         **kw,
+        **test,
     )
     holes = ok & ~np.asarray(heights_valid, bool)
     if holes.any():
-        f_spectral, _ = shadow_fraction_block(blue, nir, swir, ok, **kw)
+        f_spectral, _ = shadow_fraction_block(blue, nir, swir, ok, **kw, **test)
         f = np.where(holes, f_spectral, f)
     defined = np.isfinite(f)
     deep = ndimage.binary_erosion(prior >= PREDICTED_SHADOW) & defined

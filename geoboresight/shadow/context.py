@@ -24,14 +24,38 @@ So a pixel dark enough for core shadow is a sunlit dark material, not shadow
    the scene's, whose blue a bright sky keeps near the sunlit level, stays shadow.
 
 Both are averaged over the pixel's dark neighbours (:data:`BLUE_WINDOW`), so that noise in
-a dim blue band does not decide alone. The limit trades shadow recall against dark false
-alarms: lower flags fewer dark materials and misses more shadow on blue-bright ground. A
-material dark in the blue too (char) stays shadow-like: only geometry tells it apart.
+a dim blue band does not decide alone.
+
+The long SWIR adds a test that does not depend on the material's brightness
+(:func:`swir_tilt`). The sky's share of the irradiance falls with wavelength (Rayleigh and
+aerosol scattering), so a shadow is darker, against the sunlit ground, at 2.0–2.3 µm than at
+1.55–1.75 µm: ``ln(long / its sunlit level) − ln(swir / its sunlit level)`` is −0.5 to −1
+in a shadow. A sunlit material has there the tilt of its own reflectance against the sunlit
+ground's; vegetation (leaf water) and soil (clay, water) are darker at 2.2 µm than at
+1.65 µm, while man-made dark materials and char are flat or rising, so a sunlit dark
+material's tilt is about 0 or above. A dark pixel is therefore also a sunlit dark material
+when
+
+3. its tilt, averaged over the dark pixels of a :data:`TILT_WINDOW` neighbourhood (the long
+   SWIR of a shadow holds a few DN), is at least :data:`SWIR_TILT`, and its blue is at
+   least ``exp(limit − TILT_BLUE_MARGIN)`` times the sunlit blue (half of it with the
+   default limit): a shadow's blue is mostly below that, so a shadow whose long SWIR the
+   noise lifts stays shadow.
+
+The limit trades shadow recall against dark false alarms: lower flags fewer dark materials
+and misses more shadow on blue-bright ground. A material dark in the blue too (char,
+reflectance ≤ 5 % everywhere) is declined only by its tilt, where its blue reaches the lower
+limit of test 3.
 
 References
 ----------
 Richter, R.; Müller, A. De-shadowing of satellite/airborne imagery. Int. J. Remote Sens. 2005,
 26, 3137–3148 (skylight in shadow: its share of the irradiance by wavelength).
+Gueymard, C.A. SMARTS2, a simple model of the atmospheric radiative transfer of sunshine.
+Florida Solar Energy Center, 1995 (the diffuse share of the irradiance falling with
+wavelength through the SWIR).
+Clark, R.N. et al. USGS Spectral Library Version 7. USGS Data Series 1035, 2017 (vegetation's
+and soils' reflectance lower at 2.2 µm than at 1.65 µm; asphalt, roofing and char flat).
 Adeline, K.R.M.; Chen, M.; Briottet, X.; Pang, S.K.; Paparoditis, N. Shadow detection in very
 high spatial resolution aerial images: a comparative study. ISPRS J. Photogramm. Remote Sens.
 2013, 80, 21–38 (shadow against dark surfaces).
@@ -52,10 +76,19 @@ SKY_BLUE = -0.3
 BLUE_NIR_RISE = 0.9
 #: Side of the neighbourhood whose dark pixels' blue signals are averaged.
 BLUE_WINDOW = 3
-#: Lines of halo the test needs above and below a strip.
-HALO = BLUE_WINDOW // 2
 #: Smallest signal (DN) whose log is taken.
 MIN_SIGNAL = 0.5
+#: Wavelength range (nm) of the long-SWIR signal: 2.0–2.3 µm between the water-vapour bands.
+LONG_SWIR_NM = (2030.0, 2250.0)
+#: Least tilt (natural log) of a sunlit dark material: long SWIR over SWIR against the sunlit
+#: ground's. A shadow's is the sky's (−0.5 to −1); a flat or rising material's, 0 or above.
+SWIR_TILT = -0.15
+#: Side of the neighbourhood whose dark pixels' SWIR signals the tilt is taken on.
+TILT_WINDOW = 5
+#: Test 3's blue limit is this much (natural log) below ``limit``.
+TILT_BLUE_MARGIN = 0.2
+#: Lines of halo the tests need above and below a strip.
+HALO = max(BLUE_WINDOW, TILT_WINDOW) // 2
 
 
 def sunlit_blue_levels(blue: np.ndarray, nir: np.ndarray, lit: np.ndarray) -> tuple:
@@ -69,6 +102,28 @@ def sunlit_blue_levels(blue: np.ndarray, nir: np.ndarray, lit: np.ndarray) -> tu
         return math.nan, math.nan
     lb = np.log(np.maximum(b[ok], MIN_SIGNAL))
     return float(np.median(lb)), float(np.median(lb - np.log(np.maximum(n[ok], MIN_SIGNAL))))
+
+
+def sunlit_tilt_level(swir: np.ndarray, long_swir: np.ndarray, lit: np.ndarray) -> float:
+    """The scene's sunlit tilt: the median of ``ln(long_swir / swir)`` over the ``lit``
+    pixels (not dark enough for core shadow); NaN when there are none."""
+    lit = np.asarray(lit, bool)
+    s = np.asarray(swir, np.float64)[lit]
+    g = np.asarray(long_swir, np.float64)[lit]
+    ok = np.isfinite(s) & np.isfinite(g)
+    if not ok.any():
+        return math.nan
+    return float(np.median(np.log(np.maximum(g[ok], MIN_SIGNAL) / np.maximum(s[ok], MIN_SIGNAL))))
+
+
+def swir_tilt(swir: np.ndarray, long_swir: np.ndarray, dark: np.ndarray, level: float):
+    """The tilt of each pixel: ``ln(long_swir / swir)`` over the sunlit ground's (``level``,
+    :func:`sunlit_tilt_level`), both signals averaged over the ``dark`` pixels of its
+    :data:`TILT_WINDOW` neighbourhood (NaN where there are none)."""
+    g = _mean(long_swir, dark, TILT_WINDOW)
+    s = _mean(swir, dark, TILT_WINDOW)
+    with np.errstate(invalid="ignore"):
+        return np.log(np.maximum(g, MIN_SIGNAL)) - np.log(np.maximum(s, MIN_SIGNAL)) - level
 
 
 def check_limit(limit: float) -> float:
@@ -94,8 +149,10 @@ def sunlit_dark(
     core: float,
     levels: tuple,
     limit: float = SKY_BLUE,
+    swir: np.ndarray | None = None,
+    long_swir: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Pixels dark enough for core shadow whose blue says they are in the sun.
+    """Pixels dark enough for core shadow whose blue or long SWIR says they are in the sun.
 
     Parameters
     ----------
@@ -107,15 +164,21 @@ def sunlit_dark(
     valid : bool array, optional
     core : float
         Core-shadow darkness (natural log, < 0).
-    levels : (float, float)
+    levels : (float, float) or (float, float, float)
         The scene's sunlit levels of ``ln(blue)`` and ``ln(blue / NIR)``
-        (:func:`sunlit_blue_levels`); NaN: no test.
+        (:func:`sunlit_blue_levels`; NaN: no test), and of ``ln(long_swir / swir)``
+        (:func:`sunlit_tilt_level`; NaN or left out: no tilt test).
     limit : float
         A dark pixel whose blue, averaged over the dark pixels of its :data:`BLUE_WINDOW`
         neighbourhood, is at least ``exp(limit)`` times the sunlit blue (default
         :data:`SKY_BLUE`), and whose blue/NIR (averaged so) is at least
-        ``exp(BLUE_NIR_RISE)`` times the sunlit ground's, is a sunlit dark material. A strip
-        needs :data:`HALO` lines of halo.
+        ``exp(BLUE_NIR_RISE)`` times the sunlit ground's, is a sunlit dark material; so is one
+        whose blue is at least ``exp(limit − TILT_BLUE_MARGIN)`` times the sunlit blue and
+        whose tilt (:func:`swir_tilt`) is at least :data:`SWIR_TILT`. A strip needs
+        :data:`HALO` lines of halo.
+    swir, long_swir : arrays (lines, columns), optional
+        SWIR (:data:`~geoboresight.shadow.darkness.SWIR_NM`) and long-SWIR
+        (:data:`LONG_SWIR_NM`) signals on the blue's grid, for the tilt test.
 
     Returns
     -------
@@ -133,13 +196,17 @@ def sunlit_dark(
         ok &= np.asarray(valid, bool)
     with np.errstate(invalid="ignore"):
         candidate = ok & (d <= core)
-    blue_level, balance = levels
+    blue_level, balance, *tilt = levels
     if not (math.isfinite(blue_level) and math.isfinite(balance)) or not candidate.any():
         return np.zeros(d.shape, bool)
-    own = np.log(np.maximum(_mean(blue, candidate, BLUE_WINDOW), MIN_SIGNAL))
+    own = np.log(np.maximum(_mean(blue, candidate, BLUE_WINDOW), MIN_SIGNAL)) - blue_level
     own_nir = np.log(np.maximum(_mean(nir, candidate, BLUE_WINDOW), MIN_SIGNAL))
     with np.errstate(invalid="ignore"):
-        sunlit = (own - blue_level >= limit) & (own - own_nir - balance >= BLUE_NIR_RISE)
+        sunlit = (own >= limit) & (own + blue_level - own_nir - balance >= BLUE_NIR_RISE)
+    if tilt and math.isfinite(tilt[0]) and swir is not None and long_swir is not None:
+        t = swir_tilt(swir, long_swir, candidate, tilt[0])
+        with np.errstate(invalid="ignore"):
+            sunlit |= (own >= limit - TILT_BLUE_MARGIN) & (t >= SWIR_TILT)
     return candidate & sunlit
 
 

@@ -48,7 +48,7 @@ import numpy as np
 from ..errors import InputError, ParameterError
 from ..sensor.dark import DarkLevel
 from .classes import MASK_NODATA, MASK_NOT_SHADOW, MASK_SHADOW, NO_SHADOW, NODATA_CLASS, ClassTable
-from .context import sunlit_blue_levels
+from .context import sunlit_blue_levels, sunlit_tilt_level
 
 #: Darkest share of the pixels taken as the dark object of an instrument.
 DARK_FRACTION = 5e-4
@@ -304,6 +304,7 @@ class SceneCalibration:
     n_sample: int = 0
     blue_level: float = math.nan  # log of the sunlit blue signal (context.sunlit_blue_levels)
     blue_nir_level: float = math.nan  # log of the sunlit ground's blue / NIR
+    tilt_level: float = math.nan  # log of the sunlit ground's long SWIR / SWIR (NaN: none)
 
     def as_dict(self) -> dict:
         return {
@@ -325,6 +326,9 @@ class SceneCalibration:
             "sunlit_blue_signal_dn": round(math.exp(self.blue_level), 3)
             if math.isfinite(self.blue_level)
             else None,
+            "sunlit_swir_tilt": round(self.tilt_level, 4)
+            if math.isfinite(self.tilt_level)
+            else None,
         }
 
 
@@ -340,6 +344,7 @@ def calibrate_shadow_map(
     table: ClassTable,
     offset: tuple[float, float] = (0.0, 0.0),
     core: float = CORE_DARKNESS,
+    long_swir: np.ndarray | None = None,
 ) -> SceneCalibration:
     """Calibrate the shadow map on a sample of pixels.
 
@@ -357,6 +362,9 @@ def calibrate_shadow_map(
         Boresight offset, SWIR minus VNIR position (px), along- and across-track.
     core : float
         Core-shadow darkness (natural log of the signal over its sunlit mode), < 0.
+    long_swir : array, optional
+        The long-SWIR signal (:data:`~geoboresight.shadow.context.LONG_SWIR_NM`) of the same
+        pixels, for the sunlit tilt (:func:`~geoboresight.shadow.context.sunlit_tilt_level`).
 
     Returns
     -------
@@ -401,6 +409,7 @@ def calibrate_shadow_map(
         bn = np.log(np.maximum(b[sunlit], MIN_SIGNAL) / nir[sunlit])
         limit = float(np.percentile(bn, 90)) + math.log(WATER_FACTOR)
     levels = sunlit_blue_levels(b, nir, ok & (d > core))
+    tilt = math.nan if long_swir is None else sunlit_tilt_level(swir, long_swir, ok & (d > core))
     return SceneCalibration(
         vnir_dark=vnir_dark,
         swir_dark=swir_dark,
@@ -415,6 +424,7 @@ def calibrate_shadow_map(
         n_sample=int(ok.sum()),
         blue_level=levels[0],
         blue_nir_level=levels[1],
+        tilt_level=tilt,
     )
 
 
