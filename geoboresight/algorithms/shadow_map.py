@@ -73,7 +73,7 @@ DETECTION = Group(
         Number(
             name="sky_blue",
             label="Sunlit blue limit",
-            description="Without a surface model: a pixel dark in the NIR and SWIR whose blue is at least this (natural log of its blue over the scene's sunlit blue; default −0.3, three quarters) and whose blue/NIR is a flat dark material's is a sunlit dark material, not shadow; higher flags more shadow and more dark materials",
+            description="Without a surface model (and where its spectral estimate holds): a pixel dark in the NIR and SWIR whose blue is at least this (natural log of its blue over the scene's sunlit blue; default −0.3, three quarters) and whose blue/NIR is a flat dark material's, or whose blue is at least this − 0.2 and whose SWIR is not darker at 2.0–2.3 µm than at 1.55–1.75 µm against the sunlit ground, is a sunlit dark material, not shadow; higher flags more shadow and more dark materials",
             default=SKY_BLUE,
             minimum=-3.0,
             maximum=3.0,
@@ -185,6 +185,11 @@ SHADOW_MAP = Algorithm(
         Result("offset_across_px", "number", "Offset across track (pixels)"),
         Result("sample_pixels", "number", "Pixels sampled"),
         Result("sunlit_blue_signal_dn", "number", "Sunlit blue signal above dark (DN)"),
+        Result(
+            "sunlit_swir_tilt",
+            "number",
+            "ln of the sunlit ground's 2.0–2.3 µm signal over its 1.55–1.75 µm signal",
+        ),
         Result("dark_pixels", "number", "Pixels dark enough for core shadow (without a DSM)"),
         Result(
             "dark_declined_share",

@@ -180,7 +180,7 @@ def deshadow_file(
     >>> v, s = "sample_data/scene/vnir.hdr", "sample_data/scene/swir.hdr"
     >>> _ = gb.shadow_map_file(v, s, output="out/classes.tif", fraction="out/fraction.tif")
     >>> gb.deshadow_file(v, s, shadow="out/fraction.tif", output="out/deshadowed.tif")["pairs_used"]
-    166
+    181
     """
     additive, adjacency = light.additive, light.adjacency
     dual = io.as_dual(vnir, swir, layout)

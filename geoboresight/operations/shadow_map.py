@@ -282,7 +282,8 @@ def _declined_summary(n: dict, sky_blue: float, progress) -> dict:
     share = n["declined"] / n["dark"]
     progress.info(
         f"{100 * share:.1f} % of the {n['dark']} pixels dark enough for core shadow left "
-        f"sunlit (water, and dark materials whose blue is sunlit: sky_blue {sky_blue:g})"
+        f"sunlit (water, and dark materials whose blue or long SWIR is sunlit: sky_blue "
+        f"{sky_blue:g})"
     )
     return {"dark_pixels": n["dark"], "dark_declined_share": round(share, 4)}
 
