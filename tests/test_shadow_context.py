@@ -323,3 +323,40 @@ def test_strips_give_the_whole_images_map(scene, tmp_path):
     # Equal to float32 rounding (the neighbourhood means sum in another order near a border).
     np.testing.assert_allclose(fractions[0], fractions[1], rtol=0, atol=1e-6)
     assert ((fractions[0] >= 0.5) == (fractions[1] >= 0.5)).all()
+
+
+def test_the_blocks_forward_the_test_and_the_surface_models_fallback_applies_it():
+    # shadow_map_block takes the knob and the long SWIR; with a surface model whose caster
+    # may stand beyond its edge (every pixel "unseen", no prior shadow) the spectral
+    # estimate holds there, and so does its test: the shadow stays, the dark roof does not.
+    from geoboresight.shadow import blocks, darkness
+    from geoboresight.shadow.classes import default_table
+
+    blue, nir, swir, long, dark = _tilted_patches()
+    lit = dark > CORE
+    cal = darkness.calibrate_shadow_map(
+        blue.ravel(),
+        nir.ravel(),
+        swir.ravel(),
+        np.ones(blue.size),
+        lit.ravel() | ~lit.ravel(),
+        vnir_dark=darkness.DarkLevel(0.0, "given"),
+        swir_dark=darkness.DarkLevel(0.0, "given"),
+        table=default_table(),
+        long_swir=long.ravel(),
+    )
+    assert cal.tilt_level == pytest.approx(math.log(0.5))
+    cubes = dict(blue=blue[None], nir=nir[None], swir=swir[None])
+    kw = dict(calibration=cal, dark_levels=(0.0, 0.0, 0.0, 0.0), edge_pixels=0)
+    _, m_off = blocks.shadow_map_block(**cubes, **kw)
+    _, m_on = blocks.shadow_map_block(**cubes, **kw, sky_blue=-0.3, long_swir=long[None])
+    roof, shade = (slice(7, 13), slice(27, 33)), (slice(7, 13), slice(7, 13))
+    assert (m_off[roof] == 1).all() and (m_on[roof] == 0).all()
+    assert (m_on[shade] == 1).all()
+    no_prior = dict(prior=np.zeros(blue.shape), unseen=np.ones(blue.shape, bool))
+    f_off, _ = blocks.shadow_fraction_block(**cubes, **kw, **no_prior)
+    f_on, _ = blocks.shadow_fraction_block(
+        **cubes, **kw, **no_prior, sky_blue=-0.3, long_swir=long[None]
+    )
+    assert (f_off[roof] >= 0.5).all() and (f_on[roof] < 0.5).all()
+    assert (f_on[shade] >= 0.5).all()
