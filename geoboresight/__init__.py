@@ -35,7 +35,7 @@ KERNELS = {
     "fit_shadow_cluster": "geoboresight.shadow.cluster",
     "fit_dark_pixel": "geoboresight.shadow.darkpixel",
     "fit_fraction_model": "geoboresight.shadow.fraction",
-    "dark_level": "geoboresight.shadow.darkness",
+    "dark_object": "geoboresight.sensor.dark",
     "calibrate_shadow_map": "geoboresight.shadow.darkness",
     "shadow_fraction_estimate": "geoboresight.shadow.darkness",
     "choose_surface": "geoboresight.shadow.surface",

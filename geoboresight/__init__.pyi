@@ -110,6 +110,7 @@ from .sensor.calibration import Calibration as Calibration
 from .sensor.calibration import radiance as radiance
 from .sensor.coregister import coregister as coregister
 from .sensor.dark import DarkLevels as DarkLevels
+from .sensor.dark import dark_object as dark_object
 from .sensor.georeference import Surface as Surface
 from .sensor.georeference import ground_points as ground_points
 from .sensor.model import SensorModel as SensorModel
@@ -118,7 +119,6 @@ from .sensor.offset import estimate_offset as estimate_offset
 from .sensor.offset import offset_profile as offset_profile
 from .shadow.cluster import fit_shadow_cluster as fit_shadow_cluster
 from .shadow.darkness import calibrate_shadow_map as calibrate_shadow_map
-from .shadow.darkness import dark_level as dark_level
 from .shadow.darkness import shadow_fraction_estimate as shadow_fraction_estimate
 from .shadow.darkpixel import fit_dark_pixel as fit_dark_pixel
 from .shadow.fraction import fit_fraction_model as fit_fraction_model

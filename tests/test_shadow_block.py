@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from geoboresight.io.windows import map_windows
+from geoboresight.sensor.dark import DarkLevels
 from geoboresight.shadow import blocks, darkness
 from geoboresight.shadow.classes import MASK_SHADOW, NODATA_CLASS, default_table
 
@@ -33,8 +34,7 @@ def test_strips_with_the_halo_equal_the_whole_image(edge_pixels):
         *sig,
         np.ones_like(sig[0]),
         valid.ravel(),
-        vnir_dark=darkness.DarkLevel(100.0, "given"),
-        swir_dark=darkness.DarkLevel(100.0, "given"),
+        dark=DarkLevels(100.0, 100.0),
         table=default_table(),
         offset=(1.0, 0.0),
     )

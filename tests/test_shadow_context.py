@@ -329,6 +329,7 @@ def test_the_blocks_forward_the_test_and_the_surface_models_fallback_applies_it(
     # shadow_map_block takes the knob and the long SWIR; with a surface model whose caster
     # may stand beyond its edge (every pixel "unseen", no prior shadow) the spectral
     # estimate holds there, and so does its test: the shadow stays, the dark roof does not.
+    from geoboresight.sensor.dark import DarkLevels
     from geoboresight.shadow import blocks, darkness
     from geoboresight.shadow.classes import default_table
 
@@ -340,8 +341,7 @@ def test_the_blocks_forward_the_test_and_the_surface_models_fallback_applies_it(
         swir.ravel(),
         np.ones(blue.size),
         lit.ravel() | ~lit.ravel(),
-        vnir_dark=darkness.DarkLevel(0.0, "given"),
-        swir_dark=darkness.DarkLevel(0.0, "given"),
+        dark=DarkLevels(0.0, 0.0),
         table=default_table(),
         long_swir=long.ravel(),
     )

@@ -26,7 +26,7 @@ from geoboresight import (
 from geoboresight.errors import InputError, ParameterError
 from geoboresight.io import quiet_georef
 from geoboresight.io.windows import map_windows
-from geoboresight.sensor.dark import DarkLevels
+from geoboresight.sensor.dark import DarkLevels, dark_object, find_dark_levels
 from geoboresight.shadow import darkness
 from geoboresight.shadow.classes import (
     NODATA_CLASS,
@@ -50,24 +50,26 @@ def read(path):
 # ------------------------------------------------------------------------------ dark level
 
 
-def test_dark_level_recovers_the_offset_put_in():
+def test_dark_object_recovers_the_offset_put_in():
     rng = np.random.default_rng(1)
     n = 20000
     signal = rng.uniform(50, 2000, n)
     signal[:40] = 0.0  # a dark object (deep shadow, water) with no signal
     gains = np.array([1.0, 0.6, 0.3])
     dn = 190.0 + gains[:, None] * signal[None] + rng.normal(0, 3, (3, n))
-    d = darkness.dark_level(dn)
-    assert d.level == pytest.approx(190.0, abs=2.0)
-    assert d.source.startswith("estimated") and d.n_pixels >= 20
+    means, n_pixels = dark_object(dn)
+    assert means.min() == pytest.approx(190.0, abs=2.0) and n_pixels >= 20
+    found = find_dark_levels(DarkLevels(), DarkLevels(), {"vnir": dn})
+    assert found.vnir_source.startswith("estimated") and found.vnir_dark == means.min()
+    assert found.swir_dark is None  # nothing to estimate it from
     # An upper bound: a dark object with some signal lifts it, never lowers it below the offset.
     dn2 = dn + gains[:, None] * 5.0
-    assert darkness.dark_level(dn2).level >= d.level
+    assert dark_object(dn2)[0].min() >= means.min()
 
 
-def test_dark_level_refuses_too_few_pixels():
+def test_dark_object_refuses_too_few_pixels():
     with pytest.raises(InputError, match="dark level"):
-        darkness.dark_level(np.ones((3, 5)))
+        dark_object(np.ones((3, 5)))
 
 
 # ------------------------------------------------------------------ fraction and classes

@@ -10,6 +10,7 @@ import math
 import numpy as np
 import pytest
 
+from geoboresight.sensor.dark import DarkLevels
 from geoboresight.shadow import blocks, darkness
 from geoboresight.shadow import deshadow_steps as dst
 from geoboresight.shadow import illumination as ill
@@ -142,8 +143,7 @@ def _calibrated_block(rows=40, cols=30):
         *sig,
         np.ones_like(sig[0]),
         np.ones(rows * cols, bool),
-        vnir_dark=darkness.DarkLevel(dark, "given"),
-        swir_dark=darkness.DarkLevel(dark, "given"),
+        dark=DarkLevels(dark, dark),
         table=default_table(),
     )
     block = dict(calibration=cal, dark_levels=(dark, dark, dark), edge_pixels=2)

@@ -27,7 +27,7 @@ Detectors (each AUC beside its d′):
 * ``SVDD`` / ``SVDD-coreg`` likewise.
 
 Dark levels as the operations find them without a header: the dark object of a random sample
-(:func:`geoboresight.shadow.darkness.dark_level`). d′: the expected value each detector reports
+(:func:`geoboresight.sensor.dark.dark_object`). d′: the expected value each detector reports
 (target f = 0.09, c = 0.3, the operations' defaults) and the measured separation of its score,
 (median at targets − median of background) / robust σ of background. Truth: target abundance
 > 0 on the VNIR grid; guard 2 px. Every AUC is computed on the pixels valid for every detector.
@@ -59,8 +59,8 @@ from geoboresight.anomaly.bands import select_bands
 from geoboresight.io.wavelengths import nearest_band
 from geoboresight.ratio import boresight_ratio
 from geoboresight.sensor.coregister import coregister
+from geoboresight.sensor.dark import dark_object
 from geoboresight.sensor.offset import estimate_offset
-from geoboresight.shadow.darkness import dark_level
 from geoboresight.simulate import simulate_scene
 
 SIM_SCENES = {"soil": "dunes", "glade": "glade"}
@@ -164,7 +164,7 @@ def instrument_dark(cube, rng):
     """Dark object of a random sample, as the operations estimate it without a header."""
     flat = cube.reshape(cube.shape[0], -1)
     idx = rng.choice(flat.shape[1], min(20000, flat.shape[1]), replace=False)
-    return dark_level(flat[:, idx]).level
+    return float(dark_object(flat[:, idx])[0].min())
 
 
 def coregistered(swir, along, across):

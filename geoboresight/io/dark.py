@@ -1,19 +1,17 @@
-"""The dark level of each instrument of a dual-sensor dataset (DN of zero signal), found in one
-place: given by the user, else the sensor product's dark reference, else the ENVI header's
-'dark level'; when none of them says it, the shadow map estimates it from the data
-(:func:`geoboresight.shadow.darkness.dark_level`, dark-object subtraction). The values are
-those of :mod:`geoboresight.sensor.dark`.
+"""What the files record of each instrument's dark level (DN of zero signal): the sensor
+product's dark reference, else the ENVI header's 'dark level', read into the value of
+:mod:`geoboresight.sensor.dark`, which chooses between them, the user's level and the
+estimate from the data (:func:`geoboresight.sensor.dark.find_dark_levels`).
 """
 
 from __future__ import annotations
 
-import numbers
 from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ..errors import InputError, ParameterError
-from ..sensor.dark import DarkLevel
+from ..errors import InputError
+from ..sensor.dark import DarkLevels
 from .dual import SensorFile
 from .wavelengths import parse_list
 
@@ -65,55 +63,50 @@ def product_dark(sensor: SensorFile, bands: Sequence[int]) -> np.ndarray | None:
     return np.where(np.isfinite(dark), dark, 0.0).sum(axis=1) / count
 
 
-def dark_level_of(
-    sensor: SensorFile,
-    bands: Sequence[int],
-    header: Mapping[str, str],
-    n_bands: int,
-    given: float | None = None,
-) -> DarkLevel | None:
-    """The dark level of one instrument, in this order: ``given`` by the user, the sensor
-    product's dark reference (:func:`product_dark`), the ENVI header's 'dark level'
-    (:func:`header_dark`); None when none says it (the caller estimates it from the data).
-
-    Parameters
-    ----------
-    sensor : SensorFile
-        The instrument (``dual.vnir`` or ``dual.swir``): its ``dark`` and ``dark_source``.
-    bands : sequence of int
-        The 1-based bands of the file the level is wanted for (the shadow map's sampled bands).
-    header : mapping
-        The file's ENVI-domain tags.
-    n_bands : int
-        The file's band count.
-    given : float, optional
-        The user's level (``DarkLevels.vnir_dark`` or ``swir_dark``).
-
-    Returns
-    -------
-    DarkLevel or None
-        ``level`` (the mean over ``bands`` for per-band levels), ``source`` ("given", the
-        product's dark source, "header of PATH") and, for per-band levels, ``band_levels`` in
-        the order of ``bands`` with ``n_pixels`` 0.
-    """
-    if given is not None:
-        if not (
-            isinstance(given, numbers.Real)
-            and not isinstance(given, bool)
-            and np.isfinite(float(given))
-        ):
-            raise ParameterError(
-                f"parameter '{sensor.name.lower()}_dark': {given!r} is not a number",
-                params=(f"{sensor.name.lower()}_dark",),
-            )
-        return DarkLevel(float(given), "given", param=f"{sensor.name.lower()}_dark")
+def recorded_dark(sensor: SensorFile, src, bands: Sequence[int]):
+    """What one instrument's files record of its dark level for ``bands`` (1-based band
+    numbers of the file): the sensor product's dark reference (:func:`product_dark`), else the
+    ENVI header's 'dark level' (:func:`header_dark`) of ``src`` (the open file). Returns
+    (level or one per band of ``bands``, source), or None when neither says it."""
     levels = product_dark(sensor, bands)
     source = sensor.dark_source or "product"
     if levels is None:
-        levels = header_dark(header, bands, n_bands, sensor.path)
+        levels = header_dark(src.tags(ns="ENVI"), bands, src.count, sensor.path)
         source = f"header of {sensor.path}"
-    if levels is None:
-        return None
-    if np.ndim(levels) == 0:
-        return DarkLevel(float(levels), source)
-    return DarkLevel(float(levels.mean()), source, levels, 0)
+    return None if levels is None else (levels, source)
+
+
+def recorded_dark_levels(
+    sensors: Mapping[str, tuple[SensorFile, object, Sequence[int]]], given: DarkLevels
+) -> DarkLevels:
+    """The dark levels the files record, for the instruments whose level the user did not
+    give (:func:`recorded_dark`: the product's dark reference, else the header's).
+
+    Parameters
+    ----------
+    sensors : mapping
+        Per detector ("vnir", "swir"): (the instrument, ``dual.vnir`` or ``dual.swir``; its
+        open file; the bands the level is wanted for).
+    given : DarkLevels
+        The user's levels: a detector given is not read.
+
+    Returns
+    -------
+    DarkLevels
+        ``*_dark`` the level (the mean over the bands for per-band levels), ``*_source`` the
+        product's dark source or "header of PATH", ``*_bands`` the levels of its bands; None where
+        the files record nothing.
+    """
+    found = DarkLevels()
+    for detector, (sensor, src, bands) in sensors.items():
+        if given.level(detector) is not None:
+            continue
+        recorded = recorded_dark(sensor, src, bands)
+        if recorded is None:
+            continue
+        levels, source = recorded
+        if np.ndim(levels) == 0:
+            found = found.with_level(detector, float(levels), source)
+        else:
+            found = found.with_level(detector, float(levels.mean()), source, levels)
+    return found

@@ -1,16 +1,17 @@
-"""Each instrument's dark level (DN of zero signal) for an operation: given by the user, the
-sensor product's dark reference or the ENVI header's (:func:`geoboresight.io.dark.dark_level_of`),
-else estimated from a sample of the data by dark-object subtraction
-(:func:`geoboresight.shadow.darkness.dark_level`)."""
+"""Each instrument's dark level (DN of zero signal) for an operation, in one call: what the
+files record (:func:`geoboresight.io.dark.recorded_dark_levels`), chosen against the user's
+level and the estimate from a sample of the data
+(:func:`geoboresight.sensor.dark.find_dark_levels`), logged and checked against the sample
+(:func:`geoboresight.shadow.darkness.check_sample`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from .. import io
-from ..io.dark import dark_level_of
-from ..sensor.dark import DarkLevel
-from ..shadow.darkness import check_sample, dark_level
+from ..io.dark import recorded_dark_levels
+from ..sensor.dark import DarkLevels, find_dark_levels
+from ..shadow.darkness import check_sample
 
 #: Bands per instrument read for the dark level besides the signal bands (evenly spaced).
 DARK_BANDS = 16
@@ -22,31 +23,26 @@ def spread_bands(bands: tuple[int, ...], n: int) -> list[int]:
     return [bands[i] for i in idx]
 
 
-def instrument_dark_level(sensor, src, bands, given, sample, valid, progress) -> DarkLevel:
-    """One instrument's dark level: ``given``, the product's dark reference or the header's
-    (:func:`geoboresight.io.dark.dark_level_of`), else the dark object of ``sample``
-    (n_bands, n_pixels; :func:`geoboresight.shadow.darkness.dark_level`) in ``bands``."""
-    level = dark_level_of(sensor, bands, src.tags(ns="ENVI"), src.count, given)
-    if level is None:
-        level = dark_level(sample, valid)
-    progress.info(level.describe(sensor.name))
-    return level
+def dual_dark_levels(dual, sources, bands, given: DarkLevels, samples, valid, progress):
+    """Both instruments' dark levels: given, else the product's dark reference or the
+    header's for ``bands`` (VNIR, SWIR: the 1-based file bands the levels are wanted for),
+    else the dark object of ``samples`` ("vnir"/"swir": the DN of the sampled pixels in
+    each instrument's sampled bands (n_bands, n_pixels)). A level below the darkest sampled pixel or above the signal is refused.
 
-
-def band_dark_levels(sensor, src, bands, sampled, given, sample, valid, progress) -> np.ndarray:
-    """The dark level of each of ``bands``: per band from the product or header when it lists
-    them, else the one level (given, or the dark object of ``sample`` in the ``sampled``
-    bands: :func:`instrument_dark_level`)."""
-    level = dark_level_of(sensor, bands, src.tags(ns="ENVI"), src.count, given)
-    if level is None:
-        level = instrument_dark_level(sensor, src, sampled, given, sample, valid, progress)
-    else:
-        progress.info(level.describe(sensor.name))
-    # A level below the darkest pixel or above the signal is refused as shadow-map refuses it.
-    check_sample(sample, valid, level, name=f"{sensor.name} {sensor.path}")
-    if level.band_levels is None:
-        return np.full(len(bands), level.level)
-    return np.broadcast_to(level.for_bands(bands, bands), (len(bands),)).astype(float)
+    Returns
+    -------
+    DarkLevels
+    """
+    v_src, s_src = sources
+    sensors = {"vnir": (dual.vnir, v_src, bands[0]), "swir": (dual.swir, s_src, bands[1])}
+    recorded = recorded_dark_levels(sensors, given)
+    found = find_dark_levels(given, recorded, samples, valid)
+    for detector, (sensor, _, _) in sensors.items():
+        progress.info(found.describe(detector, sensor.name))
+    for detector, (sensor, _, _) in sensors.items():
+        name = f"{sensor.name} {sensor.path}"
+        check_sample(samples[detector], valid, found, detector, name=name)
+    return found
 
 
 def saturation_value(src) -> float | None:
@@ -55,16 +51,16 @@ def saturation_value(src) -> float | None:
     return float(np.iinfo(dtype).max) if dtype.kind in "iu" else None
 
 
-def sensor_dark_levels(sensor, bands, given, sample, progress):
-    """One instrument's dark level for ``bands`` (1-based file bands), for a detector that
-    needs it only when nothing else gives it: given, the product's dark reference or the
-    header (:func:`geoboresight.io.dark.dark_level_of`, as :func:`instrument_dark_level`), else the dark
-    object of ``sample()`` (n_bands, n_pixels), drawn only then. Returns (level per band,
-    :class:`~geoboresight.sensor.dark.DarkLevel`)."""
+def sensor_dark_levels(sensor, detector, bands, given: DarkLevels, sample, progress):
+    """One instrument's dark level for each of ``bands`` (1-based file bands), for a detector
+    that needs it only when nothing else gives it: given, the product's dark reference or the
+    header, else the dark object of ``sample()`` (n_bands, n_pixels), drawn only then."""
     with io.open_raster(sensor.reads, sensor.name) as src:
-        level = dark_level_of(sensor, bands, src.tags(ns="ENVI"), src.count, given)
-    if level is None:
-        values, ok = sample()
-        level = dark_level(values, ok)
-    progress.info(level.describe(sensor.name))
-    return np.broadcast_to(np.asarray(level.for_bands(bands, bands), float), (len(bands),)), level
+        recorded = recorded_dark_levels({detector: (sensor, src, bands)}, given)
+    samples, valid = {}, None
+    if given.level(detector) is None and recorded.level(detector) is None:
+        values, valid = sample()
+        samples[detector] = values
+    found = find_dark_levels(given, recorded, samples, valid)
+    progress.info(found.describe(detector, sensor.name))
+    return found.per_band(detector, bands)

@@ -34,7 +34,7 @@ from ..errors import InputError, ParameterError
 from ..io.bands import BoresightOffset, Coregistration
 from ..io.cube import as_slice
 from ..io.dual import DualLayout
-from ..sensor.dark import DarkLevels
+from ..sensor.dark import ESTIMATED, DarkLevels, dark_object, describe_level
 from ._dark import sensor_dark_levels
 from ._offset import GIVE_OFFSET, boresight_offset
 
@@ -318,22 +318,20 @@ def _prepare_image(vnir, swir, layout, spectral, dark, offset, coregistered, pro
                     continue
                 index = _cube_index(dual, sensor)
                 file_bands = [int(sensor.bands[list(index).index(b)]) for b in bands[mask]]
-                given = dark.vnir_dark if sensor is dual.vnir else dark.swir_dark
+                detector = "vnir" if sensor is dual.vnir else "swir"
 
                 def sub(mask=mask):
                     v, ok = sampled()
                     return v[mask], ok
 
-                dark_per_band[mask], _ = sensor_dark_levels(
-                    sensor, file_bands, given, sub, progress
+                dark_per_band[mask] = sensor_dark_levels(
+                    sensor, detector, file_bands, dark, sub, progress
                 )
         else:
-            from ..shadow import darkness
-
             v, ok = sample()
-            level = darkness.dark_level(v, ok)
-            progress.info(level.describe("image"))
-            dark_per_band[:] = level.level
+            means, n = dark_object(v, ok)
+            progress.info(describe_level("image", float(means.min()), ESTIMATED, means, n))
+            dark_per_band[:] = float(means.min())
     except BaseException:
         cube.close()
         raise
@@ -925,8 +923,8 @@ def _physical_indicator_file(
 
             return get
 
-        dv, _ = sensor_dark_levels(dual.vnir, pair.vnir_bands, dark.vnir_dark, part(0), progress)
-        ds, _ = sensor_dark_levels(dual.swir, pair.swir_bands, dark.swir_dark, part(1), progress)
+        dv = sensor_dark_levels(dual.vnir, "vnir", pair.vnir_bands, dark, part(0), progress)
+        ds = sensor_dark_levels(dual.swir, "swir", pair.swir_bands, dark, part(1), progress)
         vd, sd = float(np.mean(dv)), float(np.mean(ds))
 
         def kernel(data, ok):

@@ -37,7 +37,7 @@ from ..shadow.deshadow_steps import (
 )
 from ..shadow.illumination import SKY_RADIUS_M, sky_view_factor
 from ..shadow.region import TILE as REGION_TILE
-from ._dark import DARK_BANDS, band_dark_levels, spread_bands
+from ._dark import DARK_BANDS, dual_dark_levels, spread_bands
 from ._offset import boresight_offset
 from ._surface import SurfaceModel, open_surface
 
@@ -428,16 +428,9 @@ def _dark_levels(vnir, dual, sources, dark: DarkLevels, strips, progress) -> np.
     if not ok.any():
         raise no_valid_error(vnir, "VNIR/SWIR image")
     nd = len(v_dark_b)
-    return np.concatenate(
-        [
-            band_dark_levels(
-                dual.vnir, v_src, vb, v_dark_b, dark.vnir_dark, pixels[:nd], ok, progress
-            ),
-            band_dark_levels(
-                dual.swir, s_src, sb, s_dark_b, dark.swir_dark, pixels[nd:], ok, progress
-            ),
-        ]
-    )
+    samples = {"vnir": pixels[:nd], "swir": pixels[nd:]}
+    found = dual_dark_levels(dual, sources, (vb, sb), dark, samples, ok, progress)
+    return np.concatenate([found.per_band("vnir", vb), found.per_band("swir", sb)])
 
 
 def _cube_reader(dual, sources, f_src, shadow, opened):

@@ -24,10 +24,10 @@ from .. import io
 from ..errors import ParameterError
 from ..io.bands import BoresightOffset, band_range
 from ..io.checks import no_valid_error
-from ..io.dark import dark_level_of
+from ..io.dark import recorded_dark
 from ..io.dual import BandChoice, DualLayout
 from ..io.windows import Sample
-from ..sensor.dark import DarkLevels
+from ..sensor.dark import DarkLevels, dark_object
 from ..shadow.blocks import (
     prior_map_block,
     register_prior,
@@ -46,7 +46,6 @@ from ..shadow.darkness import (
     SWIR_NM,
     calibrate_shadow_map,
     check_sample,
-    dark_level,
     shadow_classes,
     shadow_mask,
     signal,
@@ -59,7 +58,7 @@ from ..shadow.prior import (
     prior_method,
     spectral_method,
 )
-from ._dark import DARK_BANDS, instrument_dark_level, saturation_value, spread_bands
+from ._dark import DARK_BANDS, dual_dark_levels, saturation_value, spread_bands
 from ._offset import boresight_offset, central_rows
 from ._shadow_masks import mask_raster
 from ._shadow_tables import class_table, class_table_csv
@@ -167,7 +166,7 @@ def shadow_map_file(
     dark : DarkLevels
         Dark level (DN of zero signal) of each instrument (``vnir_dark``, ``swir_dark``);
         None = the sensor product's dark reference, else the header's 'dark level', else
-        estimated from the data (dark object): :func:`geoboresight.io.dark.dark_level_of`.
+        estimated from the data (dark object): :func:`geoboresight.sensor.dark.find_dark_levels`.
         Give 0 for radiance.
     surface : SurfaceModel
         A surface model on the image's grid (``dsm``) and the sun (``sun_zenith``,
@@ -397,14 +396,13 @@ def _calibrate(vnir, dual, sources, mb, how, strips, warnings, progress):
     vs, ss, ok, ls = _checked_sample(
         vnir, dual, sources, mb, calibration, strips, warnings, progress
     )
-    v_dark = instrument_dark_level(dual.vnir, v_src, mb.vnir_dark, dark.vnir_dark, vs, ok, progress)
-    s_dark = instrument_dark_level(dual.swir, s_src, mb.swir_dark, dark.swir_dark, ss, ok, progress)
-    for sensor, values, level in ((dual.vnir, vs, v_dark), (dual.swir, ss, s_dark)):
-        check_sample(values, ok, level, name=f"{sensor.name} {sensor.path}")
+    found = dual_dark_levels(
+        dual, sources, (mb.vnir_dark, mb.swir_dark), dark, {"vnir": vs, "swir": ss}, ok, progress
+    )
     levels = (
-        v_dark.for_bands(mb.vnir_dark, mb.blue),
-        v_dark.for_bands(mb.vnir_dark, mb.nir),
-        s_dark.for_bands(mb.swir_dark, mb.swir),
+        found.for_bands("vnir", mb.vnir_dark, mb.blue),
+        found.for_bands("vnir", mb.vnir_dark, mb.nir),
+        found.for_bands("swir", mb.swir_dark, mb.swir),
     )
     v_at, s_at = mb.vnir_dark.index, mb.swir_dark.index
     blue_s = signal(vs[[v_at(b) for b in mb.blue]], levels[0])
@@ -412,7 +410,7 @@ def _calibrate(vnir, dual, sources, mb, how, strips, warnings, progress):
     swir_s = signal(ss[[s_at(b) for b in mb.swir]], levels[2])
     long_s = None
     if mb.long_swir:
-        levels = (*levels, _long_dark(dual.swir, s_src, mb.long_swir, dark.swir_dark, ls, ok))
+        levels = (*levels, _long_dark(dual.swir, s_src, mb.long_swir, dark, ls, ok))
         long_s = signal(ls, levels[3])
     with np.errstate(invalid="ignore", divide="ignore"):
         ratio_s = ss[s_at(mb.ratio.swir_band)] / vs[v_at(mb.ratio.vnir_band)]
@@ -425,8 +423,7 @@ def _calibrate(vnir, dual, sources, mb, how, strips, warnings, progress):
         swir_s,
         ratio_s,
         ok,
-        vnir_dark=v_dark,
-        swir_dark=s_dark,
+        dark=found,
         table=table,
         offset=(along, across),
         core=core,
@@ -439,15 +436,17 @@ def _calibrate(vnir, dual, sources, mb, how, strips, warnings, progress):
     return cal, levels
 
 
-def _long_dark(sensor, src, bands, given, sample, valid) -> np.ndarray:
+def _long_dark(sensor, src, bands, given: DarkLevels, sample, valid) -> np.ndarray:
     """The dark level of each long-SWIR band: given, the product's or the header's, else the
     dark object of those bands alone, band by band (a shadow's long SWIR holds a few DN, so
     the one level of the instrument's dimmest band would tilt it)."""
-    level = dark_level_of(sensor, bands, src.tags(ns="ENVI"), src.count, given)
-    if level is None:
-        level = dark_level(sample, valid)
-        return np.asarray(level.band_levels, float)
-    return np.broadcast_to(np.asarray(level.for_bands(bands, bands), float), (len(bands),))
+    if given.swir_dark is not None:
+        return np.full(len(bands), float(given.swir_dark))
+    recorded = recorded_dark(sensor, src, bands)
+    if recorded is not None:
+        return np.broadcast_to(np.asarray(recorded[0], float), (len(bands),)).copy()
+    band_means, _ = dark_object(sample, valid)
+    return np.asarray(band_means, float)
 
 
 def _map_reader(v_src, s_src, mb: _MapBands, opened):

@@ -110,7 +110,7 @@ def shadow_map_block(
         From :func:`calibrate_shadow_map` on a sample of the whole flight line.
     dark_levels : (blue, nir, swir)
         The dark level to subtract from each range: one number, or one per band
-        (:meth:`DarkLevel.for_bands`).
+        (:meth:`~geoboresight.sensor.dark.DarkLevels.for_bands`).
     edge_pixels : int
         Partial shadow is looked for this many pixels around the core (0 = core only).
     prior : array (lines, columns), optional

@@ -4,9 +4,10 @@ On raw DN the boresight ratio ``b(1010 nm) / b(920 nm)`` of every dim pixel, sha
 dark, tends to the ratio of the two instruments' dark offsets: no threshold on it separates a
 sunlit asphalt road from a shaded lawn. A dual-sensor cube carries what does:
 
-1. **Each instrument's dark level** (:func:`dark_level`): the DN of zero signal, taken from the
-   user or the header, or estimated from the data by dark-object subtraction (Chavez 1988):
-   the darkest pixels of the instrument (by their mean over its bands), averaged band by band;
+1. **Each instrument's dark level** (:class:`~geoboresight.sensor.dark.DarkLevels`): the DN
+   of zero signal, taken from the user or the header, or estimated from the data by
+   dark-object subtraction (Chavez 1988, :func:`~geoboresight.sensor.dark.dark_object`): the
+   darkest pixels of the instrument (by their mean over its bands), averaged band by band;
    the band in which that dark object is dimmest gives the level. Everything below is computed
    on *signal*, DN minus the level.
 2. **The signature of diffuse skylight**: a shadowed pixel is lit by the sky alone. The sky is
@@ -46,14 +47,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError, ParameterError
-from ..sensor.dark import DarkLevel
+from ..sensor.dark import DarkLevels
 from .classes import MASK_NODATA, MASK_NOT_SHADOW, MASK_SHADOW, NO_SHADOW, NODATA_CLASS, ClassTable
 from .context import sunlit_blue_levels, sunlit_tilt_level
 
-#: Darkest share of the pixels taken as the dark object of an instrument.
-DARK_FRACTION = 5e-4
-#: Fewest pixels averaged into the dark object.
-MIN_DARK_PIXELS = 20
 #: Wavelength ranges (nm) of the blue, near-infrared and SWIR signals.
 BLUE_NM = (430.0, 500.0)
 NIR_NM = (780.0, 900.0)
@@ -117,7 +114,8 @@ class SampleCheck:
 def check_sample(
     bands: np.ndarray,
     valid: np.ndarray,
-    dark: DarkLevel | None,
+    dark: DarkLevels | None,
+    detector: str = "vnir",
     *,
     name: str,
     saturation: float | None = None,
@@ -132,8 +130,10 @@ def check_sample(
     bands : array (n_bands, n_pixels)
         DN of the sampled pixels in the instrument's bands.
     valid : bool array (n_pixels,)
-    dark : DarkLevel, optional
-        The dark level the map would subtract; None checks saturation and signal only.
+    dark : DarkLevels, optional
+        The dark levels the map would subtract; None checks saturation and signal only.
+    detector : {"vnir", "swir"}
+        The instrument of ``bands``, whose level ``dark`` holds.
     name : str
         The instrument and file, for the messages (e.g. "VNIR v.img").
     saturation : float, optional
@@ -169,12 +169,12 @@ def check_sample(
         )
     if dark is None:
         return SampleCheck(usable, int(saturated.sum()), int(usable.sum()))
-    level = np.asarray(dark.level if dark.band_levels is None else dark.band_levels, float)
+    level, source, param = dark.levels(detector), dark.source(detector), dark.param(detector)
     low = float(np.nanmin(data)) if data.size else 0.0
-    where, params = (f" in '{dark.param}'", (dark.param,)) if dark.param else ("", ())
+    where, params = (f" in '{param}'", (param,)) if param else ("", ())
     if data.size and float(np.min(level)) < low - max(1.0, 0.5 * abs(low)):
         raise InputError(
-            f"{name}: the dark level {float(np.min(level)):g} ({dark.source}) is far below the "
+            f"{name}: the dark level {float(np.min(level)):g} ({source}) is far below the "
             f"darkest sampled value ({low:g}): a dark level is the DN of zero signal, within the "
             f"data's range; give the instrument's dark level{where}, or leave it empty to "
             "estimate it",
@@ -185,73 +185,12 @@ def check_sample(
     if data.size and above < min_pixels:
         raise InputError(
             f"{name}: only {above} of {data.shape[1]} usable sampled pixels are brighter than the "
-            f"dark level {float(np.max(level)):g} ({dark.source}): the dark level is above the "
+            f"dark level {float(np.max(level)):g} ({source}): the dark level is above the "
             f"signal; give the instrument's dark level{where} (0 for radiance), or leave it "
             "empty to estimate it",
             params=params,
         )
     return SampleCheck(usable, int(saturated.sum()), above)
-
-
-def dark_level(
-    bands: np.ndarray,
-    valid: np.ndarray | None = None,
-    *,
-    fraction: float = DARK_FRACTION,
-    min_pixels: int = MIN_DARK_PIXELS,
-) -> DarkLevel:
-    """Estimate an instrument's dark level from its data (dark-object subtraction).
-
-    Parameters
-    ----------
-    bands : array (n_bands, n_pixels)
-        DN of a sample of pixels in several bands of one instrument (the more bands, and the
-        darker the dimmest of them, the closer the estimate).
-    valid : bool array (n_pixels,), optional
-        Pixels to use; pixels with a non-finite value are always left out.
-    fraction : float
-        Share (0–0.5) of the pixels, the darkest by their mean over ``bands``, that form the
-        dark object.
-    min_pixels : int
-        Fewest pixels in the dark object (noise averages out over them).
-
-    Returns
-    -------
-    DarkLevel
-        ``level``: the lowest of the dark object's band means; ``band_levels``: all of them.
-        The level is an upper bound of the true offset by the dark object's own signal in its
-        dimmest band (deep shadow or water, a few DN): it also removes the path radiance there.
-
-    Raises
-    ------
-    InputError
-        When fewer than ``min_pixels`` pixels are valid.
-
-    References
-    ----------
-    Chavez, P.S. An improved dark-object subtraction technique for atmospheric scattering
-    correction of multispectral data. Remote Sens. Environ. 1988, 24, 459–479.
-    Brook, A.; Ben-Dor, E. Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484
-    (§3.1: the ratio of raw DN whose offsets this removes).
-    """
-    x = np.asarray(bands, np.float64)
-    if x.ndim != 2:
-        raise InputError(f"dark level: bands must be (n_bands, n_pixels), got shape {x.shape}")
-    if not (0 < fraction <= 0.5):
-        raise ParameterError(f"parameter 'dark_fraction': {fraction} is not in (0, 0.5]")
-    ok = np.isfinite(x).all(axis=0)
-    if valid is not None:
-        ok &= np.asarray(valid, bool).ravel()
-    x = x[:, ok]
-    if x.shape[1] < min_pixels:
-        raise InputError(
-            f"only {x.shape[1]} valid pixels to estimate the dark level (need {min_pixels}): "
-            "check the nodata value, or give the dark level"
-        )
-    n = max(int(min_pixels), int(round(fraction * x.shape[1])))
-    darkest = np.argsort(x.mean(axis=0), kind="stable")[:n]
-    levels = x[:, darkest].mean(axis=1)
-    return DarkLevel(float(levels.min()), "estimated (dark object)", levels, n)
 
 
 def signal(values: np.ndarray, level) -> np.ndarray:
@@ -291,8 +230,7 @@ def sunlit_mode(values: np.ndarray, valid: np.ndarray | None = None) -> tuple[fl
 class SceneCalibration:
     """Everything :func:`shadow_fraction_estimate` needs, found on a sample of the scene."""
 
-    vnir_dark: DarkLevel
-    swir_dark: DarkLevel
+    dark: DarkLevels  # both instruments' levels
     nir_mode: float  # log of the sunlit NIR signal
     swir_mode: float  # log of the sunlit SWIR signal
     ratio_mode: float  # sunlit mode of the boresight ratio (DN, as Eq. 3)
@@ -308,10 +246,10 @@ class SceneCalibration:
 
     def as_dict(self) -> dict:
         return {
-            "vnir_dark_dn": round(self.vnir_dark.level, 3),
-            "vnir_dark_source": self.vnir_dark.source,
-            "swir_dark_dn": round(self.swir_dark.level, 3),
-            "swir_dark_source": self.swir_dark.source,
+            "vnir_dark_dn": round(self.dark.level("vnir"), 3),
+            "vnir_dark_source": self.dark.source("vnir"),
+            "swir_dark_dn": round(self.dark.level("swir"), 3),
+            "swir_dark_source": self.dark.source("swir"),
             "sunlit_nir_signal_dn": round(math.exp(self.nir_mode), 3),
             "sunlit_swir_signal_dn": round(math.exp(self.swir_mode), 3),
             "sunlit_ratio": round(self.ratio_mode, 4),
@@ -339,8 +277,7 @@ def calibrate_shadow_map(
     ratio: np.ndarray,
     valid: np.ndarray | None = None,
     *,
-    vnir_dark: DarkLevel,
-    swir_dark: DarkLevel,
+    dark: DarkLevels,
     table: ClassTable,
     offset: tuple[float, float] = (0.0, 0.0),
     core: float = CORE_DARKNESS,
@@ -355,7 +292,8 @@ def calibrate_shadow_map(
     ratio : array
         The boresight ratio (DN, Eq. 3) of the same pixels.
     valid : bool array, optional
-    vnir_dark, swir_dark : DarkLevel
+    dark : DarkLevels
+        The instruments' dark levels (what the signals are above).
     table : ClassTable
         The class table to scale (Table 2 by default in the operation).
     offset : (float, float)
@@ -411,8 +349,7 @@ def calibrate_shadow_map(
     levels = sunlit_blue_levels(b, nir, ok & (d > core))
     tilt = math.nan if long_swir is None else sunlit_tilt_level(swir, long_swir, ok & (d > core))
     return SceneCalibration(
-        vnir_dark=vnir_dark,
-        swir_dark=swir_dark,
+        dark=dark,
         nir_mode=nir_mode,
         swir_mode=swir_mode,
         ratio_mode=ratio_mode,
