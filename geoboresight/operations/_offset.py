@@ -54,8 +54,9 @@ def boresight_offset(
         bands, Fourier cross-correlation of blocks merged, remembered between runs); a line too
         small is refused, the message ending with ``hint``. ``"central"``: on the central block
         of at most :data:`OFFSET_ROWS` lines (:func:`central_rows`), the ratio's bands
-        ``ratio_bands`` read from ``sources`` (the open VNIR and SWIR datasets); 0 when it
-        cannot be measured there, and the log gives it.
+        ``ratio_bands`` (default: :meth:`~geoboresight.io.DualSensor.ratio_bands`'s) read
+        from ``sources`` (the open VNIR and SWIR datasets); 0 when it cannot be measured
+        there, and the log gives it.
     """
     if given.offset_along is not None or given.offset_across is not None:
         along, across, how = (
@@ -63,12 +64,13 @@ def boresight_offset(
             float(given.offset_across or 0.0),
             "given",
         )
-    elif over == "line":
+    elif over == "central":
+        rb = dual.ratio_bands() if ratio_bands is None else ratio_bands
+        along, across, how = _central_offset(dual, sources, rb, progress)
+    else:
         with open_matching_pair(dual, MatchBands()) as pair:
             off, _ = line_offset(pair, 0, progress, given=hint)
         return off.along, off.across, "measured (boresight-offset)"
-    else:
-        along, across, how = _central_offset(dual, sources, ratio_bands, progress)
     if over == "central":
         progress.info(f"boresight offset {along:+.2f} px along, {across:+.2f} px across ({how})")
     return along, across, how

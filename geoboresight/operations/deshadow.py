@@ -204,12 +204,7 @@ def deshadow_file(
         adj_half = max(1, int(ADJACENCY_M / (2.0 * _cell(prior)))) if adjacency else 0
         levels = _dark_levels(vnir, dual, (v_src, s_src), dark, strips, progress)
         along, across, _ = boresight_offset(
-            dual,
-            offset,
-            progress,
-            over="central",
-            ratio_bands=dual.ratio_bands(),
-            sources=(v_src, s_src),
+            dual, offset, progress, over="central", sources=(v_src, s_src)
         )
         read = _cube_reader(dual, (v_src, s_src), f_src, shadow, opened)
         # Pass 1: pairs across shadow edges, and each instrument's darkest pixels.
