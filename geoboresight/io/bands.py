@@ -24,9 +24,9 @@ from ..sensor.bands import (
     MATCH_VNIR_TO_NM,
     band_mean,
 )
-from .cube import RawPart, as_slice, open_cube
+from .cube import raw_bands_reader
 from .dual import SWIR_NM, TOLERANCE_NM, VNIR_NM, DualSensor, SensorFile
-from .grid import Grid
+from .grid import require_on_grid
 from .image import open_raster
 from .windows import DEFAULT_BLOCK_ROWS, band_reader, bands_reader, map_windows, read_masked
 
@@ -154,16 +154,6 @@ def read_bands(
     return values, valid
 
 
-def require_on_grid(src, grid: Grid, label: str) -> None:
-    """Raise :class:`InputError` when ``src`` (a mask, a DEM) is not on the images' grid."""
-    if (src.height, src.width) != grid.shape:
-        raise InputError(
-            f"{label} is {src.width} × {src.height} pixels but the images are {grid.width} × "
-            f"{grid.height}: mismatched grids; give a raster on the image grid"
-        )
-    Grid.of(src).require_same(grid, label, "the images")
-
-
 @dataclass(frozen=True)
 class MatchingPair:
     """The VNIR and SWIR images matched against each other (one band each, or band-range
@@ -250,67 +240,6 @@ class MatchingReader:
         return info
 
 
-def _raw_cube_reader(dual: DualSensor, vbs, sbs):
-    """``read(row0, row1) -> ((vnir stack, valid), (swir stack, valid))`` straight from raw
-    ENVI files, or None when a file is not raw ENVI (then GDAL reads band by band: for a BIL
-    file one small read per band and line, ~10× slower for a band range on a flight line).
-
-    BIL strips are mapped into memory and only the bands asked for are copied out (the pages
-    holding them are all that is read: 2 of 198 bands cost 1/100 of the strip); BSQ and BIP go
-    through :class:`~geoboresight.io.cube.Cube` (one read per band; the whole strip)."""
-    same = dual.vnir.reads == dual.swir.reads
-    cube = open_cube([dual.vnir.reads] if same else [dual.vnir.reads, dual.swir.reads])
-    raw = cube.raw_parts()
-    if raw is None:
-        cube.close()
-        return None, None
-    parts = [raw[0], raw[0] if same else raw[1]]
-    picks = [np.asarray(vbs) - 1, np.asarray(sbs) - 1]
-
-    def one(part, idx, row0, row1):
-        if part.layout.interleave != "bil":
-            return cube.read(row0, row1, idx + part.start, "float32")
-        return _bil_bands(part, idx, row0, row1, cube.width)
-
-    def read(row0: int, row1: int):
-        return tuple(one(p, i, row0, row1) for p, i in zip(parts, picks, strict=True))
-
-    return read, cube
-
-
-def _bil_bands(part: RawPart, idx, row0: int, row1: int, width: int):
-    """Bands ``idx`` (0-based) of lines ``row0:row1`` of a raw BIL file, through a memory map
-    of the strip (closed before returning): (float32 (bands, lines, columns), valid)."""
-    import mmap
-
-    raw = part.layout
-    dt = raw.dtype
-    line = part.count * width * dt.itemsize
-    start = raw.offset + row0 * line
-    skip = start % mmap.ALLOCATIONGRANULARITY
-    with open(raw.file, "rb") as f:
-        mm = mmap.mmap(
-            f.fileno(), skip + (row1 - row0) * line, access=mmap.ACCESS_READ, offset=start - skip
-        )
-    try:
-        lines = np.frombuffer(mm, dt, (row1 - row0) * part.count * width, skip)
-        # A band range is a view of the map: converted in one copy.
-        values = lines.reshape(row1 - row0, part.count, width)[:, as_slice(idx), :]
-        values = values.transpose(1, 0, 2)
-        del lines
-        values = values.astype(np.float32)  # the map is closed below: no view of it is left
-    finally:
-        mm.close()
-    valid = np.ones(values.shape[1:], bool)
-    if part.nodata is not None:
-        valid &= (values != np.float32(part.nodata)).all(axis=0)
-        if np.isnan(part.nodata):
-            valid &= ~np.isnan(values).any(axis=0)
-    if values.dtype.kind == "f":
-        valid &= np.isfinite(values).all(axis=0)
-    return values, valid
-
-
 @contextlib.contextmanager
 def open_matching_pair(
     dual: DualSensor,
@@ -328,7 +257,7 @@ def open_matching_pair(
     tol = bands.tolerance_nm
     vbs = band_range(dual.vnir, bands.vnir_nm, bands.vnir_to_nm, tol, "vnir_to_nm")
     sbs = band_range(dual.swir, bands.swir_nm, bands.swir_to_nm, tol, "swir_to_nm")
-    raw, cube = _raw_cube_reader(dual, vbs, sbs)
+    raw, cube = raw_bands_reader(dual.vnir.reads, dual.swir.reads, vbs, sbs)
     with (
         open_raster(dual.vnir.reads, "VNIR") as v_src,
         open_raster(dual.swir.reads, "SWIR") as s_src,

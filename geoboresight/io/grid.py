@@ -177,3 +177,13 @@ def require_same_grid(a, b, label_a: str, label_b: str) -> None:
     name_a = f"{label_a} {a.name}" if hasattr(a, "name") else label_a
     name_b = f"{label_b} {b.name}" if hasattr(b, "name") else label_b
     Grid.of(a).require_same(Grid.of(b), name_a, name_b)
+
+
+def require_on_grid(src, grid: Grid, label: str) -> None:
+    """Raise :class:`InputError` when ``src`` (a mask, a DEM) is not on the images' grid."""
+    if (src.height, src.width) != grid.shape:
+        raise InputError(
+            f"{label} is {src.width} × {src.height} pixels but the images are {grid.width} × "
+            f"{grid.height}: mismatched grids; give a raster on the image grid"
+        )
+    Grid.of(src).require_same(grid, label, "the images")

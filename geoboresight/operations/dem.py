@@ -33,8 +33,9 @@ from ..dem.view3d import (
     stretch_rgb,
 )
 from ..errors import InputError
-from ..io.bands import DENSE_MATCH, open_matching_pair, require_on_grid
+from ..io.bands import DENSE_MATCH, open_matching_pair
 from ..io.dual import TOLERANCE_NM, DualLayout
+from ..io.grid import require_on_grid
 from ._offset import line_offset
 
 #: Worker threads matching strips of a flight line (the filters and warps release the GIL).
