@@ -154,6 +154,8 @@ DRAWS = {
     "nodsm-b": (477085513, range(85, 90), (49, 50, 51)),
     "deshadow-region-a": (1037402248, range(180, 185), (146, 147, 148)),
     "deshadow-region-b": (158251716, range(185, 190), (149, 150, 151)),
+    "dsm-band-a": (107771649, range(200, 205), (160, 161, 162)),
+    "dsm-band-b": (893564715, range(205, 210), (163, 164, 165)),
 }
 #: The scene sets (``--set``). ``dev``: the development scenes, on which the parameters are
 #: set; ``quick``: four of them. A hold-out set is run only after the method it scores is
@@ -167,6 +169,7 @@ SETS = {
     "deshadow-holdout": ("deshadow-d", "deshadow-e"),
     "nodsm-holdout": ("nodsm-a", "nodsm-b"),
     "deshadow-region-holdout": ("deshadow-region-a", "deshadow-region-b"),
+    "dsm-band-holdout": ("dsm-band-a", "dsm-band-b"),
 }
 
 
