@@ -100,15 +100,6 @@ SECTIONS = (
         "developed on, run only with the method as it is.",
     ),
     Section(
-        "shadow-map-dsm-band-holdout",
-        "Shadow map with a surface model: hold-out scenes of the uncertain band",
-        "shadow",
-        ("--dsm", "--no-deshadow", "--set", "dsm-band-holdout"),
-        None,
-        "16 scenes (10 of model 2, 6 of the simulator) drawn before the uncertain band for a "
-        "DSM from another source was developed, and run once with it fixed.",
-    ),
-    Section(
         "deshadow",
         "De-shadowing: development scenes",
         "shadow",
