@@ -39,9 +39,7 @@ from .darkness import (
 from .illumination import SUPERSAMPLE
 from .prior import (
     SurfacePrior,
-    band_reach,
     dsm_shadow_fraction,
-    envelope_fraction,
     prior_agreement,
     prior_fraction,
     prior_registration,
@@ -174,13 +172,10 @@ def shadow_fraction_block(
     reach: float = 0.0,
     tolerance: int = DSM_TOLERANCE,
     sky_blue: float | None = None,
-    envelope: np.ndarray | None = None,
-    band: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(shadow fraction, darkness) of a block: steps 1–4 of :func:`shadow_map_block`; with
     ``prior`` (a surface model's cast-shadow fraction on the block; ``heights``,
-    ``clearance``, ``unseen``, ``ray``, ``reach``, ``tolerance``, ``envelope`` and ``band``,
-    the surface model's) by
+    ``clearance``, ``unseen``, ``ray``, ``reach`` and ``tolerance``, the surface model's) by
     :func:`dsm_shadow_fraction` instead of :func:`shadow_fraction_estimate`. Without
     ``prior``, ``sky_blue`` (a limit) also keeps the dark pixels whose blue is sunlit out of
     the core (:func:`geoboresight.shadow.context.sunlit_dark`; needs
@@ -216,8 +211,6 @@ def shadow_fraction_block(
             core=calibration.core,
             reach=reach,
             tolerance=tolerance,
-            envelope=envelope,
-            band=band,
         )
     else:
         if sky_blue is not None:
@@ -246,8 +239,6 @@ def _model_fraction(blue, nir, swir, valid, heights, heights_valid, prior, unsee
         ray=p.ray,
         reach=p.reach,
         tolerance=p.tolerance,
-        envelope=envelope_fraction(heights, heights_valid, surface_prior=p),
-        band=band_reach(p),
         **block,
     )
 

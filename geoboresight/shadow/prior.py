@@ -62,16 +62,6 @@ MOSTLY_SHADOW = 0.6
 #: surface model is suspect (another date, not registered, wrong sun): on the validation
 #: scenes with their own DSM it stays below a tenth.
 LIT_PREDICTION = 0.2
-#: Scale (cells) of the blur a DSM from another source carries: its registration (within
-#: half a pixel) and its smoothing (another resolution) move a cast edge by about a pixel and
-#: lower thin casters' tops. The upper envelope undoes a Gaussian blur of this σ
-#: (:func:`envelope_fraction`).
-ENVELOPE_CELLS = 1
-#: Gaussian (σ, cells) that keeps the heights' noise out of the envelope's curvature.
-NOISE_SMOOTHING = 0.5
-#: Lines each way the envelope's curvature reads beyond a cell (the noise smoothing's
-#: Gaussian, truncated at 4 σ, and the Laplacian's neighbours).
-ENVELOPE_HALO = int(math.ceil(4 * NOISE_SMOOTHING)) + 1
 #: Gain in IoU with the dark pixels that a whole-pixel shift of the predicted shadow must
 #: bring before the model is reported as not registered with the image (a tie of a few
 #: pixels at the edges is noise).
@@ -246,90 +236,6 @@ def prior_fraction(
     return cell_fraction(sub_cells, SUPERSAMPLE, surface_prior.shift, ok).astype(np.float32)
 
 
-def envelope_fraction(
-    heights: np.ndarray, valid: np.ndarray | None = None, *, surface_prior: SurfacePrior
-) -> np.ndarray | None:
-    """The cast-shadow fraction of a DSM's upper envelope, cast and moved as
-    :func:`prior_fraction` casts the heights. None for a DSM whose cast edges are taken as the
-    image's (``surface_prior.tolerance`` the registration's alone: heights less noisy than
-    :data:`geoboresight.shadow.surface.NOISY_HEIGHTS_M`).
-
-    A DSM from another source is shifted, smoothed and noisy: its walls lean and a thin
-    caster's top (a crown, a pole) is lowered, so its cast shadow is narrower and shorter than
-    the image's. A Gaussian blur of σ changes the heights by ``σ²/2 · ∇²z`` to first order
-    (the heat equation), so ``z − σ²/2 · ∇²z`` undoes it: peaks and wall tops rise back,
-    hollows sink. The envelope keeps the higher of that and the height (σ =
-    :data:`ENVELOPE_CELLS`; the curvature taken on the heights smoothed by
-    :data:`NOISE_SMOOTHING`, so the noise stays below the clearance). Its shadow is the
-    outer bound of the uncertain band in which the image's darkness decides
-    (:func:`dsm_shadow_fraction`'s ``envelope``).
-
-    Parameters
-    ----------
-    heights : array (lines, columns)
-        The surface model's heights (m).
-    valid : bool array (lines, columns), optional
-        Cells with a height.
-    surface_prior : SurfacePrior
-
-    Returns
-    -------
-    float32 array (lines, columns) or None
-        0–1, NaN where invalid. Strips need :data:`ENVELOPE_HALO` more lines each way.
-
-    References
-    ----------
-    Lindeberg, T. Scale-space theory in computer vision. Kluwer, 1994 (the Gaussian
-    scale space as the solution of the diffusion equation ∂z/∂t = ½ ∇²z, t = σ²).
-    """
-    if surface_prior.tolerance <= darkness.DSM_TOLERANCE:
-        return None
-    z = np.asarray(heights, np.float64)
-    ok = np.isfinite(z) if valid is None else np.asarray(valid, bool) & np.isfinite(z)
-    return prior_fraction(upper_envelope(z, ok), ok, surface_prior=surface_prior)
-
-
-def upper_envelope(heights: np.ndarray, valid: np.ndarray | None = None) -> np.ndarray:
-    """A smoothed DSM's heights with the blur undone to first order, never lowered:
-    ``max(z, z − σ²/2 · ∇²(G * z))``, σ = :data:`ENVELOPE_CELLS`, G a Gaussian of
-    :data:`NOISE_SMOOTHING` (:func:`envelope_fraction`).
-
-    Parameters
-    ----------
-    heights : array (lines, columns)
-        Heights (m).
-    valid : bool array, optional
-        Cells with a height (the others are NaN in the result, and filled with the mean
-        height for the curvature).
-
-    Returns
-    -------
-    float64 array
-        Strips need :data:`ENVELOPE_HALO` more lines each way.
-
-    References
-    ----------
-    Lindeberg, T. Scale-space theory in computer vision. Kluwer, 1994 (the Gaussian
-    scale space as the solution of the diffusion equation ∂z/∂t = ½ ∇²z, t = σ²).
-    """
-    from scipy import ndimage
-
-    z = np.asarray(heights, np.float64)
-    ok = np.isfinite(z) if valid is None else np.asarray(valid, bool) & np.isfinite(z)
-    filled = np.where(ok, z, np.mean(z[ok]) if ok.any() else 0.0)
-    curvature = ndimage.laplace(ndimage.gaussian_filter(filled, NOISE_SMOOTHING))
-    upper = np.maximum(filled, filled - 0.5 * ENVELOPE_CELLS**2 * curvature)
-    return np.where(ok, upper, np.nan)
-
-
-def band_reach(surface_prior: SurfacePrior) -> float:
-    """Cells down-sun by which the heights' noise moves a cast shadow's far end:
-    ``noise · tan(zenith)`` over the cell size (the sun line's fall per cell)."""
-    p = surface_prior
-    rise = sun_step(p.zenith, p.azimuth, p.matrix, 1.0)[2]
-    return p.noise / rise if rise > 0 else 0.0
-
-
 def registered_heights(
     heights: np.ndarray, valid: np.ndarray | None = None, *, surface_prior: SurfacePrior
 ) -> np.ndarray:
@@ -418,22 +324,15 @@ def prior_halo(
     -------
     (int, int)
         Lines above and below: both halos (the spectral one widened to the prior's
-        ``tolerance``, and for a DSM from another source by :data:`ENVELOPE_HALO` and the
-        envelope band's :func:`band_cells`), and towards the sun the sweep of the predicted
-        shadow's far end, ``ceil(reach · |Δrow|) + 1`` lines (the reach with
-        :func:`band_reach` for a DSM from another source;
-        :func:`geoboresight.shadow.prior.dsm_shadow_fraction`).
+        ``tolerance``), and towards the sun the sweep of the predicted
+        shadow's far end, ``ceil(reach · |Δrow|) + 1`` lines
+        (:func:`geoboresight.shadow.prior.dsm_shadow_fraction`).
     """
     drow = surface_prior.ray[0]
-    reach = surface_prior.reach
+    sweep = int(np.ceil(surface_prior.reach * abs(drow))) + 1
+    up, down = (sweep, 0) if drow < 0 else (0, sweep)
     # The spectral halo holds the registration's tolerance; a wider one needs the rest.
     halo += max(0, surface_prior.tolerance - darkness.DSM_TOLERANCE)
-    if surface_prior.tolerance > darkness.DSM_TOLERANCE:
-        # The envelope's curvature, and the band's growth, caster-top test and sweep.
-        reach += band_reach(surface_prior)
-        halo += ENVELOPE_HALO + band_cells(reach)
-    sweep = int(np.ceil(reach * abs(drow))) + 1
-    up, down = (sweep, 0) if drow < 0 else (0, sweep)
     return halo + cast_halo[0] + up, halo + cast_halo[1] + down
 
 
@@ -441,15 +340,6 @@ def prior_method(surface_prior: SurfacePrior, *, registered: bool, edge_pixels: 
     """The method of the shadow map with a surface model, in words, its numbers taken from
     the kernels' constants and ``surface_prior``: the product's ``method`` tag."""
     p = surface_prior
-    band = (
-        "; between the prediction and the shadow of the surface model's upper envelope "
-        f"(its {ENVELOPE_CELLS}-cell blur undone), swept down-sun by the noise's "
-        f"{band_reach(p):.2f} cells, pixels at or below "
-        f"{darkness.log_fraction_text(darkness.RIM_DARKNESS)} joined to the shadow through "
-        "such pixels, not casters' tops"
-        if p.tolerance > darkness.DSM_TOLERANCE
-        else ""
-    )
     moved = (
         f", moved by {p.shift[0]:+.2f} rows and {p.shift[1]:+.2f} columns to match the NIR's "
         "darkness"
@@ -467,7 +357,7 @@ def prior_method(surface_prior: SurfacePrior, *, registered: bool, edge_pixels: 
         "connected to it along the sun's direction) and unmixed within "
         f"{edge_pixels} px (at least half shaded only where as dark as core shadow or "
         "deep in the prediction; beside it, no more shaded than the signal says against "
-        f"the darkest lit pixel next to the zone){band}; no shadow away from the predicted "
+        "the darkest lit pixel next to the zone); no shadow away from the predicted "
         "shadow except where a caster beyond the surface model's edge could shade (spectral "
         "estimate there) and in cells the model shades in part that are as dark as core "
         "shadow; classes by Table 2's fraction intervals"
@@ -502,8 +392,6 @@ def dsm_shadow_fraction(
     ray: tuple[float, float, int] | None = None,
     core: float = CORE_DARKNESS,
     reach: float = 0.0,
-    envelope: np.ndarray | None = None,
-    band: float = 0.0,
 ) -> np.ndarray:
     """Estimated shadow fraction (float32, 0–1; NaN where invalid) from :func:`darkness` with
     the cast shadow a surface model predicts as the prior.
@@ -590,21 +478,6 @@ def dsm_shadow_fraction(
         How far (cells) the clearance shortens a shadow's far end on level ground (0: no
         sweep; used with ``ray``). Strips need ``ceil(reach · |Δrow|) + 1`` more lines towards
         the sun.
-    envelope : array, optional
-        The cast-shadow fraction of the surface model's upper envelope
-        (:func:`envelope_fraction`), for a model whose cast edges are uncertain by about a
-        pixel. Its predicted shadow, swept down-sun by ``reach + band`` cells, bounds the
-        shadow from outside: there, beyond the zone, a pixel at most ``exp(rim)`` of the
-        sunlit mode, not water and not more than ``clearance`` above the predicted shadow
-        near it (a caster's top) is shadow when it joins the shadow found within the zone, or
-        a pixel the envelope shades that is as dark as core shadow (a thin caster's shadow
-        the prediction misses), through such pixels (8-connected, within :func:`band_cells`
-        steps); the cap beside the zone takes its sunlit end beyond that band. The band is
-        where the model cannot say and the image's darkness decides; a dark material cut
-        from the shadow by a lit pixel, or lying outside the band, stays lit.
-    band : float
-        Cells down-sun by which the heights' noise moves a shadow's far end
-        (:func:`band_reach`); used with ``envelope``.
 
     Returns
     -------
@@ -643,21 +516,6 @@ def dsm_shadow_fraction(
     allowed = zone
     if swept is not shaded:
         rim_px, allowed = _connected_rim(core_px, rim_px, near, zone, ray, reach, tolerance)
-    if envelope is not None:
-        with np.errstate(invalid="ignore"):
-            dark_px = dry & (d <= rim)
-            seed_px = dry & (d <= core)
-            if z is not None:
-                # A caster's top is not its shadow, in the band as in the rim.
-                low = ndimage.minimum_filter(
-                    base, size=2 * (tolerance + band_cells(reach + band)) + 1
-                )
-                dark_px &= ~(z - low > clearance)
-                seed_px &= ~(z - low > clearance)
-        taken, allowed, zone = _envelope_rim(
-            core_px | rim_px, dark_px, seed_px, allowed, zone, envelope, shaded, ray, reach + band
-        )
-        rim_px = rim_px | taken
     # Away from the predicted edges (by more than the tolerance) the model's shade is whole.
     deep = core_px & ndimage.binary_erosion(shaded, iterations=tolerance + 1)
     with np.errstate(invalid="ignore"):
@@ -730,39 +588,6 @@ def _connected_rim(core_px, rim_px, near, zone, ray, reach, tolerance):
             break
         taken |= grow
     return taken & ~core_px, near | (zone & _shift(taken, step))
-
-
-def band_cells(reach: float) -> int:
-    """Steps the shadow may grow into the envelope's band (:func:`_envelope_rim`) for a
-    sweep of ``reach`` cells: the envelope's cells, the sweep, and one for the diagonal."""
-    return ENVELOPE_CELLS + int(math.ceil(reach)) + 1
-
-
-def _envelope_rim(shadow_px, dark_px, seed_px, allowed, zone, envelope, shaded, ray, reach):
-    """(shadow of the band, where unmixing is allowed, the zone) with the band between the
-    zone and the envelope's predicted shadow (or the prior's, ``shaded``) swept ``reach``
-    cells down-sun: ``dark_px`` there are shadow when they join ``shadow_px``, or the
-    ``seed_px`` the envelope shades, through ``dark_px`` of the band."""
-    from scipy import ndimage
-
-    cast = np.nan_to_num(np.asarray(envelope, np.float64), nan=0.0) >= PREDICTED_SHADOW
-    e, _ = _down_sun(cast | shaded, ray, reach)
-    band = e & ~zone
-    if not band.any():
-        return band, allowed, zone
-    grow = band & dark_px
-    # A pixel the envelope shades and as dark as core shadow starts a shadow of its own: a
-    # thin caster's shadow the prediction misses altogether.
-    shadow_px = shadow_px | (band & cast & seed_px)
-    joined = ndimage.binary_dilation(
-        shadow_px,
-        structure=np.ones((3, 3), bool),
-        iterations=band_cells(reach),
-        mask=shadow_px | grow,
-    )
-    taken = joined & grow
-    allowed = allowed | (band & ndimage.binary_dilation(taken | shadow_px))
-    return taken, allowed, zone | band
 
 
 def _cap_beside_zone(f, d, ok, zone, shaded, shadow_px, window) -> None:
