@@ -111,3 +111,41 @@ def test_a_dsm_from_another_source_scores_near_the_exact_one(model, opts, tmp_pa
     # 0.965).
     assert other[0] >= 0.97 * exact[0]
     assert other[1] <= 0.05  # sunlit dark materials stay sunlit
+
+
+@pytest.mark.parametrize("azimuth", [0.0, 180.0])
+def test_a_rough_dsm_in_strips_equals_the_whole_image(azimuth, tmp_path):
+    """The wider zone of a DSM from another source, and the sweep of a shadow's far end
+    down-sun, read beyond a strip: strips of 16 lines (model 2, sun 60° from the north, then
+    the south, a DSM half a pixel off, smoothed and noisy) give the whole image's fraction."""
+    from validation.scene_model2 import simulate2, write_scene2
+
+    folder = str(tmp_path / "scene")
+    sc = simulate2(rows=72, cols=96, seed=0, sun_zenith=60.0, sun_azimuth=azimuth)
+    write_scene2(sc, folder)
+    j = lambda n: os.path.join(folder, n)  # noqa: E731
+    z, _ = _read(j("truth_dsm.tif"))
+    z = ndimage.gaussian_filter(ndimage.shift(z.astype(float), (0.5, -0.4), order=1), 0.7)
+    write_tif(j("dsm_other.tif"), z + np.random.default_rng(3).normal(0.0, 0.3, z.shape))
+    surface = SurfaceModel(j("dsm_other.tif"), 60.0, azimuth, sc.truth["gsd_m"])
+    fractions = []
+    for rows in (16, 1000):
+        shadow_map_file(
+            j("vnir.hdr"),
+            j("swir.hdr"),
+            output=str(tmp_path / f"c{rows}.tif"),
+            fraction=str(tmp_path / f"f{rows}.tif"),
+            surface=surface,
+            block_rows=rows,
+        )
+        fractions.append(_read(str(tmp_path / f"f{rows}.tif"))[0])
+    tags = _read(str(tmp_path / "c1000.tif"))[1]
+    assert int(tags["DSM_EDGE_TOLERANCE_PX"]) == darkness.DSM_TOLERANCE + 1  # the wider zone
+    assert np.array_equal(np.isnan(fractions[0]), np.isnan(fractions[1]))
+    np.testing.assert_allclose(fractions[0], fractions[1], rtol=1e-5, atol=1e-5)
+    # Against the scene's own truth (measured F1 0.89 from the north, 0.93 from the south;
+    # 0.94 and 0.96 with the exact DSM).
+    truth = sc.shadow_fraction >= 0.5
+    pred = fractions[1] >= 0.5
+    tp = (pred & truth).sum()
+    assert 2 * tp / (2 * tp + (pred & ~truth).sum() + (~pred & truth).sum()) > 0.8

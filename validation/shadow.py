@@ -156,6 +156,8 @@ DRAWS = {
     "deshadow-region-b": (158251716, range(185, 190), (149, 150, 151)),
     "nodsm-e": (918135055, range(210, 215), (166, 167, 168)),
     "nodsm-f": (407053608, range(215, 220), (169, 170, 171)),
+    "dsm-band-a": (107771649, range(200, 205), (160, 161, 162)),
+    "dsm-band-b": (893564715, range(205, 210), (163, 164, 165)),
 }
 #: The scene sets (``--set``). ``dev``: the development scenes, on which the parameters are
 #: set; ``quick``: four of them. A hold-out set is run only after the method it scores is
@@ -170,6 +172,7 @@ SETS = {
     "nodsm-holdout": ("nodsm-a", "nodsm-b"),
     "deshadow-region-holdout": ("deshadow-region-a", "deshadow-region-b"),
     "nodsm-swir-holdout": ("nodsm-e", "nodsm-f"),
+    "dsm-band-holdout": ("dsm-band-a", "dsm-band-b"),
 }
 
 
