@@ -357,3 +357,37 @@ def test_shadow_map_refuses_bad_parameters(model2_scene, tmp_path):
             detection=Detection(edge_pixels=-1),
         )
     assert not os.path.exists(tmp_path / "x.tif")
+
+
+@pytest.mark.parametrize("interleave", ["bil", "bip"])
+def test_shadow_map_reads_raw_files_as_gdal_does(model2_scene, tmp_path, monkeypatch, interleave):
+    """Raw ENVI strips read directly (a BIL strip's bands in one copy) give the map GDAL's
+    band-by-band reading gives, nodata pixels included."""
+    from geoboresight.io import write_envi
+    from geoboresight.operations import shadow_map
+
+    _, folder = model2_scene
+    files = {}
+    for k, name in enumerate(("vnir", "swir")):
+        with quiet_georef(), rasterio.open(os.path.join(folder, f"{name}.img")) as src:
+            cube = src.read()
+            wl = [float(w) for w in src.tags(ns="ENVI")["wavelength"].strip("{}").split(",")]
+        cube[:, 20 + k, 30:36] = 0  # a few pixels without data, not the same in each file
+        files[name] = str(tmp_path / f"{name}.img")
+        write_envi(files[name], cube, wl, interleave=interleave, nodata=0)
+    v, s = (files[n][: -len(".img")] + ".hdr" for n in ("vnir", "swir"))
+    outputs = {}
+    for how in ("raw", "gdal"):
+        if how == "gdal":
+            monkeypatch.setattr(shadow_map, "raw_bands_reader", lambda *a: (None, None))
+        out = {k: str(tmp_path / f"{how}_{k}.tif") for k in ("output", "mask", "fraction")}
+        res = shadow_map_file(v, s, **out)
+        outputs[how] = res, [read(out[k]) for k in ("output", "mask", "fraction")]
+    (raw, raw_maps), (gdal, gdal_maps) = outputs["raw"], outputs["gdal"]
+    assert {k: x for k, x in raw.items() if k not in ("output", "mask", "fraction")} == {
+        k: x for k, x in gdal.items() if k not in ("output", "mask", "fraction")
+    }
+    for a, b in zip(raw_maps, gdal_maps, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert (raw_maps[0][20, 30:36] == NODATA_CLASS).all()
+    assert (raw_maps[0][21, 30:36] == NODATA_CLASS).all()

@@ -24,6 +24,7 @@ from .. import io
 from ..errors import ParameterError
 from ..io.bands import BoresightOffset, band_range
 from ..io.checks import no_valid_error
+from ..io.cube import raw_bands_reader
 from ..io.dark import recorded_dark
 from ..io.dual import BandChoice, DualLayout
 from ..io.windows import Sample
@@ -241,7 +242,7 @@ def shadow_map_file(
         # Pass 1: a random sample of the line for the dark levels and the sunlit modes.
         how = (dark, calibration, base_table, core_darkness)
         cal, levels = _calibrate(vnir, dual, (v_src, s_src), mb, how, strips, warnings, progress)
-        read = _map_reader(v_src, s_src, mb, opened)
+        read = _map_reader(stack, (v_src, s_src), dual, mb, opened)
         block = dict(calibration=cal, dark_levels=levels, edge_pixels=edge_pixels)
         prior, agreement = None, {}
         if opened is not None:
@@ -320,14 +321,29 @@ class _MapBands(NamedTuple):
     swir_dark: list
     long_swir: list  # the long-SWIR bands of the tilt test; empty when the SWIR stops short
 
+    def reads(self) -> tuple[list, list]:
+        """(VNIR bands, SWIR bands) a block of :func:`_map_reader` holds, in its order: the
+        ratio's bands only for their validity."""
+        return (
+            self.blue + self.nir + [self.ratio.vnir_band],
+            self.swir + self.long_swir + [self.ratio.swir_band],
+        )
+
     def split(self, values):
         """(blue, nir, swir) of a block read by :func:`_map_reader`."""
-        at_nir, at_swir = len(self.blue), len(self.blue) + len(self.nir)
-        return values[:at_nir], values[at_nir:at_swir], values[at_swir : at_swir + len(self.swir)]
+        at_nir, at_swir = len(self.blue), len(self.blue) + len(self.nir) + 1
+        return (
+            values[:at_nir],
+            values[at_nir : at_swir - 1],
+            values[at_swir : at_swir + len(self.swir)],
+        )
 
     def long(self, values):
         """The long-SWIR bands of a block read by :func:`_map_reader` (None without them)."""
-        return values[len(values) - len(self.long_swir) :] if self.long_swir else None
+        if not self.long_swir:
+            return None
+        at = len(self.blue) + len(self.nir) + 1 + len(self.swir)
+        return values[at : at + len(self.long_swir)]
 
 
 def _map_bands(dual, bands: BandChoice, progress) -> _MapBands:
@@ -359,15 +375,14 @@ def _checked_sample(vnir, dual, sources, mb: _MapBands, sample, strips, warnings
     """The calibration sample of both instruments, saturated pixels and those without signal
     left out (else "no shadow" would be reported): (VNIR values, SWIR values, usable)."""
     v_src, s_src = sources
-    pixels, ok = io.sample_windows(
-        io.bands_reader(
-            [(v_src, b) for b in mb.vnir_dark] + [(s_src, b) for b in mb.swir_dark + mb.long_swir]
-        ),
-        size=sample.sample_size,
-        seed=sample.seed,
-        progress=progress.sub(0, 0.3),
-        **strips,
-    )
+    with _bands_reader(dual, sources, mb.vnir_dark, mb.swir_dark + mb.long_swir) as read:
+        pixels, ok = io.sample_windows(
+            read,
+            size=sample.sample_size,
+            seed=sample.seed,
+            progress=progress.sub(0, 0.3),
+            **strips,
+        )
     if not ok.any():
         raise no_valid_error(vnir, "VNIR/SWIR image")
     at_long = len(mb.vnir_dark) + len(mb.swir_dark)
@@ -449,16 +464,31 @@ def _long_dark(sensor, src, bands, given: DarkLevels, sample, valid) -> np.ndarr
     return np.asarray(band_means, float)
 
 
-def _map_reader(v_src, s_src, mb: _MapBands, opened):
-    """Pass 2's reader of a block: the signal bands (valid in the ratio's bands too), and
-    with a surface model its heights and the block's first line."""
-    read_image = io.bands_reader(
-        [(v_src, b) for b in mb.blue]
-        + [(v_src, b) for b in mb.nir]
-        + [(s_src, b) for b in mb.swir]
-        + [(v_src, mb.ratio.vnir_band), (s_src, mb.ratio.swir_band)]
-        + [(s_src, b) for b in mb.long_swir]
-    )
+@contextlib.contextmanager
+def _bands_reader(dual, sources, vnir_bands: list, swir_bands: list):
+    """``read(row0, row1) -> (values, valid)`` of the 1-based ``vnir_bands`` then
+    ``swir_bands``, valid where all are: straight from raw ENVI files
+    (:func:`geoboresight.io.cube.raw_bands_reader`: a BIL strip's bands in one copy), else
+    through GDAL band by band (:func:`geoboresight.io.bands_reader`). The same values and
+    validity either way."""
+    raw, cube = raw_bands_reader(dual.vnir.reads, dual.swir.reads, vnir_bands, swir_bands)
+    if raw is None:
+        v_src, s_src = sources
+        yield io.bands_reader([(v_src, b) for b in vnir_bands] + [(s_src, b) for b in swir_bands])
+        return
+
+    def read(row0: int, row1: int):
+        (v, v_ok), (s, s_ok) = raw(row0, row1)
+        return np.concatenate([v, s]), v_ok & s_ok
+
+    with cube:
+        yield read
+
+
+def _map_reader(stack, sources, dual, mb: _MapBands, opened):
+    """Pass 2's reader of a block (:meth:`_MapBands.reads`: the signal bands, valid in the
+    ratio's bands too), and with a surface model its heights and the block's first line."""
+    read_image = stack.enter_context(_bands_reader(dual, sources, *mb.reads()))
     if opened is None:
         return read_image
     read_z = io.band_reader(opened.src, 1)
