@@ -391,3 +391,38 @@ def test_shadow_map_reads_raw_files_as_gdal_does(model2_scene, tmp_path, monkeyp
         np.testing.assert_array_equal(a, b)
     assert (raw_maps[0][20, 30:36] == NODATA_CLASS).all()
     assert (raw_maps[0][21, 30:36] == NODATA_CLASS).all()
+
+
+@pytest.mark.parametrize(
+    "keep_nm, n_long", [((2105, 2130), 2), ((2095, 2130), 3), ((2000, 2300), 18)]
+)
+def test_the_tilt_test_needs_three_long_swir_bands(model2_scene, tmp_path, keep_nm, n_long):
+    """A SWIR with fewer than three bands at 2.03–2.25 µm maps without the tilt test, and says
+    so in one line; with three or more the test runs on them."""
+    from geoboresight.io import write_envi
+    from geoboresight.progress import Progress
+
+    _, folder = model2_scene
+    with quiet_georef(), rasterio.open(os.path.join(folder, "swir.img")) as src:
+        wl = np.array([float(w) for w in src.tags(ns="ENVI")["wavelength"].strip("{}").split(",")])
+        keep = [i for i, w in enumerate(wl) if w < 2000 or keep_nm[0] < w < keep_nm[1]]
+        cube = src.read([i + 1 for i in keep])
+    long_nm = wl[keep][(wl[keep] >= 2030) & (wl[keep] <= 2250)]
+    assert len(long_nm) == n_long  # the scene model's 12 nm bands, cut
+    write_envi(str(tmp_path / "swir.img"), cube, wl[keep], interleave="bil")
+    lines = []
+    res = shadow_map_file(
+        os.path.join(folder, "vnir.hdr"),
+        str(tmp_path / "swir.hdr"),
+        output=str(tmp_path / "c.tif"),
+        progress=Progress(log=lines.append),
+    )
+    off = [m for m in lines if "tilt test is off" in m]
+    if n_long < 3:
+        assert res["sunlit_swir_tilt"] is None
+        assert off == [
+            "the SWIR has 2 band(s) at 2030–2250 nm (the tilt test takes at least 3): the "
+            "sunlit dark materials' tilt test is off"
+        ]
+    else:
+        assert res["sunlit_swir_tilt"] is not None and not off

@@ -69,6 +69,9 @@ __all__ = ["Detection", "MapCalibration", "MapSample", "SurfaceModel", "shadow_m
 
 #: Pixels drawn at random to calibrate the map.
 SAMPLE_SIZE = 200_000
+#: Fewest SWIR bands in :data:`~geoboresight.shadow.context.LONG_SWIR_NM` the tilt test
+#: averages (a shadow's long SWIR holds a few DN in each).
+LONG_SWIR_BANDS = 3
 
 
 @dataclass(frozen=True)
@@ -358,11 +361,12 @@ def _map_bands(dual, bands: BandChoice, progress) -> _MapBands:
     s_dark_b = sorted(set(spread_bands(dual.swir.bands, DARK_BANDS) + swir_b + [rb.swir_band]))
     lo, hi = LONG_SWIR_NM
     long_b = [b for b in dual.swir.bands if lo <= dual.swir.wavelength_of(b) <= hi]
-    if len(long_b) < 3:
-        long_b = []
+    if len(long_b) < LONG_SWIR_BANDS:
         progress.info(
-            f"the SWIR has no bands at {lo:g}–{hi:g} nm: the sunlit dark materials' tilt test is off"
+            f"the SWIR has {len(long_b)} band(s) at {lo:g}–{hi:g} nm (the tilt test takes at "
+            f"least {LONG_SWIR_BANDS}): the sunlit dark materials' tilt test is off"
         )
+        long_b = []
     progress.info(
         f"signals: blue bands {blue_b[0]}–{blue_b[-1]}, NIR bands {nir_b[0]}–{nir_b[-1]} of "
         f"{dual.vnir.path}, SWIR bands "
