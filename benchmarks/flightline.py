@@ -29,7 +29,12 @@
    own arithmetic. Rerun this
    script and record its tables in ``benchmarks/RESULTS.md`` with the commit whenever a change
    touches a default or a hot path.
-5. **Many lines on Dask** (``--batch-jobs N``, 0 skips): ``--batch-op`` on N jobs of a
+5. **Before and after** (``--alternate TREE,TREE,...``): only the ``--also`` operations,
+   each code tree in turn through ``PYTHONPATH`` (a checkout, or ``git archive COMMIT`` unpacked),
+   a first round not kept (it fills the page cache and measures the offset into the shared
+   cache folder), then ``--rounds`` rounds; wall time, CPU time (user + system) and peak RSS
+   of each run, with the ratio to the first tree's run of the same round.
+6. **Many lines on Dask** (``--batch-jobs N``, 0 skips): ``--batch-op`` on N jobs of a
    ``--batch-lines`` line (every job reads the same line, each writes its own output): one
    after another as processes, ``geoboresight batch --workers 1`` and ``--workers 2`` (a
    ``LocalCluster``), and ``geoboresight batch --scheduler`` against a ``dask scheduler`` and
@@ -84,7 +89,8 @@ def free_gb(path: str) -> float:
 
 
 def run(cmd: list[str], log: str) -> dict:
-    """Run ``cmd``; its wall time (s), peak RSS (GB) from ``os.wait4`` and exit status."""
+    """Run ``cmd``; its wall time (s), CPU time (s), peak RSS (GB) from ``os.wait4`` and
+    exit status."""
     with open(log, "ab") as err:
         t0 = time.perf_counter()
         proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=err)
@@ -93,6 +99,7 @@ def run(cmd: list[str], log: str) -> dict:
     proc.returncode = os.waitstatus_to_exitcode(status)  # reaped here, not by Popen
     return {
         "seconds": wall,
+        "cpu_seconds": usage.ru_utime + usage.ru_stime,
         "peak_gb": usage.ru_maxrss / 1024**2,  # KiB on Linux
         "status": proc.returncode,
         "command": " ".join(os.path.basename(c) if c == EXE else c for c in cmd),
@@ -403,6 +410,37 @@ def run_ops(line: str, ops, out: str, log: str) -> dict:
     return res
 
 
+def alternate(line: str, ops, trees, rounds: int, work: str, log: str) -> list[tuple]:
+    """``ops`` on ``line`` with each code tree in turn (``PYTHONPATH``), a first round not
+    kept, then ``rounds`` rounds: a table row per tree and operation."""
+    runs = {(t, op): [] for t in trees for op in ops}
+    for k in range(rounds + 1):
+        for t in trees:
+            os.environ["PYTHONPATH"] = os.path.abspath(t)
+            print(f"round {k} ({'warm-up' if k == 0 else 'kept'}): {t}", flush=True)
+            res = run_ops(line, ops, os.path.join(work, f"out-{trees.index(t)}"), log)
+            failed = [op for op in ops if res[op]["status"]]
+            if failed:
+                raise SystemExit(f"{', '.join(failed)} failed with {t}: see {log} (--keep)")
+            for op in ops if k else ():
+                runs[t, op].append(res[op])
+    rows = []
+    for (t, op), rs in runs.items():
+        first = runs[trees[0], op]
+        rows.append(
+            (
+                f"{op}: {t}",
+                " / ".join(f"{r['seconds']:.2f}" for r in rs),
+                " / ".join(f"{r['cpu_seconds']:.2f}" for r in rs),
+                " / ".join(f"{r['peak_gb']:.3f}" for r in rs),
+                " / ".join(
+                    f"{r['seconds'] / f['seconds']:.2f}" for r, f in zip(rs, first, strict=True)
+                ),
+            )
+        )
+    return rows
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--lines", type=int, default=20000)
@@ -428,6 +466,11 @@ def main(argv=None) -> int:
     ap.add_argument("--batch-lines", type=int, default=2000)
     ap.add_argument("--batch-op", default="relative-dem")
     ap.add_argument("--only-batch", action="store_true", help="only the Dask scaling table")
+    ap.add_argument(
+        "--alternate",
+        help="code trees (comma-separated) whose --also operations alone are timed in turn",
+    )
+    ap.add_argument("--rounds", type=int, default=3, help="rounds of --alternate kept")
     ap.add_argument("--json", help="also write every figure to this JSON file")
     args = ap.parse_args(argv)
     try:
@@ -477,6 +520,15 @@ def main(argv=None) -> int:
         line = make_line(scene, os.path.join(work, f"line{args.lines}"), args.lines)
         gb = sum(os.path.getsize(os.path.join(line, f"{n}.img")) for n in ("vnir", "swir")) / 1e9
         print(f"line of {args.lines} lines: {gb:.2f} GB", flush=True)
+        if args.alternate:
+            os.environ[CACHE_ENV] = os.path.join(work, "cache")
+            trees = [t for t in args.alternate.split(",") if t]
+            also = [o for o in args.also.split(",") if o]
+            rows = alternate(line, also, trees, args.rounds, work, log)
+            print(f"\n{args.lines} lines, load average {figures['load_start']} -> {load()}\n")
+            header = ("operation: code", "wall (s)", "CPU (s)", "peak RSS (GB)", "wall / first's")
+            print(table(rows, header))
+            return 0
         v, s = (os.path.join(line, f"{n}.hdr") for n in ("vnir", "swir"))
         limits = []
         if not args.no_rx_limit:
