@@ -20,6 +20,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..sensor.coregister import coregister
 from .context import sunlit_dark
 from .darkness import (
     DSM_TOLERANCE,
@@ -187,8 +188,6 @@ def shadow_fraction_block(
     :data:`~geoboresight.shadow.context.HALO` more lines of halo); with ``prior`` it does so
     where the spectral estimate holds (``unseen``). ``long_swir``: the DN of the long-SWIR
     bands (SWIR grid), whose dark level is ``dark_levels``' fourth entry."""
-    from ..sensor.coregister import coregister
-
     blue_level, nir_level, swir_level, *long_level = dark_levels
     b = signal(blue, blue_level)
     n = signal(nir, nir_level)

@@ -257,8 +257,9 @@ def march_steps(
     return min(across, int(math.ceil(max(relief, 0.0) / rise)) + 1)
 
 
-def _shifted(a: np.ndarray, sr: int, sc: int, fill: float) -> np.ndarray:
-    """``a`` sampled at (r + sr, c + sc); ``fill`` outside the grid."""
+def shifted(a: np.ndarray, sr: int, sc: int, fill: float) -> np.ndarray:
+    """``a`` sampled at (r + sr, c + sc), whole cells; ``fill`` outside the grid (the march
+    towards the sun, and the moves of a mask along it)."""
     rows, cols = a.shape
     out = np.full(a.shape, fill, dtype=a.dtype)
     if abs(sr) >= rows or abs(sc) >= cols:
@@ -376,7 +377,7 @@ def cast_shadow(
         if abs(fr) >= rows + 1 or abs(fc) >= cols + 1:
             break
         if interpolation == "nearest":
-            sample = _shifted(occluder, int(np.floor(fr + 0.5)), int(np.floor(fc + 0.5)), -np.inf)
+            sample = shifted(occluder, int(np.floor(fr + 0.5)), int(np.floor(fc + 0.5)), -np.inf)
         else:
             r0, c0 = int(np.floor(fr)), int(np.floor(fc))
             wr, wc = fr - r0, fc - c0
@@ -388,7 +389,7 @@ def cast_shadow(
                 (1, 1, wr * wc),
             ):
                 if w > 0:
-                    sample += w * _shifted(occluder, r0 + dr, c0 + dc, -np.inf)
+                    sample += w * shifted(occluder, r0 + dr, c0 + dc, -np.inf)
             sample[np.isnan(sample)] = -np.inf
         shadow |= (sample - z) > k * rise + clearance
     return shadow & ok
@@ -544,8 +545,8 @@ def cell_fraction(
     n = int(supersample)
     sr, sc = (int(round(float(v) * n)) for v in shift)
     if sr or sc:
-        # _shifted samples at (r + sr, c + sc): moving the shadow by +s samples at −s.
-        fine = _shifted(np.asarray(fine, bool), -sr, -sc, False)
+        # shifted samples at (r + sr, c + sc): moving the shadow by +s samples at −s.
+        fine = shifted(np.asarray(fine, bool), -sr, -sc, False)
     rows, cols = fine.shape[0] // n, fine.shape[1] // n
     frac = fine.reshape(rows, n, cols, n).mean(axis=(1, 3))
     return frac if valid is None else np.where(valid, frac, np.nan)
@@ -632,7 +633,7 @@ def along_ray(mask: np.ndarray, ray: tuple[float, float, int]) -> np.ndarray:
         sr, sc = int(np.floor(k * drow + 0.5)), int(np.floor(k * dcol + 0.5))
         if abs(sr) >= m.shape[0] and abs(sc) >= m.shape[1]:
             break
-        out &= _shifted(m, sr, sc, True)
+        out &= shifted(m, sr, sc, True)
     return out
 
 
@@ -738,7 +739,7 @@ def sky_view_factor(
                 break
             dist = float(np.hypot(*(m @ np.array([sc, sr]))))
             with np.errstate(invalid="ignore"):
-                rise = _shifted(occluder, sr, sc, -np.inf) - z - clearance
+                rise = shifted(occluder, sr, sc, -np.inf) - z - clearance
                 best = np.maximum(best, rise / dist)
         total += 1.0 / (1.0 + best * best)  # cos² of the horizon elevation
     return np.where(ok, total / n_dir, np.nan).astype(np.float32)
