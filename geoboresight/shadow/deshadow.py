@@ -269,7 +269,7 @@ def illumination_ratio(
     what is averaged and returned (without ``sky_view`` every V is 1: ``k = r``).
 
     ``direct`` (n,): the direct light on each sunlit side's slope relative to level ground,
-    ``cos i / cos Z`` (:func:`geoboresight.shadow.illumination.plane_incidence`); the sunlit
+    ``cos i / cos Z`` (:func:`geoboresight.shadow.incidence.plane_incidence`); the sunlit
     side then gets ``cos i/cos Z·E_dir + V_b·E_sky`` and ``k = (V_a·r − V_b)·cos Z/cos i + 1``
     (pairs with no direct light on the sunlit side are not used).
 
@@ -713,7 +713,7 @@ def deshadow(
         a NaN or < 1 band is left unchanged: 1).
     sky_view : array (rows, cols), optional
         Sky-view factor of each pixel, 0–1
-        (:func:`geoboresight.shadow.illumination.sky_view_factor`; NaN = invalid).
+        (:func:`geoboresight.shadow.skyview.sky_view_factor`; NaN = invalid).
     adjacency : array (n_bands, rows, cols), optional
         The light the sunlit surroundings reflect into each pixel, in units of the open sky's
         (:func:`adjacency_ratio`: ``scale·(1 − V)·S̄``; NaN = none): added to V in both the

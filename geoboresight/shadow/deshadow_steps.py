@@ -22,7 +22,8 @@ import numpy as np
 
 from ..sensor.coregister import coregister, coregister_stack
 from . import deshadow, region
-from .illumination import plane_incidence, sun_step
+from .illumination import sun_step
+from .incidence import plane_incidence
 from .prior import SurfacePrior
 
 #: Pixels of a flight line whose pairs are looked for (a fixed share of a longer line, so
