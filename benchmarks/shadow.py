@@ -79,7 +79,7 @@ subprocess.run(["grass", "--tmp-location", {dsm!r}, "--exec", "bash", {script!r}
         )
         ours_hs = measure(f"""
 import rasterio
-from geoboresight.shadow.illumination import hillshade
+from geoboresight.shadow.incidence import hillshade
 with rasterio.open({dsm!r}) as s: z = s.read(1); tr = s.transform
 h = hillshade(z, sun_zenith=60.0, sun_azimuth=205.8, transform=tr)
 """)

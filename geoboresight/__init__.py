@@ -31,7 +31,7 @@ KERNELS = {
     "describe": "geoboresight.stats",
     "cast_shadow": "geoboresight.shadow.illumination",
     "shadow_fraction": "geoboresight.shadow.illumination",
-    "hillshade": "geoboresight.shadow.illumination",
+    "hillshade": "geoboresight.shadow.incidence",
     "fit_shadow_cluster": "geoboresight.shadow.cluster",
     "fit_dark_pixel": "geoboresight.shadow.darkpixel",
     "fit_fraction_model": "geoboresight.shadow.fraction",

@@ -123,8 +123,8 @@ from .shadow.darkness import shadow_fraction_estimate as shadow_fraction_estimat
 from .shadow.darkpixel import fit_dark_pixel as fit_dark_pixel
 from .shadow.fraction import fit_fraction_model as fit_fraction_model
 from .shadow.illumination import cast_shadow as cast_shadow
-from .shadow.illumination import hillshade as hillshade
 from .shadow.illumination import shadow_fraction as shadow_fraction
+from .shadow.incidence import hillshade as hillshade
 from .shadow.surface import choose_surface as choose_surface
 from .simulate.ortho import attitude_jitter as attitude_jitter
 from .simulate.ortho import simulate_ortho as simulate_ortho

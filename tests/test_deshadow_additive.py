@@ -241,7 +241,7 @@ def test_the_slopes_direct_light_takes_the_bias_out_of_the_line():
 
 
 def test_plane_incidence_is_the_slopes_cos_i_and_quieter_than_hillshade():
-    from geoboresight.shadow import illumination as ill
+    from geoboresight.shadow import incidence
 
     yy, xx = np.mgrid[0:60, 0:60].astype(float)
     z = 0.25 * xx - 0.15 * yy  # a plane rising to the east and to the north (row 0)
@@ -256,11 +256,11 @@ def test_plane_incidence_is_the_slopes_cos_i_and_quieter_than_hillshade():
         ]
     )
     truth = float(n @ s) / np.cos(np.radians(zen))
-    p = ill.plane_incidence(z, sun_zenith=zen, sun_azimuth=az, cell_size=1.0)
+    p = incidence.plane_incidence(z, sun_zenith=zen, sun_azimuth=az, cell_size=1.0)
     assert np.allclose(p[5:-5, 5:-5], truth, atol=1e-9)
     noisy = z + np.random.default_rng(0).normal(0.0, 0.3, z.shape)
-    p = ill.plane_incidence(noisy, sun_zenith=zen, sun_azimuth=az, cell_size=1.0)
-    h = ill.hillshade(noisy, sun_zenith=zen, sun_azimuth=az, cell_size=1.0)
+    p = incidence.plane_incidence(noisy, sun_zenith=zen, sun_azimuth=az, cell_size=1.0)
+    h = incidence.hillshade(noisy, sun_zenith=zen, sun_azimuth=az, cell_size=1.0)
     h = h.astype(float) / np.cos(np.radians(zen))
     inner = (slice(5, -5), slice(5, -5))
     assert np.std(p[inner] - truth) < 0.5 * np.std(h[inner] - truth)

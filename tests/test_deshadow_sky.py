@@ -16,16 +16,17 @@ import pytest
 from geoboresight.errors import ParameterError
 from geoboresight.shadow import deshadow as ds
 from geoboresight.shadow import illumination as ill
+from geoboresight.shadow import skyview
 
 SUN = dict(sun_zenith=40.0, sun_azimuth=180.0)  # sun in the south: shadows fall north (up)
 
 
 def test_sky_view_of_flat_ground_is_one():
-    v = ill.sky_view_factor(np.zeros((40, 50)), cell_size=1.0)
+    v = skyview.sky_view_factor(np.zeros((40, 50)), cell_size=1.0)
     assert np.allclose(v, 1.0)
     # Height noise below the clearance hides no sky.
     z = np.random.default_rng(0).normal(0, 0.3, (60, 60))
-    assert ill.sky_view_factor(z, cell_size=1.0, clearance=1.0).mean() > 0.99
+    assert skyview.sky_view_factor(z, cell_size=1.0, clearance=1.0).mean() > 0.99
 
 
 @pytest.mark.parametrize("half, depth", [(6, 5.0), (11, 10.0), (4, 10.0)])
@@ -36,7 +37,7 @@ def test_sky_view_of_a_long_trench_is_the_analytic_value(half, depth):
     # integrate 1/(1 + a² sin² φ) to within 1.5 % for these shapes (checked by the sum).
     z = np.full((201, 120), depth)
     z[100 - half + 1 : 100 + half, :] = 0.0
-    v = ill.sky_view_factor(z, cell_size=1.0, radius=300.0)[100, 60]
+    v = skyview.sky_view_factor(z, cell_size=1.0, radius=300.0)[100, 60]
     exact = half / math.hypot(half, depth)
     assert v == pytest.approx(exact, rel=0.015)
     # Not the flat value: the test can fail.
@@ -45,9 +46,9 @@ def test_sky_view_of_a_long_trench_is_the_analytic_value(half, depth):
 
 def test_sky_view_rejects_bad_parameters():
     with pytest.raises(ParameterError, match="radius"):
-        ill.sky_view_factor(np.zeros((5, 5)), cell_size=1.0, radius=0)
+        skyview.sky_view_factor(np.zeros((5, 5)), cell_size=1.0, radius=0)
     with pytest.raises(ParameterError, match="directions"):
-        ill.sky_view_factor(np.zeros((5, 5)), cell_size=1.0, directions=2)
+        skyview.sky_view_factor(np.zeros((5, 5)), cell_size=1.0, directions=2)
 
 
 def _town(rows=70, cols=80):
@@ -82,7 +83,7 @@ def _lit(rows=70, cols=80, nb=8, seed=3):
     V of the blocks from sky_view_factor (checked against the analytic trench above)."""
     rng = np.random.default_rng(seed)
     z, f = _town(rows, cols)
-    v = ill.sky_view_factor(z, cell_size=1.0)
+    v = skyview.sky_view_factor(z, cell_size=1.0)
     r = np.linspace(2.0, 20.0, nb)  # E_dir/E_sky: blue to SWIR
     rho = np.empty((nb, rows, cols))
     left = np.zeros((rows, cols), bool)

@@ -342,6 +342,39 @@ def test_the_shadow_maps_kernels_stand_in_three_rooms_one_way():
         assert getattr(b, name).__module__ == blocks, name
 
 
+def test_the_shadow_kernels_share_only_public_names_imported_at_the_top():
+    """A shadow kernel module uses another module's public names only, imported at its top:
+    a private name (``_x``) never crosses a module's border, and no module of the package is
+    imported inside a function (a lazy import of a heavy library stays allowed)."""
+    crossing, deferred = [], []
+    for path in sorted((PKG / "shadow").glob("*.py")):
+        tree = ast.parse(path.read_text())
+        modules = set()  # names bound to package modules ("from . import darkness")
+        for node in ast.walk(tree):
+            if not isinstance(node, ast.ImportFrom) or not (
+                node.level or "geoboresight" in (node.module or "")
+            ):
+                continue
+            if node not in tree.body:
+                deferred.append(f"{path.name}:{node.lineno}")
+            for alias in node.names:
+                if alias.name.startswith("_") and not alias.name.startswith("__"):
+                    crossing.append(f"{path.name}:{node.lineno} imports {alias.name}")
+                if node.module is None:
+                    modules.add(alias.asname or alias.name)
+        for node in ast.walk(tree):
+            if (
+                isinstance(node, ast.Attribute)
+                and isinstance(node.value, ast.Name)
+                and node.value.id in modules
+                and node.attr.startswith("_")
+                and not node.attr.startswith("__")
+            ):
+                crossing.append(f"{path.name}:{node.lineno} uses {node.value.id}.{node.attr}")
+    assert not crossing, "\n".join(crossing)
+    assert not deferred, "package modules imported inside a function: " + ", ".join(deferred)
+
+
 def test_io_imports_no_kernel_package():
     graph = _import_graph()
     for module, deps in graph.items():

@@ -353,10 +353,10 @@ def test_the_blocks_forward_the_test_and_the_surface_models_fallback_applies_it(
     roof, shade = (slice(7, 13), slice(27, 33)), (slice(7, 13), slice(7, 13))
     assert (m_off[roof] == 1).all() and (m_on[roof] == 0).all()
     assert (m_on[shade] == 1).all()
-    no_prior = dict(prior=np.zeros(blue.shape), unseen=np.ones(blue.shape, bool))
-    f_off, _ = blocks.shadow_fraction_block(**cubes, **kw, **no_prior)
+    no_prior = blocks.ModelOnBlock(prior=np.zeros(blue.shape), unseen=np.ones(blue.shape, bool))
+    f_off, _ = blocks.shadow_fraction_block(**cubes, **kw, model=no_prior)
     f_on, _ = blocks.shadow_fraction_block(
-        **cubes, **kw, **no_prior, sky_blue=-0.3, long_swir=long[None]
+        **cubes, **kw, model=no_prior, sky_blue=-0.3, long_swir=long[None]
     )
     assert (f_off[roof] >= 0.5).all() and (f_on[roof] < 0.5).all()
     assert (f_on[shade] >= 0.5).all()

@@ -27,10 +27,10 @@ from geoboresight.shadow.illumination import (
     grid_matrix,
     halo_rows,
     height_range,
-    hillshade,
     shadow_fraction,
     unseen_casters,
 )
+from geoboresight.shadow.incidence import hillshade
 
 CRS = "EPSG:32636"
 

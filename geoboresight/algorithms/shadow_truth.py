@@ -7,7 +7,8 @@ from __future__ import annotations
 from ..io.windows import Sample
 from ..operations.shadow_truth import BANDS_NM, dark_pixel_shadow_file, sun_shadow_file
 from ..shadow.darkpixel import DARK_PERCENTILE, SAMPLE_SIZE, THRESHOLD
-from ..shadow.illumination import SUPERSAMPLE, SURFACES, Z_FACTOR
+from ..shadow.illumination import SUPERSAMPLE, SURFACES
+from ..shadow.incidence import Z_FACTOR
 from ..shadow.surface import AUTO
 from ._common import BLOCK_ROWS, TOLERANCE, sample_size, seed
 from .spec import Algorithm, Band, Enum, Group, Number, RasterIn, RasterOut, Result, Text

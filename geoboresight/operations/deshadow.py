@@ -35,8 +35,8 @@ from ..shadow.deshadow_steps import (
     pair_share,
     picked_pixels,
 )
-from ..shadow.illumination import SKY_RADIUS_M, sky_view_factor
 from ..shadow.region import TILE as REGION_TILE
+from ..shadow.skyview import SKY_RADIUS_M, sky_view_factor
 from ._dark import DARK_BANDS, dual_dark_levels, spread_bands
 from ._offset import boresight_offset
 from ._surface import SurfaceModel, open_surface
@@ -84,7 +84,7 @@ class LightModel:
 
 def _sky_view(read_z, prior, r0, r1, height):
     """(heights, sky-view factor) of lines r0–r1: the factor from the DSM read
-    :data:`~geoboresight.shadow.illumination.SKY_RADIUS_M` beyond them (its horizon search)."""
+    :data:`~geoboresight.shadow.skyview.SKY_RADIUS_M` beyond them (its horizon search)."""
     halo = math.ceil(SKY_RADIUS_M / _cell(prior)) + 1
     q0, q1 = max(0, r0 - halo), min(height, r1 + halo)
     z, z_ok = read_z(q0, q1)
@@ -150,7 +150,7 @@ def deshadow_file(
         A surface model on the image's grid and the sun (as ``shadow-map --dsm``): pairs are
         kept only down-sun or lateral of the shadow and between cells of about the same
         height, their median is open ground's ratio, and each pixel's own follows from its
-        sky-view factor (:func:`geoboresight.shadow.illumination.sky_view_factor`). None: one
+        sky-view factor (:func:`geoboresight.shadow.skyview.sky_view_factor`). None: one
         ratio for every pixel.
     layout : DualLayout
     dark : DarkLevels

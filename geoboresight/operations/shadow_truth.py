@@ -16,7 +16,7 @@ from ..io.dual import TOLERANCE_NM
 from ..io.georef import grid_place, metric_matrix
 from ..io.wavelengths import nearest_band, wavelengths_of
 from ..io.windows import Sample
-from ..shadow import illumination
+from ..shadow import incidence
 from ..shadow.classes import MASK_NODATA, MASK_SHADOW
 from ..shadow.darkpixel import (
     DARK_PERCENTILE,
@@ -28,11 +28,11 @@ from ..shadow.illumination import (
     MASK_FRACTION,
     SUPERSAMPLE,
     SURFACES,
-    Z_FACTOR,
     grid_matrix,
     halo_rows,
     shadow_fraction,
 )
+from ..shadow.incidence import Z_FACTOR
 from ..shadow.surface import AUTO, choose_surface
 from ._shadow_masks import mask_raster
 from ._surface import relief_and_walls, sun_angles
@@ -176,9 +176,7 @@ def sun_shadow_file(
                 relief=relief,
                 interpolation=interpolation,
             )
-            cos_i = (
-                illumination.hillshade(z, valid, **sun, z_factor=z_factor) if hillshade else None
-            )
+            cos_i = incidence.hillshade(z, valid, **sun, z_factor=z_factor) if hillshade else None
             return frac, valid, cos_i
 
         n_shadow = _write_sun_shadow(

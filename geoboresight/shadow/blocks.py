@@ -1,6 +1,7 @@
 """The shadow map's kernels on a block of lines: the spectral map
-(:func:`shadow_map_block`, :func:`shadow_fraction_block`), and with a surface model the
-map with its cast shadow as the prior (:func:`prior_map_block`) and the move that registers
+(:func:`shadow_fraction_block`, with a surface model's part as a :class:`ModelOnBlock`;
+:func:`shadow_map_block` its classes and mask), and with a surface model the map with its
+cast shadow as the prior (:func:`prior_map_block`) and the move that registers
 that cast onto the image (:func:`register_prior`). Each takes the arrays of one block and
 small values; the operation runs them over the image with ``io.map_windows``. They build on
 the spectral steps (:mod:`geoboresight.shadow.darkness`) and the surface prior's steps
@@ -20,6 +21,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..sensor.coregister import coregister
 from .context import sunlit_dark
 from .darkness import (
     DSM_TOLERANCE,
@@ -51,7 +53,7 @@ from .prior import (
 
 
 def shadow_map_halo(calibration: SceneCalibration, edge_pixels: int = EDGE_PIXELS) -> int:
-    """Lines above and below a block that :func:`shadow_map_block` needs to give, on the
+    """Lines above and below a block that :func:`shadow_fraction_block` needs to give, on the
     block, the values of the whole image: the SWIR's along-track shift and its bilinear
     reach, and the edge search (``edge_pixels`` and half the unmixing window)."""
     return (
@@ -63,7 +65,26 @@ def shadow_map_halo(calibration: SceneCalibration, edge_pixels: int = EDGE_PIXEL
     )
 
 
-def shadow_map_block(
+@dataclasses.dataclass(frozen=True)
+class ModelOnBlock:
+    """A surface model's part in a block's shadow fraction (:func:`dsm_shadow_fraction`):
+    the cast-shadow fraction it predicts on the block (``prior``; no shadow away from it),
+    its heights and their tolerance (``heights``, ``clearance`` in m: the top of a caster
+    beside its shadow is not shadow), the pixels a caster beyond the model could shade
+    (``unseen``: the spectral estimate holds there if the way to the edge along ``ray`` is
+    not lit), how far (cells) the clearance shortens a shadow's far end down-sun along
+    ``ray`` (``reach``) and the registration's tolerance (px)."""
+
+    prior: np.ndarray
+    heights: np.ndarray | None = None
+    clearance: float = 0.0
+    unseen: np.ndarray | None = None
+    ray: tuple[float, float, int] | None = None
+    reach: float = 0.0
+    tolerance: int = DSM_TOLERANCE
+
+
+def shadow_fraction_block(
     blue: np.ndarray,
     nir: np.ndarray,
     swir: np.ndarray,
@@ -72,16 +93,11 @@ def shadow_map_block(
     calibration: SceneCalibration,
     dark_levels: tuple = (0.0, 0.0, 0.0),
     edge_pixels: int = EDGE_PIXELS,
-    prior: np.ndarray | None = None,
-    heights: np.ndarray | None = None,
-    clearance: float = 0.0,
-    unseen: np.ndarray | None = None,
-    ray: tuple[float, float, int] | None = None,
-    reach: float = 0.0,
+    model: ModelOnBlock | None = None,
     sky_blue: float | None = None,
     long_swir: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Shadow classes and shadow mask of a block of lines: the shadow map's per-pixel pipeline.
+    """(shadow fraction, darkness) of a block of lines: the shadow map's per-pixel pipeline.
 
     1. **Signal**: DN minus the instrument's dark level, averaged over the bands of each range
        (:func:`signal`; blue, NIR, SWIR).
@@ -91,10 +107,8 @@ def shadow_map_block(
     3. **Darkness** against the scene's sunlit modes (:func:`darkness`).
     4. **Shadow fraction**: core shadow at or below ``calibration.core``, not water
        (:func:`too_blue`), unmixed between sunlit and shadowed neighbours within
-       ``edge_pixels`` (:func:`shadow_fraction_estimate`).
-    5. **Mask**: fraction ≥ 50 % (:func:`shadow_mask`).
-    6. **Classes**: Table 2's shadow-fraction intervals (:func:`shadow_classes` with
-       ``calibration.table``).
+       ``edge_pixels`` (:func:`shadow_fraction_estimate`); with a surface ``model``, the
+       predicted shadow refined by the darkness (:func:`dsm_shadow_fraction`).
 
     A block read with :func:`shadow_map_halo` lines above and below gives, on its own lines,
     what the whole image gives.
@@ -108,87 +122,35 @@ def shadow_map_block(
         Pixels valid in every band read.
     calibration : SceneCalibration
         From :func:`calibrate_shadow_map` on a sample of the whole flight line.
-    dark_levels : (blue, nir, swir)
+    dark_levels : (blue, nir, swir[, long SWIR])
         The dark level to subtract from each range: one number, or one per band
-        (:meth:`~geoboresight.sensor.dark.DarkLevels.for_bands`).
+        (:meth:`DarkLevel.for_bands`).
     edge_pixels : int
         Partial shadow is looked for this many pixels around the core (0 = core only).
-    prior : array (lines, columns), optional
-        The cast-shadow fraction a surface model predicts on the block: step 4 is then
-        :func:`dsm_shadow_fraction` (no shadow away from it; needs :data:`DSM_TOLERANCE` more
-        lines of halo).
-    heights : array (lines, columns), optional
-        With ``prior``: the surface model's heights, and ``clearance`` its height tolerance
-        (m), so that the top of a caster beside its shadow is not taken for shadow, and
-        ``unseen`` the pixels a caster beyond the surface model could shade, where the
-        spectral estimate holds if the way to the edge along ``ray`` is not lit
-        (:func:`dsm_shadow_fraction`). ``reach``: how far (cells) the clearance shortens a
-        shadow's far end, down-sun along ``ray`` (:func:`dsm_shadow_fraction`).
+    model : ModelOnBlock, optional
+        The surface model on the block (needs :data:`DSM_TOLERANCE` more lines of halo).
+    sky_blue : float, optional
+        A limit: the dark pixels whose blue or long SWIR is sunlit stay out of the core
+        (:func:`geoboresight.shadow.context.sunlit_dark`; needs
+        :data:`~geoboresight.shadow.context.HALO` more lines of halo); with a ``model``, where
+        the spectral estimate holds (its ``unseen`` pixels).
+    long_swir : array (n_bands, lines, columns), optional
+        The DN of the long-SWIR bands (SWIR grid), whose dark level is ``dark_levels``'
+        fourth entry.
 
     Returns
     -------
-    classes : uint8 array (lines, columns)
-        0 no shadow, the class ids of ``calibration.table``, 255 nodata.
-    mask : uint8 array (lines, columns)
-        1 shadow, 0 not, 255 nodata.
+    fraction : float32 array (lines, columns)
+        The shadow fraction (0–1), NaN where invalid.
+    darkness : array (lines, columns)
+        Step 3's darkness.
 
     References
     ----------
     Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
-    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1, Table 2: the
-    shadow-fraction classes, 80–100, 50–80, 20–50 and 10–20 % shadow).
+    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1, Table 2).
     Chavez, P.S. Remote Sens. Environ. 1988, 24, 459–479 (dark-object subtraction).
     """
-    f, _ = shadow_fraction_block(
-        blue,
-        nir,
-        swir,
-        valid,
-        calibration=calibration,
-        dark_levels=dark_levels,
-        edge_pixels=edge_pixels,
-        prior=prior,
-        heights=heights,
-        clearance=clearance,
-        unseen=unseen,
-        ray=ray,
-        reach=reach,
-        sky_blue=sky_blue,
-        long_swir=long_swir,
-    )
-    return shadow_classes(f, calibration.table), shadow_mask(f)
-
-
-def shadow_fraction_block(
-    blue: np.ndarray,
-    nir: np.ndarray,
-    swir: np.ndarray,
-    valid: np.ndarray | None = None,
-    *,
-    calibration: SceneCalibration,
-    dark_levels: tuple = (0.0, 0.0, 0.0),
-    edge_pixels: int = EDGE_PIXELS,
-    prior: np.ndarray | None = None,
-    heights: np.ndarray | None = None,
-    clearance: float = 0.0,
-    unseen: np.ndarray | None = None,
-    ray: tuple[float, float, int] | None = None,
-    reach: float = 0.0,
-    tolerance: int = DSM_TOLERANCE,
-    sky_blue: float | None = None,
-    long_swir: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """(shadow fraction, darkness) of a block: steps 1–4 of :func:`shadow_map_block`; with
-    ``prior`` (a surface model's cast-shadow fraction on the block; ``heights``,
-    ``clearance``, ``unseen``, ``ray``, ``reach`` and ``tolerance``, the surface model's) by
-    :func:`dsm_shadow_fraction` instead of :func:`shadow_fraction_estimate`. Without
-    ``prior``, ``sky_blue`` (a limit) also keeps the dark pixels whose blue or long SWIR is
-    sunlit out of the core (:func:`geoboresight.shadow.context.sunlit_dark`; needs
-    :data:`~geoboresight.shadow.context.HALO` more lines of halo); with ``prior`` it does so
-    where the spectral estimate holds (``unseen``). ``long_swir``: the DN of the long-SWIR
-    bands (SWIR grid), whose dark level is ``dark_levels``' fourth entry."""
-    from ..sensor.coregister import coregister
-
     blue_level, nir_level, swir_level, *long_level = dark_levels
     b = signal(blue, blue_level)
     n = signal(nir, nir_level)
@@ -208,23 +170,23 @@ def shadow_fraction_block(
         sunlit = sunlit_dark(
             b, n, d, good, core=calibration.core, levels=levels, limit=sky_blue, swir=s, long_swir=g
         )
-    if prior is not None:
-        if sunlit is not None and unseen is not None:
+    if model is not None:
+        if sunlit is not None and model.unseen is not None:
             # Near the model's sunward edge the spectral estimate holds: so does its test.
-            water = water | (sunlit & np.asarray(unseen, bool))
+            water = water | (sunlit & np.asarray(model.unseen, bool))
         f = dsm_shadow_fraction(
             d,
-            prior,
+            model.prior,
             good,
             edge_pixels=edge_pixels,
             water=water,
-            heights=heights,
-            clearance=clearance,
-            unseen=unseen,
-            ray=ray,
+            heights=model.heights,
+            clearance=model.clearance,
+            unseen=model.unseen,
+            ray=model.ray,
             core=calibration.core,
-            reach=reach,
-            tolerance=tolerance,
+            reach=model.reach,
+            tolerance=model.tolerance,
         )
     else:
         if sunlit is not None:
@@ -235,23 +197,45 @@ def shadow_fraction_block(
     return f, d
 
 
+def shadow_map_block(
+    blue: np.ndarray, nir: np.ndarray, swir: np.ndarray, valid: np.ndarray | None = None, **options
+) -> tuple[np.ndarray, np.ndarray]:
+    """Shadow classes and shadow mask of a block of lines: :func:`shadow_fraction_block`
+    (``options``: its keywords), then
+
+    5. **Mask**: fraction ≥ 50 % (:func:`shadow_mask`).
+    6. **Classes**: Table 2's shadow-fraction intervals (:func:`shadow_classes` with the
+       calibration's table).
+
+    Returns
+    -------
+    classes : uint8 array (lines, columns)
+        0 no shadow, the class ids of the calibration's table, 255 nodata.
+    mask : uint8 array (lines, columns)
+        1 shadow, 0 not, 255 nodata.
+
+    References
+    ----------
+    Brook, A.; Ben-Dor, E. Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484
+    (§3.1, Table 2: the shadow-fraction classes, 80–100, 50–80, 20–50 and 10–20 % shadow).
+    """
+    f, _ = shadow_fraction_block(blue, nir, swir, valid, **options)
+    return shadow_classes(f, options["calibration"].table), shadow_mask(f)
+
+
 def _model_fraction(blue, nir, swir, valid, heights, heights_valid, prior, unseen, p, **block):
-    """:func:`geoboresight.shadow.blocks.shadow_fraction_block` with the surface model: the
-    ``prior`` and the ``unseen`` pixels of the block, ``p`` its :class:`SurfacePrior`."""
-    return shadow_fraction_block(
-        blue,
-        nir,
-        swir,
-        valid,
-        prior=prior,
-        heights=registered_heights(heights, heights_valid, surface_prior=p),
-        clearance=p.clearance,
-        unseen=unseen,
-        ray=p.ray,
-        reach=p.reach,
-        tolerance=p.tolerance,
-        **block,
+    """:func:`shadow_fraction_block` with the surface model: the ``prior`` and the ``unseen``
+    pixels of the block, ``p`` its :class:`SurfacePrior`."""
+    model = ModelOnBlock(
+        prior,
+        registered_heights(heights, heights_valid, surface_prior=p),
+        p.clearance,
+        unseen,
+        p.ray,
+        p.reach,
+        p.tolerance,
     )
+    return shadow_fraction_block(blue, nir, swir, valid, model=model, **block)
 
 
 class PriorBlock(NamedTuple):
@@ -292,7 +276,7 @@ def prior_map_block(
     Parameters
     ----------
     blue, nir, swir : arrays (n_bands, lines, columns)
-        As :func:`geoboresight.shadow.blocks.shadow_map_block`.
+        As :func:`geoboresight.shadow.blocks.shadow_fraction_block`.
     heights : array (lines, columns)
         The surface model's heights (m) on the image's grid.
     valid : bool array (lines, columns), optional
@@ -300,14 +284,14 @@ def prior_map_block(
     heights_valid : bool array (lines, columns)
         Cells with a height.
     calibration, dark_levels, edge_pixels
-        As :func:`geoboresight.shadow.blocks.shadow_map_block`.
+        As :func:`geoboresight.shadow.blocks.shadow_fraction_block`.
     surface_prior : SurfacePrior
     row0 : int
         The block's first line in the grid.
     sky_blue, long_swir
         The spectral test of sunlit dark materials where the spectral estimate holds (the
         ``holes`` and the ``unseen`` pixels), as
-        :func:`geoboresight.shadow.blocks.shadow_map_block` takes them.
+        :func:`geoboresight.shadow.blocks.shadow_fraction_block` takes them.
 
     Returns
     -------

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._threads import default_workers, single_threaded_blas
 from ..errors import InputError, ParameterError
 from .classes import MASK_NODATA
 
@@ -204,8 +205,6 @@ def fit_shadow_cluster(
     from concurrent.futures import ThreadPoolExecutor
 
     from sklearn.mixture import GaussianMixture
-
-    from .._threads import default_workers, single_threaded_blas
 
     ratio = np.asarray(ratio, dtype=np.float64).ravel()
     nir = np.asarray(nir, dtype=np.float64).ravel()

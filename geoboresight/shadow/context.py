@@ -120,8 +120,8 @@ def swir_tilt(swir: np.ndarray, long_swir: np.ndarray, dark: np.ndarray, level: 
     """The tilt of each pixel: ``ln(long_swir / swir)`` over the sunlit ground's (``level``,
     :func:`sunlit_tilt_level`), both signals averaged over the ``dark`` pixels of its
     :data:`TILT_WINDOW` neighbourhood (NaN where there are none)."""
-    g = _mean(long_swir, dark, TILT_WINDOW)
-    s = _mean(swir, dark, TILT_WINDOW)
+    g = local_mean(long_swir, dark, TILT_WINDOW)
+    s = local_mean(swir, dark, TILT_WINDOW)
     with np.errstate(invalid="ignore"):
         return np.log(np.maximum(g, MIN_SIGNAL)) - np.log(np.maximum(s, MIN_SIGNAL)) - level
 
@@ -199,8 +199,8 @@ def sunlit_dark(
     blue_level, balance, *tilt = levels
     if not (math.isfinite(blue_level) and math.isfinite(balance)) or not candidate.any():
         return np.zeros(d.shape, bool)
-    own = np.log(np.maximum(_mean(blue, candidate, BLUE_WINDOW), MIN_SIGNAL)) - blue_level
-    own_nir = np.log(np.maximum(_mean(nir, candidate, BLUE_WINDOW), MIN_SIGNAL))
+    own = np.log(np.maximum(local_mean(blue, candidate, BLUE_WINDOW), MIN_SIGNAL)) - blue_level
+    own_nir = np.log(np.maximum(local_mean(nir, candidate, BLUE_WINDOW), MIN_SIGNAL))
     with np.errstate(invalid="ignore"):
         sunlit = (own >= limit) & (own + blue_level - own_nir - balance >= BLUE_NIR_RISE)
     if tilt and math.isfinite(tilt[0]) and swir is not None and long_swir is not None:
@@ -210,9 +210,9 @@ def sunlit_dark(
     return candidate & sunlit
 
 
-def _mean(x, weight, size):
+def local_mean(x: np.ndarray, weight: np.ndarray, size: int) -> np.ndarray:
     """Mean of ``x`` over the ``weight`` pixels of each ``size × size`` neighbourhood (NaN
-    where there are none)."""
+    where there are none; the grid's edge repeated beyond it)."""
     from scipy import ndimage
 
     num = ndimage.uniform_filter(np.where(weight, x, 0.0), size, mode="nearest")

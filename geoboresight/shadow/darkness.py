@@ -48,8 +48,16 @@ import numpy as np
 
 from ..errors import InputError, ParameterError
 from ..sensor.dark import DarkLevels
-from .classes import MASK_NODATA, MASK_NOT_SHADOW, MASK_SHADOW, NO_SHADOW, NODATA_CLASS, ClassTable
-from .context import sunlit_blue_levels, sunlit_tilt_level
+from .classes import (
+    MASK_NODATA,
+    MASK_NOT_SHADOW,
+    MASK_SHADOW,
+    NO_SHADOW,
+    NODATA_CLASS,
+    ClassTable,
+    scale_table,
+)
+from .context import local_mean, sunlit_blue_levels, sunlit_tilt_level
 
 #: Wavelength ranges (nm) of the blue, near-infrared and SWIR signals.
 BLUE_NM = (430.0, 500.0)
@@ -318,8 +326,6 @@ def calibrate_shadow_map(
     (§3.1, Table 2; Figure 5(B)'s line at fraction 0 as the paper's sunlit ratio).
     Otsu, N. IEEE Trans. Syst. Man Cybern. 1979, 9, 62–66.
     """
-    from .classes import scale_table
-
     if not core < 0:
         raise ParameterError(
             f"parameter 'core_darkness': {core} must be below 0 (a log ratio to the sunlit mode)"
@@ -394,15 +400,6 @@ def _where_valid(x: np.ndarray, valid=None) -> np.ndarray:
     return np.where(ok, x, np.nan)
 
 
-def _local_mean(x: np.ndarray, weight: np.ndarray, size: int) -> np.ndarray:
-    from scipy import ndimage
-
-    num = ndimage.uniform_filter(np.where(weight, x, 0.0), size, mode="nearest")
-    den = ndimage.uniform_filter(weight.astype(np.float64), size, mode="nearest")
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(den > 1e-9, num / den, np.nan)
-
-
 def shadow_fraction_estimate(
     dark: np.ndarray,
     valid: np.ndarray | None = None,
@@ -456,14 +453,17 @@ def shadow_fraction_estimate(
         core_px = ok & (d <= core)
     if water is not None:
         core_px &= ~np.asarray(water, bool)
-    return _unmix(d, ok, core_px, edge_pixels, window)
+    return unmix_edges(d, ok, core_px, edge_pixels, window)
 
 
-def _unmix(d, ok, core_px, edge_pixels, window, allowed=None, whole=None) -> np.ndarray:
-    """Shadow fraction: core pixels at least 0.5 (only those of ``whole`` when given; the
-    others get their unmixed fraction), pixels within ``edge_pixels`` of the core unmixed
-    between the local sunlit and core-shadow signals (``exp(d)``), 0 elsewhere and outside
-    ``allowed``; NaN where not ``ok``."""
+def unmix_edges(d, ok, core_px, edge_pixels, window, *, allowed=None, whole=None) -> np.ndarray:
+    """Shadow fraction from the darkness ``d`` (float) where ``ok`` and the shadow's pixels
+    ``core_px``: these at least 0.5 (only those of ``whole`` when given; the others get their
+    unmixed fraction), pixels within ``edge_pixels`` of them unmixed between the local sunlit
+    and shadow signals (``exp(d)``: means over ``window + 2`` and ``window`` pixels), 0
+    elsewhere and outside ``allowed``; NaN where not ``ok``. The one unmixing of the spectral
+    estimate (:func:`shadow_fraction_estimate`) and of the surface prior's refinement
+    (:func:`geoboresight.shadow.prior.dsm_shadow_fraction`)."""
     from scipy import ndimage
 
     f = np.zeros(d.shape, np.float64)
@@ -474,10 +474,10 @@ def _unmix(d, ok, core_px, edge_pixels, window, allowed=None, whole=None) -> np.
             if edge_pixels
             else core_px
         )
-        lit = _local_mean(s, ok & ~zone, window + 2)
-        fallback = _local_mean(s, ok & ~core_px, window)
+        lit = local_mean(s, ok & ~zone, window + 2)
+        fallback = local_mean(s, ok & ~core_px, window)
         lit = np.where(np.isfinite(lit), lit, fallback)
-        shade = _local_mean(s, core_px, window)
+        shade = local_mean(s, core_px, window)
         with np.errstate(invalid="ignore", divide="ignore"):
             est = np.clip((lit - s) / (lit - shade), 0.0, 1.0)
         est = np.where(np.isfinite(est) & (lit > shade), est, 0.0)

@@ -269,7 +269,7 @@ def illumination_ratio(
     what is averaged and returned (without ``sky_view`` every V is 1: ``k = r``).
 
     ``direct`` (n,): the direct light on each sunlit side's slope relative to level ground,
-    ``cos i / cos Z`` (:func:`geoboresight.shadow.illumination.plane_incidence`); the sunlit
+    ``cos i / cos Z`` (:func:`geoboresight.shadow.incidence.plane_incidence`); the sunlit
     side then gets ``cos i/cos Z·E_dir + V_b·E_sky`` and ``k = (V_a·r − V_b)·cos Z/cos i + 1``
     (pairs with no direct light on the sunlit side are not used).
 
@@ -295,8 +295,8 @@ def illumination_ratio(
     with np.errstate(invalid="ignore", divide="ignore"):
         lr = np.where(good, np.log(b) - np.log(a), np.nan)
         if sky_view is not None or direct is not None:
-            va, vb = _sky_views(sky_view, a.shape[0])
-            d = _direct(direct, a.shape[0])
+            va, vb = pair_sky_views(sky_view, a.shape[0])
+            d = pair_direct(direct, a.shape[0])
             k_open = (va * np.exp(lr) - vb) / d + 1.0
             lr = np.where(k_open > MIN_SIGNAL, np.log(k_open), np.nan)
     usable = np.isfinite(lr).mean(axis=1) >= 0.8
@@ -335,7 +335,7 @@ def _pair_arrays(shaded, sunlit) -> tuple[np.ndarray, np.ndarray]:
     return a, b
 
 
-def _sky_views(sky_view, n: int) -> tuple[np.ndarray, np.ndarray]:
+def pair_sky_views(sky_view, n: int) -> tuple[np.ndarray, np.ndarray]:
     """The pairs' sky-view factors (V_a, V_b), each as (n, 1); 1 without."""
     if sky_view is None:
         return np.ones((n, 1)), np.ones((n, 1))
@@ -345,7 +345,7 @@ def _sky_views(sky_view, n: int) -> tuple[np.ndarray, np.ndarray]:
     return va, vb
 
 
-def _direct(direct, n: int) -> np.ndarray:
+def pair_direct(direct, n: int) -> np.ndarray:
     """The pairs' ``cos i / cos Z`` as (n, 1); 1 without; NaN where the sunlit side's slope gets
     no direct light (the pair is not used)."""
     if direct is None:
@@ -455,8 +455,8 @@ def additive_signal(
     k0 = np.asarray(ratio, np.float64).reshape(-1)
     if k0.size != a.shape[1]:
         raise InputError(f"{k0.size} illumination ratios for {a.shape[1]} bands")
-    va, vb = _sky_views(sky_view, a.shape[0])
-    d = _direct(direct, a.shape[0])
+    va, vb = pair_sky_views(sky_view, a.shape[0])
+    d = pair_direct(direct, a.shape[0])
     va, vb = va / d, vb / d
     ok = np.isfinite(a) & np.isfinite(b) & np.isfinite(va) & np.isfinite(vb)
     n_bands = a.shape[1]
@@ -628,11 +628,11 @@ def adjacency_ratio(
     a = np.asarray(shaded, np.float64)
     b = np.asarray(sunlit, np.float64)
     n, nb = a.shape
-    va, vb = _sky_views(sky_view, n)
+    va, vb = pair_sky_views(sky_view, n)
     s_a, s_b = (np.asarray(s, np.float64) for s in surround)
     if s_a.shape != a.shape or s_b.shape != a.shape:
         raise InputError(f"surroundings of shapes {s_a.shape}, {s_b.shape} for pairs {a.shape}")
-    d = _direct(direct, n)
+    d = pair_direct(direct, n)
     good = (a > MIN_SIGNAL) & (b > MIN_SIGNAL) & np.isfinite(d)
     with np.errstate(invalid="ignore", divide="ignore"):
         lr = np.where(good, np.log(b) - np.log(a), np.nan)
@@ -713,7 +713,7 @@ def deshadow(
         a NaN or < 1 band is left unchanged: 1).
     sky_view : array (rows, cols), optional
         Sky-view factor of each pixel, 0–1
-        (:func:`geoboresight.shadow.illumination.sky_view_factor`; NaN = invalid).
+        (:func:`geoboresight.shadow.skyview.sky_view_factor`; NaN = invalid).
     adjacency : array (n_bands, rows, cols), optional
         The light the sunlit surroundings reflect into each pixel, in units of the open sky's
         (:func:`adjacency_ratio`: ``scale·(1 − V)·S̄``; NaN = none): added to V in both the

@@ -20,8 +20,10 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..sensor.coregister import coregister, coregister_stack
 from . import deshadow, region
-from .illumination import plane_incidence, sun_step
+from .illumination import sun_step
+from .incidence import plane_incidence
 from .prior import SurfacePrior
 
 #: Pixels of a flight line whose pairs are looked for (a fixed share of a longer line, so
@@ -234,8 +236,6 @@ def edge_pairs(
         holds :data:`~geoboresight.shadow.deshadow.MIN_PAIRS` inset pairs, these are only
         counted (``skipped``): the fit will not use them.
     """
-    from ..sensor.coregister import coregister_stack
-
     sig = np.array(signal, np.float64)
     ok = np.ones(fraction.shape, bool) if valid is None else np.asarray(valid, bool)
     dark_v = darkest_pixels(sig[:n_vnir], ok & own)
@@ -605,8 +605,6 @@ def fraction_on_swir_grid(fraction: np.ndarray, offset: tuple[float, float], val
     array (lines, columns)
         NaN where the moved raster has no value.
     """
-    from ..sensor.coregister import coregister
-
     ok = np.isfinite(fraction) if valid is None else valid
     g, g_ok = coregister(np.where(ok, fraction, 0.0), -offset[0], -offset[1], ok, order=1)
     return np.where(g_ok, g, np.nan)

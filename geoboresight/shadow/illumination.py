@@ -1,11 +1,11 @@
-"""Ground-truth illumination from a surface model and the sun (paper §3.1).
+"""Cast shadow: a surface model's shadow from the sun, marched along the sun's ray (paper §3.1).
 
 The paper builds its ground-truth shadow map from a surface model (DTM + buildings) and the
-illumination geometry: "hillshade map and shadow model". Two kernels do that here:
+illumination geometry: "hillshade map and shadow model". The shadow model is here; the
+incidence on each slope (:func:`geoboresight.shadow.incidence.hillshade`) and the sky-view
+factor (:mod:`geoboresight.shadow.skyview`) stand beside it, on the same grid geometry
+(:func:`grid_matrix`, :func:`check_sun`):
 
-- :func:`hillshade` — the cosine of the solar incidence angle on each cell, from Horn's (1981)
-  3 × 3 gradient, the algorithm GDAL's ``gdaldem hillshade`` uses by default; negative values
-  (slopes facing away from the sun) are *self* shadow.
 - :func:`cast_shadow` — cells whose line of sight to the sun is blocked by higher ground,
   found by **ray marching** towards the sun through the surface model (the method of GRASS
   ``r.sunmask``): a cell is shadowed when some cell along the ray rises above the sun line.
@@ -37,8 +37,6 @@ SUPERSAMPLE = 4
 #: flat-topped blocks (buildings, as GRASS r.sunmask) or smooth terrain.
 SURFACES = {"blocks": "nearest", "smooth": "bilinear"}
 SURFACE = "blocks"
-#: Vertical exaggeration of the hillshade (as ``gdaldem -z``).
-Z_FACTOR = 1.0
 #: A cell is in the shadow mask when its shadow fraction reaches this.
 MASK_FRACTION = 0.5
 
@@ -86,148 +84,6 @@ def grid_matrix(transform: Any = None, cell_size: float | None = None) -> np.nda
     return np.array([[s, 0.0], [0.0, -s]])
 
 
-def horn_gradient(dsm: np.ndarray, matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(∂z/∂east, ∂z/∂north) by Horn's 3 × 3 weighted differences; edges replicated."""
-    z = np.pad(np.asarray(dsm, dtype=np.float64), 1, mode="edge")
-    # Horn (1981): 1-2-1 weighted central differences along columns and rows.
-    dcol = (
-        (z[:-2, 2:] + 2 * z[1:-1, 2:] + z[2:, 2:]) - (z[:-2, :-2] + 2 * z[1:-1, :-2] + z[2:, :-2])
-    ) / 8.0
-    drow = (
-        (z[2:, :-2] + 2 * z[2:, 1:-1] + z[2:, 2:]) - (z[:-2, :-2] + 2 * z[:-2, 1:-1] + z[:-2, 2:])
-    ) / 8.0
-    return _ground_gradient(dcol, drow, matrix)
-
-
-def _ground_gradient(dcol, drow, matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(∂z/∂east, ∂z/∂north) from the height's change per column and per row."""
-    # dz/dcol = a·zx + d·zy, dz/drow = b·zx + e·zy  →  solve with Mᵀ.
-    inv_t = np.linalg.inv(matrix.T)
-    zx = inv_t[0, 0] * dcol + inv_t[0, 1] * drow
-    zy = inv_t[1, 0] * dcol + inv_t[1, 1] * drow
-    return zx, zy
-
-
-def _filled(dsm: np.ndarray, valid) -> tuple[np.ndarray, np.ndarray]:
-    """(heights, ok): invalid cells (``valid`` False or not finite) filled with the mean valid
-    height, so that they do not tilt their neighbours' gradients."""
-    ok = np.isfinite(dsm) if valid is None else (np.asarray(valid, bool) & np.isfinite(dsm))
-    if not ok.all():
-        dsm = np.where(ok, dsm, dsm.dtype.type(np.mean(dsm[ok])) if ok.any() else 0)
-    return dsm, ok
-
-
-def _cos_incidence(zx, zy, zenith: float, azimuth: float) -> np.ndarray:
-    """cos i of surfaces of gradient (zx, zy) for the sun at (zenith, azimuth) degrees."""
-    zr, ar = math.radians(zenith), math.radians(azimuth)
-    sun = (math.sin(zr) * math.sin(ar), math.sin(zr) * math.cos(ar), math.cos(zr))
-    return (-zx * sun[0] - zy * sun[1] + sun[2]) / np.sqrt(1.0 + zx * zx + zy * zy)
-
-
-def hillshade(
-    dsm: np.ndarray,
-    valid: np.ndarray | None = None,
-    *,
-    sun_zenith: float,
-    sun_azimuth: float,
-    transform: Any = None,
-    cell_size: float | None = None,
-    z_factor: float = Z_FACTOR,
-) -> np.ndarray:
-    """Cosine of the solar incidence angle on each cell (float32, −1..1; NaN where invalid).
-
-    ``cos i = cos Z cos S + sin Z sin S cos(A − aspect)`` written with the surface normal
-    (−∂z/∂x, −∂z/∂y, 1) and Horn's gradient; ≤ 0 means the slope faces away from the sun
-    (self shadow). ``gdaldem hillshade`` reports ``1 + 254·max(cos i, 0)`` as a byte.
-    Invalid cells (``valid`` False or not finite) are filled with the mean valid height for the
-    gradient of their neighbours.
-
-    Parameters
-    ----------
-    dsm : 2-D array (rows, cols)
-        Surface model heights (terrain plus buildings), in the ground units of the grid
-        (metres); non-finite heights are invalid.
-    valid : bool array, optional
-        Cells with a usable height (same shape as ``dsm``); by default the finite ones.
-    sun_zenith : float
-        Sun zenith angle in degrees from the vertical, 0–90 (90° minus the sun's elevation).
-    sun_azimuth : float
-        Sun azimuth in degrees clockwise from north towards the sun (as ``gdaldem -az``).
-    transform : affine.Affine or 2 × 2 array, optional
-        The grid's affine transform (rotation allowed), or the matrix taking (Δcol, Δrow) to
-        (Δeast, Δnorth). Without one (or with the identity), ``cell_size`` is used and row 0 is
-        the northern edge.
-    cell_size : float, optional
-        Cell side in ground units when there is no ``transform``.
-    z_factor : float
-        Vertical exaggeration of the heights (as ``gdaldem -z``).
-
-    Returns
-    -------
-    cos_i : float32 array (rows, cols)
-        Cosine of the solar incidence angle, −1..1: 1 where the slope faces the sun, ≤ 0 in self
-        shadow; NaN where not valid.
-
-    Raises
-    ------
-    ParameterError
-        When the sun position is out of range, or the cell size is unknown (no transform and no
-        ``cell_size``) or not positive.
-
-    References
-    ----------
-    Brook, A.; Ben-Dor, E. Advantages of the boresight effect in hyperspectral data analysis.
-    Remote Sens. 2011, 3, 484–502. https://doi.org/10.3390/rs3030484 (§3.1: the "hillshade
-    map and shadow model" behind the ground-truth shadow map of Figures 4–5 and Table 2).
-    Horn, B.K.P. Hill shading and the reflectance map. Proc. IEEE 1981, 69, 14–47.
-    """
-    z, a = check_sun(sun_zenith, sun_azimuth)
-    m = grid_matrix(transform, cell_size)
-    dsm, ok = _filled(np.asarray(dsm), valid)
-    zx, zy = horn_gradient(dsm, m)
-    zx *= z_factor
-    zy *= z_factor
-    cos_i = _cos_incidence(zx, zy, z, a)
-    return np.where(ok, cos_i, np.nan).astype(np.float32)
-
-
-#: Half-width (cells) of the window whose least-squares plane gives a slope for
-#: :func:`plane_incidence`: 5 × 5 cells. Horn's 3 × 3 gradient of a DSM with 0.3 m of height
-#: noise on 1 m cells has a slope noise of 0.13 (7°, cos i ± 0.1 at 45°), as large as the
-#: relief it should measure; the 5 × 5 plane's is σ_z / (cell·√(5·Σr²)) = 0.04.
-PLANE_HALF = 2
-
-
-def plane_incidence(
-    dsm: np.ndarray,
-    valid: np.ndarray | None = None,
-    *,
-    sun_zenith: float,
-    sun_azimuth: float,
-    transform: Any = None,
-    cell_size: float | None = None,
-    half: int = PLANE_HALF,
-) -> np.ndarray:
-    """Direct light on each cell's slope relative to level ground, ``cos i / cos Z``
-    (float64; NaN where invalid; ≥ 0, 0 where the slope faces away from the sun), the slope
-    from the least-squares plane of the ``(2·half + 1)²`` cells around it (a smoother slope
-    than :func:`hillshade`'s 3 × 3, whose noise on a noisy DSM is as large as the relief).
-    Invalid cells are filled with the mean valid height."""
-    from scipy import ndimage
-
-    z, a = check_sun(sun_zenith, sun_azimuth)
-    m = grid_matrix(transform, cell_size)
-    d, ok = _filled(np.asarray(dsm, np.float64), valid)
-    r = np.arange(-half, half + 1, dtype=np.float64)
-    w = np.tile(r, (r.size, 1)) / (r.size * float((r**2).sum()))
-    dcol = ndimage.correlate(d, w, mode="nearest")
-    drow = ndimage.correlate(d, w.T, mode="nearest")
-    zx, zy = _ground_gradient(dcol, drow, m)
-    cos_i = _cos_incidence(zx, zy, z, a)
-    rel = np.clip(cos_i, 0.0, None) / max(math.cos(math.radians(z)), 1e-6)
-    return np.where(ok, rel, np.nan)
-
-
 def sun_step(
     sun_zenith: float,
     sun_azimuth: float,
@@ -257,8 +113,9 @@ def march_steps(
     return min(across, int(math.ceil(max(relief, 0.0) / rise)) + 1)
 
 
-def _shifted(a: np.ndarray, sr: int, sc: int, fill: float) -> np.ndarray:
-    """``a`` sampled at (r + sr, c + sc); ``fill`` outside the grid."""
+def shifted(a: np.ndarray, sr: int, sc: int, fill: float) -> np.ndarray:
+    """``a`` sampled at (r + sr, c + sc), whole cells; ``fill`` outside the grid (the march
+    towards the sun, and the moves of a mask along it)."""
     rows, cols = a.shape
     out = np.full(a.shape, fill, dtype=a.dtype)
     if abs(sr) >= rows or abs(sc) >= cols:
@@ -376,7 +233,7 @@ def cast_shadow(
         if abs(fr) >= rows + 1 or abs(fc) >= cols + 1:
             break
         if interpolation == "nearest":
-            sample = _shifted(occluder, int(np.floor(fr + 0.5)), int(np.floor(fc + 0.5)), -np.inf)
+            sample = shifted(occluder, int(np.floor(fr + 0.5)), int(np.floor(fc + 0.5)), -np.inf)
         else:
             r0, c0 = int(np.floor(fr)), int(np.floor(fc))
             wr, wc = fr - r0, fc - c0
@@ -388,7 +245,7 @@ def cast_shadow(
                 (1, 1, wr * wc),
             ):
                 if w > 0:
-                    sample += w * _shifted(occluder, r0 + dr, c0 + dc, -np.inf)
+                    sample += w * shifted(occluder, r0 + dr, c0 + dc, -np.inf)
             sample[np.isnan(sample)] = -np.inf
         shadow |= (sample - z) > k * rise + clearance
     return shadow & ok
@@ -544,8 +401,8 @@ def cell_fraction(
     n = int(supersample)
     sr, sc = (int(round(float(v) * n)) for v in shift)
     if sr or sc:
-        # _shifted samples at (r + sr, c + sc): moving the shadow by +s samples at −s.
-        fine = _shifted(np.asarray(fine, bool), -sr, -sc, False)
+        # shifted samples at (r + sr, c + sc): moving the shadow by +s samples at −s.
+        fine = shifted(np.asarray(fine, bool), -sr, -sc, False)
     rows, cols = fine.shape[0] // n, fine.shape[1] // n
     frac = fine.reshape(rows, n, cols, n).mean(axis=(1, 3))
     return frac if valid is None else np.where(valid, frac, np.nan)
@@ -632,7 +489,7 @@ def along_ray(mask: np.ndarray, ray: tuple[float, float, int]) -> np.ndarray:
         sr, sc = int(np.floor(k * drow + 0.5)), int(np.floor(k * dcol + 0.5))
         if abs(sr) >= m.shape[0] and abs(sc) >= m.shape[1]:
             break
-        out &= _shifted(m, sr, sc, True)
+        out &= shifted(m, sr, sc, True)
     return out
 
 
@@ -660,85 +517,3 @@ def height_range(dsm: np.ndarray, valid: np.ndarray | None = None) -> tuple[floa
     if not ok.any():
         return math.inf, -math.inf, 0
     return float(z[ok].min()), float(z[ok].max()), int(ok.sum())
-
-
-#: Azimuths of the horizon search of the sky-view factor (evenly spaced).
-SKY_DIRECTIONS = 16
-#: How far (m) the horizon is searched: an obstacle of height h at distance d hides
-#: cos²(atan(h/d)) of the sky in its direction; beyond 100 m a building of 20 m hides under 4 %.
-SKY_RADIUS_M = 100.0
-
-
-def sky_view_factor(
-    dsm: np.ndarray,
-    valid: np.ndarray | None = None,
-    *,
-    transform: Any = None,
-    cell_size: float | None = None,
-    radius: float = SKY_RADIUS_M,
-    directions: int = SKY_DIRECTIONS,
-    clearance: float = 0.0,
-) -> np.ndarray:
-    """Share of the isotropic sky's irradiance on a horizontal surface that reaches each cell
-    (float32, 0–1; NaN where invalid): 1 on open flat ground.
-
-    For a horizontal surface, the sky above a horizon of elevation ``h`` in azimuth φ gives
-    ``cos² h(φ)`` of that azimuth's open-sky irradiance (∫ sin e cos e de from h to 90°), so
-    ``V = mean over φ of cos² h(φ)`` (Dozier & Frew 1990, horizontal case). The horizon of
-    each of ``directions`` azimuths is the highest elevation angle of the surface seen from
-    the cell centre, marching one cell at a time out to ``radius`` metres (nearest cell,
-    whole-array shifts as :func:`cast_shadow`); invalid cells and the outside of the grid hide
-    nothing. Heights are taken at the cell centres: at the middle of a long trench whose
-    walls' first cells are at ±a from it and rise d this gives the analytic 2-D value
-    ``a/√(a² + d²)`` (within the quadrature of ``directions`` azimuths).
-
-    Parameters
-    ----------
-    dsm : 2-D array
-        Surface heights (m); non-finite = invalid.
-    valid : bool array, optional
-    transform, cell_size
-        The grid, as :func:`cast_shadow`.
-    radius : float
-        Search distance (m, > 0).
-    directions : int
-        Azimuths searched (≥ 4).
-    clearance : float
-        Height (m) an obstacle must rise above the cell to hide sky, as in
-        :func:`cast_shadow`: a noisy DSM's bumps would otherwise each hide a little sky of
-        their neighbours (0.3 m of noise takes 5–10 % off open ground without it).
-
-    References
-    ----------
-    Dozier, J.; Frew, J. Rapid calculation of terrain parameters for radiation modeling from
-    digital elevation data. IEEE Trans. Geosci. Remote Sens. 1990, 28, 963–969.
-    Richter, R.; Müller, A. Int. J. Remote Sens. 2005, 26, 3137–3148 (the sky-view factor in
-    de-shadowing; ATCOR-4's illumination model).
-    """
-    m = grid_matrix(transform, cell_size)
-    if not (radius > 0) or not math.isfinite(radius):
-        raise ParameterError(f"parameter 'radius': {radius!r} must be a positive distance (m)")
-    n_dir = int(directions)
-    if n_dir < 4:
-        raise ParameterError(f"parameter 'directions': {directions!r} must be at least 4")
-    z = np.asarray(dsm, dtype=np.float64)
-    ok = np.isfinite(z) if valid is None else (np.asarray(valid, bool) & np.isfinite(z))
-    occluder = np.where(ok, z, -np.inf)
-    total = np.zeros(z.shape)
-    cell = float(np.sqrt(abs(np.linalg.det(m))))
-    for j in range(n_dir):
-        phi = 2.0 * math.pi * j / n_dir
-        # One cell per step, along the azimuth (clockwise from north) in (row, col).
-        dcol, drow = np.linalg.solve(m, np.array([math.sin(phi), math.cos(phi)]) * cell)
-        best = np.zeros(z.shape)  # tangent of the horizon elevation (≥ 0: the open horizon)
-        steps = int(math.ceil(radius / cell))
-        for k in range(1, steps + 1):
-            sr, sc = int(np.floor(k * drow + 0.5)), int(np.floor(k * dcol + 0.5))
-            if abs(sr) >= z.shape[0] or abs(sc) >= z.shape[1]:
-                break
-            dist = float(np.hypot(*(m @ np.array([sc, sr]))))
-            with np.errstate(invalid="ignore"):
-                rise = _shifted(occluder, sr, sc, -np.inf) - z - clearance
-                best = np.maximum(best, rise / dist)
-        total += 1.0 / (1.0 + best * best)  # cos² of the horizon elevation
-    return np.where(ok, total / n_dir, np.nan).astype(np.float32)

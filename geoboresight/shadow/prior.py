@@ -29,6 +29,7 @@ import numpy as np
 
 from ..errors import InputError, ParameterError
 from . import darkness
+from .context import local_mean
 from .darkness import (
     CORE_DARKNESS,
     DSM_TOLERANCE,
@@ -39,16 +40,17 @@ from .darkness import (
     REGISTRATION_T,
     RIM_DARKNESS,
     TILES,
-    _local_mean,
-    _unmix,
     shadow_fraction_estimate,
+    unmix_edges,
 )
 from .illumination import (
     SUPERSAMPLE,
     SURFACES,
+    along_ray,
     cell_fraction,
     march_steps,
     shadow_fraction,
+    shifted,
     sub_cell_shadow,
     sun_step,
     unseen_casters,
@@ -520,7 +522,9 @@ def dsm_shadow_fraction(
     deep = core_px & ndimage.binary_erosion(shaded, iterations=tolerance + 1)
     with np.errstate(invalid="ignore"):
         whole = deep | (d <= core)
-    f = _unmix(d, ok, core_px | rim_px | part_px, edge_pixels, window, allowed=allowed, whole=whole)
+    f = unmix_edges(
+        d, ok, core_px | rim_px | part_px, edge_pixels, window, allowed=allowed, whole=whole
+    )
     f[deep] = np.maximum(f[deep], p[deep]).astype(np.float32)
     _cap_beside_zone(f, d, ok, zone, shaded, core_px | rim_px, window)
     if unseen is not None:
@@ -538,8 +542,6 @@ def _unseen_at_least_spectral(f, d, ok, unseen, ray, lit, spectral: dict) -> Non
     if u.shape != d.shape:
         raise InputError(f"parameter 'unseen': shape {u.shape} is not the image's {d.shape}")
     if ray is not None and u.any():
-        from .illumination import along_ray
-
         with np.errstate(invalid="ignore"):
             u = u & along_ray(~(d > lit), ray)
     if u.any():
@@ -605,7 +607,7 @@ def _cap_beside_zone(f, d, ok, zone, shaded, shadow_px, window) -> None:
     ref = ndimage.minimum_filter(np.where(beside, d, np.inf), size=3, mode="constant", cval=np.inf)
     s = np.exp(np.where(ok, d, 0.0))
     sun = np.exp(np.where(np.isfinite(ref), ref, 0.0))
-    shade = _local_mean(s, shadow_px, window)
+    shade = local_mean(s, shadow_px, window)
     with np.errstate(invalid="ignore", divide="ignore"):
         beside_est = np.clip((sun - s) / (sun - shade), 0.0, 1.0)
         cap = ok & zone & ~shaded & np.isfinite(ref) & (sun > shade) & np.isfinite(beside_est)
@@ -623,9 +625,7 @@ def _toward_sun(ray) -> tuple[int, int]:
 
 def _shift(mask: np.ndarray, step: tuple[int, int]) -> np.ndarray:
     """``mask`` at the cell ``step`` away from each cell (False beyond the grid)."""
-    from .illumination import _shifted
-
-    return _shifted(mask, step[0], step[1], False)
+    return shifted(mask, step[0], step[1], False)
 
 
 def _down_sun(mask, ray, reach, base=None):
@@ -634,17 +634,15 @@ def _down_sun(mask, ray, reach, base=None):
     towards the sun is in ``mask``."""
     if ray is None or not reach > 0:
         return mask, base
-    from .illumination import _shifted
-
     drow, dcol = float(ray[0]), float(ray[1])
     out = mask.copy()
     low = None if base is None else base.copy()
     for k in range(1, int(math.ceil(2 * reach)) + 1):
         t = min(k / 2, reach)
         sr, sc = int(np.floor(t * drow + 0.5)), int(np.floor(t * dcol + 0.5))
-        out |= _shifted(mask, sr, sc, False)
+        out |= shifted(mask, sr, sc, False)
         if low is not None:
-            low = np.fmin(low, _shifted(base, sr, sc, np.inf))
+            low = np.fmin(low, shifted(base, sr, sc, np.inf))
     return out, low
 
 
@@ -738,7 +736,6 @@ def prior_registration(
     inner = np.zeros(e.shape, bool)
     inner[edge : e.shape[0] - edge, edge : e.shape[1] - edge] = True
     inner &= ok
-    from .illumination import cell_fraction
 
     def corr(sr, sc):
         return _pearson(cell_fraction(fine, n, (sr / n, sc / n))[inner], e[inner])

@@ -88,8 +88,8 @@ def open_ratios(
         r = np.where(good, b / a, np.nan)
         if sky_view is None and direct is None:
             return r
-        va, vb = deshadow._sky_views(sky_view, a.shape[0])
-        d = deshadow._direct(direct, a.shape[0])
+        va, vb = deshadow.pair_sky_views(sky_view, a.shape[0])
+        d = deshadow.pair_direct(direct, a.shape[0])
         return (va * r - vb) / d + 1.0
 
 
