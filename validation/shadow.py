@@ -158,6 +158,8 @@ DRAWS = {
     "nodsm-f": (407053608, range(215, 220), (169, 170, 171)),
     "dsm-band-a": (107771649, range(200, 205), (160, 161, 162)),
     "dsm-band-b": (893564715, range(205, 210), (163, 164, 165)),
+    "nodsm-g": (200481306, range(220, 225), (172, 173, 174)),
+    "nodsm-h": (1187438842, range(225, 230), (175, 176, 177)),
 }
 #: The scene sets (``--set``). ``dev``: the development scenes, on which the parameters are
 #: set; ``quick``: four of them. A hold-out set is run only after the method it scores is
@@ -173,6 +175,7 @@ SETS = {
     "deshadow-region-holdout": ("deshadow-region-a", "deshadow-region-b"),
     "nodsm-swir-holdout": ("nodsm-e", "nodsm-f"),
     "dsm-band-holdout": ("dsm-band-a", "dsm-band-b"),
+    "nodsm-joint-holdout": ("nodsm-g", "nodsm-h"),
 }
 
 
