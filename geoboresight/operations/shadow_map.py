@@ -104,7 +104,7 @@ class Detection:
     and partial shadow looked for ``edge_pixels`` around it. Without a surface model a dark
     pixel whose blue is at least ``exp(sky_blue)`` times the scene's sunlit blue, with a flat
     dark material's blue/NIR, is a sunlit dark material, not shadow; so is one whose blue is
-    at least ``exp(sky_blue − 0.4)`` times it and whose SWIR is not darker at 2.0–2.3 µm than
+    at least ``exp(sky_blue − 0.2)`` times it and whose SWIR is not darker at 2.0–2.3 µm than
     at 1.55–1.75 µm against the sunlit ground, as the sky leaves a shadow
     (:func:`geoboresight.shadow.context.sunlit_dark`; lower flags fewer dark materials and
     misses more shadow on blue-bright ground). With a surface model the test applies where
@@ -187,7 +187,7 @@ def shadow_map_file(
         ``edge_pixels``: partial shadow is looked for this many pixels around it;
         ``sky_blue``: without a surface model, a pixel that dark whose blue is at least this
         (natural log over the scene's sunlit blue, default −0.3) and whose blue/NIR is a flat
-        dark material's, or whose blue is at least ``sky_blue − 0.4`` and whose long SWIR
+        dark material's, or whose blue is at least ``sky_blue − 0.2`` and whose long SWIR
         (2.0–2.3 µm) is not darker than its SWIR against the sunlit ground, is a sunlit dark
         material.
     calibration : MapCalibration
