@@ -1,7 +1,7 @@
 """Benchmark: one operation's own time on a flight line, without starting Python, with code
 trees alternated.
 
-    .venv/bin/python benchmarks/operation_alone.py --alternate TREE,TREE [--op shadow-map]
+    .venv/bin/python benchmarks/operation_alone.py [--alternate TREE,TREE] [--op shadow-map]
         [--lines 3000] [--geotiff [--vnir-bands 300]] [--rounds 3] [--runs 3] [--workdir /tmp]
 
 The line is ``benchmarks/flightline.py``'s (a simulated scene tiled along-track, ENVI BIL;
@@ -68,7 +68,11 @@ os.replace(path + ".tmp.tif", path)
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--alternate", required=True, help="code trees (comma-separated)")
+    ap.add_argument(
+        "--alternate",
+        default=os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+        help="code trees (comma-separated; default this checkout alone)",
+    )
     ap.add_argument("--op", default="shadow-map", help="shadow-map, deshadow or ratio")
     ap.add_argument("--lines", type=int, default=3000)
     ap.add_argument("--tile", type=int, default=500, help="lines of the simulated scene")
