@@ -28,7 +28,14 @@ from .cube import raw_bands_reader
 from .dual import SWIR_NM, TOLERANCE_NM, VNIR_NM, DualSensor, SensorFile
 from .grid import require_on_grid
 from .image import open_raster
-from .windows import DEFAULT_BLOCK_ROWS, band_reader, bands_reader, map_windows, read_masked
+from .windows import (
+    DEFAULT_BLOCK_ROWS,
+    band_reader,
+    bands_reader,
+    map_windows,
+    masks_to_read,
+    read_masked,
+)
 
 
 @dataclass(frozen=True)
@@ -125,10 +132,13 @@ def band_range(
 def masked_bands_reader(src, bands) -> Callable[[int, int], tuple[np.ndarray, np.ndarray]]:
     """``read(row0, row1) -> (values (n, rows, cols) float32, valid (n, rows, cols))`` of
     several bands of one dataset, each with its own validity (nodata, masks)."""
+    read_masks = masks_to_read([(src, b) for b in bands])
 
     def read(row0: int, row1: int):
         window = Window(0, row0, src.width, row1 - row0)
-        pairs = [read_masked(src, b, window) for b in bands]
+        pairs = [
+            read_masked(src, b, window, read_mask=m) for b, m in zip(bands, read_masks, strict=True)
+        ]
         return np.stack([p[0] for p in pairs]), np.stack([p[1] for p in pairs])
 
     return read

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from rasterio.enums import MaskFlags
 from rasterio.windows import Window
 
 # default_workers: the worker count the operations use, kept here beside map_windows.
@@ -199,14 +200,20 @@ def reduce_windows(
 
 
 def read_masked(
-    src, band: int, window: Window | None = None, out_shape: tuple[int, int] | None = None
+    src,
+    band: int,
+    window: Window | None = None,
+    out_shape: tuple[int, int] | None = None,
+    *,
+    read_mask: bool | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(float32 values, valid mask) of one band: invalid where nodata, masked or non-finite.
 
     With ``out_shape`` the band is read decimated (nearest neighbour, from the overviews when
-    the file has them): a quick look of a whole flight line without reading it all."""
-    import rasterio
-
+    the file has them): a quick look of a whole flight line without reading it all.
+    ``read_mask`` says whether a band without nodata has a mask to read (its flags lack
+    ``all_valid``), as :func:`masks_to_read` found it; ``None`` looks it up at this call.
+    """
     data = src.read(band, window=window, out_shape=out_shape)
     valid = np.ones(data.shape, dtype=bool)
     if src.nodata is not None:
@@ -215,19 +222,48 @@ def read_masked(
             valid &= ~np.isnan(data)
     else:
         # Honour an internal mask band (e.g. a GeoTIFF with a per-dataset mask).
-        flags = src.mask_flag_enums[band - 1]
-        if rasterio.enums.MaskFlags.all_valid not in flags:
+        if read_mask is None:
+            read_mask = MaskFlags.all_valid not in src.mask_flag_enums[band - 1]
+        if read_mask:
             valid &= src.read_masks(band, window=window, out_shape=out_shape) > 0
     values = data.astype("float32", copy=False)
     valid &= np.isfinite(values)
     return values, valid
 
 
+def masks_to_read(sources) -> list[bool | None]:
+    """For each (dataset, band) of ``sources``: whether :func:`read_masked` reads its mask
+    band, to pass as its ``read_mask``.
+
+    Looked up once per dataset: ``mask_flag_enums`` asks GDAL for the flags of every band of
+    the file at each call, which for a reader of one band strip after strip of a 300-band
+    file is 300 look-ups per band per strip. ``None`` (looked up at the read, as without
+    ``read_mask``) for a band the file does not have, so that the read fails as it would,
+    and for a dataset open for writing, whose nodata or mask may change between reads."""
+    flags: dict[int, list] = {}
+    found: list[bool | None] = []
+    for src, band in sources:
+        if getattr(src, "mode", "r") != "r":
+            found.append(None)
+        elif src.nodata is not None:
+            found.append(False)  # the nodata value decides; the mask is not read
+        else:
+            if id(src) not in flags:
+                flags[id(src)] = src.mask_flag_enums
+            of_file = flags[id(src)]
+            found.append(
+                MaskFlags.all_valid not in of_file[band - 1] if 1 <= band <= len(of_file) else None
+            )
+    return found
+
+
 def band_reader(src, band: int) -> Callable[[int, int], tuple[np.ndarray, np.ndarray]]:
     """``read(row0, row1) -> (values, valid)`` of one band of an open dataset."""
+    (read_mask,) = masks_to_read([(src, band)])
 
     def read(row0: int, row1: int):
-        return read_masked(src, band, Window(0, row0, src.width, row1 - row0))
+        window = Window(0, row0, src.width, row1 - row0)
+        return read_masked(src, band, window, read_mask=read_mask)
 
     return read
 
@@ -237,12 +273,15 @@ def bands_reader(sources) -> Callable[[int, int], tuple[np.ndarray, np.ndarray]]
     pairs on one grid: valid where every band is valid. Thread-safe: an open dataset is one
     GDAL handle, so worker threads read one at a time (and compute at once)."""
     lock = threading.Lock()
+    sources = list(sources)
+    read_masks = masks_to_read(sources)
 
     def read(row0: int, row1: int):
         vals, valid = [], None
         with lock:
-            for src, band in sources:
-                v, ok = read_masked(src, band, Window(0, row0, src.width, row1 - row0))
+            for (src, band), read_mask in zip(sources, read_masks, strict=True):
+                window = Window(0, row0, src.width, row1 - row0)
+                v, ok = read_masked(src, band, window, read_mask=read_mask)
                 vals.append(v)
                 valid = ok if valid is None else valid & ok
         return np.stack(vals), valid
