@@ -377,7 +377,8 @@ def _map_bands(dual, bands: BandChoice, progress) -> _MapBands:
 
 def _checked_sample(vnir, dual, sources, mb: _MapBands, sample, strips, warnings, progress):
     """The calibration sample of both instruments, saturated pixels and those without signal
-    left out (else "no shadow" would be reported): (VNIR values, SWIR values, usable)."""
+    left out (else "no shadow" would be reported): (VNIR values, SWIR values, usable,
+    long-SWIR values)."""
     v_src, s_src = sources
     with _bands_reader(dual, sources, mb.vnir_dark, mb.swir_dark + mb.long_swir) as read:
         pixels, ok = io.sample_windows(
