@@ -159,13 +159,15 @@ def shadow_fraction_block(
     shift = (calibration.offset_along, calibration.offset_across)
     s, s_ok = coregister(s, *shift, ok, order=1)
     good = ok & s_ok
+    # With a surface model the test counts only on its unseen pixels: without them, skip it.
+    test = sky_blue is not None and (model is None or model.unseen is not None)
     g = None
-    if long_swir is not None and long_level:
+    if test and long_swir is not None and long_level:
         g, _ = coregister(signal(long_swir, long_level[0]), *shift, ok, order=1)
     d = darkness(n, s, calibration, good)
     water = too_blue(b, n, calibration.blue_limit)
     sunlit = None
-    if sky_blue is not None:
+    if test:
         levels = (calibration.blue_level, calibration.blue_nir_level, calibration.tilt_level)
         sunlit = sunlit_dark(
             b, n, d, good, core=calibration.core, levels=levels, limit=sky_blue, swir=s, long_swir=g

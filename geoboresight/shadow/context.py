@@ -38,7 +38,7 @@ when
 
 3. its tilt, averaged over the dark pixels of a :data:`TILT_WINDOW` neighbourhood (the long
    SWIR of a shadow holds a few DN), is at least :data:`SWIR_TILT`, and its blue is at
-   least ``exp(limit − TILT_BLUE_MARGIN)`` times the sunlit blue (half of it with the
+   least ``exp(limit − TILT_BLUE_MARGIN)`` times the sunlit blue (0.6 of it with the
    default limit): a shadow's blue is mostly below that, so a shadow whose long SWIR the
    noise lifts stays shadow.
 
