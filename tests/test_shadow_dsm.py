@@ -531,6 +531,40 @@ def test_deshadow_file_strips_equal_whole_and_report(scene, tmp_path):
     assert r["pairs_used"] >= ds.MIN_PAIRS
 
 
+def test_poor_agreement_points_to_the_surface_model_only_without_one(scene, tmp_path, monkeypatch):
+    """The warning on pairs that agree poorly says what a surface model would leave out
+    (pairs across a height step) when none is given, and not when it is."""
+    from geoboresight.operations import deshadow as op
+
+    sc, folder = scene
+    monkeypatch.setattr(op, "POOR_SPREAD", -1.0)  # every fit "agrees poorly"
+    t = sc.truth
+    found = {}
+    for name, surface in (
+        ("none", SurfaceModel()),
+        (
+            "dsm",
+            SurfaceModel(
+                _j(folder, "truth_dsm.tif"),
+                t["sun"]["zenith_deg"],
+                t["sun"]["azimuth_deg"],
+                t["gsd_m"],
+            ),
+        ),
+    ):
+        r = deshadow_file(
+            _j(folder, "vnir.hdr"),
+            _j(folder, "swir.hdr"),
+            shadow=_j(folder, "truth_shadow_fraction.tif"),
+            output=str(tmp_path / f"d_{name}.tif"),
+            surface=surface,
+        )
+        found[name] = [w for w in r["warnings"] if "agree poorly" in w]
+    assert len(found["none"]) == len(found["dsm"]) == 1
+    assert "surface model" in found["none"][0] and "height step" in found["none"][0]
+    assert "surface model" not in found["dsm"][0]
+
+
 def test_bad_surface_inputs_give_one_clear_line(scene, tmp_path):
     sc, folder = scene
     small = tmp_path / "small.tif"

@@ -220,7 +220,7 @@ def deshadow_file(
             shape=(dual.height, dual.width),
             regions=light.regions,
         )
-        _log_fit(fit, edges, additive, adjacency, warnings, progress)
+        _log_fit(fit, edges, (additive, adjacency, prior is not None), warnings, progress)
         # Pass 2: the de-shadowed cube, each instrument on its own grid.
         tags = _cube_tags(dual, shadow, surface, prior, wl, fit, levels, adjacency, along, across)
         n_corrected = _write_cube(
@@ -450,8 +450,9 @@ def _cube_reader(dual, sources, f_src, shadow, opened):
     return read
 
 
-def _log_fit(fit, edges, additive, adjacency, warnings, progress) -> None:
+def _log_fit(fit, edges, options, warnings, progress) -> None:
     """The log of the illumination fit, and its warning."""
+    additive, adjacency, surface = options
     c, eta, k = fit.additive, fit.adjacency_share, fit.ratio
     if additive:
         progress.info(
@@ -491,6 +492,12 @@ def _log_fit(fit, edges, additive, adjacency, warnings, progress) -> None:
         warnings.append(
             f"the pairs across shadow edges agree poorly (median RMS log difference "
             f"{fit.spread:.2f}): the ratio may mix materials; check the shadow fraction"
+            + (
+                ""
+                if surface
+                else "; a surface model (--dsm and the sun) leaves out the pairs across a "
+                "height step (a sunlit roof beside its own shadow on the ground)"
+            )
         )
 
 
