@@ -160,6 +160,8 @@ DRAWS = {
     "dsm-band-b": (893564715, range(205, 210), (163, 164, 165)),
     "nodsm-g": (200481306, range(220, 225), (172, 173, 174)),
     "nodsm-h": (1187438842, range(225, 230), (175, 176, 177)),
+    "deshadow-h": (1210019211, range(240, 245), (184, 185, 186)),
+    "deshadow-i": (1377511628, range(245, 250), (187, 188, 189)),
 }
 #: The scene sets (``--set``). ``dev``: the development scenes, on which the parameters are
 #: set; ``quick``: four of them. A hold-out set is run only after the method it scores is
@@ -176,6 +178,7 @@ SETS = {
     "nodsm-swir-holdout": ("nodsm-e", "nodsm-f"),
     "dsm-band-holdout": ("dsm-band-a", "dsm-band-b"),
     "nodsm-joint-holdout": ("nodsm-g", "nodsm-h"),
+    "deshadow-pairs-holdout": ("deshadow-h", "deshadow-i"),
 }
 
 
