@@ -25,10 +25,10 @@ from ..errors import ParameterError
 from ..io.bands import BoresightOffset, band_range
 from ..io.checks import no_valid_error
 from ..io.cube import raw_bands_reader
-from ..io.dark import recorded_dark
+from ..io.dark import recorded_dark_levels
 from ..io.dual import BandChoice, DualLayout
 from ..io.windows import Sample
-from ..sensor.dark import DarkLevels, dark_object
+from ..sensor.dark import ESTIMATED, DarkLevels, find_dark_levels
 from ..shadow.blocks import (
     prior_map_block,
     register_prior,
@@ -460,13 +460,11 @@ def _long_dark(sensor, src, bands, given: DarkLevels, sample, valid) -> np.ndarr
     """The dark level of each long-SWIR band: given, the product's or the header's, else the
     dark object of those bands alone, band by band (a shadow's long SWIR holds a few DN, so
     the one level of the instrument's dimmest band would tilt it)."""
-    if given.swir_dark is not None:
-        return np.full(len(bands), float(given.swir_dark))
-    recorded = recorded_dark(sensor, src, bands)
-    if recorded is not None:
-        return np.broadcast_to(np.asarray(recorded[0], float), (len(bands),)).copy()
-    band_means, _ = dark_object(sample, valid)
-    return np.asarray(band_means, float)
+    recorded = recorded_dark_levels({"swir": (sensor, src, bands)}, given)
+    found = find_dark_levels(given, recorded, {"swir": sample}, valid)
+    if found.source("swir") == ESTIMATED:
+        return np.asarray(found.band_levels("swir"), float)  # each band's own dark object
+    return found.per_band("swir", bands)
 
 
 @contextlib.contextmanager
